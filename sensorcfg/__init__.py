@@ -1,0 +1,24 @@
+"""sensorcfg: declarative robot sensing for MuJoCo, with dm_control's observation semantics."""
+
+from ._gl import choose_gl_backend as _choose_gl_backend
+
+_choose_gl_backend()
+
+from ._version import __version__  # noqa: E402
+from .errors import Problem, SuiteError  # noqa: E402
+from .observables import AGGREGATORS, Camera, Feature, Generic, Observable  # noqa: E402
+from .physics import Physics  # noqa: E402
+from .runtime.updater import Updater  # noqa: E402
+
+__all__ = [
+    "AGGREGATORS",
+    "Camera",
+    "Feature",
+    "Generic",
+    "Observable",
+    "Physics",
+    "Problem",
+    "SuiteError",
+    "Updater",
+    "__version__",
+]

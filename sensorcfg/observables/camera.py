@@ -1,0 +1,139 @@
+"""Camera observables: RGB (uint8), depth (float32, metres) and segmentation (int32 object id and type).
+
+Renderers are expensive (an OpenGL context and framebuffers each), so cameras share one
+`mujoco.Renderer` per (model, width, height) instead of holding one per observable.
+"""
+
+from __future__ import annotations
+
+import weakref
+from collections.abc import Callable, Mapping
+from typing import Any, Literal
+
+import mujoco
+import numpy as np
+from dm_env import specs
+
+from ..errors import SuiteError, did_you_mean
+from ..physics import raw_structs
+from .base import Observable
+
+__all__ = ["Camera", "MODES", "close_renderers"]
+
+# mode -> (channels, dtype, minimum, maximum)
+MODES: dict[str, tuple[int, type, float, float]] = {
+    "rgb": (3, np.uint8, 0, 255),
+    "depth": (1, np.float32, 0.0, np.inf),
+    "segmentation": (2, np.int32, -1, np.iinfo(np.int32).max),
+}
+
+_RENDERERS: weakref.WeakKeyDictionary[mujoco.MjModel, dict[tuple[int, int], mujoco.Renderer]] = (
+    weakref.WeakKeyDictionary())
+
+
+def _renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
+    pool = _RENDERERS.setdefault(model, {})
+    renderer = pool.get((width, height))
+    if renderer is None:
+        offwidth, offheight = model.vis.global_.offwidth, model.vis.global_.offheight
+        if width > offwidth or height > offheight:
+            raise SuiteError(
+                f"a {width}x{height} camera image exceeds the model's offscreen buffer ({offwidth}x{offheight}); "
+                f"add <visual><global offwidth=\"{max(width, offwidth)}\" offheight=\"{max(height, offheight)}\"/>"
+                "</visual> to the model or ask for a smaller image")
+        renderer = pool[(width, height)] = mujoco.Renderer(model, height=height, width=width)
+    return renderer
+
+
+def close_renderers() -> None:
+    """Release every shared renderer (they are recreated on demand)."""
+    for pool in list(_RENDERERS.values()):
+        for renderer in pool.values():
+            renderer.close()
+        pool.clear()
+
+
+def _scene_option(value: mujoco.MjvOption | Mapping[str, bool] | None) -> mujoco.MjvOption | None:
+    if value is None or isinstance(value, mujoco.MjvOption):
+        return value
+    option = mujoco.MjvOption()
+    flags = {name[len("mjVIS_"):].lower(): int(getattr(mujoco.mjtVisFlag, name))
+             for name in dir(mujoco.mjtVisFlag) if name.startswith("mjVIS_") and name != "mjVIS_NUMVISFLAG"}
+    for key, on in value.items():
+        if key not in flags:
+            raise SuiteError(f"unknown scene flag {key!r}{did_you_mean(key, flags)}; flags: {', '.join(flags)}")
+        option.flags[flags[key]] = bool(on)
+    return option
+
+
+class Camera(Observable):
+    """An image from a model camera ('camera:name', its name, or its id)."""
+
+    def __init__(self, camera: str | int, height: int = 240, width: int = 320, update_interval: Any = 1,
+                 buffer_size: int | None = None, delay: Any = None, aggregator: Any = None,
+                 corruptor: Callable[..., Any] | None = None,
+                 mode: Literal["rgb", "depth", "segmentation"] = "rgb",
+                 scene_option: mujoco.MjvOption | Mapping[str, bool] | None = None):
+        if mode not in MODES:
+            raise SuiteError(f"unknown camera mode {mode!r}{did_you_mean(str(mode), MODES)}; use {', '.join(MODES)}")
+        for name, value in (("height", height), ("width", width)):
+            if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+                raise SuiteError(f"camera {camera!r}: {name} must be a positive integer, got {value!r}")
+        self._camera = camera.partition(":")[2] if isinstance(camera, str) and camera.startswith("camera:") else camera
+        self._height, self._width, self._mode = height, width, mode
+        self._scene_option = _scene_option(scene_option)
+        super().__init__(update_interval, buffer_size, delay, aggregator, corruptor)
+
+    def __repr__(self) -> str:
+        return f"Camera({getattr(self, '_camera', '?')!r}, mode={getattr(self, '_mode', '?')!r})"
+
+    @property
+    def height(self) -> int:
+        return self._height
+
+    @property
+    def width(self) -> int:
+        return self._width
+
+    @property
+    def mode(self) -> str:
+        return self._mode
+
+    @property
+    def array_spec(self) -> specs.BoundedArray:
+        channels, dtype, low, high = MODES[self._mode]
+        return specs.BoundedArray(shape=(self._height, self._width, channels), dtype=dtype,
+                                  minimum=low, maximum=high)
+
+    def camera_id(self, model: mujoco.MjModel) -> int:
+        if isinstance(self._camera, int):
+            if not -1 <= self._camera < model.ncam:
+                raise SuiteError(f"camera id {self._camera} is out of range: the model has {model.ncam} cameras")
+            return self._camera
+        cam = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, self._camera)
+        if cam < 0:
+            names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_CAMERA, i) or "" for i in range(model.ncam)]
+            raise SuiteError(f"the model has no camera named {self._camera!r}{did_you_mean(self._camera, names)}; "
+                             f"its cameras are: {', '.join(n for n in names if n) or '(none)'}")
+        return int(cam)
+
+    def _callable(self, physics: Any) -> Callable[[], np.ndarray]:
+        model, data = raw_structs(physics)
+        cam = self.camera_id(model)
+        renderer = _renderer(model, self._width, self._height)
+        depth, segmentation = self._mode == "depth", self._mode == "segmentation"
+        option = self._scene_option
+
+        def render() -> np.ndarray:
+            if depth:
+                renderer.enable_depth_rendering()
+            elif segmentation:
+                renderer.enable_segmentation_rendering()
+            else:
+                renderer.disable_depth_rendering()
+                renderer.disable_segmentation_rendering()
+            renderer.update_scene(data, camera=cam, scene_option=option)
+            pixels = renderer.render()
+            return pixels[..., None] if depth else pixels
+
+        return render

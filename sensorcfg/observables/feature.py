@@ -1,0 +1,145 @@
+"""A feature: one attribute (`kind`) of one or more model elements, as dm_control's `bind` returns it.
+
+Names are resolved once per model into a flat index array; a read is a single `numpy.take` from the
+mjData (or mjModel) array, with no name look-ups on the per-sample path.
+"""
+
+from __future__ import annotations
+
+import math
+import weakref
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import mujoco
+import numpy as np
+from dm_env import specs
+
+from ..errors import SuiteError, did_you_mean
+from ..kinds import SOFT_RAGGED, kinds_of, ragged_slices
+from ..physics import raw_structs
+from ..selection import select, split_selector
+from .base import Observable
+
+__all__ = ["Feature", "FieldReader", "feature_index"]
+
+
+class FieldReader:
+    """Reads a precomputed set of positions of one mjData/mjModel array."""
+
+    __slots__ = ("source", "index", "shape", "dtype", "field", "struct")
+
+    def __init__(self, struct: str, field: str, source: np.ndarray, index: np.ndarray):
+        self.struct = struct
+        self.field = field
+        self.source = source  # a flat view of the array: it follows the simulation in place
+        self.index = index  # positions in `source`, already in the observation's shape
+        self.shape = index.shape
+        self.dtype = source.dtype
+
+    def __call__(self) -> np.ndarray:
+        return self.source.take(self.index)
+
+    def read_into(self, out: np.ndarray) -> None:
+        np.take(self.source, self.index, out=out)
+
+
+def feature_index(model: mujoco.MjModel, kind: str, element: str | Sequence[str],
+                  within: str | None = None, index: Any = None,
+                  data: mujoco.MjData | None = None) -> tuple[str, str, np.ndarray, np.dtype]:
+    """(struct, field, flat positions shaped like the value, dtype) for a feature on `model`."""
+    sel = select(model, element, within)
+    spec = kinds_of(sel.type)[kind]
+    if spec.struct == "data" and data is None:
+        data = mujoco.MjData(model)
+    array = getattr(model if spec.struct == "model" else data, spec.field)
+    row_width = math.prod(array.shape[1:])
+    trailing = tuple(array.shape[1:])
+    ids = list(sel.ids)
+    if spec.ragged:
+        slices = ragged_slices(model, spec, ids)
+        if spec.size in SOFT_RAGGED and all(len(s) == 1 for s in slices):
+            rows = [s.start for s in slices]
+            shape = ((len(rows),) if sel.batched else ()) + trailing
+        else:
+            rows = [r for s in slices for r in s]
+            shape = (len(rows),) + trailing
+    else:
+        rows = ids
+        shape = ((len(rows),) if sel.batched else ()) + trailing
+    rows_arr = np.asarray(rows, dtype=np.intp)
+    flat = (rows_arr[:, None] * row_width + np.arange(row_width, dtype=np.intp)[None, :]).reshape(shape)
+    if index is not None:
+        try:
+            flat = flat[index]
+        except (IndexError, TypeError, ValueError) as e:
+            raise SuiteError(f"index {index!r} does not fit {kind} of {element!r} with shape {shape}: {e}") from None
+        flat = np.array(flat, dtype=np.intp)
+    return spec.struct, spec.field, np.ascontiguousarray(flat), array.dtype
+
+
+class Feature(Observable):
+    """`kind` of the elements selected by `element` ('type:name', a glob, or a list of them).
+
+    Values and shapes are those of dm_control's `physics.bind(elements).<kind>`: one element gives the
+    unbatched shape, a list or a glob the batched one. `index` selects a part of the value; `within`
+    ('body:name') restricts a selection to a body's subtree.
+    """
+
+    def __init__(self, kind: str, element: str | Sequence[str], update_interval: Any = 1,
+                 buffer_size: int | None = None, delay: Any = None, aggregator: Any = None,
+                 corruptor: Callable[..., Any] | None = None, index: Any = None, within: str | None = None):
+        self._kind = kind
+        self._element = element if isinstance(element, str) else tuple(element)
+        self._index = index
+        self._within = within
+        self._check_kind()
+        self._bound: tuple[weakref.ref, FieldReader] | None = None
+        super().__init__(update_interval, buffer_size, delay, aggregator, corruptor)
+
+    def _check_kind(self) -> None:
+        selectors = [self._element] if isinstance(self._element, str) else list(self._element)
+        if not selectors:
+            raise SuiteError(f"{self!r}: an empty element list selects nothing")
+        type_name, _ = split_selector(selectors[0])
+        kinds = kinds_of(type_name)
+        if self._kind not in kinds:
+            raise SuiteError(
+                f"{self!r}: a {type_name} has no kind {self._kind!r}{did_you_mean(self._kind, kinds)}; "
+                f"{type_name} kinds include {', '.join(sorted(kinds)[:40])}")
+
+    def __repr__(self) -> str:
+        element = getattr(self, "_element", "?")
+        return f"Feature({getattr(self, '_kind', '?')!r}, {element if isinstance(element, str) else list(element)!r})"
+
+    @property
+    def kind(self) -> str:
+        return self._kind
+
+    @property
+    def element(self) -> str | tuple[str, ...]:
+        return self._element
+
+    def reader(self, physics: Any) -> FieldReader:
+        """A reader bound to `physics`; resolved once per model, reused afterwards."""
+        model, data = raw_structs(physics)
+        bound = self._bound
+        if bound is None or bound[0]() is not model:
+            struct, field, flat, dtype = feature_index(
+                model, self._kind, self._element, self._within, self._index, data)
+            bound = (weakref.ref(model), FieldReader(struct, field, np.empty(0, dtype), flat))
+            self._bound = bound
+        template = bound[1]
+        source = getattr(data if template.struct == "data" else model, template.field).reshape(-1)
+        return FieldReader(template.struct, template.field, source, template.index)
+
+    def _callable(self, physics: Any) -> Callable[[], np.ndarray]:
+        return self.reader(physics)
+
+    @property
+    def array_spec(self) -> specs.Array | None:
+        """Known once the feature has been bound to a model (the Updater binds it at reset)."""
+        if self._bound is None:
+            return None
+        template = self._bound[1]
+        return specs.Array(shape=template.shape, dtype=template.dtype)

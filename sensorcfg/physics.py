@@ -1,0 +1,56 @@
+"""The physics handle that observables receive.
+
+sensorcfg observables accept either our own small `Physics` holder or a dm_control Physics (which exposes
+the raw MuJoCo structs as `.model.ptr` and `.data.ptr`), so the same observable runs in both worlds.
+"""
+
+from __future__ import annotations
+
+import mujoco
+
+__all__ = ["Physics", "raw_structs"]
+
+
+class Physics:
+    """A holder of one `mujoco.MjModel` and one `mujoco.MjData`."""
+
+    __slots__ = ("model", "data")
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData | None = None):
+        if not isinstance(model, mujoco.MjModel):
+            raise TypeError(f"Physics needs a mujoco.MjModel, got {type(model).__name__}")
+        self.model = model
+        self.data = mujoco.MjData(model) if data is None else data
+
+    @classmethod
+    def from_xml_path(cls, path: str) -> Physics:
+        return cls(mujoco.MjModel.from_xml_path(str(path)))
+
+    @property
+    def timestep(self) -> float:
+        return float(self.model.opt.timestep)
+
+    def step(self, nstep: int = 1) -> None:
+        mujoco.mj_step(self.model, self.data, nstep)
+
+    def forward(self) -> None:
+        mujoco.mj_forward(self.model, self.data)
+
+    def __repr__(self) -> str:
+        return f"Physics(nbody={self.model.nbody}, nq={self.model.nq}, t={self.data.time:.4f})"
+
+
+def raw_structs(physics: object) -> tuple[mujoco.MjModel, mujoco.MjData]:
+    """The raw (MjModel, MjData) of a sensorcfg or dm_control physics handle."""
+    model = getattr(physics, "model", None)
+    data = getattr(physics, "data", None)
+    if isinstance(model, mujoco.MjModel) and isinstance(data, mujoco.MjData):
+        return model, data
+    model_ptr = getattr(model, "ptr", None)
+    data_ptr = getattr(data, "ptr", None)
+    if isinstance(model_ptr, mujoco.MjModel) and isinstance(data_ptr, mujoco.MjData):
+        return model_ptr, data_ptr
+    raise TypeError(
+        "expected a sensorcfg.Physics or a dm_control Physics (with .model.ptr and .data.ptr), "
+        f"got {type(physics).__name__}"
+    )

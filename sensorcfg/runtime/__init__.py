@@ -1,0 +1,1 @@
+"""Scheduling, delaying, buffering and aggregating samples: numpy only, no mujoco."""

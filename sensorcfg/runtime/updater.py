@@ -1,0 +1,239 @@
+"""The Updater: dm_control's observation Updater API and semantics, with a precomputed sampling plan.
+
+Per physics step, `update()` looks up the channels due at this step's phase of a precomputed periodic
+plan (no per-observable checks, no name look-ups); `get_observation()` reads each channel's window.
+Observables are duck-typed: dm_control's own observables work unchanged.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import inspect
+import math
+import numbers
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+from dm_env import specs
+
+from ..errors import SuiteError
+from ..observables.aggregators import AGGREGATORS, preserves_bounds
+from .channels import Channel, FixedChannel, RandomChannel
+
+__all__ = ["Updater", "sensor_rng"]
+
+DEFAULT_BUFFER_SIZE = 1
+DEFAULT_UPDATE_INTERVAL = 1
+DEFAULT_DELAY = 0
+_MAX_PLAN_PERIOD = 1 << 16
+
+
+def sensor_rng(entropy: Sequence[int], name: str) -> np.random.Generator:
+    """A sensor's own random stream: the episode's entropy and a stable hash of the sensor's name.
+
+    Adding, removing or reordering other sensors leaves this stream unchanged.
+    """
+    key = int.from_bytes(hashlib.blake2b(name.encode(), digest_size=8).digest(), "little")
+    return np.random.Generator(np.random.PCG64(np.random.SeedSequence(list(entropy), spawn_key=(key,))))
+
+
+def _episode_entropy(random_state: Any) -> list[int]:
+    if isinstance(random_state, np.random.Generator):
+        return [int(x) for x in random_state.integers(0, 2**32, size=4, dtype=np.uint64)]
+    if random_state is None:
+        random_state = np.random.mtrand._rand  # numpy's global RandomState, as dm_control would use
+    return [int(x) for x in random_state.randint(0, 2**32, size=4, dtype=np.uint64)]
+
+
+def _drawer(owner: str, attr: str, value: Any, default: int, random_state: Any) -> int | Callable[[], int]:
+    """An int, or a zero-argument function drawing validated ints (dm_control Variations get random_state)."""
+    if not value:
+        return default
+    if not callable(value):
+        if not isinstance(value, numbers.Integral) or isinstance(value, bool) or value < (0 if attr == "delay" else 1):
+            raise SuiteError(f"observable {owner!r}: {attr} must be a "
+                             f"{'non-negative' if attr == 'delay' else 'positive'} integer, got {value!r}")
+        return int(value)
+    try:
+        params = inspect.signature(value).parameters
+        takes_rs = "random_state" in params or any(p.kind is p.VAR_KEYWORD for p in params.values())
+    except (TypeError, ValueError):
+        takes_rs = False
+    draw = functools.partial(value, random_state=random_state) if takes_rs else value
+    lowest = 0 if attr == "delay" else 1
+
+    def checked() -> int:
+        drawn = draw()
+        if isinstance(drawn, numbers.Real) and float(drawn).is_integer() and drawn >= lowest:
+            return int(drawn)
+        raise SuiteError(f"observable {owner!r}: its {attr} callable drew {drawn!r}; "
+                         f"it must draw integers >= {lowest} (physics steps)")
+
+    return checked
+
+
+class Updater:
+    """Samples, delays, buffers, aggregates and corrupts observables inside the physics loop."""
+
+    def __init__(self, observables: Mapping[str, Any] | Sequence[Mapping[str, Any]],
+                 physics_steps_per_control_step: int = 1, strip_singleton_buffer_dim: bool = False,
+                 pad_with_initial_value: bool = False):
+        nested = isinstance(observables, (list, tuple))
+        valid = all(isinstance(o, Mapping) for o in observables) if nested else isinstance(observables, Mapping)
+        if not valid:
+            raise SuiteError("`observables` must be a dict, or a list or tuple of dicts, of observables; "
+                             f"got {type(observables).__name__}")
+        n = physics_steps_per_control_step
+        if not isinstance(n, numbers.Integral) or isinstance(n, bool) or n < 1:
+            raise SuiteError(f"physics_steps_per_control_step must be a positive integer, got {n!r}")
+        self._observables = observables
+        self._nested = nested
+        self._n = int(n)
+        self._strip = bool(strip_singleton_buffer_dim)
+        self._pad = bool(pad_with_initial_value)
+        self._step = 0
+        self._layout: list[tuple[type, list[tuple[str, Channel]]]] | None = None
+
+    @property
+    def physics_steps_per_control_step(self) -> int:
+        return self._n
+
+    # -- reset ------------------------------------------------------------------------------------
+
+    def reset(self, physics: Any, random_state: Any) -> None:
+        """Bind every enabled observable, take the reset samples, and precompute the sampling plan."""
+        dicts = list(self._observables) if self._nested else [self._observables]
+        noisy = any(getattr(o, "noise", None) is not None for d in dicts for o in d.values() if o.enabled)
+        entropy = _episode_entropy(random_state) if noisy else None
+        layout: list[tuple[type, list[tuple[str, Channel]]]] = []
+        for index, obs_dict in enumerate(dicts):
+            entries = []
+            for name, observable in obs_dict.items():
+                if observable.enabled:
+                    label = f"{index}/{name}" if self._nested else str(name)
+                    entries.append((name, self._channel(label, observable, physics, random_state, entropy)))
+            layout.append((type(obs_dict), entries))
+        self._layout = layout
+        self._channels = [ch for _, entries in layout for _, ch in entries]
+        self._step = 0
+        for ch in self._channels:
+            ch.start(0)
+        self._build_plan()
+
+    def _channel(self, label: str, observable: Any, physics: Any, random_state: Any,
+                 entropy: list[int] | None) -> Channel:
+        sampler = observable.observation_callable(physics, random_state)
+        interval = _drawer(label, "update_interval", observable.update_interval, DEFAULT_UPDATE_INTERVAL, random_state)
+        delay = _drawer(label, "delay", observable.delay, DEFAULT_DELAY, random_state)
+        buffer_size = observable.buffer_size or DEFAULT_BUFFER_SIZE
+        if not isinstance(buffer_size, numbers.Integral) or isinstance(buffer_size, bool) or buffer_size < 1:
+            raise SuiteError(f"observable {label!r}: buffer_size must be a positive integer, got {buffer_size!r}")
+        spec = observable.array_spec
+        if spec is None:  # infer shape and dtype from one sample, as dm_control does
+            probe = np.asarray(sampler())
+            shape, dtype = probe.shape, probe.dtype
+        else:
+            shape, dtype = spec.shape, spec.dtype
+        noise = getattr(observable, "noise", None)
+        if noise is not None:
+            noise.reset(sensor_rng(entropy or [], label))
+        read_into = getattr(sampler, "read_into", None)
+        aggregator = observable.aggregator
+        args = (label, sampler, read_into, shape, dtype, int(buffer_size), self._strip, self._pad, self._n,
+                aggregator, any(aggregator is a for a in AGGREGATORS.values()), noise)
+        if callable(interval) or callable(delay):
+            as_fn = lambda v: v if callable(v) else (lambda: v)  # noqa: E731
+            return RandomChannel(*args, interval=as_fn(interval), delay=as_fn(delay))
+        return FixedChannel(*args, interval=interval, delay=delay)
+
+    def _build_plan(self) -> None:
+        fixed = [ch for ch in self._channels if isinstance(ch, FixedChannel)]
+        self._random = [ch for ch in self._channels if isinstance(ch, RandomChannel)]
+        period = math.lcm(*(ch.period() for ch in fixed)) if fixed else 1
+        if period > _MAX_PLAN_PERIOD:  # pathological interval mixes: one plan per channel instead
+            self._period = 1
+            self._plan = [()]
+            self._slow = [(ch, ch.period(), frozenset(ch.needed_phases())) for ch in fixed]
+            return
+        self._slow = []
+        plan: list[list[Callable[[int], None]]] = [[] for _ in range(period)]
+        for ch in fixed:
+            ch_period = ch.period()
+            for phase in ch.needed_phases():
+                for t in range(phase, period, ch_period):
+                    plan[t].append(ch.sample)
+        self._period = period
+        self._plan = [tuple(tasks) for tasks in plan]
+
+    # -- the physics loop -------------------------------------------------------------------------
+
+    def prepare_for_next_control_step(self) -> None:
+        if self._layout is None:
+            raise RuntimeError("`reset` must be called before `prepare_for_next_control_step`.")
+        for ch in self._random:
+            ch.plan(self._step)
+
+    def update(self) -> None:
+        if self._layout is None:
+            raise RuntimeError("`reset` must be called before `update`.")
+        step = self._step = self._step + 1
+        for sample in self._plan[step % self._period]:
+            sample(step)
+        if self._slow:
+            for ch, period, phases in self._slow:
+                if step % period in phases:
+                    ch.sample(step)
+        for ch in self._random:
+            ch.maybe_sample(step)
+
+    def get_observation(self) -> Any:
+        if self._layout is None:
+            raise RuntimeError("`reset` must be called before `get_observation`.")
+        step = self._step
+        out = [kind((name, ch.read(step)) for name, ch in entries) for kind, entries in self._layout]
+        return type(self._observables)(out) if self._nested else out[0]
+
+    # -- specs and counters -----------------------------------------------------------------------
+
+    def observation_spec(self) -> Any:
+        """dm_env specs of the observations; BoundedArray where bounds survive the aggregator."""
+        if self._layout is None:
+            raise RuntimeError("`reset` must be called before `observation_spec`.")
+        dicts = list(self._observables) if self._nested else [self._observables]
+        out = []
+        for obs_dict, (kind, entries) in zip(dicts, self._layout):
+            out.append(kind((name, _spec(name, obs_dict[name], ch)) for name, ch in entries))
+        return type(self._observables)(out) if self._nested else out[0]
+
+    def samples_taken(self) -> Any:
+        """How many samples each enabled observable has taken since reset (the reset sample included)."""
+        if self._layout is None:
+            raise RuntimeError("`reset` must be called before `samples_taken`.")
+        out = [kind((name, ch.samples) for name, ch in entries) for kind, entries in self._layout]
+        return type(self._observables)(out) if self._nested else out[0]
+
+    @property
+    def step_count(self) -> int:
+        """Physics steps since the last reset."""
+        return self._step
+
+
+def _spec(name: str, observable: Any, ch: Channel) -> specs.Array:
+    array_spec = observable.array_spec
+    aggregator = observable.aggregator
+    if aggregator is None and array_spec is not None:
+        return array_spec.replace(name=name, shape=ch.buffered_shape)
+    bounds = None
+    if isinstance(array_spec, specs.BoundedArray):
+        bounds = (array_spec.minimum, array_spec.maximum)
+    shape, dtype = ch.buffered_shape, ch.dtype
+    if aggregator is not None:
+        aggregated = np.asarray(aggregator(np.zeros(ch.buffered_shape, dtype=ch.dtype)))
+        shape, dtype = aggregated.shape, aggregated.dtype
+        if not preserves_bounds(aggregator):
+            bounds = None
+    if bounds is not None:
+        return specs.BoundedArray(shape=shape, dtype=dtype, minimum=bounds[0], maximum=bounds[1], name=name)
+    return specs.Array(shape=shape, dtype=dtype, name=name)
