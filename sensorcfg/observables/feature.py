@@ -75,7 +75,9 @@ def feature_index(model: mujoco.MjModel, kind: str, element: str | Sequence[str]
         except (IndexError, TypeError, ValueError) as e:
             raise SuiteError(f"index {index!r} does not fit {kind} of {element!r} with shape {shape}: {e}") from None
         flat = np.array(flat, dtype=np.intp)
-    return spec.struct, spec.field, np.ascontiguousarray(flat), array.dtype
+    # np.array, not np.ascontiguousarray: the latter turns a 0-d index (one element of a per-element
+    # scalar field, e.g. the `mass` of one body) into shape (1,), where dm_control gives a scalar.
+    return spec.struct, spec.field, np.array(flat, dtype=np.intp, order="C"), array.dtype
 
 
 class Feature(Observable):
