@@ -116,12 +116,17 @@ def _array_fields(struct_name: str, cls: type) -> list[tuple[str, str, str]]:
 
 @functools.cache
 def kinds_of(type_name: str) -> dict[str, FieldSpec]:
-    """The kinds of one element type, data fields first then model fields (model wins a clash)."""
+    """The kinds of one element type, resolving name clashes as dm_control's `bind` does.
+
+    Two fields can strip to one kind (`jnt_bodyid` and `dof_bodyid` are both a joint's `bodyid`).
+    dm_control walks its size table (sorted by field name), data before model, and the last one wins:
+    model over data, and within a struct the alphabetically later name (`jnt_bodyid` over `dof_bodyid`).
+    """
     et = ELEMENT_TYPES[type_name]
     strip = re.compile(r"\A({})_".format("|".join(et.strip)))
     table: dict[str, FieldSpec] = {}
     for struct, struct_name, cls in (("data", "mjData", mujoco.MjData), ("model", "mjModel", mujoco.MjModel)):
-        for field, size, doc in _array_fields(struct_name, cls):
+        for field, size, doc in sorted(_array_fields(struct_name, cls)):
             if size in et.sizes:
                 kind = strip.sub("", field)
                 table[kind] = FieldSpec(kind, struct, field, size, doc)
