@@ -1,17 +1,415 @@
-"""Noise stage configs (interim: gaussian only; the noise issue adds the rest of the table)."""
+"""Noise stage configs: the one table of stages that validation, the JSON Schema and error hints read.
+
+A sensor's `noise:` is a list of stages applied in order to each raw sample. Each stage is a frozen model
+selected by its `type` (`STAGES` maps the type name to the model and to what it applies to). Numeric
+parameters are a number or a list with one entry per value of the observation; whether a list fits the
+observation's shape is checked when the sensor is bound (`sensorcfg.noise.build_noise`), since only then is
+the shape known. Everything that can be checked without the model is checked here, as pydantic errors whose
+`loc` ends in the stage's field (`('noise', 0, 'std')`, `('noise', 1, 'type')`), with no union tag segment, so
+the suite layer can point at the YAML node.
+"""
 
 from __future__ import annotations
 
-from typing import Annotated, Literal, Union
+import dataclasses
+import math
+import numbers
+import re
+from collections.abc import Callable, Mapping
+from typing import Annotated, Any, ClassVar, Literal, Union
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, WrapValidator, model_validator
+from pydantic.json_schema import SkipJsonSchema
+from pydantic_core import InitErrorDetails, PydanticCustomError
+
+from ..errors import did_you_mean
+
+__all__ = ["NoiseStage", "STAGES", "StageInfo", "IMAGE_STAGES", "parse_quantity"]
+
+_MODEL = ConfigDict(frozen=True, extra="forbid")
+PerValue = Union[float, tuple[float, ...]]  # what a validated numeric parameter holds
+
+# -- numbers, per-value lists and quantities with units -----------------------------------------------
+
+_DURATION_UNITS = {"s": 1.0, "sec": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9, "min": 60.0}
+_FREQUENCY_UNITS = {"Hz": 1.0, "hz": 1.0, "kHz": 1e3, "khz": 1e3, "MHz": 1e6}
+_QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([^\d\s.+-][^\s]*)?\s*$")
+
+
+def parse_quantity(value: Any, units: Mapping[str, float], what: str) -> float:
+    """A number in SI units from a number (already SI) or a string such as '50ms' or '20 Hz'.
+
+    Private stand-in until the suite layer's units module exists; raises ValueError with the fix.
+    """
+    if isinstance(value, numbers.Real) and not isinstance(value, bool):
+        return float(value)
+    if isinstance(value, str):
+        match = _QUANTITY.match(value)
+        if match:
+            number, unit = match.groups()
+            if unit is None:
+                return float(number)
+            if unit in units:
+                return float(number) * units[unit]
+            raise ValueError(f"unknown unit {unit!r} in {value!r}{did_you_mean(unit, units)}; "
+                             f"a {what} takes {', '.join(units)}")
+    raise ValueError(f"expected a {what} such as {_EXAMPLE[what]!r} or a number "
+                     f"({_SI[what]}), got {value!r}")
+
+
+_EXAMPLE = {"duration": "50ms", "frequency": "20Hz"}
+_SI = {"duration": "seconds", "frequency": "Hz"}
+
+
+@dataclasses.dataclass(frozen=True, eq=False)  # hashed by identity: it sits in type annotations
+class _Bound:
+    """What a numeric parameter accepts: its meaning (for messages), bounds, and units if a quantity."""
+
+    meaning: str
+    ge: float | None = None
+    gt: float | None = None
+    le: float | None = None
+    units: Mapping[str, float] | None = None
+    quantity: str = ""
+
+    def check(self, value: Any) -> float:
+        if self.units is not None:
+            x = parse_quantity(value, self.units, self.quantity)
+        elif isinstance(value, numbers.Real) and not isinstance(value, bool):
+            x = float(value)
+        else:
+            raise ValueError(f"expected a number, got {value!r}")
+        if not math.isfinite(x):
+            raise ValueError(f"expected a finite number, got {value!r}")
+        for bound, ok, op in ((self.ge, lambda b: x >= b, ">="), (self.gt, lambda b: x > b, ">"),
+                              (self.le, lambda b: x <= b, "<=")):
+            if bound is not None and not ok(bound):
+                raise ValueError(f"{self.meaning} must be {op} {bound:g}, got {value!r}")
+        return x
+
+    def __call__(self, value: Any, handler: Any, info: Any) -> PerValue:
+        """WrapValidator: a number, or a non-empty list of numbers (one per value); a tuple once valid."""
+        if isinstance(value, (list, tuple)):
+            if not value:
+                raise PydanticCustomError("per_value", "an empty list gives no values; give a number or one "
+                                                       "entry per value of the observation")
+            errors = []
+            out = []
+            for i, item in enumerate(value):
+                try:
+                    out.append(self.check(item))
+                except ValueError as e:
+                    errors.append(InitErrorDetails(type=PydanticCustomError("per_value", str(e)), loc=(i,),
+                                                   input=item))
+            if errors:
+                raise ValidationError.from_exception_data("per-value parameter", errors)
+            return tuple(out)
+        try:
+            return self.check(value)
+        except ValueError as e:
+            raise PydanticCustomError("per_value", str(e)) from None
+
+
+def _per_value(meaning: str, **bounds: Any) -> Any:
+    """The annotated type of a per-value parameter: schema `number | number[]`, validated by `_Bound`."""
+    constraints = {k: v for k, v in bounds.items() if k in ("ge", "gt", "le")}
+    if "units" in bounds:
+        item: Any = Union[float, str]
+    else:
+        item = Annotated[float, Field(**constraints)]
+    return Annotated[Union[item, Annotated[list[item], Field(min_length=1)]], WrapValidator(_Bound(meaning, **bounds))]
+
+
+Real = _per_value("the value")
+Std = _per_value("a standard deviation", ge=0)
+Probability = _per_value("a probability", ge=0, le=1)
+Step = _per_value("a quantisation step", gt=0)
+Duration = _per_value("a correlation time", gt=0, units=_DURATION_UNITS, quantity="duration")
+Frequency = _per_value("a cutoff frequency", gt=0, units=_FREQUENCY_UNITS, quantity="frequency")
+
+_PER_VALUE = ("A number, or a list with one entry per value of the observation (or one per entry of its last "
+              "axis, e.g. per colour channel).")
+
+
+def _ordered(low: PerValue | None, high: PerValue | None, names: tuple[str, str]) -> None:
+    """low <= high entry by entry where the two can be compared (equal lengths, or one a number)."""
+    if low is None or high is None:
+        return
+    lows = low if isinstance(low, tuple) else None
+    highs = high if isinstance(high, tuple) else None
+    if lows is not None and highs is not None and len(lows) != len(highs):
+        return  # may broadcast differently (per value vs per last axis); checked at binding time
+    n = len(lows or highs or (0,))
+    for i in range(n):
+        lo = lows[i] if lows is not None else low
+        hi = highs[i] if highs is not None else high
+        if lo > hi:  # type: ignore[operator]
+            at = f" (entry {i})" if n > 1 or lows is not None or highs is not None else ""
+            a, b = names
+            raise _at(a, "noise_order", f"{a} must not exceed {b}{at}: {a} is {lo:g} and {b} is {hi:g}; "
+                      "swap them", lo)
+
+
+def _at(field: str, kind: str, message: str, value: Any) -> ValidationError:
+    """A stage-level check reported at one of the stage's fields (so the YAML position is that key's)."""
+    detail = InitErrorDetails(type=PydanticCustomError(kind, message), loc=(field,), input=value)
+    return ValidationError.from_exception_data("NoiseStage", [detail])
+
+
+def _type(name: str, what: str) -> Any:
+    return Field(description=what, examples=[name])
+
+
+# -- the stages ---------------------------------------------------------------------------------------
 
 
 class GaussianStage(BaseModel):
-    model_config = ConfigDict(frozen=True, extra="forbid")
-    type: Literal["gaussian"] = Field(description="Additive white noise drawn from N(mean, std^2) per value.")
-    mean: float = Field(0.0, description="Mean of the noise.", examples=[0.0])
-    std: float = Field(ge=0, description="Standard deviation of the noise, in the sensor's units.", examples=[0.01])
+    """Additive white noise: every value of every sample gets an independent draw of N(mean, std^2)."""
+
+    model_config = _MODEL
+    type: Literal["gaussian"] = _type("gaussian", "Additive white noise drawn from N(mean, std^2) per value.")
+    mean: Real = Field(0.0, description="Mean of the noise, in the sensor's units. " + _PER_VALUE,
+                       examples=[0.0, [0.0, 0.0, 0.01]])
+    std: Std = Field(description="Standard deviation of the noise, in the sensor's units. " + _PER_VALUE,
+                     examples=[0.01, [0.01, 0.01, 0.02]])
 
 
-NoiseStage = Annotated[Union[GaussianStage], Field(discriminator="type")]
+class UniformStage(BaseModel):
+    """Additive white noise drawn uniformly from [low, high) per value and sample."""
+
+    model_config = _MODEL
+    type: Literal["uniform"] = _type("uniform", "Additive white noise drawn from U(low, high) per value.")
+    low: Real = Field(description="Lower end of the noise, in the sensor's units. " + _PER_VALUE, examples=[-0.05])
+    high: Real = Field(description="Upper end of the noise, in the sensor's units. " + _PER_VALUE, examples=[0.05])
+
+    @model_validator(mode="after")
+    def _check(self) -> UniformStage:
+        _ordered(self.low, self.high, ("low", "high"))
+        return self
+
+
+class _EpisodeDraw(BaseModel):
+    """A value drawn once per episode and per value: normal {mean, std} or uniform {low, high}."""
+
+    model_config = _MODEL
+    _centre: ClassVar[float] = 0.0
+    mean: Real | None = Field(None, description="Mean of the normal draw (give `std` too, or alone for a "
+                              "constant). " + _PER_VALUE, examples=[0.0])
+    std: Std | None = Field(None, description="Standard deviation of the normal draw. " + _PER_VALUE,
+                            examples=[0.02])
+    low: Real | None = Field(None, description="Lower end of the uniform draw (with `high`). " + _PER_VALUE,
+                             examples=[-0.05])
+    high: Real | None = Field(None, description="Upper end of the uniform draw (with `low`). " + _PER_VALUE,
+                              examples=[0.05])
+
+    @model_validator(mode="after")
+    def _check(self) -> _EpisodeDraw:
+        normal = self.mean is not None or self.std is not None
+        uniform = self.low is not None or self.high is not None
+        if normal and uniform:
+            raise _at("low" if self.low is not None else "high", "noise_draw", "give either mean/std (a normal "
+                      "draw) or low/high (a uniform draw), not both", self.low)
+        if not normal and not uniform:
+            raise PydanticCustomError("noise_draw", "give std (with an optional mean) for a normal draw, or low "
+                                      "and high for a uniform draw")
+        if uniform and (self.low is None or self.high is None):
+            missing = "high" if self.high is None else "low"
+            raise PydanticCustomError("noise_draw", f"a uniform draw needs both low and high; {missing} is "
+                                      "missing")
+        _ordered(self.low, self.high, ("low", "high"))
+        return self
+
+    @property
+    def uniform(self) -> bool:
+        return self.low is not None
+
+    def normal_params(self) -> tuple[PerValue, PerValue]:
+        """(mean, std) of the normal draw, with the stage's default centre."""
+        return (self._centre if self.mean is None else self.mean, 0.0 if self.std is None else self.std)
+
+
+class BiasStage(_EpisodeDraw):
+    """An additive offset drawn per value at each reset and constant within the episode."""
+
+    type: Literal["bias"] = _type("bias", "Additive offset drawn once per episode per value.")
+
+
+class ScaleStage(_EpisodeDraw):
+    """A multiplicative gain drawn per value at each reset (normal with mean 1 by default)."""
+
+    _centre: ClassVar[float] = 1.0
+    type: Literal["scale"] = _type("scale", "Multiplicative gain drawn once per episode per value "
+                                   "(normal draws have mean 1 unless `mean` is given).")
+
+
+class RandomWalkStage(BaseModel):
+    """A drifting additive bias: first-order Gauss-Markov with a correlation time, or Brownian without one.
+
+    It advances with the simulated time between samples, so its statistics do not depend on the sensor's
+    interval. The Gauss-Markov walk starts each episode from its stationary distribution N(0, std^2); the
+    Brownian walk starts at 0.
+    """
+
+    model_config = _MODEL
+    type: Literal["random_walk"] = _type("random_walk", "A drifting additive bias (Gauss-Markov or Brownian).")
+    std: Std = Field(description="Stationary standard deviation of the bias with `correlation_time`; without "
+                     "it, the Brownian walk's standard deviation per square-root second. " + _PER_VALUE,
+                     examples=[0.01])
+    correlation_time: Duration | None = Field(
+        None, description="Correlation time of the Gauss-Markov process: a duration such as '2s' or '500ms', "
+        "or a number of seconds. Omit for a Brownian walk. " + _PER_VALUE, examples=["2s", 0.5])
+
+
+class QuantizeStage(BaseModel):
+    """Limited resolution: every value rounds to the nearest multiple of `step` (ties to even)."""
+
+    model_config = _MODEL
+    type: Literal["quantize"] = _type("quantize", "Rounds each value to the nearest multiple of `step`.")
+    step: Step = Field(description="Resolution, in the sensor's units (> 0). " + _PER_VALUE,
+                       examples=[0.001, [0.01, 0.01, 0.05]])
+
+
+class ClipStage(BaseModel):
+    """Saturation: values below `min` become `min`, above `max` become `max` (NaN stays NaN)."""
+
+    model_config = _MODEL
+    type: Literal["clip"] = _type("clip", "Saturates each value to [min, max].")
+    min: Real | None = Field(None, description="Lowest value the sensor reports. " + _PER_VALUE, examples=[-10.0])
+    max: Real | None = Field(None, description="Highest value the sensor reports. " + _PER_VALUE, examples=[10.0])
+
+    @model_validator(mode="after")
+    def _check(self) -> ClipStage:
+        if self.min is None and self.max is None:
+            raise PydanticCustomError("noise_clip", "clip needs min, max or both")
+        _ordered(self.min, self.max, ("min", "max"))
+        return self
+
+
+class DropoutStage(BaseModel):
+    """Lost readings: with probability `p` a sample (or, with `per: value`, a value) is lost."""
+
+    model_config = _MODEL
+    type: Literal["dropout"] = _type("dropout", "Loses samples (or values) with probability p.")
+    p: Probability = Field(description="Probability that a sample is lost, in [0, 1]. A list (one per value) "
+                           "needs `per: value`.", examples=[0.01])
+    mode: Literal["hold", "zero", "nan"] = Field(
+        "hold", description="What a lost reading becomes: `hold` repeats the last delivered value (the first "
+        "sample after a reset is always delivered), `zero` gives 0, `nan` gives NaN (floats only).",
+        examples=["hold", "nan"])
+    per: Literal["sample", "value"] = Field(
+        "sample", description="`sample`: a whole sample is lost at once (a lost packet); `value`: each value "
+        "independently (e.g. depth pixels).", examples=["sample", "value"])
+
+    @model_validator(mode="after")
+    def _check(self) -> DropoutStage:
+        if isinstance(self.p, tuple) and self.per == "sample":
+            raise _at("p", "noise_dropout", "a list of p (one per value) needs `per: value`; a whole "
+                      "sample is lost with one probability", self.p)
+        return self
+
+
+class OutlierStage(BaseModel):
+    """Spikes: with probability `p` a value is replaced by value + N(0, scale^2)."""
+
+    model_config = _MODEL
+    type: Literal["outlier"] = _type("outlier", "Adds N(0, scale^2) to a value with probability p.")
+    p: Probability = Field(description="Probability that a value is an outlier, in [0, 1]. " + _PER_VALUE,
+                           examples=[0.001])
+    scale: Std = Field(description="Standard deviation of an outlier's error, in the sensor's units. "
+                       + _PER_VALUE, examples=[1.0])
+
+
+class LowpassStage(BaseModel):
+    """Limited bandwidth: a first-order low-pass filter, applied with the real time between samples.
+
+    It starts each episode settled at the first sample; between samples the input is taken as held at the
+    new sample, so a step input gives exactly 1 - exp(-2 pi cutoff t) at the sample times.
+    """
+
+    model_config = _MODEL
+    type: Literal["lowpass"] = _type("lowpass", "First-order low-pass filter with cutoff frequency `cutoff`.")
+    cutoff: Frequency = Field(description="Cutoff (-3 dB) frequency: a frequency such as '20Hz' or a number of "
+                              "Hz. " + _PER_VALUE, examples=["20Hz", 5.0])
+
+
+_CALLABLE = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_][\w.]*$")
+
+
+def _check_callable(value: Any, handler: Any, info: Any) -> Any:
+    if callable(value):
+        return value
+    if isinstance(value, str) and _CALLABLE.match(value):
+        return value
+    raise PydanticCustomError("noise_callable", "expected 'module:function' (e.g. 'mypkg.noise:corrupt'), got "
+                              f"{value!r}")
+
+
+class CustomStage(BaseModel):
+    """A hand-written corruptor with dm_control's signature `(value, random_state) -> value`.
+
+    `random_state` is a numpy RandomState seeded from the sensor's own stream at each reset.
+    """
+
+    model_config = _MODEL
+    type: Literal["custom"] = _type("custom", "A callable corruptor with dm_control's signature.")
+    callable: Annotated[Union[str, SkipJsonSchema[Callable[..., Any]]], WrapValidator(_check_callable)] = Field(
+        description="'module:function' importable at binding time, called as f(value, random_state=rs) and "
+        "returning a value of the same shape (from Python, the function itself).",
+        examples=["mypkg.noise:salt_and_pepper"])
+
+
+# -- the table ----------------------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class StageInfo:
+    """One row of the stage table."""
+
+    model: type[BaseModel]
+    images: bool  # applies to uint8 images (rgb): the result is rounded and clipped to 0..255
+    integers: bool = False  # applies to other integer observations (segmentation, counts)
+
+
+STAGES: dict[str, StageInfo] = {
+    "gaussian": StageInfo(GaussianStage, images=True),
+    "uniform": StageInfo(UniformStage, images=True),
+    "bias": StageInfo(BiasStage, images=False),
+    "scale": StageInfo(ScaleStage, images=False),
+    "random_walk": StageInfo(RandomWalkStage, images=False),
+    "quantize": StageInfo(QuantizeStage, images=True),
+    "clip": StageInfo(ClipStage, images=True),
+    "dropout": StageInfo(DropoutStage, images=True),
+    "outlier": StageInfo(OutlierStage, images=True),
+    "lowpass": StageInfo(LowpassStage, images=False),
+    "custom": StageInfo(CustomStage, images=True, integers=True),
+}
+IMAGE_STAGES = tuple(name for name, info in STAGES.items() if info.images)
+
+
+def _dispatch(value: Any, handler: Any, info: Any) -> Any:
+    """Validate a stage against the model its `type` names, with errors located at the stage's fields.
+
+    Pydantic's discriminated unions put the tag in `loc` (`noise.0.gaussian.std`) and give no hint for a
+    misspelt type; this reads the table instead.
+    """
+    if isinstance(value, BaseModel):
+        return handler(value)
+    if not isinstance(value, Mapping):
+        raise PydanticCustomError("noise_stage", f"a noise stage is a mapping with a `type` (one of "
+                                  f"{', '.join(STAGES)}), got {value!r}")
+    if "type" not in value:
+        raise PydanticCustomError("noise_stage", f"a noise stage needs a `type`: one of {', '.join(STAGES)}")
+    kind = value["type"]
+    row = STAGES.get(kind) if isinstance(kind, str) else None
+    if row is None:
+        hint = did_you_mean(kind, STAGES) if isinstance(kind, str) else ""
+        raise _at("type", "noise_type", f"unknown noise stage type {kind!r}{hint}; stage types are "
+                  f"{', '.join(STAGES)}", kind)
+    return row.model.model_validate(value, context=info.context)
+
+
+NoiseStage = Annotated[
+    Union[tuple(info.model for info in STAGES.values())],  # type: ignore[misc]
+    Field(discriminator="type"),
+    WrapValidator(_dispatch),
+]
