@@ -77,7 +77,7 @@ class FixedChannel(Channel):
         self.capacity = c = b + -(-delay // interval) + 1
         self.doubled = b > 1  # each sample is stored twice so every window is one contiguous slice
         self.ring = np.zeros(((2 * c) if self.doubled else c,) + self.shape, dtype=self.dtype)
-        self.rows = list(self.ring)
+        self.rows = [self.ring[i:i + 1].reshape(self.shape) for i in range(len(self.ring))]  # views, also 0-d
 
     def period(self) -> int:
         return math.lcm(self.interval, self.read_interval)

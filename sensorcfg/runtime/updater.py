@@ -20,6 +20,8 @@ from dm_env import specs
 
 from ..errors import SuiteError
 from ..observables.aggregators import AGGREGATORS, preserves_bounds
+from ..physics import raw_structs
+from .bank import FeatureBank, qualifies
 from .channels import Channel, FixedChannel, RandomChannel
 
 __all__ = ["Updater", "sensor_rng"]
@@ -115,12 +117,34 @@ class Updater:
                     label = f"{index}/{name}" if self._nested else str(name)
                     entries.append((name, self._channel(label, observable, physics, random_state, entropy)))
             layout.append((type(obs_dict), entries))
-        self._layout = layout
         self._channels = [ch for _, entries in layout for _, ch in entries]
+        self._bank = self._make_bank(physics)
+        positions = {id(m.channel): m for m in self._bank.members()} if self._bank else {}
+        self._layout = [(kind, [(name, positions.get(id(ch), ch)) for name, ch in entries])
+                        for kind, entries in layout]
+        self._reads = [(kind, [(name, m.position if id(ch) in positions else -1, m)
+                               for (name, ch), (_, m) in zip(entries, self._layout[i][1])])
+                       for i, (kind, entries) in enumerate(layout)]
         self._step = 0
-        for ch in self._channels:
-            ch.start(0)
+        for ch in self._channels:  # dm_control's order: per observable, its delay draw then its sample
+            if id(ch) not in positions:
+                ch.start(0)
+        if self._bank:
+            self._bank.start()
         self._build_plan()
+        kind, entries = self._reads[0]
+        self._all_banked = (not self._nested and self._bank is not None
+                            and [pos for _, pos, _ in entries] == list(range(len(entries))))
+        self._dict_type, self._names = kind, [name for name, _, _ in entries]
+
+    def _make_bank(self, physics: Any) -> FeatureBank | None:
+        members = [ch for ch in self._channels if qualifies(ch)]
+        if not members:
+            return None
+        try:
+            return FeatureBank(members, raw_structs(physics)[1], self._n, self._pad)
+        except ValueError:  # fields outside MjData's main buffer: read them one by one
+            return None
 
     def _channel(self, label: str, observable: Any, physics: Any, random_state: Any,
                  entropy: list[int] | None) -> Channel:
@@ -149,23 +173,26 @@ class Updater:
         return FixedChannel(*args, interval=interval, delay=delay)
 
     def _build_plan(self) -> None:
-        fixed = [ch for ch in self._channels if isinstance(ch, FixedChannel)]
+        """One table over the common period: which sampling tasks run at each step's phase."""
+        banked = {id(m.channel) for m in self._bank.members()} if self._bank else set()
+        tasks = [(ch.period(), ch.needed_phases(), ch.sample) for ch in self._channels
+                 if isinstance(ch, FixedChannel) and id(ch) not in banked]
+        if self._bank:
+            tasks.append((self._bank.rows, self._bank.snapshot_steps(), self._bank.snapshot))
         self._random = [ch for ch in self._channels if isinstance(ch, RandomChannel)]
-        period = math.lcm(*(ch.period() for ch in fixed)) if fixed else 1
-        if period > _MAX_PLAN_PERIOD:  # pathological interval mixes: one plan per channel instead
-            self._period = 1
-            self._plan = [()]
-            self._slow = [(ch, ch.period(), frozenset(ch.needed_phases())) for ch in fixed]
+        period = math.lcm(*(p for p, _, _ in tasks)) if tasks else 1
+        if period > _MAX_PLAN_PERIOD:  # pathological interval mixes: each task checks its own phase
+            self._period, self._plan = 1, [()]
+            self._slow = [(p, frozenset(phases), task) for p, phases, task in tasks]
             return
         self._slow = []
         plan: list[list[Callable[[int], None]]] = [[] for _ in range(period)]
-        for ch in fixed:
-            ch_period = ch.period()
-            for phase in ch.needed_phases():
-                for t in range(phase, period, ch_period):
-                    plan[t].append(ch.sample)
+        for task_period, phases, task in tasks:
+            for phase in phases:
+                for t in range(phase, period, task_period):
+                    plan[t].append(task)
         self._period = period
-        self._plan = [tuple(tasks) for tasks in plan]
+        self._plan = [tuple(t) for t in plan]
 
     # -- the physics loop -------------------------------------------------------------------------
 
@@ -182,9 +209,9 @@ class Updater:
         for sample in self._plan[step % self._period]:
             sample(step)
         if self._slow:
-            for ch, period, phases in self._slow:
+            for period, phases, task in self._slow:
                 if step % period in phases:
-                    ch.sample(step)
+                    task(step)
         for ch in self._random:
             ch.maybe_sample(step)
 
@@ -192,7 +219,11 @@ class Updater:
         if self._layout is None:
             raise RuntimeError("`reset` must be called before `get_observation`.")
         step = self._step
-        out = [kind((name, ch.read(step)) for name, ch in entries) for kind, entries in self._layout]
+        if self._all_banked:  # the common case: one gather, then a dict in file order
+            return self._dict_type(zip(self._names, self._bank.read(step)))
+        banked = self._bank.read(step) if self._bank else ()
+        out = [kind((name, banked[pos] if pos >= 0 else ch.read(step)) for name, pos, ch in entries)
+               for kind, entries in self._reads]
         return type(self._observables)(out) if self._nested else out[0]
 
     # -- specs and counters -----------------------------------------------------------------------
@@ -211,7 +242,9 @@ class Updater:
         """How many samples each enabled observable has taken since reset (the reset sample included)."""
         if self._layout is None:
             raise RuntimeError("`reset` must be called before `samples_taken`.")
-        out = [kind((name, ch.samples) for name, ch in entries) for kind, entries in self._layout]
+        step = self._step
+        out = [kind((name, ch.samples_at(step) if hasattr(ch, "samples_at") else ch.samples)
+                    for name, ch in entries) for kind, entries in self._layout]
         return type(self._observables)(out) if self._nested else out[0]
 
     @property

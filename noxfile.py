@@ -1,0 +1,38 @@
+"""Test matrix: the two MuJoCo lines we support.
+
+- `tests-mujoco4`: the newest MuJoCo 4.x, every test (the dm_control oracle is absent here: MuJoCo 4 cannot
+  build a dm_control Physics, so parity tests skip in this session only).
+- `oracle-mujoco3`: MuJoCo 3.17.0 with dm_control 1.0.50 as the parity oracle; a skipped parity test is a
+  failure here (SENSORCFG_REQUIRE_ORACLE=1).
+
+pytest's exit code 5 ("no tests collected") fails the session like any other non-zero code.
+"""
+
+import os
+
+import nox
+
+nox.options.sessions = ["tests-mujoco4", "oracle-mujoco3"]
+nox.options.reuse_existing_virtualenvs = True
+nox.options.error_on_missing_interpreters = True
+
+ENV = {"MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"), "PYTHONHASHSEED": "0"}
+
+
+def _pytest(session: nox.Session, **env: str) -> None:
+    session.run("python", "-m", "pytest", "-q", "-p", "no:cacheprovider", *session.posargs,
+                env={**ENV, **env}, success_codes=[0])
+
+
+@nox.session(name="tests-mujoco4")
+def tests_mujoco4(session: nox.Session) -> None:
+    session.install("-e", ".[test,gym,plot]", "mujoco>=4,<5")
+    session.run("python", "-c", "import mujoco; print('mujoco', mujoco.__version__)")
+    _pytest(session)
+
+
+@nox.session(name="oracle-mujoco3")
+def oracle_mujoco3(session: nox.Session) -> None:
+    session.install("-e", ".[test,gym,plot]", "mujoco==3.17.0", "dm-control==1.0.50")
+    session.run("python", "-c", "import mujoco, dm_control; print('mujoco', mujoco.__version__)")
+    _pytest(session, SENSORCFG_REQUIRE_ORACLE="1")

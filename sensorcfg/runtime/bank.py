@@ -1,0 +1,211 @@
+"""The fast path for plain features: every noise-free float64 mjData feature of an Updater, together.
+
+Per physics step that any of them must sample, one `numpy.take` copies all their values from MjData's
+main buffer (one allocation holding qpos, xpos, sensordata, ...) into a history indexed by step; per read,
+one gather builds every window at once and each aggregator runs once per (aggregator, buffer) group.
+Which steps snapshot, and which history rows each read gathers, are periodic and computed once.
+
+Semantics are those of `FixedChannel` (dm_control's): sample k is taken at step k*interval, delivered
+`delay` steps later, and a read returns the last `buffer_size` delivered samples.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import math
+from typing import Any
+
+import numpy as np
+
+from .channels import FixedChannel
+
+__all__ = ["FeatureBank", "BankMember", "buffer_view"]
+
+# Reductions over the buffer axis, bit-identical to numpy's (and so to dm_control's) min, max, sum, mean
+# and median along axis 0: numpy adds rows in order and divides the sum by the count; a median is the
+# middle value, or the mean of the two middle values.
+def _mean(x: np.ndarray) -> np.ndarray:
+    total = np.add.reduce(x, axis=0) if x.shape[0] != 2 else x[0] + x[1]
+    return np.true_divide(total, x.shape[0], out=total)
+
+
+def _median(x: np.ndarray) -> np.ndarray:
+    b = x.shape[0]
+    if b <= 2:  # the middle value, or the mean of both (a nan anywhere gives nan, as in numpy)
+        return x[0].copy() if b == 1 else np.true_divide(x[0] + x[1], 2)
+    s = np.sort(x, axis=0)
+    out = s[b // 2].copy() if b % 2 else np.true_divide(s[b // 2 - 1] + s[b // 2], 2)
+    nan = np.isnan(s[-1])  # numpy's median is nan wherever a nan is present (sort puts nans last)
+    if nan.any():
+        out[nan] = np.nan
+    return out
+
+
+_REDUCERS = {
+    "min": lambda x: np.minimum.reduce(x, 0),
+    "max": lambda x: np.maximum.reduce(x, 0),
+    "sum": lambda x: np.add.reduce(x, 0),
+    "mean": _mean,
+    "median": _median,
+}
+
+
+def buffer_view(data: Any, fields: list[str]) -> tuple[np.ndarray, dict[str, int]] | None:
+    """A float64 view spanning the given mjData fields, and each field's offset in it (in values).
+
+    All mjData arrays live in one allocation of `nbuffer` bytes starting at `qpos`; returns None when the
+    fields do not provably lie inside it (then the caller reads field by field).
+    """
+    start = data.qpos.ctypes.data
+    nbuffer = int(getattr(data, "nbuffer", 0))
+    arrays = {f: getattr(data, f) for f in fields}
+    if nbuffer <= 0 or any(a.dtype != np.float64 or not a.flags.c_contiguous for a in arrays.values()):
+        return None
+    lo = min(a.ctypes.data for a in arrays.values())
+    hi = max(a.ctypes.data + a.nbytes for a in arrays.values())
+    if lo < start or hi > start + nbuffer or (lo - start) % 8:
+        return None
+    raw = np.ctypeslib.as_array((ctypes.c_double * ((hi - lo) // 8)).from_address(lo))
+    return raw, {f: (a.ctypes.data - lo) // 8 for f, a in arrays.items()}
+
+
+class BankMember:
+    """Stands in for a channel in the Updater's layout; reads come from the bank's shared read."""
+
+    __slots__ = ("name", "bank", "position", "channel")
+
+    def __init__(self, bank: FeatureBank, position: int, channel: FixedChannel):
+        self.name = channel.name
+        self.bank = bank
+        self.position = position
+        self.channel = channel
+
+    def samples_at(self, step: int) -> int:
+        return self.bank.samples(self.position, step)
+
+    @property
+    def buffered_shape(self) -> tuple[int, ...]:
+        return self.channel.buffered_shape
+
+    @property
+    def dtype(self) -> np.dtype:
+        return self.channel.dtype
+
+    def start(self, step: int) -> None:  # the bank takes the reset sample for all members at once
+        pass
+
+    def read(self, step: int) -> np.ndarray:
+        return self.bank.read(step)[self.position]  # the Updater reads the bank once per observation instead
+
+
+class FeatureBank:
+    """All plain float64 mjData features of one Updater."""
+
+    def __init__(self, channels: list[FixedChannel], data: Any, read_interval: int, pad: bool):
+        fields = sorted({ch.sampler.field for ch in channels})
+        view = buffer_view(data, fields)
+        if view is None:
+            raise ValueError("mjData fields are not in one buffer")
+        self.raw, offsets = view
+        self._data = data  # keeps the memory behind `raw` alive
+        self.channels = channels
+        self.n = read_interval
+        self.pad = pad
+        widths = [int(np.prod(ch.shape, dtype=int)) for ch in channels]
+        self.cols = np.cumsum([0] + widths)
+        self.width = int(self.cols[-1])
+        self.source = np.concatenate(
+            [offsets[ch.sampler.field] + ch.sampler.index.ravel() for ch in channels]).astype(np.intp)
+        period = math.lcm(read_interval, *(ch.interval for ch in channels))
+        span = max(ch.delay + ch.buffer_size * ch.interval for ch in channels) + read_interval + 1
+        self.rows = period * -(-span // period)  # history length: a multiple of every sampling period
+        self.history = np.zeros((self.rows, self.width))
+        self.flat = self.history.reshape(-1)
+        self.history_rows = list(self.history)
+        self.snap_rows = [False] * self.rows
+        self.phases = []
+        for ch in channels:
+            phases = ch.needed_phases()
+            self.phases.append((ch.period(), len(phases), phases))
+            for p in phases:
+                for t in range(p, self.rows, ch.period()):
+                    self.snap_rows[t] = True
+        self._gathers: dict[int, tuple[np.ndarray, list[Any], list[Any]]] = {}
+
+    def members(self) -> list[BankMember]:
+        return [BankMember(self, i, ch) for i, ch in enumerate(self.channels)]
+
+    def snapshot_steps(self) -> list[int]:
+        return [t for t, snap in enumerate(self.snap_rows) if snap]
+
+    def start(self) -> None:
+        """Take the reset sample (step 0) and pad the history."""
+        self.raw.take(self.source, None, self.history[0], "clip")
+        if self.pad:
+            self.history[1:] = self.history[0]
+        else:
+            self.history[1:] = 0.0
+
+    def snapshot(self, step: int) -> None:
+        # mode="clip": indices are valid by construction, and "raise" would buffer the output
+        self.raw.take(self.source, None, self.history_rows[step % self.rows], "clip")
+
+    def samples(self, position: int, step: int) -> int:
+        """Samples member `position` has taken by `step`: the reset sample plus its needed steps so far."""
+        period, per_period, phases = self.phases[position]
+        full, rest = divmod(step, period)
+        return 1 + full * per_period + sum(1 for p in phases if p <= rest) - (1 if 0 in phases else 0)
+
+    def _plan_read(self, phase: int) -> tuple[np.ndarray, list[Any], list[Any]]:
+        """For reads at steps = phase (mod rows): one gather index, and how to cut and reduce it."""
+        blocks: dict[Any, list[tuple[int, np.ndarray]]] = {}
+        for i, ch in enumerate(self.channels):
+            k = (phase - ch.delay) // ch.interval
+            steps = ch.interval * (k - ch.buffer_size + 1 + np.arange(ch.buffer_size))
+            block = (steps % self.rows)[:, None] * self.width + np.arange(self.cols[i], self.cols[i + 1])
+            key = None if ch.aggregator is None else (ch.aggregator.name, ch.buffer_size)
+            blocks.setdefault(key, []).append((i, block))
+        parts, groups, plain = [], [], []
+        offset = 0
+        for key, entries in blocks.items():
+            if key is None:
+                for i, block in entries:
+                    plain.append((i, slice(offset, offset + block.size), self.channels[i].buffered_shape))
+                    parts.append(block.ravel())
+                    offset += block.size
+                continue
+            stacked = np.concatenate([block for _, block in entries], axis=1)  # (buffer, group width)
+            members, col = [], 0
+            for i, block in entries:
+                members.append((i, slice(col, col + block.shape[1]), self.channels[i].shape))
+                col += block.shape[1]
+            groups.append((_REDUCERS[key[0]], slice(offset, offset + stacked.size), stacked.shape, members))
+            parts.append(stacked.ravel())
+            offset += stacked.size
+        return np.concatenate(parts).astype(np.intp), groups, plain
+
+    def read(self, step: int) -> list[np.ndarray]:
+        """Every member's observation at `step`: fresh arrays (views of this read's own gather)."""
+        phase = step % self.rows
+        plan = self._gathers.get(phase)
+        if plan is None:
+            plan = self._gathers[phase] = self._plan_read(phase)
+        index, groups, plain = plan
+        gathered = self.flat.take(index, None, None, "clip")
+        outputs: list[Any] = [None] * len(self.channels)
+        for i, part, shape in plain:
+            outputs[i] = gathered[part].reshape(shape)
+        for reduce, part, block, members in groups:
+            reduced = reduce(gathered[part].reshape(block))
+            for i, sub, shape in members:
+                outputs[i] = reduced[sub].reshape(shape)
+        return outputs
+
+
+def qualifies(ch: Any) -> bool:
+    """Whether a channel can join the bank: a noise-free, uncorrupted float64 mjData feature."""
+    sampler = ch.sampler
+    return (isinstance(ch, FixedChannel) and ch.read_into is not None
+            and getattr(sampler, "struct", None) == "data" and ch.dtype == np.float64
+            and (ch.aggregator is None or (ch.builtin_aggregator and ch.has_buffer_dim
+                                           and getattr(ch.aggregator, "name", None) in _REDUCERS)))
