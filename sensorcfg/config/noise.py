@@ -23,6 +23,7 @@ from pydantic.json_schema import SkipJsonSchema
 from pydantic_core import InitErrorDetails, PydanticCustomError
 
 from ..errors import did_you_mean
+from .units import DURATION_UNITS, RATE_UNITS
 
 __all__ = ["NoiseStage", "STAGES", "StageInfo", "IMAGE_STAGES", "parse_quantity"]
 
@@ -31,15 +32,14 @@ PerValue = Union[float, tuple[float, ...]]  # what a validated numeric parameter
 
 # -- numbers, per-value lists and quantities with units -----------------------------------------------
 
-_DURATION_UNITS = {"s": 1.0, "sec": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9, "min": 60.0}
-_FREQUENCY_UNITS = {"Hz": 1.0, "hz": 1.0, "kHz": 1e3, "khz": 1e3, "MHz": 1e6}
 _QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([^\d\s.+-][^\s]*)?\s*$")
 
 
 def parse_quantity(value: Any, units: Mapping[str, float], what: str) -> float:
     """A number in SI units from a number (already SI) or a string such as '50ms' or '20 Hz'.
 
-    Private stand-in until the suite layer's units module exists; raises ValueError with the fix.
+    Unit names come from the suite's units table (`config.units`); signs are accepted here so that a negative
+    duration is reported as out of range rather than as unreadable. Raises ValueError with the fix.
     """
     if isinstance(value, numbers.Real) and not isinstance(value, bool):
         return float(value)
@@ -51,7 +51,10 @@ def parse_quantity(value: Any, units: Mapping[str, float], what: str) -> float:
                 return float(number)
             if unit in units:
                 return float(number) * units[unit]
-            raise ValueError(f"unknown unit {unit!r} in {value!r}{did_you_mean(unit, units)}; "
+            lowered = {u.lower(): u for u in units}
+            hint = (f" (did you mean {lowered[unit.lower()]!r}?)" if unit.lower() in lowered
+                    else did_you_mean(unit, units))
+            raise ValueError(f"unknown unit {unit!r} in {value!r}{hint}; "
                              f"a {what} takes {', '.join(units)}")
     raise ValueError(f"expected a {what} such as {_EXAMPLE[what]!r} or a number "
                      f"({_SI[what]}), got {value!r}")
@@ -124,8 +127,8 @@ Real = _per_value("the value")
 Std = _per_value("a standard deviation", ge=0)
 Probability = _per_value("a probability", ge=0, le=1)
 Step = _per_value("a quantisation step", gt=0)
-Duration = _per_value("a correlation time", gt=0, units=_DURATION_UNITS, quantity="duration")
-Frequency = _per_value("a cutoff frequency", gt=0, units=_FREQUENCY_UNITS, quantity="frequency")
+Duration = _per_value("a correlation time", gt=0, units=DURATION_UNITS, quantity="duration")
+Frequency = _per_value("a cutoff frequency", gt=0, units=RATE_UNITS, quantity="frequency")
 
 _PER_VALUE = ("A number, or a list with one entry per value of the observation (or one per entry of its last "
               "axis, e.g. per colour channel).")

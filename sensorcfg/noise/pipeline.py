@@ -1,38 +1,250 @@
-"""A sequence of noise stages applied in order (interim: gaussian only; the noise issue extends it)."""
+"""Building a sensor's noise pipeline from its stage configs, once its shape and dtype are known.
+
+`build_noise` checks what only the bound observation can tell (a per-value list that does not fit the
+shape, a stage that cannot apply to the dtype, a custom callable that cannot be imported) and reports every
+problem at once, each at `noise.<i>.<field>` so the suite layer can point at the YAML node.
+"""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import importlib
+import inspect
+import math
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
+from pydantic import TypeAdapter, ValidationError
 
-from ..config.noise import GaussianStage, NoiseStage
+from ..config.noise import IMAGE_STAGES, STAGES, NoiseStage
+from ..errors import Problem, SuiteError, did_you_mean
+from . import stages as rt
 
 __all__ = ["NoisePipeline", "build_noise"]
 
+_STAGE_LIST = TypeAdapter(tuple[NoiseStage, ...])
+
 
 class NoisePipeline:
-    def __init__(self, stages: Sequence[NoiseStage], shape: tuple[int, ...], dtype: np.dtype, timestep: float):
-        self.stages = tuple(stages)
-        self.shape = tuple(shape)
-        self.dtype = np.dtype(dtype)
-        self.timestep = float(timestep)
-        self.rng = np.random.Generator(np.random.PCG64(0))
+    """The stages of one sensor, applied in order to each raw sample.
 
-    def reset(self, rng: np.random.Generator) -> None:
-        self.rng = rng
+    `reset(rng)` starts an episode: each stage gets its own generator spawned from `rng`, so adding or
+    removing a stage leaves the draws of the others unchanged. `pipeline(value, step)` returns a new array
+    of the observation's dtype (or writes into `out`); `step` counts physics steps since reset.
+    """
 
-    def __call__(self, value: np.ndarray, step: int) -> np.ndarray:
-        out = np.asarray(value, dtype=np.float64)
-        for stage in self.stages:
-            if isinstance(stage, GaussianStage):
-                out = out + stage.mean + stage.std * self.rng.standard_normal(self.shape)
-        return out.astype(self.dtype, copy=False)
+    def __init__(self, stages: Sequence[rt.Stage], names: Sequence[str], ctx: rt.Context):
+        self._stages = tuple(stages)
+        self.names = tuple(names)
+        self.shape = ctx.shape
+        self.dtype = ctx.dtype
+        self.timestep = ctx.timestep
+        self._direct = ctx.work == ctx.dtype  # stages work in the output array itself
+        self._image = ctx.dtype == np.uint8
+        self._work = np.zeros(ctx.shape, ctx.work)
+        self.reset(np.random.default_rng(0))
+
+    def __repr__(self) -> str:
+        return f"NoisePipeline({', '.join(self.names)}; shape={self.shape}, dtype={self.dtype})"
+
+    def reset(self, rng: np.random.Generator | np.random.RandomState) -> None:
+        """Start an episode: per-episode draws (bias, scale, random-walk start) and cleared state."""
+        if isinstance(rng, np.random.RandomState):
+            entropy = rng.randint(0, 2**32, size=4, dtype=np.uint64)
+        else:
+            entropy = rng.integers(0, 2**32, size=4, dtype=np.uint64)
+        seeds = np.random.SeedSequence([int(e) for e in entropy]).spawn(len(self._stages))
+        for stage, seed in zip(self._stages, seeds):
+            stage.reset(np.random.Generator(np.random.PCG64(seed)) if stage.needs_rng else None)
+
+    def __call__(self, value: np.ndarray, step: int, out: np.ndarray | None = None) -> np.ndarray:
+        """The noisy version of `value` (never written to), sampled at physics step `step`."""
+        src = value
+        if self._direct:
+            dst = np.empty(self.shape, self.dtype) if out is None else out
+            for stage in self._stages:
+                stage(src, dst, step)
+                src = dst
+            return dst
+        work = self._work
+        for stage in self._stages:
+            stage(src, work, step)
+            src = work
+        if self._image:
+            np.rint(work, out=work)
+            np.clip(work, 0, 255, out=work)
+        if out is None:
+            return work.astype(self.dtype)
+        np.copyto(out, work, casting="unsafe")
+        return out
 
 
-def build_noise(stages: Sequence[NoiseStage], shape: tuple[int, ...], dtype: Any, timestep: float) -> NoisePipeline | None:
-    """A pipeline for one sensor, or None when it has no stages."""
-    if not stages:
+class _Resolver:
+    """Broadcasts one stage's parameters to the observation's shape, collecting problems."""
+
+    def __init__(self, ctx: rt.Context, index: int, problems: list[Problem]):
+        self.ctx, self.where, self.problems = ctx, f"noise.{index}", problems
+
+    def problem(self, field: str, message: str) -> None:
+        self.problems.append(Problem(message, loc=f"{self.where}.{field}"))
+
+    def __call__(self, value: Any, field: str) -> Any:
+        """A float, or a float64 array of the observation's shape; None stays None."""
+        if value is None or isinstance(value, float):
+            return value
+        shape = self.ctx.shape
+        entries = np.asarray(value, dtype=np.float64)
+        size = math.prod(shape)
+        if entries.size == size:
+            return entries.reshape(shape)
+        if shape and entries.size == shape[-1]:
+            return np.ascontiguousarray(np.broadcast_to(entries, shape))
+        choices = f"{size} (one per value)"
+        if len(shape) > 1:
+            choices += f" or {shape[-1]} (one per entry of the last axis)"
+        self.problem(field, f"{entries.size} entries do not fit the observation's shape {shape}: give a number "
+                            f"or {choices}")
+        return 0.0
+
+    def ordered(self, low: Any, high: Any, names: tuple[str, str]) -> None:
+        if low is not None and high is not None and np.any(np.greater(low, high)):
+            self.problem(names[0], f"{names[0]} must not exceed {names[1]} (for every value once broadcast to "
+                                   f"the shape {self.ctx.shape}); swap them")
+
+
+def _episode(op: Callable[..., Any]) -> Callable[[Any, _Resolver], rt.Stage]:
+    def build(s: Any, r: _Resolver) -> rt.Stage:
+        if s.uniform:
+            low, high = r(s.low, "low"), r(s.high, "high")
+            r.ordered(low, high, ("low", "high"))
+            return rt.EpisodeDraw(r.ctx, op, None, (low, high))
+        mean, std = s.normal_params()
+        return rt.EpisodeDraw(r.ctx, op, (r(mean, "mean"), r(std, "std")), None)
+    return build
+
+
+def _uniform(s: Any, r: _Resolver) -> rt.Stage:
+    low, high = r(s.low, "low"), r(s.high, "high")
+    r.ordered(low, high, ("low", "high"))
+    return rt.Uniform(r.ctx, low, high)
+
+
+def _clip(s: Any, r: _Resolver) -> rt.Stage:
+    low, high = r(s.min, "min"), r(s.max, "max")
+    r.ordered(low, high, ("min", "max"))
+    return rt.Clip(r.ctx, low, high)
+
+
+def _custom(s: Any, r: _Resolver) -> rt.Stage:
+    fn, name = _import(s.callable, r)
+    return rt.Custom(r.ctx, fn, name, f"{r.where}.callable")
+
+
+def _import(spec: Any, r: _Resolver) -> tuple[Callable[..., Any], str]:
+    """The callable a 'module:function' names, checked to take (value, random_state)."""
+    if callable(spec):
+        fn, name = spec, f"custom noise callable {getattr(spec, '__qualname__', spec)!r}"
+    else:
+        module_name, _, path = spec.partition(":")
+        name = f"custom noise callable {spec!r}"
+        try:
+            obj: Any = importlib.import_module(module_name)
+        except ImportError as e:
+            r.problem("callable", f"cannot import {module_name!r} for {spec!r}: {e}")
+            return (lambda value, random_state: value), name
+        for part in path.split("."):
+            if not hasattr(obj, part):
+                names = [n for n in dir(obj) if not n.startswith("_")]
+                r.problem("callable", f"{getattr(obj, '__name__', module_name)!r} has no attribute {part!r}"
+                                      f"{did_you_mean(part, names)}")
+                return (lambda value, random_state: value), name
+            obj = getattr(obj, part)
+        fn = obj
+    if not callable(fn):
+        r.problem("callable", f"{name} is a {type(fn).__name__}, not a function")
+        return (lambda value, random_state: value), name
+    try:
+        inspect.signature(fn).bind(None, random_state=None)
+    except TypeError:
+        r.problem("callable", f"{name} must accept (value, random_state), as a dm_control corruptor does")
+    except ValueError:  # no signature (some builtins): let the first call tell
+        pass
+    return fn, name
+
+
+# One builder per row of the stage table (`config.noise.STAGES`); a test checks the keys agree.
+BUILDERS: dict[str, Callable[[Any, _Resolver], rt.Stage]] = {
+    "gaussian": lambda s, r: rt.Gaussian(r.ctx, r(s.mean, "mean"), r(s.std, "std")),
+    "uniform": _uniform,
+    "bias": _episode(np.add),
+    "scale": _episode(np.multiply),
+    "random_walk": lambda s, r: rt.RandomWalk(r.ctx, r(s.std, "std"), r(s.correlation_time, "correlation_time")),
+    "quantize": lambda s, r: rt.Quantize(r.ctx, r(s.step, "step")),
+    "clip": _clip,
+    "dropout": lambda s, r: rt.Dropout(r.ctx, r(s.p, "p"), s.mode, s.per == "value"),
+    "outlier": lambda s, r: rt.Outlier(r.ctx, r(s.p, "p"), r(s.scale, "scale")),
+    "lowpass": lambda s, r: rt.Lowpass(r.ctx, r(s.cutoff, "cutoff")),
+    "custom": _custom,
+}
+
+
+def _work_dtype(dtype: np.dtype) -> np.dtype:
+    if dtype.kind == "f":
+        return np.dtype(np.float64) if dtype.itemsize >= 8 else np.dtype(np.float32)
+    if dtype == np.uint8:
+        return np.dtype(np.float32)
+    return dtype  # custom stages only
+
+
+def _check_dtype(stage: Any, dtype: np.dtype, r: _Resolver) -> bool:
+    row = STAGES[stage.type]
+    if dtype.kind == "f":
+        return True
+    if dtype == np.uint8:
+        if not row.images:
+            r.problem("type", f"{stage.type} cannot apply to a uint8 image: images take "
+                              f"{', '.join(IMAGE_STAGES)} (results are rounded and clipped to 0..255)")
+            return False
+        if stage.type == "dropout" and stage.mode == "nan":
+            r.problem("mode", "a uint8 image cannot hold NaN; use mode hold or zero")
+            return False
+        return True
+    if not row.integers:
+        r.problem("type", f"{stage.type} cannot apply to {dtype} values (ids or counts, such as a segmentation "
+                          "image): only a custom stage can")
+        return False
+    return True
+
+
+def _validated(stages: Sequence[Any]) -> tuple[Any, ...]:
+    """Stage configs; plain mappings are validated here (errors located at `noise.<i>.<field>`)."""
+    try:
+        return _STAGE_LIST.validate_python(tuple(stages))
+    except ValidationError as e:
+        raise SuiteError([Problem(err["msg"], loc=".".join(["noise", *map(str, err["loc"])]))
+                          for err in e.errors()]) from None
+
+
+def build_noise(stages: Sequence[NoiseStage], shape: tuple[int, ...], dtype: Any,
+                timestep: float) -> NoisePipeline | None:
+    """A pipeline for one observation of `shape` and `dtype`, or None when it has no stages.
+
+    `timestep` is the physics timestep in seconds (time-based stages use `step * timestep`). Raises
+    SuiteError listing every problem, each located at `noise.<i>.<field>`.
+    """
+    configs = _validated(stages)
+    if not configs:
         return None
-    return NoisePipeline(stages, shape, dtype, timestep)
+    if not timestep > 0:
+        raise ValueError(f"timestep must be positive seconds, got {timestep!r}")
+    dtype = np.dtype(dtype)
+    ctx = rt.Context(tuple(int(n) for n in shape), dtype, _work_dtype(dtype), float(timestep))
+    problems: list[Problem] = []
+    built = []
+    for i, config in enumerate(configs):
+        r = _Resolver(ctx, i, problems)
+        if _check_dtype(config, dtype, r):
+            built.append(BUILDERS[config.type](config, r))
+    if problems:
+        raise SuiteError(problems)
+    return NoisePipeline(built, [c.type for c in configs], ctx)
