@@ -5,6 +5,7 @@ from ._gl import choose_gl_backend as _choose_gl_backend
 _choose_gl_backend()
 
 from ._version import __version__  # noqa: E402
+from .env import Environment, dm_control_observables, make_env  # noqa: E402
 from .errors import Problem, SuiteError  # noqa: E402
 from .observables import AGGREGATORS, Camera, Feature, Generic, Observable  # noqa: E402
 from .physics import Physics  # noqa: E402
@@ -13,6 +14,7 @@ from .runtime.updater import Updater  # noqa: E402
 __all__ = [
     "AGGREGATORS",
     "Camera",
+    "Environment",
     "Feature",
     "Generic",
     "Observable",
@@ -21,4 +23,6 @@ __all__ = [
     "SuiteError",
     "Updater",
     "__version__",
+    "dm_control_observables",
+    "make_env",
 ]

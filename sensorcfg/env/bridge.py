@@ -1,0 +1,71 @@
+"""Suites inside dm_control: observables that dm_control's own Updater runs.
+
+sensorcfg observables already take a dm_control Physics (they read `.model.ptr` / `.data.ptr`). What
+dm_control's Updater does not know about is a sensor's noise pipeline, which our Updater applies and seeds
+per sensor. The bridge folds that pipeline into the observation callable: on each episode (dm_control binds
+observables at every reset) the pipeline is reseeded from dm_control's random state and the sensor's name,
+and each sample is corrupted with the simulated time read from the physics.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from ..physics import raw_structs
+from ..runtime.updater import _episode_entropy, sensor_rng
+
+__all__ = ["dm_control_observables", "BridgedObservable"]
+
+
+class BridgedObservable:
+    """Delegates to a sensorcfg observable; applies its noise inside `observation_callable`."""
+
+    def __init__(self, name: str, observable: Any):
+        self._name = name
+        self._observable = observable
+
+    def __getattr__(self, attr: str) -> Any:
+        return getattr(self._observable, attr)
+
+    def __setattr__(self, attr: str, value: Any) -> None:
+        if attr.startswith("_"):
+            object.__setattr__(self, attr, value)
+        else:
+            setattr(self._observable, attr, value)
+
+    def observation_callable(self, physics: Any, random_state: Any = None) -> Callable[[], Any]:
+        sample = self._observable.observation_callable(physics, random_state)
+        noise = self._observable.noise
+        if noise is None:
+            return sample
+        noise.reset(sensor_rng(_episode_entropy(random_state), self._name))
+        model, data = raw_structs(physics)
+        timestep = float(model.opt.timestep)
+
+        def noisy() -> Any:
+            return noise(np.asarray(sample()), int(round(data.time / timestep)))
+
+        return noisy
+
+    def __call__(self, physics: Any, random_state: Any = None) -> Any:
+        return self.observation_callable(physics, random_state)()
+
+
+def dm_control_observables(suite: Any, physics: Any) -> dict[str, Any]:
+    """Observables for a dm_control Physics, ready for a composer task or dm_control's Updater.
+
+    `suite` is a `sensorcfg.Suite` or a path; units are converted with the physics' own timestep. Disabled
+    sensors come back disabled, as in dm_control. For example, in a composer task::
+
+        for name, obs in sensorcfg.dm_control_observables("suite.yaml", physics).items():
+            self._task_observables[name] = obs
+    """
+    if not hasattr(suite, "build"):
+        from .. import load
+
+        suite = load(suite)
+    model, _ = raw_structs(physics)
+    return {name: BridgedObservable(name, obs) for name, obs in suite.build(model).items()}

@@ -1,0 +1,253 @@
+"""A dm_env Environment whose observations are a sensor suite's.
+
+It owns the glue every project otherwise writes by hand: one control step is `physics_steps_per_control_step`
+MuJoCo steps with the Updater called after each, episodes start from a reset (or a keyframe) and an optional
+`initialize_episode`, end on a time limit (truncation, discount 1), a `termination_fn` (discount 0) or a
+diverged simulation (discount 0, reported with a warning and `last_divergence`), and no buffer, bias or
+random-walk state survives from one episode to the next.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import warnings
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import dm_env
+import mujoco
+import numpy as np
+from dm_env import specs
+
+from ..errors import SuiteError
+from ..physics import Physics
+from ..runtime.updater import Updater
+
+__all__ = ["Environment", "make_env", "load_model", "steps_per_control_step"]
+
+_BAD_STATE = tuple(getattr(mujoco.mjtWarning, f"mjWARN_BAD{w}") for w in ("QPOS", "QVEL", "QACC", "CTRL"))
+RewardFn = Callable[[Physics], float]
+TerminationFn = Callable[[Physics], bool]
+InitializeFn = Callable[[Physics, np.random.RandomState], None]
+
+
+def load_model(model: mujoco.MjModel | str | os.PathLike) -> mujoco.MjModel:
+    """An MjModel, or one loaded from an MJCF path with a clear error."""
+    if isinstance(model, mujoco.MjModel):
+        return model
+    path = os.fspath(model)
+    if not os.path.isfile(path):
+        raise SuiteError(f"model file {path!r} does not exist")
+    try:
+        return mujoco.MjModel.from_xml_path(path)
+    except ValueError as e:
+        raise SuiteError(f"{path}: MuJoCo could not load the model: {e}") from None
+
+
+def steps_per_control_step(model: mujoco.MjModel, steps: int | None, control_timestep: float | None) -> int:
+    """Physics steps per control step from either setting (both: they must agree; neither: 1)."""
+    dt = float(model.opt.timestep)
+    if control_timestep is not None:
+        ratio = float(control_timestep) / dt
+        n = round(ratio)
+        if n < 1 or not math.isclose(ratio, n, rel_tol=1e-9, abs_tol=1e-9):
+            lo, hi = max(1, math.floor(ratio)), max(1, math.ceil(ratio))
+            raise SuiteError(f"control_timestep {control_timestep}s is not a whole number of {dt}s physics steps; "
+                             f"use {lo * dt:g}s or {hi * dt:g}s")
+        if steps is not None and steps != n:
+            raise SuiteError(f"physics_steps_per_control_step={steps} disagrees with control_timestep="
+                             f"{control_timestep}s ({n} steps of {dt}s); give one of them")
+        return n
+    if steps is None:
+        return 1
+    if not isinstance(steps, int) or isinstance(steps, bool) or steps < 1:
+        raise SuiteError(f"physics_steps_per_control_step must be a positive integer, got {steps!r}")
+    return steps
+
+
+def _suite_and_observables(suite: Any, model: mujoco.MjModel) -> tuple[dict[str, Any], dict[str, bool]]:
+    """Observables and Updater flags from a Suite, a suite path, or a dict of observables."""
+    if isinstance(suite, Mapping):
+        return dict(suite), {}
+    if isinstance(suite, (str, os.PathLike)):
+        from .. import load
+
+        suite = load(suite)
+    options = suite.options
+    flags = {"strip_singleton_buffer_dim": bool(options.strip_singleton_buffer_dim),
+             "pad_with_initial_value": bool(options.pad_with_initial_value)}
+    return suite.build(model), flags
+
+
+class Environment(dm_env.Environment):
+    """A MuJoCo model stepped with zero-cost glue, observed through a sensor suite."""
+
+    def __init__(self, model: mujoco.MjModel | str | os.PathLike, suite: Any, *,
+                 physics_steps_per_control_step: int | None = None, control_timestep: float | None = None,
+                 time_limit: float | None = None, seed: int | np.random.RandomState | None = None,
+                 reward_fn: RewardFn | None = None, termination_fn: TerminationFn | None = None,
+                 initialize_episode: InitializeFn | None = None, keyframe: int | str | None = None):
+        self._model = load_model(model)
+        self._physics = Physics(self._model)
+        self._n = steps_per_control_step(self._model, physics_steps_per_control_step, control_timestep)
+        observables, flags = _suite_and_observables(suite, self._model)
+        self._observables = observables
+        self._updater = Updater(observables, self._n, **flags)
+        self._random_state = seed if isinstance(seed, np.random.RandomState) else np.random.RandomState(seed)
+        self._reward_fn, self._termination_fn, self._initialize = reward_fn, termination_fn, initialize_episode
+        self._keyframe = self._keyframe_id(keyframe)
+        self._control_timestep = self._n * float(self._model.opt.timestep)
+        if time_limit is not None and time_limit <= 0:
+            raise SuiteError(f"time_limit must be positive seconds, got {time_limit!r}")
+        self._step_limit = None if time_limit is None else max(1, round(time_limit / self._control_timestep))
+        self._needs_reset = True
+        self._steps = 0
+        self.last_divergence: str | None = None
+        lo, hi = self._model.actuator_ctrlrange.T.copy()
+        limited = self._model.actuator_ctrllimited.astype(bool)
+        self._action_spec = specs.BoundedArray(
+            shape=(self._model.nu,), dtype=np.float64, name="action",
+            minimum=np.where(limited, lo, -np.inf), maximum=np.where(limited, hi, np.inf))
+        # Specs need one bound reset; it uses its own random state so the episode streams stay untouched.
+        self._reset_physics(np.random.RandomState(0), initialize=False)
+        self._updater.reset(self._physics, np.random.RandomState(0))
+        self._observation_spec = self._updater.observation_spec()
+
+    # -- properties -------------------------------------------------------------------------------
+
+    @property
+    def physics(self) -> Physics:
+        return self._physics
+
+    @property
+    def updater(self) -> Updater:
+        return self._updater
+
+    @property
+    def random_state(self) -> np.random.RandomState:
+        return self._random_state
+
+    @property
+    def physics_steps_per_control_step(self) -> int:
+        return self._n
+
+    @property
+    def control_timestep(self) -> float:
+        return self._control_timestep
+
+    def action_spec(self) -> specs.BoundedArray:
+        return self._action_spec
+
+    def observation_spec(self) -> dict[str, specs.Array]:
+        return self._observation_spec
+
+    def reward_spec(self) -> specs.Array:
+        return specs.Array(shape=(), dtype=np.float64, name="reward")
+
+    def discount_spec(self) -> specs.BoundedArray:
+        return specs.BoundedArray(shape=(), dtype=np.float64, minimum=0.0, maximum=1.0, name="discount")
+
+    def seed(self, seed: int | None) -> None:
+        """Restart the episode random stream (the next reset draws from it)."""
+        self._random_state = np.random.RandomState(seed)
+        self._needs_reset = True
+
+    # -- episodes ---------------------------------------------------------------------------------
+
+    def _keyframe_id(self, keyframe: int | str | None) -> int | None:
+        if keyframe is None:
+            return None
+        if isinstance(keyframe, str):
+            key = mujoco.mj_name2id(self._model, mujoco.mjtObj.mjOBJ_KEY, keyframe)
+            if key < 0:
+                raise SuiteError(f"the model has no keyframe named {keyframe!r}")
+            return key
+        if not 0 <= keyframe < self._model.nkey:
+            raise SuiteError(f"keyframe {keyframe} is out of range: the model has {self._model.nkey}")
+        return int(keyframe)
+
+    def _reset_physics(self, random_state: np.random.RandomState, initialize: bool = True) -> None:
+        model, data = self._model, self._physics.data
+        if self._keyframe is None:
+            mujoco.mj_resetData(model, data)
+        else:
+            mujoco.mj_resetDataKeyframe(model, data, self._keyframe)
+        if initialize and self._initialize is not None:
+            self._initialize(self._physics, random_state)
+        mujoco.mj_forward(model, data)
+
+    def reset(self) -> dm_env.TimeStep:
+        self._reset_physics(self._random_state)
+        self._updater.reset(self._physics, self._random_state)
+        self._steps = 0
+        self._needs_reset = False
+        self.last_divergence = None
+        self._bad_qacc = self._warnings()
+        return dm_env.restart(self._updater.get_observation())
+
+    def step(self, action: Any) -> dm_env.TimeStep:
+        if self._needs_reset:
+            return self.reset()
+        data = self._physics.data
+        data.ctrl[:] = self._check_action(action)
+        updater, model = self._updater, self._model
+        updater.prepare_for_next_control_step()
+        for _ in range(self._n):
+            mujoco.mj_step(model, data)
+            updater.update()
+        self._steps += 1
+        observation = updater.get_observation()
+        reward = 0.0 if self._reward_fn is None else float(self._reward_fn(self._physics))
+        divergence = self._divergence()
+        if divergence is not None:
+            self.last_divergence = divergence
+            warnings.warn(f"sensorcfg: the simulation diverged at t={data.time:.4f}s ({divergence}); "
+                          "the episode ends here (discount 0)", RuntimeWarning, stacklevel=2)
+            self._needs_reset = True
+            return dm_env.termination(reward, observation)
+        if self._termination_fn is not None and self._termination_fn(self._physics):
+            self._needs_reset = True
+            return dm_env.termination(reward, observation)
+        if self._step_limit is not None and self._steps >= self._step_limit:
+            self._needs_reset = True
+            return dm_env.truncation(reward, observation)
+        return dm_env.transition(reward, observation)
+
+    def _check_action(self, action: Any) -> np.ndarray:
+        action = np.asarray(action, dtype=np.float64)
+        if action.shape != (self._model.nu,):
+            raise SuiteError(f"action must have shape ({self._model.nu},) (one control per actuator), "
+                             f"got {action.shape}")
+        return action
+
+    def _warnings(self) -> int:
+        """MuJoCo's count of bad-state warnings (it resets the state after each, silently otherwise)."""
+        warning = self._physics.data.warning
+        return sum(int(warning[w].number) for w in _BAD_STATE)
+
+    def _divergence(self) -> str | None:
+        data = self._physics.data
+        bad = self._warnings()
+        if bad != self._bad_qacc:
+            self._bad_qacc = bad
+            return "MuJoCo found a non-finite or huge qpos, qvel or qacc and reset the state"
+        if not (np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()):
+            return "non-finite qpos or qvel"
+        return None
+
+    def close(self) -> None:
+        pass
+
+
+def make_env(suite_path: str | os.PathLike, model: mujoco.MjModel | str | os.PathLike | None = None,
+             **kwargs: Any) -> Environment:
+    """An Environment for a suite file, on the suite's own `model:` unless one is given."""
+    from .. import load
+
+    suite = load(suite_path)
+    if model is None:
+        model = getattr(suite, "model", None)
+        if model is None:
+            raise SuiteError(f"{os.fspath(suite_path)}: the suite names no model; pass model=... to make_env")
+    return Environment(model, suite, **kwargs)
