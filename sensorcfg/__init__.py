@@ -10,6 +10,7 @@ from .errors import Problem, SuiteError  # noqa: E402
 from .observables import AGGREGATORS, Camera, Feature, Generic, Observable  # noqa: E402
 from .physics import Physics  # noqa: E402
 from .runtime.updater import Updater  # noqa: E402
+from .suite import Suite, load, loads  # noqa: E402
 
 __all__ = [
     "AGGREGATORS",
@@ -20,9 +21,12 @@ __all__ = [
     "Observable",
     "Physics",
     "Problem",
+    "Suite",
     "SuiteError",
     "Updater",
     "__version__",
     "dm_control_observables",
+    "load",
+    "loads",
     "make_env",
 ]

@@ -1,0 +1,299 @@
+"""Binding a validated suite to an `MjModel`: names, kinds, time in steps, shapes; then observables.
+
+Everything the config layer could not know without the model is checked here: that elements exist
+(with "did you mean" from the model's names), that their type has the `kind` asked for (listing the
+kinds it has), that durations are whole numbers of the model's timestep, that an index fits the value,
+and that noise stages fit the observation's shape and dtype. Every problem is collected and positioned
+at the YAML node it is about; `generic` callables are imported only when asked.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+from collections.abc import Callable
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from .config.loader import LoadedSuite
+from .config.models import ChoiceDraw, SensorConfig, UniformDraw
+from .config.source import Path_
+from .config.tables import GENERIC_KIND, IMAGE_KINDS
+from .config.units import to_steps
+from .draws import ChoiceSteps, UniformSteps
+from .errors import Problem, SuiteError, did_you_mean
+from .kinds import kinds_of
+from .noise import build_noise
+from .observables import Camera, Feature, Generic, Observable
+from .observables.camera import MODES
+from .observables.feature import feature_index
+from .physics import Physics
+from .selection import select, split_selector
+
+__all__ = ["bind", "scene_flags"]
+
+Schedule = int | Callable[..., int] | None
+
+
+def scene_flags() -> tuple[str, ...]:
+    """The names `camera.scene` accepts: mjtVisFlag without the `mjVIS_` prefix, lower case."""
+    return tuple(n[len("mjVIS_"):].lower() for n in mujoco.mjtVisFlag.__members__ if n != "mjVIS_NUMVISFLAG")
+
+
+@dataclasses.dataclass
+class _Binder:
+    suite: LoadedSuite
+    model: mujoco.MjModel
+    import_callables: bool
+    problems: list[Problem] = dataclasses.field(default_factory=list)
+
+    # -- where a key came from, and problems there --------------------------------------------
+
+    def origin(self, name: str, key: str) -> Path_:
+        """`sensors.<name>.<key>` when the sensor wrote it, else `defaults.<key>` (so a bad default is
+        reported once, at its own line)."""
+        raw = self.suite.doc.value["sensors"][name]
+        if key in raw or key not in (self.suite.doc.value.get("defaults") or {}):
+            return ("sensors", name, key)
+        return ("defaults", key)
+
+    def report(self, path: Path_, message: str, *, key: bool = False) -> None:
+        pos = self.suite.doc.pos(path, key=key)
+        loc = ".".join(map(str, path))
+        problem = pos.problem(message, loc) if pos else Problem(message, loc, self.suite.file)
+        if problem not in self.problems:
+            self.problems.append(problem)
+
+    def report_all(self, path: Path_, error: SuiteError) -> None:
+        for p in error.problems:
+            self.report(path, p.message)
+
+    # -- time -----------------------------------------------------------------------------------
+
+    def steps(self, value: int | str, path: Path_, minimum: int) -> int | None:
+        try:
+            return to_steps(value, float(self.model.opt.timestep), minimum=minimum)
+        except ValueError as e:
+            self.report(path, str(e))
+            return None
+
+    def schedule(self, name: str, key: str, value: Any, minimum: int) -> Schedule:
+        if value is None:
+            return None
+        path = self.origin(name, key)
+        if isinstance(value, UniformDraw):
+            low = self.steps(value.low, path + ("uniform", 0), minimum)
+            high = self.steps(value.high, path + ("uniform", 1), minimum)
+            if low is None or high is None:
+                return None
+            if low > high:
+                self.report(path, f"uniform bounds must satisfy lo <= hi; they are {low} and {high} steps: swap them")
+                return None
+            return low if low == high else UniformSteps(low, high)
+        if isinstance(value, ChoiceDraw):
+            values = [self.steps(v, path + ("choice", i), minimum) for i, v in enumerate(value.values)]
+            if any(v is None for v in values):
+                return None
+            return ChoiceSteps(tuple(v for v in values if v is not None), value.p)
+        return self.steps(value, path, minimum)
+
+    # -- one sensor -----------------------------------------------------------------------------
+
+    def bind(self, name: str, cfg: SensorConfig) -> Observable | None:
+        before = len(self.problems)
+        timing = dict(update_interval=self.schedule(name, "interval", cfg.interval, 1),
+                      delay=self.schedule(name, "delay", cfg.delay, 0),
+                      buffer_size=cfg.buffer, aggregator=cfg.aggregator)
+        if cfg.kind == GENERIC_KIND:
+            made = self.generic(name, cfg, timing)
+        elif cfg.kind in IMAGE_KINDS:
+            made = self.camera(name, cfg, timing)
+        else:
+            made = self.feature(name, cfg, timing)
+        if made is None or len(self.problems) > before:
+            return None
+        observable, shape, dtype = made
+        observable.enabled = cfg.enabled is not False
+        if cfg.noise and shape is not None:
+            stages = cfg.noise if self.import_callables else tuple(s for s in cfg.noise if s.type != "custom")
+            try:
+                observable.noise = build_noise(stages, shape, dtype, float(self.model.opt.timestep))
+            except SuiteError as e:
+                base = self.origin(name, "noise")
+                for p in e.problems:
+                    rest = tuple(int(s) if s.isdigit() else s for s in p.loc.split(".")[1:] if s)
+                    self.report(base + rest, p.message)
+                return None
+        return observable
+
+    def selection(self, name: str, cfg: SensorConfig) -> bool:
+        """Whether `element` (and `within`) resolve; problems point at the list entry at fault."""
+        here = ("sensors", name)
+        ok = True
+        if cfg.within is not None:
+            try:
+                select(self.model, cfg.within)
+            except SuiteError as e:
+                self.report_all(here + ("within",), e)
+                return False
+        entries = [(cfg.element, here + ("element",))] if isinstance(cfg.element, str) else [
+            (sel, here + ("element", i)) for i, sel in enumerate(cfg.element or ())]
+        for selector, path in entries:
+            try:
+                select(self.model, selector, cfg.within)
+            except SuiteError as e:
+                self.report_all(path, e)
+                ok = False
+        if ok:
+            try:
+                select(self.model, cfg.element, cfg.within)
+            except SuiteError as e:
+                self.report_all(here + ("element",), e)
+                ok = False
+        return ok
+
+    def element_type(self, name: str, cfg: SensorConfig) -> str | None:
+        first = cfg.element if isinstance(cfg.element, str) else (cfg.element or ("",))[0]
+        path = ("sensors", name, "element") + (() if isinstance(cfg.element, str) else (0,))
+        try:
+            return split_selector(first)[0]
+        except SuiteError as e:
+            self.report_all(path, e)
+            return None
+
+    def feature(self, name: str, cfg: SensorConfig, timing: dict[str, Any]) -> tuple[Observable, Any, Any] | None:
+        type_name = self.element_type(name, cfg)
+        if type_name is None:
+            return None
+        kinds = kinds_of(type_name)
+        if cfg.kind not in kinds:
+            extra = f"; a camera image is kind {', '.join(IMAGE_KINDS)}" if type_name == "camera" else ""
+            self.report(("sensors", name, "kind"),
+                        f"a {type_name} has no kind {cfg.kind!r}{did_you_mean(cfg.kind, kinds)}; "
+                        f"{type_name} kinds: {', '.join(sorted(kinds))}{extra}")
+            return None
+        if not self.selection(name, cfg):
+            return None
+        index = _index(cfg.index)
+        try:
+            _, _, flat, dtype = feature_index(self.model, cfg.kind, cfg.element, cfg.within, index)
+        except SuiteError as e:
+            self.report_all(("sensors", name, "index"), e)
+            return None
+        element = cfg.element if isinstance(cfg.element, str) else list(cfg.element)
+        feature = Feature(cfg.kind, element, index=index, within=cfg.within, **timing)
+        return feature, flat.shape, dtype
+
+    def camera(self, name: str, cfg: SensorConfig, timing: dict[str, Any]) -> tuple[Observable, Any, Any] | None:
+        here = ("sensors", name)
+        before = len(self.problems)
+        type_name = self.element_type(name, cfg)
+        if type_name is None:
+            return None
+        if type_name != "camera" or not isinstance(cfg.element, str) or set("*?[") & set(cfg.element):
+            self.report(here + ("element",), f"a {cfg.kind!r} sensor reads one camera, 'camera:<name>'; "
+                        f"got {cfg.element!r}")
+            return None
+        if not self.selection(name, cfg):
+            return None
+        assert cfg.camera is not None  # filled in by the loader for image kinds
+        width, height = cfg.camera.width, cfg.camera.height
+        vis = self.model.vis.global_
+        for key, size, limit, attr in (("width", width, vis.offwidth, "offwidth"),
+                                       ("height", height, vis.offheight, "offheight")):
+            if size > limit:
+                self.report(self.origin(name, "camera") + (key,),
+                            f"a {key} of {size} exceeds the model's offscreen buffer ({limit}); use at most "
+                            f"{limit} or add <visual><global {attr}=\"{size}\"/></visual> to the model")
+        flags = scene_flags()
+        for flag in cfg.camera.scene:
+            if flag not in flags:
+                self.report(self.origin(name, "camera") + ("scene", flag),
+                            f"unknown scene flag {flag!r}{did_you_mean(flag, flags)}; flags: {', '.join(flags)}",
+                            key=True)
+        if len(self.problems) > before:
+            return None
+        camera = Camera(cfg.element, height=height, width=width, mode=cfg.kind,
+                        scene_option=dict(cfg.camera.scene) or None, **timing)
+        channels, dtype, _, _ = MODES[cfg.kind]
+        return camera, (height, width, channels), dtype
+
+    def generic(self, name: str, cfg: SensorConfig, timing: dict[str, Any]) -> tuple[Observable, Any, Any] | None:
+        assert cfg.callable is not None
+        if not self.import_callables:
+            return Generic(_not_imported(cfg.callable), **timing), None, None
+        fn = self.import_callable(cfg.callable, ("sensors", name, "callable"))
+        if fn is None:
+            return None
+        shape = dtype = None
+        if cfg.noise:  # the noise needs the value's shape: read it from one call on a fresh state
+            physics = Physics(self.model)
+            mujoco.mj_forward(physics.model, physics.data)
+            try:
+                probe = np.asarray(fn(physics))
+            except Exception as e:  # noqa: BLE001 - user code: any failure is the user's problem to see
+                self.report(("sensors", name, "callable"), f"calling {cfg.callable} raised "
+                            f"{type(e).__name__}: {e}")
+                return None
+            shape, dtype = probe.shape, probe.dtype
+        return Generic(fn, **timing), shape, dtype
+
+    def import_callable(self, text: str, path: Path_) -> Callable[..., Any] | None:
+        module_name, _, attr = text.partition(":")
+        try:
+            target: Any = importlib.import_module(module_name)
+        except Exception as e:  # noqa: BLE001 - an import of user code may fail in any way
+            self.report(path, f"cannot import module {module_name!r} for {text!r}: {type(e).__name__}: {e}")
+            return None
+        for part in attr.split("."):
+            if not hasattr(target, part):
+                names = [n for n in dir(target) if not n.startswith("_")]
+                self.report(path, f"module {module_name!r} has no {attr!r}{did_you_mean(part, names)}")
+                return None
+            target = getattr(target, part)
+        if not callable(target):
+            self.report(path, f"{text!r} is a {type(target).__name__}, not a function")
+            return None
+        return target
+
+
+def _not_imported(text: str) -> Callable[[Any], Any]:
+    def never_imported(physics: Any) -> Any:
+        raise RuntimeError(f"{text} was not imported: build the suite with import_callables=True to run it")
+    return never_imported
+
+
+def _index(value: Any) -> Any:
+    """A config index as numpy takes it: '0:3' -> slice(0, 3), ':, 2' -> (slice(None), 2)."""
+    if value is None or isinstance(value, int):
+        return value
+    if isinstance(value, tuple):
+        return list(value)
+    parts = []
+    for text in value.split(","):
+        text = text.strip()
+        if text == "...":
+            parts.append(Ellipsis)
+        elif ":" in text:
+            parts.append(slice(*(int(x) if x.strip() else None for x in text.split(":"))))
+        else:
+            parts.append(int(text))
+    return parts[0] if len(parts) == 1 else tuple(parts)
+
+
+def bind(suite: LoadedSuite, model: mujoco.MjModel, *, import_callables: bool) -> tuple[
+        dict[str, Observable], list[Problem]]:
+    """Observables for every sensor of `suite` (file order) and every problem found on the way."""
+    binder = _Binder(suite, model, import_callables)
+    observables: dict[str, Observable] = {}
+    for name, cfg in suite.sensors.items():
+        try:
+            observable = binder.bind(name, cfg)
+        except SuiteError as e:  # a check an observable makes itself, that binding did not anticipate
+            binder.report_all(("sensors", name), e)
+            continue
+        if observable is not None:
+            observables[name] = observable
+    return observables, binder.problems

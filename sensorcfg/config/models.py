@@ -1,0 +1,259 @@
+"""The pydantic models of a sensor suite: what each key means, its type, its description and an example.
+
+These models are the single source of the suite language: validation, the JSON Schema for editors and
+the error hints all read them. Every config is frozen and forbids unknown keys. Values that need the
+model (element names, kinds, time in steps) are checked for form here and resolved by `sensorcfg.binding`.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, PlainValidator, StringConstraints, WithJsonSchema
+
+from .noise import NoiseStage
+from .tables import GENERIC_KIND, IMAGE_KINDS, aggregator_names
+from .units import TIME_PATTERN, parse_time
+
+__all__ = ["CameraConfig", "ChoiceDraw", "DefaultsConfig", "OptionsConfig", "SensorConfig", "SuiteConfig",
+           "UniformDraw", "SENSOR_NAME_PATTERN"]
+
+_FROZEN = ConfigDict(frozen=True, extra="forbid")
+SENSOR_NAME_PATTERN = r"^[A-Za-z_][A-Za-z0-9_\-/]*$"
+_SELECTOR = re.compile(r"\A[a-z]+:\S.*\Z")
+_CALLABLE = re.compile(r"\A[A-Za-z_][\w.]*:[A-Za-z_][\w.]*\Z")
+_INDEX_PART = re.compile(r"\A\s*(-?\d+|(-?\d+)?\s*:\s*(-?\d+)?(\s*:\s*(-?\d+)?)?|\.\.\.)\s*\Z")
+
+
+# -- time: steps, durations, rates, and draws per sample ------------------------------------------
+
+class UniformDraw(BaseModel):
+    """A value drawn per sample, uniformly from the integers lo..hi (inclusive, in physics steps)."""
+
+    model_config = _FROZEN
+    low: int | str
+    high: int | str
+
+
+class ChoiceDraw(BaseModel):
+    """A value drawn per sample from `values`, with probabilities `p` (uniform when omitted)."""
+
+    model_config = _FROZEN
+    values: tuple[int | str, ...]
+    p: tuple[float, ...] | None = None
+
+
+def _fixed(value: Any, *, rates: bool, minimum: int) -> int | str:
+    what = "a rate like '50Hz', " if rates else ""
+    if isinstance(value, bool) or not isinstance(value, (int, str)):
+        raise ValueError(f"expected integer physics steps, {what}a duration like '4ms', or "
+                         f"{{uniform: [lo, hi]}} / {{choice: [...], p: [...]}}; got {value!r}")
+    if isinstance(value, int):
+        if value < minimum:
+            raise ValueError(f"expected at least {minimum} physics step{'s' if minimum != 1 else ''}; got {value}")
+        return value
+    parse_time(value, rates=rates)
+    return value.strip()
+
+
+def _schedule(value: Any, *, rates: bool, minimum: int) -> int | str | UniformDraw | ChoiceDraw:
+    """Validate an interval (rates allowed, >= 1 step) or a delay (>= 0 steps) without the model."""
+    if not isinstance(value, dict):
+        return _fixed(value, rates=rates, minimum=minimum)
+    keys = set(value)
+    if keys == {"uniform"}:
+        bounds = value["uniform"]
+        if not isinstance(bounds, list) or len(bounds) != 2:
+            raise ValueError(f"uniform takes two bounds, [lo, hi] (inclusive); got {bounds!r}")
+        low, high = (_fixed(b, rates=False, minimum=minimum) for b in bounds)
+        if isinstance(low, int) and isinstance(high, int) and low > high:
+            raise ValueError(f"uniform bounds must satisfy lo <= hi; got [{low}, {high}]: swap them")
+        return UniformDraw(low=low, high=high)
+    if keys in ({"choice"}, {"choice", "p"}):
+        values, p = value["choice"], value.get("p")
+        if not isinstance(values, list) or not values:
+            raise ValueError(f"choice takes a non-empty list of values; got {values!r}")
+        fixed = tuple(_fixed(v, rates=False, minimum=minimum) for v in values)
+        if p is not None:
+            if (not isinstance(p, list) or len(p) != len(values)
+                    or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and x >= 0 for x in p)):
+                raise ValueError(f"p takes one non-negative probability per choice ({len(values)}); got {p!r}")
+            if abs(sum(p) - 1.0) > 1e-6:
+                raise ValueError(f"the probabilities p must sum to 1; they sum to {sum(p):g}")
+            p = tuple(float(x) for x in p)
+        return ChoiceDraw(values=fixed, p=p)
+    raise ValueError("a random schedule is {uniform: [lo, hi]} or {choice: [a, b, ...], p: [...]}; "
+                     f"got keys {', '.join(sorted(map(str, keys))) or '(none)'}")
+
+
+def _time_schema(rates: bool, minimum: int) -> dict[str, Any]:
+    pattern = TIME_PATTERN if rates else TIME_PATTERN.replace("|Hz|kHz", "")
+    fixed = [{"type": "integer", "minimum": minimum, "description": "physics steps"},
+             {"type": "string", "pattern": pattern,
+              "description": "a duration (s, ms, us)" + (" or a rate (Hz, kHz)" if rates else "")}]
+    duration = [fixed[0], {"type": "string", "pattern": TIME_PATTERN.replace("|Hz|kHz", "")}]
+    return {"anyOf": fixed + [
+        {"type": "object", "additionalProperties": False, "required": ["uniform"],
+         "properties": {"uniform": {"type": "array", "minItems": 2, "maxItems": 2, "items": {"anyOf": duration},
+                                    "description": "inclusive bounds [lo, hi], drawn per sample"}}},
+        {"type": "object", "additionalProperties": False, "required": ["choice"],
+         "properties": {"choice": {"type": "array", "minItems": 1, "items": {"anyOf": duration}},
+                        "p": {"type": "array", "items": {"type": "number", "minimum": 0}}}},
+    ]}
+
+
+Interval = Annotated[int | str | UniformDraw | ChoiceDraw,
+                     PlainValidator(lambda v: _schedule(v, rates=True, minimum=1)),
+                     WithJsonSchema(_time_schema(rates=True, minimum=1))]
+Delay = Annotated[int | str | UniformDraw | ChoiceDraw,
+                  PlainValidator(lambda v: _schedule(v, rates=False, minimum=0)),
+                  WithJsonSchema(_time_schema(rates=False, minimum=0))]
+ControlInterval = Annotated[int | str, PlainValidator(lambda v: _fixed(v, rates=True, minimum=1)),
+                            WithJsonSchema({"anyOf": _time_schema(rates=True, minimum=1)["anyOf"][:2]})]
+
+
+# -- elements and indices -------------------------------------------------------------------------
+
+def _selector(value: Any) -> str:
+    if not isinstance(value, str) or not _SELECTOR.match(value.strip()):
+        raise ValueError(f"an element is written 'type:name' (for example 'joint:elbow', 'site:finger_*'); "
+                         f"got {value!r}")
+    return value.strip()
+
+
+def _element(value: Any) -> str | tuple[str, ...]:
+    if isinstance(value, list):
+        if not value:
+            raise ValueError("an empty element list selects nothing; name at least one element")
+        return tuple(_selector(v) for v in value)
+    return _selector(value)
+
+
+def _index(value: Any) -> int | tuple[int, ...] | str:
+    if isinstance(value, int) and not isinstance(value, bool):
+        return value
+    if isinstance(value, list) and value and all(isinstance(v, int) and not isinstance(v, bool) for v in value):
+        return tuple(value)
+    if isinstance(value, str) and all(_INDEX_PART.match(part) for part in value.split(",")):
+        return value.strip()
+    raise ValueError("index takes an integer, a list of integers, or numpy-style slices such as '0:3' or "
+                     f"':, 2'; got {value!r}")
+
+
+Element = Annotated[str | tuple[str, ...], PlainValidator(_element), WithJsonSchema({"anyOf": [
+    {"type": "string", "pattern": _SELECTOR.pattern.replace(r"\A", "^").replace(r"\Z", "$")},
+    {"type": "array", "minItems": 1, "items": {"type": "string"}}]})]
+Index = Annotated[int | tuple[int, ...] | str, PlainValidator(_index), WithJsonSchema({"anyOf": [
+    {"type": "integer"}, {"type": "array", "items": {"type": "integer"}, "minItems": 1}, {"type": "string"}]})]
+AggregatorName = Literal[aggregator_names()]  # type: ignore[valid-type]
+SensorName = Annotated[str, StringConstraints(pattern=SENSOR_NAME_PATTERN)]
+
+
+# -- the configs ----------------------------------------------------------------------------------
+
+class CameraConfig(BaseModel):
+    """Image settings for rgb, depth and segmentation sensors."""
+
+    model_config = _FROZEN
+    width: int = Field(320, ge=1, strict=True, description="Image width in pixels.", examples=[64])
+    height: int = Field(240, ge=1, strict=True, description="Image height in pixels.", examples=[48])
+    scene: dict[str, bool] = Field(
+        default_factory=dict, description="MuJoCo visualisation flags (mjtVisFlag without the mjVIS_ prefix, "
+        "lower case) switched on or off for this camera.", examples=[{"contactpoint": True}])
+
+
+class _Common(BaseModel):
+    """Fields a sensor and `defaults` share."""
+
+    model_config = _FROZEN
+    interval: Interval | None = Field(
+        None, description="Time between samples: integer physics steps, a duration ('4ms', '0.02s', '500us'), "
+        "a rate ('50Hz'), or drawn per sample: {uniform: [lo, hi]} or {choice: [...], p: [...]}. Default 1 step.",
+        examples=[2, "4ms", "50Hz", {"uniform": [2, 4]}])
+    delay: Delay | None = Field(
+        None, description="Time from sampling to delivery: integer physics steps or a duration; "
+        "{uniform: [lo, hi]} or {choice: [...], p: [...]} draw it per sample. Default 0.",
+        examples=[0, "4ms", {"uniform": [1, 3]}])
+    buffer: int | None = Field(
+        None, ge=1, strict=True, description="How many of the latest delivered samples an observation holds "
+        "(a leading axis). Default 1.", examples=[1, 4])
+    aggregator: AggregatorName | None = Field(  # type: ignore[valid-type]
+        None, description="Reduces the buffer axis: " + ", ".join(aggregator_names()) + ".", examples=["mean"])
+    enabled: bool | None = Field(
+        None, strict=True, description="Whether the Updater computes this observation. Default true.",
+        examples=[True, False])
+    noise: tuple[NoiseStage, ...] | None = Field(
+        None, description="Noise stages applied in order to each raw sample before it is buffered.",
+        examples=[[{"type": "gaussian", "std": 0.01}]])
+
+
+class DefaultsConfig(_Common):
+    """Settings applied to every sensor that does not give its own (field by field)."""
+
+    camera: CameraConfig | None = Field(
+        None, description="Camera settings for every image sensor that does not give its own.",
+        examples=[{"width": 64, "height": 48}])
+
+
+class SensorConfig(_Common):
+    """One observation: what to read (`kind`), from which elements, how often, how late, how noisy."""
+
+    kind: str = Field(
+        pattern=r"^[A-Za-z_][A-Za-z0-9_]*$",
+        description="What to read: an attribute of the element as dm_control's `physics.bind(element).<kind>` "
+        f"names it (qpos, xpos, sensordata, ...); {', '.join(IMAGE_KINDS)} for a camera; "
+        f"'{GENERIC_KIND}' for a Python callable.", examples=["qpos", "sensordata", "rgb", "generic"])
+    element: Element | None = Field(
+        None, description="Which elements: 'type:name' (one element, unbatched shape), a glob ('joint:*', "
+        "'site:finger_*') or a list of selectors (batched shape, list order, then model order within a glob).",
+        examples=["joint:*", ["sensor:imu_gyro", "sensor:imu_accel"], "camera:wrist"])
+    within: str | None = Field(
+        None, pattern=r"^body:\S.*$", description="Keep only elements in the subtree of this body.",
+        examples=["body:forearm"])
+    index: Index | None = Field(
+        None, description="A part of the value: an integer, a list of integers, or numpy-style slices as text.",
+        examples=[0, [0, 2], "0:3", ":, 2"])
+    camera: CameraConfig | None = Field(
+        None, description=f"Image settings; for {', '.join(IMAGE_KINDS)} sensors only.",
+        examples=[{"width": 64, "height": 48}])
+    callable: str | None = Field(
+        None, pattern=_CALLABLE.pattern.replace(r"\A", "^").replace(r"\Z", "$"),
+        description="For kind 'generic': 'module:function', called with the physics handle; imported when the "
+        "suite is built, not when it is checked.", examples=["my_pkg.sensors:distance_to_target"])
+
+
+class OptionsConfig(BaseModel):
+    """Settings of the Updater that runs the suite."""
+
+    model_config = _FROZEN
+    pad_with_initial_value: bool = Field(
+        False, strict=True, description="Fill a buffer that is not yet full with the first sample instead of zeros.",
+        examples=[False])
+    strip_singleton_buffer_dim: bool = Field(
+        False, strict=True, description="Drop the buffer axis of observations whose buffer is 1.", examples=[True])
+    control_interval: ControlInterval | None = Field(
+        None, description="Physics steps per control step (as steps, a duration or a rate); default 1.",
+        examples=[10, "20ms", "50Hz"])
+
+
+class SuiteConfig(BaseModel):
+    """A sensor suite: the observations a robot's sensing produces, declared once."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", title="sensorcfg sensor suite")
+    version: Literal[1] = Field(1, description="Version of the suite format.", examples=[1])
+    model: str | None = Field(
+        None, description="Default MJCF model, relative to this file, or 'package://<package>/<path>' for a "
+        "file shipped inside an installed Python package.", examples=["../models/arm.xml",
+                                                                       "package://sensorcfg/assets/robot.xml"])
+    extends: str | None = Field(
+        None, description="Another suite (relative to this file) to start from; this file overrides it key by "
+        "key, and `null` removes an inherited key.", examples=["base.yaml"])
+    options: OptionsConfig = Field(default_factory=OptionsConfig, description="Updater settings.",
+                                   examples=[{"strip_singleton_buffer_dim": True}])
+    defaults: DefaultsConfig = Field(default_factory=DefaultsConfig,
+                                     description="Applied to every sensor that does not say otherwise.",
+                                     examples=[{"buffer": 1, "interval": "4ms"}])
+    sensors: dict[SensorName, SensorConfig] = Field(
+        description="The observations, by name, in the order they are returned.",
+        examples=[{"joint_pos": {"kind": "qpos", "element": "joint:*"}}])

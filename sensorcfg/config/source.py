@@ -1,0 +1,191 @@
+"""YAML text -> plain values that remember where every node came from.
+
+Validating a bare dict loses positions, so suites are read with PyYAML's `compose` and turned into plain
+Python values here, recording for every dotted path the file, line and column of its key and its value.
+Only the tags `yaml.safe_load` understands are accepted: a `!!python/...` tag is a problem, never code.
+Duplicate keys (which PyYAML silently lets the last one win) are problems too. No mujoco, no pydantic.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Iterator
+from typing import Any
+
+import yaml
+
+from ..errors import Problem, SuiteError
+
+__all__ = ["Doc", "Pos", "Path_", "compose", "dotted"]
+
+Path_ = tuple[str | int, ...]
+
+_MERGE = "tag:yaml.org,2002:merge"
+_MAP = "tag:yaml.org,2002:map"
+_SEQ = "tag:yaml.org,2002:seq"
+_SAFE_SCALARS = frozenset(t for t in yaml.SafeLoader.yaml_constructors if t and t not in (_MAP, _SEQ))
+
+
+@dataclasses.dataclass(frozen=True)
+class Pos:
+    """A 1-based place in a file (or in an override, whose 'file' names it)."""
+
+    file: str
+    line: int
+    col: int
+
+    def problem(self, message: str, loc: str = "") -> Problem:
+        return Problem(message, loc, self.file, self.line, self.col)
+
+
+def dotted(path: Path_) -> str:
+    return ".".join(str(p) for p in path)
+
+
+@dataclasses.dataclass
+class Doc:
+    """A plain value (dicts, lists, scalars) and the positions of its nodes by path.
+
+    `keys[path]` is where the key of `path` was written, `values[path]` where its value starts. Merges and
+    overrides keep both maps in step with the value, so any path in the value has a position.
+    """
+
+    value: Any
+    values: dict[Path_, Pos] = dataclasses.field(default_factory=dict)
+    keys: dict[Path_, Pos] = dataclasses.field(default_factory=dict)
+    problems: list[Problem] = dataclasses.field(default_factory=list)  # found while composing (tags, duplicates)
+
+    def pos(self, path: Path_, *, key: bool = False) -> Pos | None:
+        """The position of `path` (its key when asked and known), else of its nearest ancestor."""
+        path = tuple(path)
+        if key and path in self.keys:
+            return self.keys[path]
+        while True:
+            if path in self.values:
+                return self.values[path]
+            if not path:
+                return None
+            path = path[:-1]
+
+    def drop(self, prefix: Path_) -> None:
+        """Forget the positions under `prefix` (its value is being replaced)."""
+        n = len(prefix)
+        for table in (self.values, self.keys):
+            for path in [p for p in table if p[:n] == prefix and len(p) > n]:
+                del table[path]
+
+    def graft(self, other: Doc, at: Path_) -> None:
+        """Take the positions of `other` (a value placed at path `at`)."""
+        for path, pos in other.values.items():
+            self.values[at + path] = pos
+        for path, pos in other.keys.items():
+            self.keys[at + path] = pos
+
+
+def _pos(mark: yaml.Mark, file: str, line_offset: int = 0, col_offset: int = 0) -> Pos:
+    col = mark.column + 1 + (col_offset if mark.line == 0 else 0)
+    return Pos(file, mark.line + 1 + line_offset, col)
+
+
+def compose(text: str, file: str, *, col_offset: int = 0) -> Doc:
+    """Parse one YAML document into a `Doc`; raises SuiteError for invalid YAML.
+
+    Disallowed tags and duplicate keys do not stop the walk: they are listed in `Doc.problems` (the node
+    is left out) so that the rest of the file is still checked. `col_offset` shifts columns of the first
+    line (an override's value starts after `key=`).
+    """
+    try:
+        node = yaml.compose(text, Loader=yaml.SafeLoader)
+    except yaml.MarkedYAMLError as e:
+        mark = e.problem_mark or e.context_mark
+        what = " ".join(str(part) for part in (e.context, e.problem) if part)
+        pos = _pos(mark, file, col_offset=col_offset) if mark else Pos(file, 1, 1)
+        raise SuiteError(pos.problem(f"invalid YAML: {what}")) from None
+    except yaml.YAMLError as e:  # pragma: no cover - PyYAML raises marked errors for text input
+        raise SuiteError(Problem(f"invalid YAML: {e}", file=file)) from None
+    doc = Doc(None)
+    if node is None:
+        return doc
+    builder = _Builder(file, col_offset, doc)
+    doc.value = builder.build(node, ())
+    doc.problems.extend(builder.problems)
+    return doc
+
+
+class _Builder:
+    """Walks composed nodes, building values and recording positions and problems."""
+
+    def __init__(self, file: str, col_offset: int, doc: Doc):
+        self.file = file
+        self.col_offset = col_offset
+        self.doc = doc
+        self.problems: list[Problem] = []
+        self.constructor = yaml.SafeLoader("")  # constructs single safe scalars
+
+    def pos(self, node: yaml.Node) -> Pos:
+        return _pos(node.start_mark, self.file, col_offset=self.col_offset)
+
+    def build(self, node: yaml.Node, path: Path_) -> Any:
+        self.doc.values[path] = self.pos(node)
+        if isinstance(node, yaml.MappingNode):
+            if node.tag != _MAP:
+                return self.bad_tag(node, path)
+            return self.mapping(node, path)
+        if isinstance(node, yaml.SequenceNode):
+            if node.tag != _SEQ:
+                return self.bad_tag(node, path)
+            return [self.build(item, path + (i,)) for i, item in enumerate(node.value)]
+        if node.tag not in _SAFE_SCALARS:
+            return self.bad_tag(node, path)
+        return self.constructor.construct_object(node, deep=True)
+
+    def bad_tag(self, node: yaml.Node, path: Path_) -> None:
+        self.problems.append(self.pos(node).problem(
+            f"the tag {node.tag!r} is not allowed: suites hold plain YAML values only (no Python objects); "
+            "remove the tag", dotted(path)))
+        return None
+
+    def pairs(self, node: yaml.MappingNode) -> Iterator[tuple[yaml.Node, yaml.Node]]:
+        """Key/value nodes, with YAML merge keys (`<<: *anchor`) expanded; explicit keys win."""
+        merged: list[tuple[yaml.Node, yaml.Node]] = []
+        for key, value in node.value:
+            if key.tag == _MERGE:
+                sources = value.value if isinstance(value, yaml.SequenceNode) else [value]
+                for source in sources:
+                    if isinstance(source, yaml.MappingNode):
+                        merged.extend(source.value)
+                    else:
+                        self.problems.append(self.pos(source).problem(
+                            "a merge key '<<' takes a mapping (or a list of mappings) to merge in"))
+            else:
+                yield key, value
+        own = {k.value for k, _ in node.value if isinstance(k, yaml.ScalarNode) and k.tag != _MERGE}
+        seen: set[Any] = set()
+        for key, value in merged:
+            if isinstance(key, yaml.ScalarNode) and key.value not in own and key.value not in seen:
+                seen.add(key.value)
+                yield key, value
+
+    def mapping(self, node: yaml.MappingNode, path: Path_) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        first: dict[str, Pos] = {}
+        for key_node, value_node in self.pairs(node):
+            key_pos = self.pos(key_node)
+            if not isinstance(key_node, yaml.ScalarNode) or key_node.tag not in _SAFE_SCALARS:
+                self.problems.append(key_pos.problem("a key must be a plain name, not a list or mapping",
+                                                     dotted(path)))
+                continue
+            key = self.constructor.construct_object(key_node)
+            if not isinstance(key, str):
+                self.problems.append(key_pos.problem(
+                    f"the key {key!r} must be a name (a string); quote it if it really is one", dotted(path)))
+                continue
+            if key in first:
+                self.problems.append(key_pos.problem(
+                    f"duplicate key {key!r} (first written at line {first[key].line}); "
+                    "a key may appear once per mapping: merge the two", dotted(path + (key,))))
+                continue
+            first[key] = key_pos
+            self.doc.keys[path + (key,)] = key_pos
+            out[key] = self.build(value_node, path + (key,))
+        return out

@@ -1,0 +1,93 @@
+"""Time in a suite: integer physics steps, durations (`4ms`, `0.02s`, `500us`) and rates (`50Hz`).
+
+Text is checked when a suite is loaded; it becomes steps only at binding, because a step is the model's
+`opt.timestep`. A duration that is not a whole number of steps is an error that names the two nearest
+valid values in the unit the user wrote, so the fix can be pasted. Pure Python: no mujoco, no numpy.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+__all__ = ["DURATION_UNITS", "RATE_UNITS", "parse_time", "to_steps", "format_seconds", "TIME_PATTERN"]
+
+# unit -> seconds per unit
+DURATION_UNITS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9}
+# unit -> hertz per unit
+RATE_UNITS: dict[str, float] = {"Hz": 1.0, "kHz": 1e3}
+
+_NUMBER = r"(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?"
+_TEXT = re.compile(rf"\A\s*({_NUMBER})\s*([a-zA-Zµ]+)\s*\Z")
+TIME_PATTERN = rf"^\s*{_NUMBER}\s*(?:{'|'.join(DURATION_UNITS)}|{'|'.join(RATE_UNITS)})\s*$"
+
+_RELATIVE_TOLERANCE = 1e-9
+
+
+def parse_time(text: str, *, rates: bool) -> tuple[float, str, str]:
+    """'4ms' -> (4.0, 'ms', 'duration'); '50Hz' -> (50.0, 'Hz', 'rate'). Raises ValueError with the fix."""
+    match = _TEXT.match(text)
+    units = list(DURATION_UNITS) + (list(RATE_UNITS) if rates else [])
+    examples = "'4ms', '0.02s', '500us'" + (", '50Hz'" if rates else "")
+    if not match:
+        raise ValueError(f"expected physics steps (an integer) or a time like {examples}; got {text!r}")
+    number, unit = float(match.group(1)), match.group(2)
+    if unit not in units:
+        hint = ""
+        lowered = {u.lower(): u for u in units}
+        if unit.lower() in lowered:
+            hint = f" (did you mean {lowered[unit.lower()]!r}?)"
+        elif unit in RATE_UNITS:
+            hint = " (a delay is a duration, not a rate)"
+        raise ValueError(f"unknown time unit {unit!r} in {text!r}{hint}; use one of {', '.join(units)}")
+    kind = "rate" if unit in RATE_UNITS else "duration"
+    if kind == "rate" and number <= 0:
+        raise ValueError(f"a rate must be positive; got {text!r}")
+    return number, unit, kind
+
+
+def _fmt(number: float) -> str:
+    text = f"{number:.6g}"
+    return text
+
+
+def format_seconds(seconds: float) -> str:
+    """A readable duration: 0.002 -> '2ms'."""
+    for unit in ("s", "ms", "us"):
+        value = seconds / DURATION_UNITS[unit]
+        if value >= 1 or unit == "us":
+            return f"{_fmt(value)}{unit}"
+    raise AssertionError("unreachable")
+
+
+def to_steps(value: int | str, timestep: float, *, minimum: int) -> int:
+    """Physics steps for an integer, a duration or a rate; ValueError names the nearest valid values."""
+    if isinstance(value, int):
+        return value
+    number, unit, kind = parse_time(value, rates=True)
+    if kind == "rate":
+        exact = 1.0 / (number * RATE_UNITS[unit] * timestep)
+    else:
+        exact = number * DURATION_UNITS[unit] / timestep
+    nearest = round(exact)
+    if math.isclose(exact, nearest, rel_tol=_RELATIVE_TOLERANCE, abs_tol=1e-9) and nearest >= minimum:
+        return int(nearest)
+
+    def spell(steps: int) -> str:
+        if kind == "rate":
+            return f"{_fmt(1.0 / (steps * timestep * RATE_UNITS[unit]))}{unit}"
+        return f"{_fmt(steps * timestep / DURATION_UNITS[unit])}{unit}"
+
+    step_text = format_seconds(timestep)
+    low, high = math.floor(exact), math.ceil(exact)
+    if math.isclose(exact, nearest, rel_tol=_RELATIVE_TOLERANCE, abs_tol=1e-9):
+        low = high = nearest
+    choices = [s for s in dict.fromkeys((low, high, minimum)) if s >= minimum][:2]
+    if kind == "rate" and exact < minimum:
+        what = f"{value} is faster than one sample per {step_text} physics step"
+    elif exact < minimum:
+        what = f"{value} is shorter than one {step_text} physics step"
+    else:
+        what = f"{value} is not a whole number of {step_text} physics steps ({_fmt(exact)} steps)"
+    return_choices = " or ".join(spell(s) for s in choices)
+    raise ValueError(f"{what}; use {return_choices}")

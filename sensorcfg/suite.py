@@ -1,0 +1,143 @@
+"""`Suite`: a loaded sensor suite, and `load` / `loads`, the entry points of the suite language.
+
+Loading parses and validates without a model (this module imports no mujoco until a model is asked for);
+`Suite.check(model)` lists every problem against a model without raising, and `Suite.build(model)` returns
+the observables ready for `sensorcfg.Updater`.
+"""
+
+from __future__ import annotations
+
+import os
+import types
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from .config import LoadedSuite, OptionsConfig, SensorConfig, SuiteConfig, load_path, load_text, to_steps
+from .errors import Problem, SuiteError
+
+if TYPE_CHECKING:
+    import mujoco
+
+    from .observables import Observable
+
+__all__ = ["Suite", "load", "loads"]
+
+ModelLike = Any  # mujoco.MjModel, a path to an MJCF/MJB file, a Physics, or None for the suite's `model:`
+
+
+class Suite:
+    """A validated sensor suite: its sensors (with `defaults` applied), Updater options and default model."""
+
+    def __init__(self, loaded: LoadedSuite):
+        self._loaded = loaded
+
+    def __repr__(self) -> str:
+        return f"Suite({self.file!r}, sensors={list(self.sensors)})"
+
+    @property
+    def file(self) -> str:
+        """The file the suite was read from (as shown in messages), or '<string>'."""
+        return self._loaded.file
+
+    @property
+    def config(self) -> SuiteConfig:
+        """The suite as written, after `extends` and overrides (before `defaults` are applied)."""
+        return self._loaded.config
+
+    @property
+    def options(self) -> OptionsConfig:
+        """Updater settings: `pad_with_initial_value`, `strip_singleton_buffer_dim`, `control_interval`."""
+        return self._loaded.config.options
+
+    @property
+    def model(self) -> str | None:
+        """The default model's path (resolved from `model:`), or None."""
+        return self._loaded.model
+
+    @property
+    def sensors(self) -> Mapping[str, SensorConfig]:
+        """Each sensor's config with `defaults` filled in, in file order (read-only)."""
+        return types.MappingProxyType(self._loaded.sensors)
+
+    # -- against a model ------------------------------------------------------------------------
+
+    def _mjmodel(self, model: ModelLike) -> mujoco.MjModel:
+        import mujoco
+
+        if isinstance(model, mujoco.MjModel):
+            return model
+        if model is not None and not isinstance(model, (str, os.PathLike)):
+            from .physics import raw_structs
+
+            return raw_structs(model)[0]
+        if model is None:
+            if self.model is None:
+                raise SuiteError(Problem("no model to check against: pass one, or name it in the suite with "
+                                         "'model: path/to/robot.xml'", "model", self.file))
+            path, pos = self.model, self._loaded.doc.pos(("model",))
+        else:
+            path, pos = str(model), None
+        try:
+            return mujoco.MjModel.from_xml_path(str(path))
+        except (ValueError, OSError) as e:
+            message = f"cannot load the model {str(path)!r}: {str(e).strip()}"
+            raise SuiteError(pos.problem(message, "model") if pos else Problem(message, file=str(path))) from None
+
+    def _bind(self, model: ModelLike, import_callables: bool) -> tuple[dict[str, Observable], list[Problem]]:
+        from .binding import bind
+
+        return bind(self._loaded, self._mjmodel(model), import_callables=import_callables)
+
+    def build(self, model: ModelLike = None, *, import_callables: bool = True) -> dict[str, Observable]:
+        """The observables of every sensor, in file order, with their `enabled` flags set.
+
+        `model` is a `mujoco.MjModel`, a model path, or None for the suite's own `model:`. `generic`
+        callables are imported (pass `import_callables=False` to leave them unimported placeholders).
+        Raises SuiteError listing every problem.
+        """
+        observables, problems = self._bind(model, import_callables)
+        if problems:
+            raise SuiteError(problems)
+        return observables
+
+    def check(self, model: ModelLike = None, *, import_callables: bool = False) -> list[Problem]:
+        """Every problem of the suite against `model` (empty when it builds); never raises for a mistake.
+
+        `generic` callables are not imported unless `import_callables` is true.
+        """
+        try:
+            return self._bind(model, import_callables)[1]
+        except SuiteError as e:
+            return list(e.problems)
+
+    def updater_kwargs(self, model: ModelLike = None) -> dict[str, Any]:
+        """Keyword arguments for `sensorcfg.Updater` from `options` (time converted with the model)."""
+        options = self.options
+        steps = 1
+        if options.control_interval is not None:
+            timestep = float(self._mjmodel(model).opt.timestep)
+            try:
+                steps = to_steps(options.control_interval, timestep, minimum=1)
+            except ValueError as e:
+                pos = self._loaded.doc.pos(("options", "control_interval"))
+                loc = "options.control_interval"
+                raise SuiteError(pos.problem(str(e), loc) if pos else Problem(str(e), loc, self.file)) from None
+        return {"physics_steps_per_control_step": steps,
+                "strip_singleton_buffer_dim": options.strip_singleton_buffer_dim,
+                "pad_with_initial_value": options.pad_with_initial_value}
+
+
+def load(path: str | os.PathLike[str], overrides: Sequence[str] | None = None) -> Suite:
+    """Read and validate the suite at `path` (no model needed); raises SuiteError listing every problem.
+
+    `overrides` are `dotted.key=value` strings applied after `extends`, each value parsed as YAML:
+    `["sensors.wrist_cam.interval=10", "defaults.buffer=2"]`.
+    """
+    return Suite(load_path(Path(path), overrides))
+
+
+def loads(text: str, overrides: Sequence[str] | None = None, *, file: str = "<string>",
+          base_dir: str | os.PathLike[str] | None = None) -> Suite:
+    """Like `load`, for YAML text; `extends` and `model` paths are relative to `base_dir` (default: cwd)."""
+    return Suite(load_text(text, overrides, file=file, base_dir=base_dir))
