@@ -127,14 +127,21 @@ class FixedChannel(Channel):
 
 
 class RandomChannel(Channel):
-    """Interval and/or delay drawn per sample: dm_control's planning, with exact skipping."""
+    """Interval and/or delay drawn per sample: dm_control's planning and dropping, to the sample.
+
+    Planning extends the schedule to two control steps ahead, drawing (interval, delay) pairs in
+    dm_control's order; it then drops every scheduled sample that is provably pushed out of the buffer
+    before its first read. Dropping is exactly dm_control's (and so is its side effect: when the last
+    scheduled sample is dropped, the next plan continues from the last one kept), so sample times,
+    samples taken and every draw agree with dm_control's.
+    """
 
     def __init__(self, *args: Any, interval: Callable[[], int], delay: Callable[[], int], **kwargs: Any):
         super().__init__(*args, **kwargs)
         self.draw_interval = interval
         self.draw_delay = delay
-        self.schedule: collections.deque[tuple[int, int]] = collections.deque()
-        self.pending: list[tuple[int, int, np.ndarray]] = []  # (arrival, timestamp, value), sorted
+        self.schedule: list[tuple[int, int]] = []  # (timestamp, delay), increasing timestamps
+        self.pending: list[tuple[int, int, np.ndarray]] = []  # (arrival, timestamp, value), delivery order
         self.arrived: collections.deque[np.ndarray] = collections.deque(maxlen=self.buffer_size)
 
     def start(self, step: int) -> None:
@@ -142,30 +149,50 @@ class RandomChannel(Channel):
         value = np.array(self.value(step), dtype=self.dtype)
         fill = value if self.pad else np.zeros(self.shape, self.dtype)
         self.arrived.extend(fill for _ in range(self.buffer_size))
-        self._insert(0, delay, value)
+        self._insert(step, delay, value)
 
     def plan(self, step: int) -> None:
-        """Extend the schedule two control steps ahead (dm_control's horizon and draw order)."""
-        last = self.schedule[-1][0] if self.schedule else step
+        """Extend the schedule two control steps ahead, then drop the samples no read can see."""
+        schedule = self.schedule
+        last = schedule[-1][0] if schedule else step
         horizon = step + 2 * self.read_interval
         while last < horizon:
-            last += self.draw_interval()
-            self.schedule.append((last, self.draw_delay()))
+            last += self.draw_interval()  # interval first, then delay, as dm_control draws them
+            schedule.append((last, self.draw_delay()))
+        self._drop_unobserved()
+
+    def _drop_unobserved(self) -> None:
+        """Drop scheduled samples with `buffer_size` or more samples delivered after them by their first read.
+
+        Delivery order is arrival order, ties going to the earlier insertion: samples already in flight
+        come before scheduled ones, and scheduled ones in timestamp order.
+        """
+        n, b = self.read_interval, self.buffer_size
+        in_flight = [a for a, _, _ in self.pending]
+        arrivals = [t + d for t, d in self.schedule]
+        keep = []
+        for i, (t, d) in enumerate(self.schedule):
+            arrival = t + d
+            first_read = -(-arrival // n) * n
+            later = sum(1 for a in in_flight if arrival < a <= first_read)
+            later += sum(1 for j, a in enumerate(arrivals)
+                         if (arrival < a or (a == arrival and j > i)) and a <= first_read)
+            if later < b:
+                keep.append((t, d))
+        if len(keep) != len(self.schedule):
+            self.schedule = keep
+
+    def due(self, step: int) -> bool:
+        return bool(self.schedule) and self.schedule[0][0] == step
+
+    def sample(self, step: int) -> None:
+        """Take the sample scheduled at `step` (the caller checked `due`)."""
+        _, delay = self.schedule.pop(0)
+        self._insert(step, delay, np.array(self.value(step), dtype=self.dtype))
 
     def maybe_sample(self, step: int) -> None:
-        schedule = self.schedule
-        if not schedule or schedule[0][0] != step:
-            return
-        _, delay = schedule.popleft()
-        if self._visible(step, delay):
-            self._insert(step, delay, np.array(self.value(step), dtype=self.dtype))
-
-    def _visible(self, step: int, delay: int) -> bool:
-        arrival = step + delay
-        first_read = -(-arrival // self.read_interval) * self.read_interval
-        later = sum(1 for a, _, _ in self.pending if arrival < a <= first_read)
-        later += sum(1 for t, d in self.schedule if t + d <= first_read)
-        return later < self.buffer_size
+        if self.due(step):
+            self.sample(step)
 
     def _insert(self, step: int, delay: int, value: np.ndarray) -> None:
         self._deliver(step)
