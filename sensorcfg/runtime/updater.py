@@ -174,46 +174,58 @@ class Updater:
 
     def _build_plan(self) -> None:
         """One table over the common period: which sampling tasks run at each step's phase."""
+        # Tasks carry the position of their observable: samplers may have side effects (a corruptor
+        # drawing from the episode's random_state), so within a step they run in dm_control's order,
+        # the observables' order. The bank's snapshot is a pure read and goes first.
         banked = {id(m.channel) for m in self._bank.members()} if self._bank else set()
-        tasks = [(ch.period(), ch.needed_phases(), ch.sample) for ch in self._channels
+        tasks = [(ch.period(), ch.needed_phases(), order, ch.sample) for order, ch in enumerate(self._channels)
                  if isinstance(ch, FixedChannel) and id(ch) not in banked]
         if self._bank:
-            tasks.append((self._bank.rows, self._bank.snapshot_steps(), self._bank.snapshot))
-        self._random = [ch for ch in self._channels if isinstance(ch, RandomChannel)]
-        period = math.lcm(*(p for p, _, _ in tasks)) if tasks else 1
+            tasks.insert(0, (self._bank.rows, self._bank.snapshot_steps(), -1, self._bank.snapshot))
+        self._random = [(order, ch) for order, ch in enumerate(self._channels) if isinstance(ch, RandomChannel)]
+        period = math.lcm(*(p for p, _, _, _ in tasks)) if tasks else 1
         if period > _MAX_PLAN_PERIOD:  # pathological interval mixes: each task checks its own phase
-            self._period, self._plan = 1, [()]
-            self._slow = [(p, frozenset(phases), task) for p, phases, task in tasks]
+            self._period, self._plan, self._orders = 1, [()], [()]
+            self._slow = [(p, frozenset(phases), order, task) for p, phases, order, task in tasks]
             return
         self._slow = []
-        plan: list[list[Callable[[int], None]]] = [[] for _ in range(period)]
-        for task_period, phases, task in tasks:
+        plan: list[list[tuple[int, Callable[[int], None]]]] = [[] for _ in range(period)]
+        for task_period, phases, order, task in tasks:
             for phase in phases:
                 for t in range(phase, period, task_period):
-                    plan[t].append(task)
+                    plan[t].append((order, task))
+        for entries in plan:
+            entries.sort(key=lambda entry: entry[0])
         self._period = period
-        self._plan = [tuple(t) for t in plan]
+        self._plan = [tuple(task for _, task in entries) for entries in plan]
+        self._orders = [tuple(order for order, _ in entries) for entries in plan]
 
     # -- the physics loop -------------------------------------------------------------------------
 
     def prepare_for_next_control_step(self) -> None:
         if self._layout is None:
             raise RuntimeError("`reset` must be called before `prepare_for_next_control_step`.")
-        for ch in self._random:
+        for _, ch in self._random:
             ch.plan(self._step)
 
     def update(self) -> None:
         if self._layout is None:
             raise RuntimeError("`reset` must be called before `update`.")
         step = self._step = self._step + 1
-        for sample in self._plan[step % self._period]:
+        tasks = self._plan[step % self._period]
+        if self._slow or self._random:
+            tasks = self._merge_irregular(step, tasks)
+        for sample in tasks:
             sample(step)
-        if self._slow:
-            for period, phases, task in self._slow:
-                if step % period in phases:
-                    task(step)
-        for ch in self._random:
-            ch.maybe_sample(step)
+
+    def _merge_irregular(self, step: int, tasks: tuple[Callable[[int], None], ...]) -> Any:
+        """This step's tasks with the due random channels and off-plan tasks, in observable order."""
+        extra = [(order, task) for period, phases, order, task in self._slow if step % period in phases]
+        extra += [(order, ch.sample) for order, ch in self._random if ch.due(step)]
+        if not extra:
+            return tasks
+        merged = sorted([*zip(self._orders[step % self._period], tasks), *extra], key=lambda entry: entry[0])
+        return [task for _, task in merged]
 
     def get_observation(self) -> Any:
         if self._layout is None:
