@@ -125,7 +125,7 @@ def select(model: mujoco.MjModel, element: str | Sequence[str], within: str | No
                     known = [n for n in names if n][:12]
                     raise SuiteError(Problem(
                         f"{text!r} matches no {type_name}{scope} in the model; "
-                        f"its {type_name}s are: {', '.join(known) or '(none with names)'}"))
+                        f"its {_plural(type_name)} are: {', '.join(known) or '(none with names)'}"))
                 ids.extend(found)
             else:
                 i = _lookup(model, type_name, pattern)
@@ -143,12 +143,16 @@ def select(model: mujoco.MjModel, element: str | Sequence[str], within: str | No
     return Selection(type_name, tuple(ids), names, batched)
 
 
+def _plural(type_name: str) -> str:
+    return "bodies" if type_name == "body" else f"{type_name}s"
+
+
 def _lookup(model: mujoco.MjModel, type_name: str, name: str) -> int:
     i = mujoco.mj_name2id(model, ELEMENT_TYPES[type_name].obj, name)
     if i < 0:
         names = [n for n in element_names(model, type_name) if n]
         hint = did_you_mean(name, names)
         if not hint:
-            hint = f"; its {type_name}s are: {', '.join(names[:12]) or '(none)'}" + (" ..." if len(names) > 12 else "")
+            hint = f"; its {_plural(type_name)} are: {', '.join(names[:12]) or '(none)'}" + (" ..." if len(names) > 12 else "")
         raise SuiteError(Problem(f"the model has no {type_name} named {name!r}{hint}"))
     return int(i)

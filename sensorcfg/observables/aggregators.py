@@ -45,8 +45,9 @@ AGGREGATORS: dict[str, Aggregator] = {
 }
 
 
-def get_aggregator(value: str | Callable[[np.ndarray], Any] | None) -> Callable[[np.ndarray], Any] | None:
-    """None, a built-in by name, or any callable reducing the leading axis."""
+def get_aggregator(value: str | Callable[[np.ndarray], Any] | None,
+                   owner: str = "") -> Callable[[np.ndarray], Any] | None:
+    """None, a built-in by name, or any callable reducing the leading axis (`owner` names the observable)."""
     if value is None or callable(value):
         return value
     if isinstance(value, str) and value in AGGREGATORS:
@@ -54,7 +55,7 @@ def get_aggregator(value: str | Callable[[np.ndarray], Any] | None) -> Callable[
     from ..errors import SuiteError, did_you_mean
 
     raise SuiteError(
-        f"unknown aggregator {value!r}{did_you_mean(str(value), AGGREGATORS)}; "
+        f"{owner + ': ' if owner else ''}unknown aggregator {value!r}{did_you_mean(str(value), AGGREGATORS)}; "
         f"use one of {', '.join(AGGREGATORS)}, a callable, or none")
 
 

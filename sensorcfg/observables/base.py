@@ -48,7 +48,7 @@ class Observable(metaclass=abc.ABCMeta):
         self._update_interval = check_setting("update_interval", update_interval, repr(self))
         self._buffer_size = check_setting("buffer_size", buffer_size, repr(self))
         self._delay = check_setting("delay", delay, repr(self))
-        self._aggregator = get_aggregator(aggregator)
+        self._aggregator = get_aggregator(aggregator, repr(self))
         self._corruptor = corruptor
         self._enabled = False
         self._noise: Any = None
@@ -86,7 +86,7 @@ class Observable(metaclass=abc.ABCMeta):
 
     @aggregator.setter
     def aggregator(self, value: Any) -> None:
-        self._aggregator = get_aggregator(value)
+        self._aggregator = get_aggregator(value, repr(self))
 
     @property
     def corruptor(self) -> Callable[..., Any] | None:

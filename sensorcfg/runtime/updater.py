@@ -7,6 +7,7 @@ Observables are duck-typed: dm_control's own observables work unchanged.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import hashlib
 import inspect
@@ -148,7 +149,11 @@ class Updater:
 
     def _channel(self, label: str, observable: Any, physics: Any, random_state: Any,
                  entropy: list[int] | None) -> Channel:
-        sampler = observable.observation_callable(physics, random_state)
+        try:
+            sampler = observable.observation_callable(physics, random_state)
+        except SuiteError as e:  # binding to the model (unknown element, camera, ...): say which observable
+            raise SuiteError([p if p.loc else dataclasses.replace(p, message=f"observable {label!r}: {p.message}")
+                              for p in e.problems]) from None
         interval = _drawer(label, "update_interval", observable.update_interval, DEFAULT_UPDATE_INTERVAL, random_state)
         delay = _drawer(label, "delay", observable.delay, DEFAULT_DELAY, random_state)
         buffer_size = observable.buffer_size or DEFAULT_BUFFER_SIZE
