@@ -17,9 +17,8 @@ from .units import to_steps
 
 __all__ = ["CameraConfig", "ChoiceDraw", "DefaultsConfig", "LoadedSuite", "OptionsConfig", "SensorConfig",
            "SuiteConfig", "UniformDraw", "json_schema", "load_path", "load_text", "resolve_model_path",
-           "schema_text", "to_steps", "SCHEMA_ID"]
+           "schema_text", "to_steps", "write_schema"]
 
-SCHEMA_ID = "https://github.com/sensorcfg/sensorcfg/schemas/sensor-suite.schema.json"
 # Files that `extends` another give partial sensors (only the keys they change), so the editor schema
 # requires no key of a suite or a sensor; `sensorcfg validate` checks that the merged suite is complete.
 
@@ -29,7 +28,12 @@ def json_schema() -> dict[str, Any]:
     schema = SuiteConfig.model_json_schema()
     schema.pop("required", None)
     schema["$defs"]["SensorConfig"].pop("required", None)
-    return {"$schema": "https://json-schema.org/draft/2020-12/schema", "$id": SCHEMA_ID, **schema}
+    # In a file that extends another, `name: null` removes an inherited sensor.
+    sensors = schema["properties"]["sensors"]
+    for pattern, sensor in sensors["patternProperties"].items():
+        sensors["patternProperties"][pattern] = {"anyOf": [sensor, {"type": "null"}]}
+    sensors["additionalProperties"] = False  # a name outside the pattern is an error in the editor too
+    return {"$schema": "https://json-schema.org/draft/2020-12/schema", **schema}
 
 
 def schema_text() -> str:
@@ -40,8 +44,3 @@ def schema_text() -> str:
 def write_schema(path: str | Path) -> None:
     Path(path).write_text(schema_text(), encoding="utf-8")
 
-
-if __name__ == "__main__":  # pragma: no cover - `python -m sensorcfg.config OUT.json` regenerates the file
-    import sys
-
-    write_schema(sys.argv[1] if len(sys.argv) > 1 else "schemas/sensor-suite.schema.json")

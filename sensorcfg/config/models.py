@@ -10,7 +10,8 @@ from __future__ import annotations
 import re
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, PlainValidator, StringConstraints, WithJsonSchema
+from pydantic import (BaseModel, ConfigDict, Field, PlainSerializer, PlainValidator, StringConstraints,
+                      WithJsonSchema)
 
 from .noise import NoiseStage
 from .tables import GENERIC_KIND, IMAGE_KINDS, aggregator_names
@@ -103,11 +104,22 @@ def _time_schema(rates: bool, minimum: int) -> dict[str, Any]:
     ]}
 
 
+def _dump_schedule(value: int | str | UniformDraw | ChoiceDraw) -> Any:
+    """Back to the suite's own spelling, so a dumped config validates again."""
+    if isinstance(value, UniformDraw):
+        return {"uniform": [value.low, value.high]}
+    if isinstance(value, ChoiceDraw):
+        return {"choice": list(value.values), **({"p": list(value.p)} if value.p is not None else {})}
+    return value
+
+
 Interval = Annotated[int | str | UniformDraw | ChoiceDraw,
                      PlainValidator(lambda v: _schedule(v, rates=True, minimum=1)),
+                     PlainSerializer(_dump_schedule, return_type=Any),
                      WithJsonSchema(_time_schema(rates=True, minimum=1))]
 Delay = Annotated[int | str | UniformDraw | ChoiceDraw,
                   PlainValidator(lambda v: _schedule(v, rates=False, minimum=0)),
+                  PlainSerializer(_dump_schedule, return_type=Any),
                   WithJsonSchema(_time_schema(rates=False, minimum=0))]
 ControlInterval = Annotated[int | str, PlainValidator(lambda v: _fixed(v, rates=True, minimum=1)),
                             WithJsonSchema({"anyOf": _time_schema(rates=True, minimum=1)["anyOf"][:2]})]
@@ -141,10 +153,16 @@ def _index(value: Any) -> int | tuple[int, ...] | str:
                      f"':, 2'; got {value!r}")
 
 
-Element = Annotated[str | tuple[str, ...], PlainValidator(_element), WithJsonSchema({"anyOf": [
+def _dump_listlike(value: Any) -> Any:
+    return list(value) if isinstance(value, tuple) else value
+
+
+Element = Annotated[str | tuple[str, ...], PlainValidator(_element), PlainSerializer(_dump_listlike, return_type=Any),
+                    WithJsonSchema({"anyOf": [
     {"type": "string", "pattern": _SELECTOR.pattern.replace(r"\A", "^").replace(r"\Z", "$")},
     {"type": "array", "minItems": 1, "items": {"type": "string"}}]})]
-Index = Annotated[int | tuple[int, ...] | str, PlainValidator(_index), WithJsonSchema({"anyOf": [
+Index = Annotated[int | tuple[int, ...] | str, PlainValidator(_index), PlainSerializer(_dump_listlike, return_type=Any),
+                  WithJsonSchema({"anyOf": [
     {"type": "integer"}, {"type": "array", "items": {"type": "integer"}, "minItems": 1}, {"type": "string"}]})]
 AggregatorName = Literal[aggregator_names()]  # type: ignore[valid-type]
 SensorName = Annotated[str, StringConstraints(pattern=SENSOR_NAME_PATTERN)]
@@ -163,42 +181,44 @@ class CameraConfig(BaseModel):
         "lower case) switched on or off for this camera.", examples=[{"contactpoint": True}])
 
 
-class _Common(BaseModel):
-    """Fields a sensor and `defaults` share."""
-
-    model_config = _FROZEN
-    interval: Interval | None = Field(
-        None, description="Time between samples: integer physics steps, a duration ('4ms', '0.02s', '500us'), "
-        "a rate ('50Hz'), or drawn per sample: {uniform: [lo, hi]} or {choice: [...], p: [...]}. Default 1 step.",
-        examples=[2, "4ms", "50Hz", {"uniform": [2, 4]}])
-    delay: Delay | None = Field(
-        None, description="Time from sampling to delivery: integer physics steps or a duration; "
-        "{uniform: [lo, hi]} or {choice: [...], p: [...]} draw it per sample. Default 0.",
-        examples=[0, "4ms", {"uniform": [1, 3]}])
-    buffer: int | None = Field(
-        None, ge=1, strict=True, description="How many of the latest delivered samples an observation holds "
-        "(a leading axis). Default 1.", examples=[1, 4])
-    aggregator: AggregatorName | None = Field(  # type: ignore[valid-type]
-        None, description="Reduces the buffer axis: " + ", ".join(aggregator_names()) + ".", examples=["mean"])
-    enabled: bool | None = Field(
-        None, strict=True, description="Whether the Updater computes this observation. Default true.",
-        examples=[True, False])
-    noise: tuple[NoiseStage, ...] | None = Field(
-        None, description="Noise stages applied in order to each raw sample before it is buffered.",
-        examples=[[{"type": "gaussian", "std": 0.01}]])
+# Fields a sensor and `defaults` share: one description each, used by both models.
+_SHARED: dict[str, dict[str, Any]] = {
+    "interval": dict(description="Time between samples: integer physics steps, a duration ('4ms', '0.02s', "
+                     "'500us'), a rate ('50Hz'), or drawn per sample: {uniform: [lo, hi]} or "
+                     "{choice: [...], p: [...]}. Default 1 step.", examples=[2, "4ms", "50Hz", {"uniform": [2, 4]}]),
+    "delay": dict(description="Time from sampling to delivery: integer physics steps or a duration; "
+                  "{uniform: [lo, hi]} or {choice: [...], p: [...]} draw it per sample. Default 0.",
+                  examples=[0, "4ms", {"uniform": [1, 3]}]),
+    "buffer": dict(ge=1, strict=True, description="How many of the latest delivered samples an observation "
+                   "holds (a leading axis). Default 1.", examples=[1, 4]),
+    "aggregator": dict(description="Reduces the buffer axis: " + ", ".join(aggregator_names()) + ".",
+                       examples=["mean"]),
+    "enabled": dict(strict=True, description="Whether the Updater computes this observation. Default true.",
+                    examples=[True, False]),
+    "noise": dict(description="Noise stages applied in order to each raw sample before it is buffered.",
+                  examples=[[{"type": "gaussian", "std": 0.01}]]),
+}
 
 
-class DefaultsConfig(_Common):
+class DefaultsConfig(BaseModel):
     """Settings applied to every sensor that does not give its own (field by field)."""
 
+    model_config = _FROZEN
+    interval: Interval | None = Field(None, **_SHARED["interval"])
+    delay: Delay | None = Field(None, **_SHARED["delay"])
+    buffer: int | None = Field(None, **_SHARED["buffer"])
+    aggregator: AggregatorName | None = Field(None, **_SHARED["aggregator"])  # type: ignore[valid-type]
+    enabled: bool | None = Field(None, **_SHARED["enabled"])
+    noise: tuple[NoiseStage, ...] | None = Field(None, **_SHARED["noise"])
     camera: CameraConfig | None = Field(
         None, description="Camera settings for every image sensor that does not give its own.",
         examples=[{"width": 64, "height": 48}])
 
 
-class SensorConfig(_Common):
+class SensorConfig(BaseModel):
     """One observation: what to read (`kind`), from which elements, how often, how late, how noisy."""
 
+    model_config = _FROZEN
     kind: str = Field(
         pattern=r"^[A-Za-z_][A-Za-z0-9_]*$",
         description="What to read: an attribute of the element as dm_control's `physics.bind(element).<kind>` "
@@ -221,6 +241,12 @@ class SensorConfig(_Common):
         None, pattern=_CALLABLE.pattern.replace(r"\A", "^").replace(r"\Z", "$"),
         description="For kind 'generic': 'module:function', called with the physics handle; imported when the "
         "suite is built, not when it is checked.", examples=["my_pkg.sensors:distance_to_target"])
+    interval: Interval | None = Field(None, **_SHARED["interval"])
+    delay: Delay | None = Field(None, **_SHARED["delay"])
+    buffer: int | None = Field(None, **_SHARED["buffer"])
+    aggregator: AggregatorName | None = Field(None, **_SHARED["aggregator"])  # type: ignore[valid-type]
+    enabled: bool | None = Field(None, **_SHARED["enabled"])
+    noise: tuple[NoiseStage, ...] | None = Field(None, **_SHARED["noise"])
 
 
 class OptionsConfig(BaseModel):
