@@ -42,6 +42,8 @@ class NoisePipeline:
         self._direct = ctx.work == ctx.dtype  # stages work in the output array itself
         self._image = ctx.dtype == np.uint8
         self._work = np.zeros(ctx.shape, ctx.work)
+        lone = self._stages[0] if len(self._stages) == 1 else None
+        self._lone = lone if isinstance(lone, rt._Additive) and self._direct else None
         self.reset(np.random.default_rng(0))
 
     def __repr__(self) -> str:
@@ -53,12 +55,24 @@ class NoisePipeline:
             entropy = rng.randint(0, 2**32, size=4, dtype=np.uint64)
         else:
             entropy = rng.integers(0, 2**32, size=4, dtype=np.uint64)
-        seeds = np.random.SeedSequence([int(e) for e in entropy]).spawn(len(self._stages))
-        for stage, seed in zip(self._stages, seeds):
-            stage.reset(np.random.Generator(np.random.PCG64(seed)) if stage.needs_rng else None)
+        entropy = [int(e) for e in entropy]  # stage i's stream: SeedSequence's i-th child, built directly
+        seeds = (np.random.SeedSequence(entropy, spawn_key=(i,)) for i in range(len(self.names)))
+        for stage in self._stages:
+            if isinstance(stage, rt.Sum):
+                stage.reset_parts([_generator(next(seeds), part) for part in stage.parts])
+            else:
+                stage.reset(_generator(next(seeds), stage))
 
     def __call__(self, value: np.ndarray, step: int, out: np.ndarray | None = None) -> np.ndarray:
         """The noisy version of `value` (never written to), sampled at physics step `step`."""
+        lone = self._lone
+        if lone is not None:  # additive noise only: one addition, inlined
+            k = lone.k
+            if k == len(lone.rows):
+                lone.refill()
+                k = 0
+            lone.k = k + 1
+            return np.add(value, lone.rows[k], out=out)
         src = value
         if self._direct:
             dst = np.empty(self.shape, self.dtype) if out is None else out
@@ -72,11 +86,35 @@ class NoisePipeline:
             src = work
         if self._image:
             np.rint(work, out=work)
-            np.clip(work, 0, 255, out=work)
+            np.maximum(work, 0, out=work)
+            np.minimum(work, 255, out=work)
         if out is None:
             return work.astype(self.dtype)
         np.copyto(out, work, casting="unsafe")
         return out
+
+
+def _generator(seed: np.random.SeedSequence, stage: rt.Stage) -> np.random.Generator | None:
+    return np.random.Generator(np.random.PCG64(seed)) if stage.needs_rng else None
+
+
+def _fuse(stages: list[rt.Stage]) -> list[rt.Stage]:
+    """Adjacent additive stages (white noise, bias) become one `Sum`: one addition per sample."""
+    out: list[rt.Stage] = []
+    run: list[rt.Stage] = []
+    for stage in [*stages, None]:
+        if isinstance(stage, (rt.Gaussian, rt.Uniform, rt.Outlier)) or (
+                isinstance(stage, rt.EpisodeDraw) and stage.op is np.add):
+            run.append(stage)
+            continue
+        if len(run) > 1:
+            out.append(rt.Sum(run[0].ctx, run))  # type: ignore[attr-defined]
+        else:
+            out.extend(run)
+        run = []
+        if stage is not None:
+            out.append(stage)
+    return out
 
 
 class _Resolver:
@@ -247,4 +285,4 @@ def build_noise(stages: Sequence[NoiseStage], shape: tuple[int, ...], dtype: Any
             built.append(BUILDERS[config.type](config, r))
     if problems:
         raise SuiteError(problems)
-    return NoisePipeline(built, [c.type for c in configs], ctx)
+    return NoisePipeline(_fuse(built), [c.type for c in configs], ctx)

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import Problem, SuiteError
 
-__all__ = ["Context", "Stage", "Gaussian", "Uniform", "Outlier", "EpisodeDraw", "RandomWalk", "Lowpass",
+__all__ = ["Context", "Stage", "Sum", "Gaussian", "Uniform", "Outlier", "EpisodeDraw", "RandomWalk", "Lowpass",
            "Quantize", "Clip", "Dropout", "Custom"]
 
 _BLOCK_VALUES = 1 << 14  # random values drawn per generator call (per stage), at most
@@ -36,15 +36,17 @@ class Context:
         size = math.prod(shape)
         self.block = max(1, min(_MAX_BLOCK, _BLOCK_VALUES // max(size, 1)))
 
-    def cast(self, value: Any) -> Any:
-        """A parameter in the work dtype (a Python float stays one: numpy treats it as weakly typed)."""
-        return value if isinstance(value, float) else np.ascontiguousarray(value, dtype=self.work)
+    def cast(self, value: Any) -> np.ndarray:
+        """A parameter as an array of the work dtype (0-d for a number): ufuncs take arrays faster than
+        Python floats, which they convert on every call."""
+        return np.array(value, dtype=self.work)
 
 
 class Stage:
     """One stage at run time."""
 
     needs_rng = False
+    width = 1  # how many configured stages this one carries out (see `Sum`)
 
     def reset(self, rng: np.random.Generator | None) -> None:
         """Start an episode: per-episode draws, cleared state."""
@@ -89,6 +91,31 @@ class _Additive(_PerSample):
             k = 0
         self.k = k + 1
         np.add(src, self.rows[k], out=dst)
+
+
+class Sum(_Additive):
+    """Adjacent additive stages (white noise and per-episode bias) fused: one addition per sample.
+
+    Each part keeps its own generator and draws exactly what it would alone; only the order of the
+    floating-point additions changes (x + (a + b) instead of (x + a) + b).
+    """
+
+    def __init__(self, ctx: Context, parts: list[Stage]):
+        super().__init__(ctx)
+        self.parts = parts
+        self.width = len(parts)
+
+    def reset_parts(self, rngs: list[np.random.Generator | None]) -> None:
+        for part, rng in zip(self.parts, rngs):
+            part.reset(rng)
+        self.rows = []
+        self.k = 0
+
+    def draw(self, rng: Any, count: int) -> np.ndarray:
+        total = np.zeros((count, *self.ctx.shape), self.ctx.work)
+        for part in self.parts:
+            total += part.value if isinstance(part, EpisodeDraw) else part.draw(part.rng, count)  # type: ignore[attr-defined]
+        return total
 
 
 class Gaussian(_Additive):
@@ -184,12 +211,10 @@ class RandomWalk(_PerSample):
 
     def _coefficients(self, dt: float) -> tuple[Any, Any]:
         if self.tau is None:
-            return None, self.ctx.cast(self.std * math.sqrt(dt) if isinstance(self.std, float)
-                                       else self.std * np.sqrt(dt))
+            return None, self.ctx.cast(np.multiply(self.std, math.sqrt(dt)))
         a = np.exp(-dt / np.asarray(self.tau))
-        c = np.asarray(self.std) * np.sqrt(-np.expm1(-2.0 * dt / np.asarray(self.tau)))
-        to = (lambda x: float(x)) if a.ndim == 0 and c.ndim == 0 else self.ctx.cast
-        return to(a), to(c)
+        c = np.multiply(self.std, np.sqrt(-np.expm1(-2.0 * dt / np.asarray(self.tau))))
+        return self.ctx.cast(a), self.ctx.cast(c)
 
     def draw(self, rng: np.random.Generator, count: int) -> np.ndarray:
         return rng.standard_normal((count, *self.ctx.shape), dtype=self.ctx.work)
@@ -227,8 +252,7 @@ class Lowpass(Stage):
 
     def __init__(self, ctx: Context, cutoff: Any):
         omega = np.multiply(2.0 * math.pi, cutoff)
-        to = (lambda x: float(x)) if np.ndim(omega) == 0 else ctx.cast
-        self.alpha = _Timed(ctx, lambda dt: to(-np.expm1(-dt * omega)))
+        self.alpha = _Timed(ctx, lambda dt: ctx.cast(-np.expm1(-dt * omega)))
         self.state = np.zeros(ctx.shape, ctx.work)
         self.fresh = True
         self.last = 0
