@@ -170,8 +170,9 @@ class _Binder:
         kinds = kinds_of(type_name)
         if cfg.kind not in kinds:
             extra = f"; a camera image is kind {', '.join(IMAGE_KINDS)}" if type_name == "camera" else ""
+            candidates = list(kinds) + (list(IMAGE_KINDS) if type_name == "camera" else [])
             self.report(("sensors", name, "kind"),
-                        f"a {type_name} has no kind {cfg.kind!r}{did_you_mean(cfg.kind, kinds)}; "
+                        f"a {type_name} has no kind {cfg.kind!r}{did_you_mean(cfg.kind, candidates)}; "
                         f"{type_name} kinds: {', '.join(sorted(kinds))}{extra}")
             return None
         if not self.selection(name, cfg):
@@ -193,7 +194,7 @@ class _Binder:
         if type_name is None:
             return None
         if type_name != "camera" or not isinstance(cfg.element, str) or set("*?[") & set(cfg.element):
-            self.report(here + ("element",), f"a {cfg.kind!r} sensor reads one camera, 'camera:<name>'; "
+            self.report(here + ("element",), f"a sensor of kind {cfg.kind!r} reads one camera, 'camera:<name>'; "
                         f"got {cfg.element!r}")
             return None
         if not self.selection(name, cfg):

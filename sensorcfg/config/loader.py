@@ -18,7 +18,7 @@ from typing import Any
 from pydantic import ValidationError
 
 from ..errors import Problem, SuiteError, did_you_mean
-from .locate import problem_at, problems_from
+from .locate import describe, problem_at, problems_from
 from .models import CameraConfig, SensorConfig, SuiteConfig
 from .source import Doc, Path_, Pos, compose, dotted
 from .tables import GENERIC_KIND, IMAGE_KINDS
@@ -47,6 +47,8 @@ def _read(path: Path, label: str, at: Pos | None, loc: str = "") -> str:
     except (OSError, UnicodeDecodeError) as e:
         reason = getattr(e, "strerror", None) or str(e)
         message = f"cannot read {label!r} (resolved to {path}): {reason}"
+        if loc == "extends":
+            message += "; extends paths are relative to the file that names them"
         raise SuiteError(at.problem(message, loc) if at else Problem(message, file=str(path))) from None
 
 
@@ -146,6 +148,9 @@ def apply_override(doc: Doc, text: str) -> list[Problem]:
         if child is None and isinstance(node, dict) and isinstance(part, str):
             child = node[part] = {}
             doc.keys[here] = doc.values[here] = Pos(label, 1, 1)
+        if isinstance(node, list) and child is None:
+            return [Problem(f"{dotted(path[:i])} is a list of {len(node)}; use an index 0..{len(node) - 1}",
+                            dotted(path), label, 1, 1)]
         if not isinstance(child, (dict, list)):
             return [Problem(f"{dotted(here)} holds {child!r}, which has no key {path[i + 1]!r}",
                             dotted(path), label, 1, 1)]
@@ -201,7 +206,7 @@ def _effective(name: str, sensor: SensorConfig, config: SuiteConfig, doc: Doc) -
     for key, (needed, example) in _NEEDS.items():
         if getattr(sensor, key) is None and needed(sensor.kind):
             example = _IMAGE_EXAMPLE if sensor.kind in IMAGE_KINDS and key == "element" else example
-            problems.append(Problem(f"a {sensor.kind!r} sensor needs {key!r}, for example {example}",
+            problems.append(Problem(f"a sensor of kind {sensor.kind!r} needs {key!r}, for example {example}",
                                     dotted(here + (key,)), *_key_where(doc, here)))
     defaults = config.defaults
     update: dict[str, Any] = {}
@@ -247,11 +252,8 @@ def _finish(doc: Doc, file: str, dirs: dict[str, Path], problems: list[Problem])
     value = doc.value if doc.value is not None else {}
     if not isinstance(value, dict):
         problems.append(problem_at(doc, (), "a suite is a mapping with keys such as version, model, options, "
-                                   f"defaults and sensors; got {type(value).__name__}", fallback_file=file))
+                                   f"defaults and sensors; got {describe(value)}", fallback_file=file))
         raise SuiteError(problems)
-    if "sensors" not in value and not problems:
-        problems.append(Problem("a suite needs a 'sensors:' mapping (name: {kind, element, ...})",
-                                "sensors", file, 1, 1))
     problems[:0] = doc.problems
     try:
         config = SuiteConfig.model_validate(value)

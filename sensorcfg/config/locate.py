@@ -37,6 +37,12 @@ _FORMS = {
              "(no dots or spaces: names appear in dotted paths)",
 }
 
+# key -> what to write when it is missing
+_MISSING = {
+    "sensors": ": a suite lists its sensors as 'name: {kind: ..., element: ...}' under 'sensors:'",
+    "kind": " (what to read, for example kind: qpos, kind: sensordata or kind: rgb)",
+}
+
 
 def normalize(loc: tuple[Any, ...], value: Any) -> tuple[Path_, bool]:
     """The path of the node `loc` is about, and whether it is about a mapping key."""
@@ -138,7 +144,7 @@ def _message(error: dict[str, Any], path: Path_, root: type[BaseModel], value: A
     given = error.get("input")
     name = path[-1] if path else ""
     if kind == "missing":
-        return f"missing required key {name!r}"
+        return f"missing required key {name!r}{_MISSING.get(str(name), '')}"
     if kind == "extra_forbidden":
         model = model_at(root, path[:-1], value)
         fields = list(model.model_fields) if model else []
@@ -159,13 +165,14 @@ def _message(error: dict[str, Any], path: Path_, root: type[BaseModel], value: A
         bound = next(iter(ctx.values()), "?")
         return f"expected a value {op} {bound}; got {given!r}"
     if kind in _EXPECTED:
-        return f"expected {_EXPECTED[kind]}; got {_describe(given)}"
+        return f"expected {_EXPECTED[kind]}; got {describe(given)}"
     if str(error["msg"]).startswith("Input should"):
-        return f"{error['msg']}; got {_describe(given)}"
+        return f"{error['msg']}; got {describe(given)}"
     return str(error["msg"])  # a custom error (noise stages) already says what it found
 
 
-def _describe(value: Any) -> str:
+def describe(value: Any) -> str:
+    """A found value, as messages name it."""
     if isinstance(value, dict):
         return "a mapping"
     if isinstance(value, list):

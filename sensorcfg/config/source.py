@@ -98,7 +98,7 @@ def compose(text: str, file: str, *, col_offset: int = 0) -> Doc:
         node = yaml.compose(text, Loader=yaml.SafeLoader)
     except yaml.MarkedYAMLError as e:
         mark = e.problem_mark or e.context_mark
-        what = " ".join(str(part) for part in (e.context, e.problem) if part)
+        what = str(e.problem or e.context) + (f" ({e.context})" if e.problem and e.context else "")
         pos = _pos(mark, file, col_offset=col_offset) if mark else Pos(file, 1, 1)
         raise SuiteError(pos.problem(f"invalid YAML: {what}")) from None
     except yaml.YAMLError as e:  # pragma: no cover - PyYAML raises marked errors for text input
@@ -140,8 +140,9 @@ class _Builder:
         return self.constructor.construct_object(node, deep=True)
 
     def bad_tag(self, node: yaml.Node, path: Path_) -> None:
+        tag = node.tag.replace("tag:yaml.org,2002:", "!!")
         self.problems.append(self.pos(node).problem(
-            f"the tag {node.tag!r} is not allowed: suites hold plain YAML values only (no Python objects); "
+            f"the tag {tag!r} is not allowed: suites hold plain YAML values only (no Python objects); "
             "remove the tag", dotted(path)))
         return None
 
