@@ -19,7 +19,7 @@ import numpy as np
 
 from .channels import FixedChannel
 
-__all__ = ["FeatureBank", "BankMember", "buffer_view"]
+__all__ = ["FeatureBank", "BankMember", "buffer_view", "read_plan"]
 
 # Reductions over the buffer axis, bit-identical to numpy's (and so to dm_control's) min, max, sum, mean
 # and median along axis 0: numpy adds rows in order and divides the sum by the count; a median is the
@@ -157,32 +157,7 @@ class FeatureBank:
         return 1 + full * per_period + sum(1 for p in phases if p <= rest) - (1 if 0 in phases else 0)
 
     def _plan_read(self, phase: int) -> tuple[np.ndarray, list[Any], list[Any]]:
-        """For reads at steps = phase (mod rows): one gather index, and how to cut and reduce it."""
-        blocks: dict[Any, list[tuple[int, np.ndarray]]] = {}
-        for i, ch in enumerate(self.channels):
-            k = (phase - ch.delay) // ch.interval
-            steps = ch.interval * (k - ch.buffer_size + 1 + np.arange(ch.buffer_size))
-            block = (steps % self.rows)[:, None] * self.width + np.arange(self.cols[i], self.cols[i + 1])
-            key = None if ch.aggregator is None else (ch.aggregator.name, ch.buffer_size)
-            blocks.setdefault(key, []).append((i, block))
-        parts, groups, plain = [], [], []
-        offset = 0
-        for key, entries in blocks.items():
-            if key is None:
-                for i, block in entries:
-                    plain.append((i, slice(offset, offset + block.size), self.channels[i].buffered_shape))
-                    parts.append(block.ravel())
-                    offset += block.size
-                continue
-            stacked = np.concatenate([block for _, block in entries], axis=1)  # (buffer, group width)
-            members, col = [], 0
-            for i, block in entries:
-                members.append((i, slice(col, col + block.shape[1]), self.channels[i].shape))
-                col += block.shape[1]
-            groups.append((_REDUCERS[key[0]], slice(offset, offset + stacked.size), stacked.shape, members))
-            parts.append(stacked.ravel())
-            offset += stacked.size
-        return np.concatenate(parts).astype(np.intp), groups, plain
+        return read_plan(self.channels, self.cols, self.rows, phase)
 
     def read(self, step: int) -> list[np.ndarray]:
         """Every member's observation at `step`: fresh arrays (views of this read's own gather)."""
@@ -209,3 +184,39 @@ def qualifies(ch: Any) -> bool:
             and getattr(sampler, "struct", None) == "data" and ch.dtype == np.float64
             and (ch.aggregator is None or (ch.builtin_aggregator and ch.has_buffer_dim
                                            and getattr(ch.aggregator, "name", None) in _REDUCERS)))
+
+
+def read_plan(channels: list[FixedChannel], cols: np.ndarray, rows: int,
+              phase: int) -> tuple[np.ndarray, list[Any], list[Any]]:
+    """For reads at steps = phase (mod rows) of a step-indexed history of `rows` rows of `cols[-1]` values,
+    channel i in columns cols[i]:cols[i+1]: one flat gather index (row * width + column), and how to cut
+    and reduce it: `groups` of (reducer, part, (buffer, group width), members) and `plain` (i, part, shape).
+
+    Shared by `FeatureBank` and the batched bank of `sensorcfg.batch`.
+    """
+    width = int(cols[-1])
+    blocks: dict[Any, list[tuple[int, np.ndarray]]] = {}
+    for i, ch in enumerate(channels):
+        k = (phase - ch.delay) // ch.interval
+        steps = ch.interval * (k - ch.buffer_size + 1 + np.arange(ch.buffer_size))
+        block = (steps % rows)[:, None] * width + np.arange(cols[i], cols[i + 1])
+        key = None if ch.aggregator is None else (ch.aggregator.name, ch.buffer_size)
+        blocks.setdefault(key, []).append((i, block))
+    parts, groups, plain = [], [], []
+    offset = 0
+    for key, entries in blocks.items():
+        if key is None:
+            for i, block in entries:
+                plain.append((i, slice(offset, offset + block.size), channels[i].buffered_shape))
+                parts.append(block.ravel())
+                offset += block.size
+            continue
+        stacked = np.concatenate([block for _, block in entries], axis=1)  # (buffer, group width)
+        members, col = [], 0
+        for i, block in entries:
+            members.append((i, slice(col, col + block.shape[1]), channels[i].shape))
+            col += block.shape[1]
+        groups.append((_REDUCERS[key[0]], slice(offset, offset + stacked.size), stacked.shape, members))
+        parts.append(stacked.ravel())
+        offset += stacked.size
+    return np.concatenate(parts).astype(np.intp), groups, plain
