@@ -14,6 +14,8 @@ from pathlib import Path
 
 import pytest
 
+import sensorcfg  # noqa: F401  first: it picks the GL backend (EGL when headless) before mujoco is imported
+
 MODELS = Path(__file__).parent / "models"
 
 _ORACLE_MODULES = {
