@@ -358,6 +358,32 @@ LOAD_MISTAKES = [
         'sensors: {}\n',
         "1:8: error: model: no installed package 'nopkg' for 'package://nopkg/robot.xml'; write 'package://<package>/<path inside it>' or a path relative to this suite",
         id='model_package'),
+    pytest.param(
+        '# nothing but a comment\n',
+        "1:1: error: sensors: missing required key 'sensors': a suite lists its sensors as 'name: {kind: ..., element: ...}' under 'sensors:'",
+        id='empty_file'),
+    pytest.param(
+        'sensors:\n'
+        '  1: {kind: qpos, element: joint:elbow}\n',
+        '2:3: error: sensors: the key 1 must be a name (a string); quote it if it really is one',
+        id='number_as_name'),
+    pytest.param(
+        'sensors:\n'
+        '  s:\n'
+        '    kind: qpos\n'
+        '    element: joint:elbow\n'
+        '    noise:\n'
+        '      - {type: gaussian, stdd: 1}\n',
+        ["6:9: error: sensors.s.noise.0.std: missing required key 'std'",
+         "6:26: error: sensors.s.noise.0.stdd: unknown key 'stdd' (did you mean 'std'?); allowed keys: type, mean, std"],
+        id='noise_stage_key'),
+    pytest.param(
+        'sensors:\n'
+        '  s:\n'
+        '    kind: qpos\n'
+        '    element: [joint:elbow, 3]\n',
+        "4:14: error: sensors.s.element: an element is written 'type:name' (for example 'joint:elbow', 'site:finger_*'); got 3",
+        id='element_list_entry'),
 ]
 
 

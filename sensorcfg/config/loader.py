@@ -249,7 +249,10 @@ def resolve_model_path(value: str, base_dir: Path) -> str:
 
 
 def _finish(doc: Doc, file: str, dirs: dict[str, Path], problems: list[Problem]) -> LoadedSuite:
-    value = doc.value if doc.value is not None else {}
+    if doc.value is None:  # an empty file: an empty suite, whose problems are at its start
+        doc.value = {}
+    value = doc.value
+    doc.values.setdefault((), Pos(file, 1, 1))
     if not isinstance(value, dict):
         problems.append(problem_at(doc, (), "a suite is a mapping with keys such as version, model, options, "
                                    f"defaults and sensors; got {describe(value)}", fallback_file=file))

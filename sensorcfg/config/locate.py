@@ -114,8 +114,11 @@ def _is_container(annotation: Any) -> bool:
     origin = typing.get_origin(annotation)
     if origin in (dict, tuple, list):
         return True
-    if origin in (typing.Union, types.UnionType, typing.Annotated):
-        return any(_is_container(a) for a in typing.get_args(annotation)[:None if origin is not typing.Annotated else 1])
+    args = typing.get_args(annotation)
+    if origin is typing.Annotated:
+        return _is_container(args[0])
+    if origin in (typing.Union, types.UnionType):
+        return any(_is_container(a) for a in args)
     return False
 
 
