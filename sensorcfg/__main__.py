@@ -1,3 +1,5 @@
+"""`python -m sensorcfg`: the same command line as `sensorcfg`."""
+
 import sys
 
 from .cli import main

@@ -1,0 +1,188 @@
+"""What every command shares: exit codes, the user-facing error, suite and model resolution, describing sensors.
+
+A user's mistake never shows a traceback: commands raise `UsageError` (exit 2: a missing file, a bad option)
+or let `SuiteError` through (exit 1: the suite or the model is wrong), and `main` prints either as
+`path:line:col: error: message` lines on stderr.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from ..errors import Problem, SuiteError
+
+__all__ = ["EXIT_OK", "EXIT_INVALID", "EXIT_USAGE", "UsageError", "SensorRow", "override", "add_suite_args",
+           "load_suite", "model_path", "describe", "describe_schedule"]
+
+EXIT_OK, EXIT_INVALID, EXIT_USAGE = 0, 1, 2
+
+EXIT_CODES_HELP = """exit status:
+  0  every suite is valid (or the command succeeded)
+  1  a suite or model has problems (listed as path:line:col: error: message)
+  2  usage or I/O error: unknown option, missing file, unwritable output, missing optional dependency"""
+
+
+class UsageError(Exception):
+    """A mistake in how the command was called, or a file that cannot be read or written: exit 2."""
+
+
+def override(text: str) -> str:
+    """argparse type for --set: KEY=VALUE with a non-empty key."""
+    key, sep, _ = text.partition("=")
+    if not sep or not key.strip():
+        raise argparse.ArgumentTypeError(
+            f"expected KEY=VALUE (for example sensors.cam.interval=10ms or defaults.buffer=2), got {text!r}")
+    return text
+
+
+def add_suite_args(parser: argparse.ArgumentParser, *, suite_optional: bool = False) -> None:
+    """SUITE, --model and --set, shared by spec, run and demo."""
+    if suite_optional:
+        parser.add_argument("suite", nargs="?", metavar="SUITE", help="suite file (default: the bundled demo suite)")
+    else:
+        parser.add_argument("suite", metavar="SUITE", help="suite file (YAML)")
+    parser.add_argument("--model", metavar="MODEL", help="MJCF/MJB model (default: the suite's 'model:')")
+    parser.add_argument("--set", dest="overrides", action="append", default=[], type=override,
+                        metavar="KEY=VALUE", help="override a suite key (repeatable), e.g. defaults.buffer=2")
+
+
+def existing_file(path: str, what: str) -> Path:
+    p = Path(path)
+    if not p.exists():
+        raise UsageError(f"{path}: no such {what}")
+    if p.is_dir():
+        raise UsageError(f"{path}: is a directory, expected a {what}")
+    return p
+
+
+def load_suite(path: str, overrides: Sequence[str] = ()) -> Any:
+    """The validated suite at `path` (SuiteError for its problems, UsageError when it cannot be read)."""
+    from ..suite import load
+
+    existing_file(path, "suite file")
+    return load(path, list(overrides) or None)
+
+
+def model_path(suite: Any, model: str | None) -> str:
+    """The model to use: --model, or the suite's `model:`; a missing file is a usage error."""
+    if model is not None:
+        existing_file(model, "model file")
+        return model
+    if suite.model is None:
+        raise UsageError(f"{suite.file}: the suite names no model; pass --model MODEL.xml or add "
+                         "'model: path/to/robot.xml' to the suite")
+    if not Path(suite.model).is_file():
+        pos = suite._loaded.doc.pos(("model",))
+        message = f"the model file {suite.model!r} does not exist"
+        raise SuiteError(pos.problem(message, "model") if pos else Problem(message, "model", suite.file))
+    return suite.model
+
+
+# -- describing sensors (spec table, run sidecar, plot labels) -------------------------------------------
+
+@dataclasses.dataclass(frozen=True)
+class SensorRow:
+    """One enabled observation as `sensorcfg spec` shows it."""
+
+    name: str
+    kind: str
+    elements: int | None  # None for generic callables
+    shape: tuple[int, ...]
+    dtype: str
+    interval: str  # steps, e.g. '2' or '1..3' or '{2,4}'
+    rate_hz: str
+    delay: str
+    delay_ms: str
+    buffer: int
+    aggregator: str | None
+    noise: str
+    interval_steps: int | None  # fixed schedules only (None when drawn per sample)
+    delay_steps: int | None
+    buffer_axis: bool  # whether the observation's first axis is the buffer (no aggregator, not stripped)
+
+    def as_dict(self) -> dict[str, Any]:
+        d = dataclasses.asdict(self)
+        d["shape"] = list(self.shape)
+        return d
+
+
+def _g(x: float) -> str:
+    return f"{x:.4g}"
+
+
+def describe_schedule(value: Any, default: int, timestep: float, *, rate: bool) -> tuple[str, str, int | None]:
+    """(steps, Hz or ms, fixed steps or None) for an interval or delay: an int, UniformSteps or ChoiceSteps."""
+    from ..draws import ChoiceSteps, UniformSteps
+
+    value = getattr(value, "draw", value)  # a run's timing Recorder: describe what it draws from
+
+    def unit(steps: float) -> str:
+        if rate:
+            return _g(1.0 / (steps * timestep)) if steps else "inf"
+        return _g(steps * timestep * 1e3)
+
+    if value is None or isinstance(value, int):
+        steps = default if value is None else int(value)
+        return str(steps), unit(steps), steps
+    if isinstance(value, UniformSteps):
+        lo, hi = (unit(value.high), unit(value.low)) if rate else (unit(value.low), unit(value.high))
+        return f"{value.low}..{value.high}", f"{lo}..{hi}", None
+    if isinstance(value, ChoiceSteps):
+        return "{" + ",".join(map(str, value.values)) + "}", "{" + ",".join(unit(v) for v in value.values) + "}", None
+    return "drawn", "?", None
+
+
+def noise_summary(stages: Sequence[Any]) -> str:
+    """'gaussian(std=0.01) > quantize(step=0.001)' from the sensor's noise stage configs."""
+    parts = []
+    for stage in stages:
+        params = stage.model_dump(exclude_defaults=True, exclude={"type"})
+        text = ", ".join(f"{k}={_compact(v)}" for k, v in params.items())
+        parts.append(f"{stage.type}({text})" if text else stage.type)
+    return " > ".join(parts) or "-"
+
+
+def _compact(value: Any) -> str:
+    if isinstance(value, float):
+        return _g(value)
+    if isinstance(value, (list, tuple)):
+        return "[" + ",".join(_compact(v) for v in value) + "]" if len(value) <= 4 else f"[{len(value)} values]"
+    return str(value)
+
+
+def describe(suite: Any, observables: dict[str, Any], spec: dict[str, Any], model: Any) -> list[SensorRow]:
+    """A row per enabled observation, in suite order, from the built observables and the dm_env specs."""
+    from ..selection import select
+
+    timestep = float(model.opt.timestep)
+    rows = []
+    for name, obs in observables.items():
+        if not obs.enabled or name not in spec:
+            continue
+        cfg = suite.sensors[name]
+        if cfg.kind == "generic":
+            elements = None
+        elif cfg.element is None:
+            elements = 0
+        else:
+            elements = len(select(model, cfg.element, cfg.within).ids)
+        interval, hz, interval_steps = describe_schedule(obs.update_interval, 1, timestep, rate=True)
+        delay, ms, delay_steps = describe_schedule(obs.delay, 0, timestep, rate=False)
+        buffer = obs.buffer_size or 1
+        buffer_axis = cfg.aggregator is None and not (suite.options.strip_singleton_buffer_dim and buffer == 1)
+        rows.append(SensorRow(name, cfg.kind, elements, tuple(spec[name].shape), str(spec[name].dtype),
+                              interval, hz, delay, ms, buffer, cfg.aggregator, noise_summary(cfg.noise or ()),
+                              interval_steps, delay_steps, buffer_axis))
+    return rows
+
+
+def naive_samples(row: SensorRow, physics_steps: int) -> int | None:
+    """Samples an every-interval schedule takes in `physics_steps` (the reset sample included)."""
+    if row.interval_steps is None:
+        return None
+    return physics_steps // row.interval_steps + 1
+

@@ -1,0 +1,139 @@
+"""`--plot`: one row per sensor: when samples were taken and delivered, and what they said.
+
+Left, on a time axis shared by every sensor, a short window of the run: a tick per sample (top), a tick
+per delivery (bottom) and a line joining them, over faint lines at the control steps (when the agent
+reads); samples that no read could show, which the Updater skips, are light grey. Interval, delay and jitter are visible at a glance. Right, the signal over the whole run (the
+newest sample of a buffer, up to eight values), or for a camera a contact sheet of frames.
+Uses matplotlib's object API with the Agg canvas: no display, no pyplot state.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .common import SensorRow, UsageError
+
+__all__ = ["plot_run"]
+
+IMAGE_KINDS = ("rgb", "depth", "segmentation")
+MAX_LINES = 8
+FRAMES = 6
+
+
+def _window(timings: dict[str, Any], physics_steps: int, n: int) -> int:
+    """Physics steps shown in the timing column: enough for a few samples of the slowest sensor."""
+    span = n
+    for t in timings.values():
+        if len(t.sampled) > 1:
+            span = max(span, int(np.max(np.diff(t.sampled))))
+        if len(t.sampled):
+            span = max(span, int(np.max(t.delivered - t.sampled)))
+    return max(1, min(physics_steps, max(10 * n, 4 * span)))
+
+
+def _timing(ax: Any, timing: Any, window: int, n: int, dt: float) -> None:
+    for read in np.arange(0, window + 1, n):
+        ax.axvline(read * dt, color="0.88", lw=0.6, zorder=0)
+    if timing is not None:
+        keep = timing.sampled <= window
+        s, d, seen = timing.sampled[keep] * dt, timing.delivered[keep] * dt, timing.visible[keep]
+        for a, b, v in zip(s, d, seen):
+            ax.plot([a, b], [1, 0], color="0.55" if v else "0.85", lw=0.6, zorder=1)
+        ax.plot(s[seen], np.ones(seen.sum()), "|", color="C0", ms=10, mew=1.5)
+        ax.plot(d[seen], np.zeros(seen.sum()), "|", color="C3", ms=10, mew=1.5)
+        if not seen.all():  # samples no read can show: the Updater skips them
+            ax.plot(s[~seen], np.ones((~seen).sum()), "|", color="0.8", ms=10, mew=1.5)
+            ax.plot(d[~seen], np.zeros((~seen).sum()), "|", color="0.8", ms=10, mew=1.5)
+    ax.set_yticks([0, 1], ["delivered", "sampled"], fontsize=7)
+    ax.set_ylim(-0.5, 1.5)
+    ax.set_xlim(-0.5 * dt, window * dt + 0.5 * dt)
+    ax.tick_params(axis="x", labelsize=7)
+
+
+def _newest(values: np.ndarray, row: SensorRow) -> np.ndarray:
+    """Drop the buffer axis (keep the newest sample) when the observation has one and no aggregator."""
+    return values[:, -1] if row.buffer_axis else values
+    return values
+
+
+def _signal(ax: Any, t: np.ndarray, values: np.ndarray, row: SensorRow) -> None:
+    flat = _newest(values, row).reshape(len(t), -1).astype(np.float64)
+    shown = flat[:, :MAX_LINES]
+    for j in range(shown.shape[1]):
+        ax.plot(t, shown[:, j], lw=1, drawstyle="steps-post")
+    note = f"{flat.shape[1]} value{'s' if flat.shape[1] != 1 else ''}"
+    if flat.shape[1] > MAX_LINES:
+        note = f"first {MAX_LINES} of {note}"
+    ax.text(0.995, 0.96, note, transform=ax.transAxes, ha="right", va="top", fontsize=7, color="0.35")
+    ax.tick_params(labelsize=7)
+
+
+def _frame(image: np.ndarray, kind: str) -> np.ndarray:
+    """A displayable RGB float image of one camera sample."""
+    if kind == "rgb":
+        return image[..., :3].astype(np.float64) / 255.0
+    if kind == "depth":
+        d = image[..., 0].astype(np.float64)
+        finite = d[np.isfinite(d)]
+        lo, hi = (finite.min(), finite.max()) if finite.size else (0.0, 1.0)
+        g = 1.0 - (d - lo) / (hi - lo if hi > lo else 1.0)
+        return np.repeat(np.nan_to_num(g)[..., None], 3, axis=-1)
+    ids = image[..., 0].astype(np.int64)
+    palette = np.random.default_rng(7).uniform(0.15, 0.95, size=(max(int(ids.max()) + 2, 2), 3))
+    palette[0] = 0.0  # background (id -1)
+    return palette[ids + 1]
+
+
+def _contact_sheet(ax: Any, t: np.ndarray, values: np.ndarray, row: SensorRow) -> None:
+    frames = _newest(values, row)
+    picks = np.unique(np.linspace(0, len(t) - 1, min(FRAMES, len(t))).round().astype(int))
+    tiles = [_frame(frames[i], row.kind) for i in picks]
+    h, w = tiles[0].shape[:2]
+    gap = max(2, w // 20)
+    sheet = np.ones((h, len(tiles) * (w + gap) - gap, 3))
+    for k, tile in enumerate(tiles):
+        sheet[:, k * (w + gap):k * (w + gap) + w] = tile
+    ax.imshow(sheet, interpolation="nearest", aspect="equal")
+    ax.set_xticks([k * (w + gap) + w / 2 for k in range(len(tiles))], [f"t={t[i]:.3g}s" for i in picks], fontsize=7)
+    ax.set_yticks([])
+
+
+def plot_run(path: Path, rec: Any, rows: list[SensorRow], timings: dict[str, Any], dt: float, *,
+             title: str) -> None:
+    try:
+        from matplotlib.figure import Figure
+    except ImportError:
+        raise UsageError("plotting needs matplotlib: pip install 'sensorcfg[plot]'") from None
+    n = int(round((rec.time[1] - rec.time[0]) / dt)) if len(rec.time) > 1 else 1
+    physics_steps = rec.steps_done * n
+    window = _window(timings, physics_steps, n)
+    heights = [2.0 if r.kind in IMAGE_KINDS else 1.3 for r in rows] or [1.0]
+    fig = Figure(figsize=(13, 0.9 + sum(heights)), layout="constrained")
+    grid = fig.add_gridspec(len(heights), 2, width_ratios=[1, 2.4], height_ratios=heights)
+    fig.suptitle(f"{title}: {rec.steps_done} control steps of {n * dt * 1e3:g} ms", fontsize=10)
+    first_timing = first_signal = None
+    for i, row in enumerate(rows):
+        ax_t = fig.add_subplot(grid[i, 0], sharex=first_timing)
+        first_timing = first_timing or ax_t
+        _timing(ax_t, timings.get(row.name), window, n, dt)
+        label = (f"{row.name}: {row.kind}, every {row.interval} steps ({row.rate_hz} Hz), "
+                 f"delay {row.delay} steps ({row.delay_ms} ms)")
+        ax_t.set_title(label, fontsize=8, loc="left")
+        values = rec.observations[row.name]
+        if row.kind in IMAGE_KINDS:
+            _contact_sheet(fig.add_subplot(grid[i, 1]), rec.time, values, row)
+        else:
+            ax_s = fig.add_subplot(grid[i, 1], sharex=first_signal)
+            first_signal = first_signal or ax_s
+            _signal(ax_s, rec.time, values, row)
+        if i == len(rows) - 1:
+            ax_t.set_xlabel("time (s): sample and delivery, first steps", fontsize=8)
+    if first_signal is not None:
+        first_signal.set_title("signal over the run (newest sample, step-held)", fontsize=8, loc="right")
+    try:
+        fig.savefig(path, dpi=100)
+    except OSError as e:
+        raise UsageError(f"{path}: cannot write the plot: {e.strerror or e}") from None

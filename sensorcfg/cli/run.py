@@ -1,0 +1,315 @@
+"""`sensorcfg run`: simulate a suite on its model and record every observation at every control step.
+
+Parse the settings, build an Environment from the suite, step it with zero (or random) actions while a
+`Recording` keeps each observation, then report: a summary (speed, samples taken per sensor, samples and
+renders the schedule skipped), the `.npz` with its JSON sidecar, and the plot.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import time
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._version import __version__
+from .common import (EXIT_INVALID, EXIT_OK, SensorRow, UsageError, add_suite_args, describe, load_suite,
+                     model_path, naive_samples)
+from .report import Progress, table
+
+__all__ = ["add_parser", "Settings", "Recording", "execute", "require_matplotlib", "add_run_args"]
+
+TIME_KEY, ACTION_KEY = "sensorcfg.time", "sensorcfg.action"  # '.' is not allowed in sensor names
+MAX_RECORDING_BYTES = 4 << 30
+
+EXAMPLES = """examples:
+  sensorcfg run configs/arm.yaml                         200 control steps, summary only
+  sensorcfg run configs/arm.yaml --steps 1000 --out obs.npz --plot obs.png
+  sensorcfg run configs/arm.yaml --control-timestep 0.02 --random-actions --seed 3
+
+The .npz holds one array per enabled observation, named as the sensor, with a leading axis of control
+steps (the reset observation first, so N+1 entries), plus 'sensorcfg.time' (seconds, N+1) and
+'sensorcfg.action' (N x actuators). A JSON sidecar (same name, .json) records the spec and the settings.
+Load it with: data = numpy.load("obs.npz"); data["joint_pos"].shape
+
+The summary counts, per sensor, the samples taken and those an every-interval schedule would take; the
+difference was skipped because no observation could ever show it (for cameras: renders saved).
+A run whose simulation diverges stops there, keeps what it recorded, and exits with status 1."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Settings:
+    steps: int = 200
+    substeps: int | None = None
+    control_timestep: float | None = None
+    seed: int = 0
+    random_actions: bool = False
+
+
+@dataclasses.dataclass
+class Recording:
+    """Observations per control step (reset first), the actions, and what the run measured."""
+
+    observations: dict[str, np.ndarray]
+    time: np.ndarray
+    action: np.ndarray
+    steps_done: int = 0
+    wall_seconds: float = 0.0
+    samples_taken: dict[str, int] = dataclasses.field(default_factory=dict)
+    diverged: str | None = None
+
+    def truncate(self) -> None:
+        n = self.steps_done + 1
+        self.observations = {k: v[:n] for k, v in self.observations.items()}
+        self.time, self.action = self.time[:n], self.action[:n - 1]
+
+
+def positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value}")
+    return value
+
+
+def positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected seconds, e.g. 0.02, got {text!r}") from None
+    if not value > 0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a positive number of seconds, got {text!r}")
+    return value
+
+
+def add_run_args(p: argparse.ArgumentParser, steps: int) -> None:
+    p.add_argument("--steps", type=positive_int, default=steps, metavar="N",
+                   help=f"control steps to simulate (default: {steps})")
+    group = p.add_mutually_exclusive_group()
+    group.add_argument("--substeps", type=positive_int, metavar="K",
+                       help="physics steps per control step (default: the suite's options.control_interval, else 1)")
+    group.add_argument("--control-timestep", type=positive_float, metavar="T",
+                       help="seconds per control step, a whole number of physics steps")
+    p.add_argument("--seed", type=int, default=0, metavar="S", help="seed of the episode and the actions (default 0)")
+    p.add_argument("--random-actions", action="store_true",
+                   help="uniform random controls within each actuator's ctrlrange ([-1, 1] if unlimited); "
+                   "default: zero controls")
+
+
+def add_parser(sub: Any, epilog: str) -> None:
+    p = sub.add_parser("run", help="simulate a suite, record observations to .npz, summarise, plot",
+                       description="Simulate the suite's model with zero (or random) controls, record every "
+                       "observation at every control step, and print a summary.",
+                       epilog=EXAMPLES + "\n\n" + epilog, formatter_class=argparse.RawDescriptionHelpFormatter)
+    add_suite_args(p)
+    add_run_args(p, steps=200)
+    p.add_argument("--out", metavar="FILE.npz", help="write the observations here (and the sidecar FILE.json)")
+    p.add_argument("--plot", metavar="FILE.png", help="draw timing and signals per sensor (needs matplotlib)")
+    p.set_defaults(handler=command)
+
+
+def require_matplotlib() -> None:
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        raise UsageError("plotting needs matplotlib, which is not installed; install it with\n"
+                         "    pip install 'sensorcfg[plot]'\n(or pip install matplotlib)") from None
+
+
+def writable(path: str | None) -> Path | None:
+    if path is None:
+        return None
+    p = Path(path)
+    if p.is_dir():
+        raise UsageError(f"{path}: is a directory; give a file name")
+    if not p.parent.is_dir():
+        raise UsageError(f"{path}: the folder {str(p.parent)!r} does not exist")
+    return p
+
+
+# -- build -----------------------------------------------------------------------------------------------
+
+class _Built:
+    """A suite whose observables are already built (the Environment asks for `options` and `build`)."""
+
+    def __init__(self, suite: Any, observables: dict[str, Any]):
+        self.options, self._observables = suite.options, observables
+
+    def build(self, model: Any) -> dict[str, Any]:
+        return self._observables
+
+
+def make_env(suite: Any, model_file: str, settings: Settings, *, record_timing: bool) -> tuple[Any, dict[str, Any]]:
+    """The Environment and the suite's observables (drawn schedules wrapped in Recorders when asked)."""
+    import sys
+
+    from ..env import Environment
+    from ..env.environment import load_model, steps_per_control_step
+    from ..errors import SuiteError
+    from . import timing
+
+    if "" not in sys.path:
+        sys.path.insert(0, "")  # generic callables of the project, as `python -m` would find them
+    model = load_model(model_file)
+    if settings.substeps is None and settings.control_timestep is None:
+        substeps = suite.updater_kwargs(model)["physics_steps_per_control_step"]
+    else:
+        try:
+            substeps = steps_per_control_step(model, settings.substeps, settings.control_timestep)
+        except SuiteError as e:
+            raise UsageError(f"--control-timestep: {e.problems[0].message}") from None
+    observables = suite.build(model)
+    if record_timing:
+        timing.record_draws(observables)
+    env = Environment(model, _Built(suite, observables), physics_steps_per_control_step=substeps, seed=settings.seed)
+    timing.clear_draws(observables)
+    return env, observables
+
+
+# -- simulate --------------------------------------------------------------------------------------------
+
+def _actions(env: Any, settings: Settings) -> Any:
+    spec = env.action_spec()
+    if not settings.random_actions:
+        zero = np.zeros(spec.shape, spec.dtype)
+        return lambda: zero
+    rng = np.random.default_rng(settings.seed)
+    lo = np.where(np.isfinite(spec.minimum), spec.minimum, -1.0)
+    hi = np.where(np.isfinite(spec.maximum), spec.maximum, 1.0)
+    return lambda: rng.uniform(lo, hi)
+
+
+def simulate(env: Any, settings: Settings, *, keep: bool, label: str = "running") -> Recording:
+    """Step the environment `settings.steps` control steps (fewer if it diverges), keeping observations."""
+    spec = env.observation_spec()
+    n = settings.steps
+    size = sum(int(np.prod(s.shape)) * np.dtype(s.dtype).itemsize for s in spec.values()) * (n + 1)
+    if keep and size > MAX_RECORDING_BYTES:
+        raise UsageError(f"recording {n} steps would take {size / 2**30:.1f} GiB; use fewer --steps or smaller "
+                         "camera images (--set defaults.camera.width=64)")
+    rows = n + 1 if keep else 1
+    rec = Recording({k: np.zeros((rows,) + tuple(s.shape), s.dtype) for k, s in spec.items()},
+                    np.zeros(n + 1), np.zeros((n,) + env.action_spec().shape))
+    act = _actions(env, settings)
+    progress = Progress(n, label)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", RuntimeWarning)
+        ts = env.reset()
+        _store(rec, 0 if keep else None, ts.observation, env)
+        start = time.perf_counter()
+        for i in range(1, n + 1):
+            action = act()
+            ts = env.step(action)
+            rec.action[i - 1] = action
+            rec.time[i] = env.physics.data.time
+            _store(rec, i if keep else None, ts.observation, env)
+            rec.steps_done = i
+            progress.update(i)
+            if ts.last():
+                rec.diverged = env.last_divergence or "the episode ended"
+                break
+        rec.wall_seconds = time.perf_counter() - start
+    progress.close()
+    del caught  # divergence is reported in the summary, not as a Python warning
+    rec.samples_taken = dict(env.updater.samples_taken())
+    if keep:
+        rec.truncate()
+    return rec
+
+
+def _store(rec: Recording, i: int | None, observation: dict[str, Any], env: Any) -> None:
+    if i is None:
+        return
+    for name, value in observation.items():
+        rec.observations[name][i] = value
+
+
+# -- report ----------------------------------------------------------------------------------------------
+
+def summary(rec: Recording, rows: list[SensorRow], substeps: int, timestep: float) -> str:
+    physics_steps = rec.steps_done * substeps
+    wall = max(rec.wall_seconds, 1e-9)
+    sim = physics_steps * timestep
+    lines = [f"ran {rec.steps_done} control steps ({physics_steps} physics steps, {sim:.3g} s simulated) in "
+             f"{rec.wall_seconds:.3g} s: {rec.steps_done / wall:,.0f} control steps/s, "
+             f"{physics_steps / wall:,.0f} physics steps/s, {sim / wall:.3g}x real time", ""]
+    body, renders = [], [0, 0]
+    for r in rows:
+        taken = rec.samples_taken.get(r.name)
+        naive = naive_samples(r, physics_steps)
+        skipped = None if naive is None or taken is None else naive - taken
+        body.append([r.name, r.kind, taken, naive if naive is not None else "drawn", skipped])
+        if r.kind in ("rgb", "depth", "segmentation") and taken is not None:
+            renders[0] += taken
+            renders[1] += skipped or 0
+    lines.append(table(["sensor", "kind", "samples taken", "every interval", "skipped"], body, right=(2, 3, 4)))
+    if any(r.kind in ("rgb", "depth", "segmentation") for r in rows):
+        total = renders[0] + renders[1]
+        share = f" ({100 * renders[1] / total:.0f}%)" if total else ""
+        lines += ["", f"camera renders: {renders[0]} taken, {renders[1]} skipped by the schedule{share}"]
+    if rec.diverged:
+        lines += ["", f"the simulation diverged after {rec.steps_done} control steps ({rec.diverged}); "
+                  "the run stopped there"]
+    return "\n".join(lines)
+
+
+def save(rec: Recording, path: Path, sidecar: dict[str, Any]) -> Path:
+    """Write the .npz (exactly at `path`) and its JSON sidecar; returns the sidecar's path."""
+    side = path.with_suffix(".json")
+    if side == path:
+        side = path.with_name(path.name + ".json")
+    arrays = {**rec.observations, TIME_KEY: rec.time, ACTION_KEY: rec.action}
+    try:
+        with open(path, "wb") as f:
+            np.savez_compressed(f, **arrays)
+        side.write_text(json.dumps(sidecar, indent=2) + "\n", encoding="utf-8")
+    except OSError as e:
+        raise UsageError(f"{e.filename or path}: cannot write: {e.strerror or e}") from None
+    return side
+
+
+def execute(suite: Any, model_file: str, settings: Settings, out: Path | None, plot: Path | None,
+            overrides: list[str], label: str = "running") -> int:
+    """Build, simulate, summarise, save and plot; what `run` and `demo` share."""
+    env, observables = make_env(suite, model_file, settings, record_timing=plot is not None)
+    n, dt = env.physics_steps_per_control_step, float(env.physics.model.opt.timestep)
+    rows = describe(suite, observables, env.observation_spec(), env.physics.model)
+    rec = simulate(env, settings, keep=out is not None or plot is not None, label=label)
+    print(summary(rec, rows, n, dt))
+    if out is not None:
+        sidecar = {"sensorcfg": __version__, "suite": suite.file, "model": model_file, "overrides": overrides,
+                   "settings": {**dataclasses.asdict(settings), "physics_steps_per_control_step": n,
+                                "physics_timestep": dt, "control_timestep": n * dt, "steps_done": rec.steps_done},
+                   "arrays": {TIME_KEY: "time in seconds at each control step, reset first",
+                              ACTION_KEY: "controls applied at each control step"},
+                   "observations": [r.as_dict() for r in rows], "samples_taken": rec.samples_taken,
+                   "wall_seconds": rec.wall_seconds, "diverged": rec.diverged}
+        side = save(rec, out, sidecar)
+        print(f"\nwrote {out} ({len(rec.observations)} observations x {rec.steps_done + 1} steps) and {side}")
+    if plot is not None:
+        from . import timing
+        from .plot import plot_run
+
+        times = timing.timings(observables, rec.steps_done * n, n)
+        plot_run(plot, rec, rows, times, dt, title=f"{suite.file} on {Path(model_file).name}")
+        print(f"wrote {plot}")
+    return EXIT_INVALID if rec.diverged else EXIT_OK
+
+
+def settings_from(args: argparse.Namespace) -> Settings:
+    return Settings(args.steps, args.substeps, args.control_timestep, args.seed, args.random_actions)
+
+
+def command(args: argparse.Namespace) -> int:
+    if args.plot:
+        require_matplotlib()
+    out, plot = writable(args.out), writable(args.plot)
+    suite = load_suite(args.suite, args.overrides)
+    return execute(suite, model_path(suite, args.model), settings_from(args), out, plot, args.overrides)
