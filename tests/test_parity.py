@@ -154,6 +154,7 @@ def assert_same_structure(ours: Any, theirs: Any, compare: Any, where: str) -> N
 
 
 def assert_same_value(ours: Any, theirs: Any, where: str) -> None:
+    assert type(ours) is type(theirs), f"{where}: {type(ours).__name__} != {type(theirs).__name__}"
     a, b = np.asarray(ours), np.asarray(theirs)
     assert a.shape == b.shape, f"{where}: shape {a.shape} != {b.shape}"
     assert a.dtype == b.dtype, f"{where}: dtype {a.dtype} != {b.dtype}"
@@ -300,7 +301,7 @@ class Counted:
 
 def noisy(value: Any, random_state: Any) -> Any:
     """A corruptor drawing from the episode's random_state, as dm_control's noise corruptors do."""
-    return np.asarray(value) + random_state.normal(size=np.shape(value))
+    return np.array(value + random_state.normal(size=np.shape(value)))  # an array: see copied()
 
 
 def drop_in_config(rng: random.Random, oracle: Any, model: Model) -> dict[str, Any]:

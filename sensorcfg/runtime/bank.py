@@ -173,7 +173,8 @@ class FeatureBank:
         for reduce, part, block, members in groups:
             reduced = reduce(gathered[part].reshape(block))
             for i, sub, shape in members:
-                outputs[i] = reduced[sub].reshape(shape)
+                # numpy reductions of scalar samples give numpy scalars (dm_control's type), not 0-d arrays
+                outputs[i] = reduced[sub].reshape(shape) if shape else reduced[sub][0]
         return outputs
 
 

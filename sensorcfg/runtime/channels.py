@@ -123,7 +123,7 @@ class FixedChannel(Channel):
         start = ((step - self.delay) // self.interval - self.buffer_size + 1) % self.capacity
         if self.has_buffer_dim:
             return self.finish(self.ring[start:start + self.buffer_size])
-        return self.finish(self.ring[start])
+        return self.finish(self.rows[start])  # a 0-d array for scalar samples, as dm_control returns
 
 
 class RandomChannel(Channel):
