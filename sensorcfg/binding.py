@@ -106,12 +106,8 @@ class _Binder:
         timing = dict(update_interval=self.schedule(name, "interval", cfg.interval, 1),
                       delay=self.schedule(name, "delay", cfg.delay, 0),
                       buffer_size=cfg.buffer, aggregator=cfg.aggregator)
-        if cfg.kind == GENERIC_KIND:
-            made = self.generic(name, cfg, timing)
-        elif cfg.kind in IMAGE_KINDS:
-            made = self.camera(name, cfg, timing)
-        else:
-            made = self.feature(name, cfg, timing)
+        builders = {GENERIC_KIND: self.generic, **dict.fromkeys(IMAGE_KINDS, self.camera)}
+        made = builders.get(cfg.kind, self.feature)(name, cfg, timing)
         if made is None or len(self.problems) > before:
             return None
         observable, shape, dtype = made
