@@ -274,7 +274,7 @@ def test_dropout_per_value_hold():
 
 def test_outlier_rate_and_size():
     prob, scale, n = 0.05, 100.0, 4000
-    out = run(pipeline([{"type": "outlier", "p": prob, "scale": scale}], shape=(25,)), 1.0, range(n))
+    out = run(pipeline([{"type": "outlier", "p": prob, "scale": scale}], shape=(100,)), 1.0, range(n))
     hit = out != 1.0
     assert abs(hit.mean() - prob) <= Z * math.sqrt(prob * (1 - prob) / hit.size)
     close_std(out[hit] - 1.0, scale)

@@ -77,7 +77,10 @@ class _PerSample(Stage):
 
     def refill(self) -> None:
         block = self.draw(self.rng, self.ctx.block)  # type: ignore[arg-type]
-        self.rows = [block[i, ...] for i in range(len(block))] if isinstance(block, np.ndarray) else block
+        if isinstance(block, np.ndarray):  # one writable view per sample (0-d views for scalar observations)
+            self.rows = list(block) if block.ndim > 1 else [block[i, ...] for i in range(len(block))]
+        else:
+            self.rows = block
         self.k = 0
 
 
@@ -248,7 +251,11 @@ class RandomWalk(_PerSample):
 
 
 class Lowpass(Stage):
-    """y <- y + alpha (x - y), alpha = 1 - exp(-2 pi cutoff dt); starts settled at the first sample."""
+    """y <- y + alpha (x - y), alpha = 1 - exp(-2 pi cutoff dt); starts settled at the first sample.
+
+    A NaN input (a `dropout` with mode nan placed before it) stays in the state for the rest of the episode,
+    as it would in a real filter fed NaN: put such a dropout after the filter.
+    """
 
     def __init__(self, ctx: Context, cutoff: Any):
         omega = np.multiply(2.0 * math.pi, cutoff)
@@ -364,7 +371,6 @@ class Custom(Stage):
     def __call__(self, src: np.ndarray, dst: np.ndarray, step: int) -> None:
         value = src
         if self.convert:
-            value = src
             if self.ctx.dtype == np.uint8:
                 value = np.clip(np.rint(src), 0, 255)
             value = value.astype(self.ctx.dtype)
