@@ -384,3 +384,19 @@ def test_config_tables_agree_with_the_runtime_tables() -> None:
 
     assert IMAGE_KINDS == tuple(MODES)
     assert aggregator_names() == tuple(sensorcfg.AGGREGATORS)
+
+
+def test_names_with_slashes_and_subtrees_on_an_attached_model() -> None:
+    model = mujoco.MjModel.from_xml_path(str(Path(__file__).parent / "models" / "prefixed.xml"))
+    suite = sensorcfg.loads("""
+        sensors:
+          left/swing: {kind: qpos, element: "joint:left/*"}
+          tips: {kind: xpos, element: "site:*", within: "body:right/base"}
+          angle: {kind: sensordata, element: "sensor:left/angle"}
+        """)
+    obs, physics = run(suite.build(model), model, strip_singleton_buffer_dim=True)
+    assert obs["left/swing"].shape == (1,)
+    np.testing.assert_array_equal(obs["tips"], physics.data.site_xpos[[model.site("right/tip").id]])
+    assert obs["angle"].shape == (1,)
+    [problem] = sensorcfg.loads("sensors:\n  a: {kind: qpos, element: 'joint:left/swig'}\n").check(model)
+    assert problem.message == "the model has no joint named 'left/swig' (did you mean 'left/swing' or 'right/swing'?)"
