@@ -244,9 +244,14 @@ def feature_config(rng: random.Random, oracle: Any, model: Model) -> dict[str, A
                 structure=rng.choice(("dict", "ordered", "list", "tuple")))
 
 
-def scaled(value: Any, random_state: Any = None) -> Any:
-    """A deterministic corruptor (a random one would see dm_control's extra spec-probing sample)."""
-    return np.asarray(value) * 2 - 1
+def single(value: Any, random_state: Any = None) -> Any:
+    """A corruptor that changes the dtype: the observation's spec follows it."""
+    return np.asarray(value, dtype=np.float32) * 2
+
+
+def noisy(value: Any, random_state: Any) -> Any:
+    """A corruptor drawing from the episode's random_state, as dm_control's noise corruptors do."""
+    return np.array(value + random_state.normal(size=np.shape(value)))  # an array: see copied()
 
 
 def copied(value: Any, random_state: Any = None) -> Any:
@@ -259,7 +264,7 @@ def build_features(oracle: Any, config: dict[str, Any], ours: bool, rng: random.
     for spec in config["observables"]:
         settings = dict(update_interval=spec["interval"](), delay=spec["delay"](), buffer_size=spec["buffer_size"],
                         aggregator=spec["aggregator"], index=spec["index"],
-                        corruptor=scaled if spec["name"].endswith("_1") else None)
+                        corruptor={"_1": noisy, "_2": single}.get(spec["name"][-2:]))
         if not ours and settings["corruptor"] is None:
             settings["corruptor"] = copied
         if ours:
@@ -297,11 +302,6 @@ class Counted:
     def __call__(self, physics: Any) -> np.ndarray:
         self.calls += 1
         return physics.data.qpos[: self.width] * self.scale + physics.data.time
-
-
-def noisy(value: Any, random_state: Any) -> Any:
-    """A corruptor drawing from the episode's random_state, as dm_control's noise corruptors do."""
-    return np.array(value + random_state.normal(size=np.shape(value)))  # an array: see copied()
 
 
 def drop_in_config(rng: random.Random, oracle: Any, model: Model) -> dict[str, Any]:

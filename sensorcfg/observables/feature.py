@@ -140,8 +140,12 @@ class Feature(Observable):
 
     @property
     def array_spec(self) -> specs.Array | None:
-        """Known once the feature has been bound to a model (the Updater binds it at reset)."""
-        if self._bound is None:
+        """Known once the feature has been bound to a model (the Updater binds it at reset).
+
+        None while a corruptor is set: a corruptor may change the dtype or shape, so the Updater learns
+        them from one corrupted sample, exactly as dm_control does for its MJCFFeature (which has no spec).
+        """
+        if self._bound is None or self._corruptor is not None:
             return None
         template = self._bound[1]
         return specs.Array(shape=template.shape, dtype=template.dtype)
