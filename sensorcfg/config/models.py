@@ -33,16 +33,18 @@ class UniformDraw(BaseModel):
     """A value drawn per sample, uniformly from the integers lo..hi (inclusive, in physics steps)."""
 
     model_config = _FROZEN
-    low: int | str
-    high: int | str
+    low: int | str = Field(description="Smallest value: physics steps or a duration.", examples=[1, "2ms"])
+    high: int | str = Field(description="Largest value (inclusive): physics steps or a duration.", examples=[3])
 
 
 class ChoiceDraw(BaseModel):
     """A value drawn per sample from `values`, with probabilities `p` (uniform when omitted)."""
 
     model_config = _FROZEN
-    values: tuple[int | str, ...]
-    p: tuple[float, ...] | None = None
+    values: tuple[int | str, ...] = Field(description="The values to pick from: physics steps or durations.",
+                                          examples=[[1, 2, 4], ["10ms", "20ms"]])
+    p: tuple[float, ...] | None = Field(None, description="Probability of each value (summing to 1); "
+                                        "uniform when omitted.", examples=[[0.8, 0.2]])
 
 
 def _fixed(value: Any, *, rates: bool, minimum: int) -> int | str:
