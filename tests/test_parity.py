@@ -27,9 +27,9 @@ from dm_env import specs
 
 import sensorcfg
 
-CONTROL_STEPS = 24
-FEATURE_CONFIGS = 70  # per model
-DROP_IN_CONFIGS = 40  # per model
+CONTROL_STEPS = 30
+FEATURE_CONFIGS = 150  # per model
+DROP_IN_CONFIGS = 75  # per model
 MODEL_NAMES = ("arm", "quadruped", "chain", "composed")
 
 # Kinds read per element type (dm_control `bind` names); each is tried on the models that have it.
@@ -170,7 +170,7 @@ def assert_same_spec(ours: Any, theirs: Any, where: str) -> None:
 
 
 def run_side_by_side(oracle: Any, model: Model, theirs: Any, ours: Any, n: int, strip: bool, pad: bool,
-                     seed: int, where: str) -> tuple[Any, Any]:
+                     seed: int, where: str, control_steps: int = CONTROL_STEPS) -> tuple[Any, Any]:
     """Run both updaters over one trajectory, comparing at reset and after every control step."""
     their_updater = oracle.updater.Updater(theirs, n, strip, pad)
     our_updater = sensorcfg.Updater(ours, n, strip, pad)
@@ -183,7 +183,7 @@ def run_side_by_side(oracle: Any, model: Model, theirs: Any, ours: Any, n: int, 
     assert_same_structure(our_updater.get_observation(), their_updater.get_observation(), assert_same_value,
                           f"{where} reset")
     controls = np.random.RandomState(seed + 1)
-    for step in range(CONTROL_STEPS):
+    for step in range(control_steps):
         physics.data.ctrl[:] = controls.uniform(-1, 1, physics.model.nu)
         their_updater.prepare_for_next_control_step()
         our_updater.prepare_for_next_control_step()
@@ -347,3 +347,91 @@ def test_drop_in_parity(oracle: Any, models: dict[str, Model], model_name: str) 
         where = f"{model_name} drop-in config {k} (n={config['n']}, strip={config['strip']}, pad={config['pad']})"
         run_side_by_side(oracle, model, theirs, ours, config["n"], config["strip"], config["pad"], seed, where)
         assert [c.calls for c in our_counts] == [c.calls for c in their_counts], f"{where}: samples taken"
+
+
+def test_ours_in_dm_control_updater(oracle: Any, models: dict[str, Model]) -> None:
+    """The other direction: sensorcfg observables inside dm_control's own Updater."""
+    model = models["arm"]
+    configs = random.Random("ours-in-dm-control")
+    for k in range(40):
+        config = feature_config(configs, oracle, model)
+        seed, arrangement = configs.randrange(2**31), configs.randrange(2**31)
+        theirs = build_features(oracle, config, False, random.Random(arrangement))
+        ours = build_features(oracle, config, True, random.Random(arrangement))
+        n, strip, pad = config["n"], config["strip"], config["pad"]
+        reference = oracle.updater.Updater(theirs, n, strip, pad)
+        hosted = oracle.updater.Updater(ours, n, strip, pad)
+        model.reset()
+        reference.reset(model.physics, np.random.RandomState(seed))
+        hosted.reset(model.physics, np.random.RandomState(seed))
+        where = f"hosted config {k}"
+        assert_same_structure(hosted.observation_spec(), reference.observation_spec(), assert_same_spec, where)
+        for step in range(CONTROL_STEPS):
+            reference.prepare_for_next_control_step()
+            hosted.prepare_for_next_control_step()
+            for _ in range(n):
+                model.physics.step()
+                reference.update()
+                hosted.update()
+            assert_same_structure(hosted.get_observation(), reference.get_observation(), assert_same_value,
+                                  f"{where} control step {step + 1}")
+
+
+def test_pathological_periods(oracle: Any, models: dict[str, Model]) -> None:
+    """Intervals whose common period is too long to tabulate (each task checks its own phase)."""
+    model = models["quadruped"]
+
+    def build() -> tuple[dict[str, Any], list[Counted]]:
+        observables, counters = {}, []
+        for k, (interval, delay, buffer_size) in enumerate([(251, 3, 2), (257, 0, 1), (263, 300, 3), (1, 0, 1)]):
+            counter = Counted(2, 1.0 + k)
+            counters.append(counter)
+            observables[f"g{k}"] = oracle.observable.Generic(counter, update_interval=interval, delay=delay,
+                                                             buffer_size=buffer_size, corruptor=noisy)
+            observables[f"g{k}"].enabled = True
+        drawn = oracle.observable.Generic(Counted(1, 9.0), update_interval=oracle.distributions.UniformInteger(1, 4),
+                                          delay=oracle.distributions.UniformInteger(0, 4), corruptor=noisy)
+        drawn.enabled = True
+        observables["drawn"] = drawn
+        return observables, counters
+
+    theirs, their_counts = build()
+    ours, our_counts = build()
+    run_side_by_side(oracle, model, theirs, ours, 7, False, True, 5, "pathological periods", control_steps=150)
+    assert [c.calls for c in our_counts] == [c.calls for c in their_counts]
+
+
+def test_pad_aliasing_deviation(oracle: Any, models: dict[str, Model]) -> None:
+    """A documented, intentional deviation: dm_control pads with the live value, we with the first one.
+
+    dm_control fills the buffer with the object the first read returned, uncopied. MJCFFeature returns
+    the binding's cached array, which every later read of that binding refreshes in place, so the
+    "initial value" padding shows the newest value instead. The parity tests detach values (copied())
+    to compare everything else; here both behaviours are pinned.
+    """
+    model = models["arm"]
+    root_joint = model.root.find("joint", "root")
+
+    def observables(make: Any) -> dict[str, Any]:
+        observable = make()
+        observable.configure(update_interval=1, delay=8, buffer_size=3)
+        observable.enabled = True
+        return {"qpos": observable}
+
+    theirs = oracle.updater.Updater(observables(lambda: oracle.observable.MJCFFeature("qpos", root_joint)), 2,
+                                    pad_with_initial_value=True)
+    ours = sensorcfg.Updater(observables(lambda: sensorcfg.Feature("qpos", "joint:root")), 2,
+                             pad_with_initial_value=True)
+    model.reset()
+    initial = model.physics.data.qpos[:7].copy()
+    theirs.reset(model.physics, np.random.RandomState(0))
+    ours.reset(model.physics, np.random.RandomState(0))
+    for updater in (theirs, ours):
+        updater.prepare_for_next_control_step()
+    for _ in range(2):
+        model.physics.step()
+        theirs.update()
+        ours.update()
+    live = model.physics.bind(root_joint).qpos.copy()  # refreshes dm_control's cached binding array
+    np.testing.assert_array_equal(ours.get_observation()["qpos"], [initial] * 3)
+    np.testing.assert_array_equal(theirs.get_observation()["qpos"], [live] * 3)  # nothing delivered yet
