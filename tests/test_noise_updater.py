@@ -250,3 +250,33 @@ sensors:
             for _ in range(2)]
     np.testing.assert_array_equal(runs[0], runs[1])
     assert runs[0].shape == (20, 1, 6)  # buffer axis kept (no strip_singleton_buffer_dim)
+
+
+class TimeAndZeros:
+    """Generic callable: [simulated time, 0, 0, ...], so a sample carries the time it was taken."""
+
+    def __init__(self, width):
+        self.width = width
+
+    def __call__(self, physics):
+        out = np.zeros(self.width)
+        out[0] = physics.data.time
+        return out
+
+
+def test_random_walk_with_random_intervals_uses_each_samples_time(model):
+    """With intervals drawn per sample, the correlation between two reads is exp(-(t2 - t1)/tau) for the
+    times t1, t2 at which their samples were taken (std 0 on entry 0 keeps the time readable)."""
+    width, tau = 4001, 0.01
+    draws = np.random.RandomState(0)
+    obs = sensorcfg.Generic(TimeAndZeros(width), update_interval=lambda: int(draws.randint(1, 5)))
+    obs.noise = build_noise([{"type": "random_walk", "std": [0.0] + [1.0] * (width - 1), "correlation_time": tau}],
+                            (width,), np.float64, model.opt.timestep)
+    obs.enabled = True
+    got = stream(episodes(model, {"walk": obs}, seed=9, count=1, control_steps=8), "walk")[:, 0]
+    times = got[:, 0]
+    assert len(set(np.round(np.diff(times) / model.opt.timestep).astype(int))) > 1  # irregular gaps
+    for (t1, a), (t2, b) in zip(zip(times, got[:, 1:]), zip(times[1:], got[1:, 1:])):
+        rho = math.exp(-(t2 - t1) / tau)
+        r = np.corrcoef(a, b)[0, 1]
+        assert abs(r - rho) <= Z * (1 - rho**2) / math.sqrt(width - 1) + 1e-9, (t1, t2, r, rho)
