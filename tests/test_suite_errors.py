@@ -384,6 +384,17 @@ LOAD_MISTAKES = [
         '    element: [joint:elbow, 3]\n',
         "4:14: error: sensors.s.element: an element is written 'type:name' (for example 'joint:elbow', 'site:finger_*'); got 3",
         id='element_list_entry'),
+    pytest.param(
+        'sensors:\n'
+        '  a: &x {kind: qpos, element: joint:elbow, noise: [*x]}\n',
+        '2:6: error: sensors.a.noise.0: this alias refers to a node that contains it (an endless value); remove the alias',
+        id='alias_cycle'),
+    pytest.param(
+        'sensors: {}\n'
+        '---\n'
+        'sensors: {}\n',
+        '2:1: error: invalid YAML: found another document (expected a single document in the stream)',
+        id='two_documents'),
 ]
 
 

@@ -98,7 +98,8 @@ def compose(text: str, file: str, *, col_offset: int = 0) -> Doc:
         node = yaml.compose(text, Loader=yaml.SafeLoader)
     except yaml.MarkedYAMLError as e:
         mark = e.problem_mark or e.context_mark
-        what = str(e.problem or e.context) + (f" ({e.context})" if e.problem and e.context else "")
+        problem = str(e.problem or e.context).removeprefix("but ")
+        what = problem + (f" ({e.context})" if e.problem and e.context else "")
         pos = _pos(mark, file, col_offset=col_offset) if mark else Pos(file, 1, 1)
         raise SuiteError(pos.problem(f"invalid YAML: {what}")) from None
     except yaml.YAMLError as e:  # pragma: no cover - PyYAML raises marked errors for text input
@@ -112,6 +113,11 @@ def compose(text: str, file: str, *, col_offset: int = 0) -> Doc:
     return doc
 
 
+# Aliases expand into copies (each copy has its own path and positions), so a few nested aliases could
+# expand into billions of values; a suite is far smaller than this.
+MAX_NODES = 100_000
+
+
 class _Builder:
     """Walks composed nodes, building values and recording positions and problems."""
 
@@ -121,23 +127,42 @@ class _Builder:
         self.doc = doc
         self.problems: list[Problem] = []
         self.constructor = yaml.SafeLoader("")  # constructs single safe scalars
+        self.open: set[int] = set()  # ids of the collections being built (an alias to one is a cycle)
+        self.count = 0
 
     def pos(self, node: yaml.Node) -> Pos:
         return _pos(node.start_mark, self.file, col_offset=self.col_offset)
 
     def build(self, node: yaml.Node, path: Path_) -> Any:
         self.doc.values[path] = self.pos(node)
-        if isinstance(node, yaml.MappingNode):
-            if node.tag != _MAP:
-                return self.bad_tag(node, path)
-            return self.mapping(node, path)
-        if isinstance(node, yaml.SequenceNode):
-            if node.tag != _SEQ:
-                return self.bad_tag(node, path)
-            return [self.build(item, path + (i,)) for i, item in enumerate(node.value)]
+        self.count += 1
+        if self.count > MAX_NODES:
+            if self.count == MAX_NODES + 1:
+                self.problems.append(self.pos(node).problem(
+                    f"the file expands to more than {MAX_NODES} values (through aliases); write it out plainly",
+                    dotted(path)))
+            return None
+        if isinstance(node, yaml.CollectionNode):
+            if id(node) in self.open:
+                self.problems.append(self.pos(node).problem(
+                    "this alias refers to a node that contains it (an endless value); remove the alias",
+                    dotted(path)))
+                return None
+            self.open.add(id(node))
+            try:
+                return self.collection(node, path)
+            finally:
+                self.open.discard(id(node))
         if node.tag not in _SAFE_SCALARS:
             return self.bad_tag(node, path)
         return self.constructor.construct_object(node, deep=True)
+
+    def collection(self, node: yaml.CollectionNode, path: Path_) -> Any:
+        if isinstance(node, yaml.MappingNode):
+            return self.mapping(node, path) if node.tag == _MAP else self.bad_tag(node, path)
+        if node.tag != _SEQ:
+            return self.bad_tag(node, path)
+        return [self.build(item, path + (i,)) for i, item in enumerate(node.value)]
 
     def bad_tag(self, node: yaml.Node, path: Path_) -> None:
         tag = node.tag.replace("tag:yaml.org,2002:", "!!")
