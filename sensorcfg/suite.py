@@ -73,8 +73,9 @@ class Suite:
             return raw_structs(model)[0]
         if model is None:
             if self.model is None:
-                raise SuiteError(Problem("no model to check against: pass one, or name it in the suite with "
-                                         "'model: path/to/robot.xml'", "model", self.file))
+                message = "no model to check against: pass one, or name it in the suite with 'model: path/to/robot.xml'"
+                top = self._loaded.doc.pos(())
+                raise SuiteError(top.problem(message, "model") if top else Problem(message, "model", self.file))
             path, pos = self.model, self._loaded.doc.pos(("model",))
         else:
             path, pos = str(model), None
