@@ -24,12 +24,23 @@ from ..errors import SuiteError
 from ..physics import Physics
 from ..runtime.updater import Updater
 
-__all__ = ["Environment", "make_env", "load_model", "steps_per_control_step"]
+__all__ = ["Environment", "make_env", "load_model", "random_state_from", "steps_per_control_step"]
 
 _BAD_STATE = tuple(getattr(mujoco.mjtWarning, f"mjWARN_BAD{w}") for w in ("QPOS", "QVEL", "QACC", "CTRL"))
 RewardFn = Callable[[Physics], float]
 TerminationFn = Callable[[Physics], bool]
 InitializeFn = Callable[[Physics, np.random.RandomState], None]
+
+
+def random_state_from(seed: int | np.random.SeedSequence | np.random.RandomState | None) -> np.random.RandomState:
+    """The episode random state for a seed: an int or None as `numpy.random.RandomState(seed)`; a
+    SeedSequence (how `BatchEnvironment` seeds simulation i: `sensorcfg.batch.sim_seed(seed, i)`) seeds
+    MT19937 with its full entropy; a RandomState is used as is."""
+    if isinstance(seed, np.random.RandomState):
+        return seed
+    if isinstance(seed, np.random.SeedSequence):
+        return np.random.RandomState(np.random.MT19937(seed))
+    return np.random.RandomState(seed)
 
 
 def load_model(model: mujoco.MjModel | str | os.PathLike) -> mujoco.MjModel:
@@ -85,7 +96,8 @@ class Environment(dm_env.Environment):
 
     def __init__(self, model: mujoco.MjModel | str | os.PathLike, suite: Any, *,
                  physics_steps_per_control_step: int | None = None, control_timestep: float | None = None,
-                 time_limit: float | None = None, seed: int | np.random.RandomState | None = None,
+                 time_limit: float | None = None,
+                 seed: int | np.random.SeedSequence | np.random.RandomState | None = None,
                  reward_fn: RewardFn | None = None, termination_fn: TerminationFn | None = None,
                  initialize_episode: InitializeFn | None = None, keyframe: int | str | None = None):
         self._model = load_model(model)
@@ -94,7 +106,7 @@ class Environment(dm_env.Environment):
         observables, flags = _suite_and_observables(suite, self._model)
         self._observables = observables
         self._updater = Updater(observables, self._n, **flags)
-        self._random_state = seed if isinstance(seed, np.random.RandomState) else np.random.RandomState(seed)
+        self._random_state = random_state_from(seed)
         self._reward_fn, self._termination_fn, self._initialize = reward_fn, termination_fn, initialize_episode
         self._keyframe = self._keyframe_id(keyframe)
         self._control_timestep = self._n * float(self._model.opt.timestep)
@@ -148,9 +160,9 @@ class Environment(dm_env.Environment):
     def discount_spec(self) -> specs.BoundedArray:
         return specs.BoundedArray(shape=(), dtype=np.float64, minimum=0.0, maximum=1.0, name="discount")
 
-    def seed(self, seed: int | None) -> None:
+    def seed(self, seed: int | np.random.SeedSequence | None) -> None:
         """Restart the episode random stream (the next reset draws from it)."""
-        self._random_state = np.random.RandomState(seed)
+        self._random_state = random_state_from(seed)
         self._needs_reset = True
 
     # -- episodes ---------------------------------------------------------------------------------
