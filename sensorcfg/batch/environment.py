@@ -1,0 +1,283 @@
+"""`BatchEnvironment`: one sensor suite over nsim simulations of one model, on MuJoCo 4's `mujoco.batch`.
+
+Simulation i behaves exactly as `Environment(model, suite, seed=sim_seed(seed, i))` given the same actions:
+the same observations to the bit (intervals, delays, random ones included, buffers, aggregators, noise),
+step types, rewards and discounts. One control step of every simulation is one `Batch.rollout` call that
+records only the mjData fields the suite reads; observations come from the vectorised `BatchUpdater`.
+
+Seeds: `seed` (an int, a SeedSequence or None) is a `numpy.random.SeedSequence`; simulation i's seed is
+its child with spawn key i (`sim_seed(seed, i)`, the same as `SeedSequence(seed).spawn(i + 1)[i]`), whose
+full entropy seeds that simulation's episode random state (MT19937, as `Environment` does with a
+SeedSequence). Streams therefore depend on the simulation's index only: growing or shrinking `nsim`
+leaves the other simulations' streams unchanged. Each sensor's noise then has its own stream per episode
+(`sensor_rng(episode entropy, sensor name)`), as in the single simulation.
+
+Episodes (auto-reset, as dm_env and Gymnasium's next-step mode): a simulation whose last step ended its
+episode (time limit: truncation, discount 1; divergence: termination, discount 0) is reset by the next
+`step`, which returns FIRST for it and ignores its action; so does every simulation before the first
+`reset`. `reset(ids)` restarts the given simulations now (all when None): their physics, buffers and
+per-episode noise only. It returns every simulation's observation, FIRST for the reset ones and MID for
+the others; rewards are 0 and discounts 1 at FIRST steps. A simulation stepped for the step on which it is
+reset costs one control step of physics whose result is discarded (the batch steps all simulations at
+once).
+
+Divergence is per simulation, from the batch's own error state: a simulation whose MuJoCo call raised
+(`SimulationError`, `Batch.error(i)`), whose bad-state warning counters rose, or whose qpos/qvel is not
+finite ends its episode with discount 0, its message in `last_divergence[i]` (and a RuntimeWarning); the
+others go on. The batch stops stepping a simulation at its first warning, so the observation of that last
+step may differ from a single simulation's (which MuJoCo resets and steps on).
+
+Rewards are 0 (the suite observes; shape rewards from the observations).
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from typing import Any, NamedTuple
+
+import dm_env
+import mujoco
+import numpy as np
+from dm_env import specs
+
+from ..errors import SuiteError
+from ..physics import Physics
+from ..env.environment import _BAD_STATE, _suite_and_observables, load_model, random_state_from, steps_per_control_step
+from .updater import BatchUpdater
+
+__all__ = ["BatchEnvironment", "BatchTimeStep", "sim_seed"]
+
+_FIRST, _MID, _LAST = (int(t) for t in (dm_env.StepType.FIRST, dm_env.StepType.MID, dm_env.StepType.LAST))
+
+
+def _batch_module() -> Any:
+    try:
+        from mujoco import batch
+    except ImportError:
+        raise SuiteError(f"BatchEnvironment needs MuJoCo 4 (its mujoco.batch module); this is mujoco "
+                         f"{mujoco.__version__}: pip install 'mujoco>=4', or use sensorcfg.Environment per "
+                         "simulation") from None
+    return batch
+
+
+def sim_seed(seed: int | np.random.SeedSequence | None, i: int) -> np.random.SeedSequence:
+    """Simulation i's seed in a batch seeded with `seed`: the SeedSequence child with spawn key i.
+
+    `Environment(model, suite, seed=sim_seed(seed, i))` reproduces simulation i of the batch.
+    """
+    root = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+    return np.random.SeedSequence(root.entropy, spawn_key=(*root.spawn_key, int(i)), pool_size=root.pool_size)
+
+
+class BatchTimeStep(NamedTuple):
+    """A dm_env TimeStep per simulation: arrays with a leading nsim axis."""
+
+    step_type: np.ndarray  # (nsim,) dm_env.StepType values
+    reward: np.ndarray  # (nsim,) float64
+    discount: np.ndarray  # (nsim,) float64
+    observation: dict[str, np.ndarray]  # (nsim, ...) each
+
+    def first(self) -> np.ndarray:
+        return self.step_type == _FIRST
+
+    def mid(self) -> np.ndarray:
+        return self.step_type == _MID
+
+    def last(self) -> np.ndarray:
+        return self.step_type == _LAST
+
+
+class BatchEnvironment:
+    """nsim simulations of one MuJoCo model, stepped together and observed through one sensor suite."""
+
+    def __init__(self, model: mujoco.MjModel | str | os.PathLike, suite: Any, nsim: int, *,
+                 nthread: int | None = None, physics_steps_per_control_step: int | None = None,
+                 control_timestep: float | None = None, time_limit: float | None = None,
+                 seed: int | np.random.SeedSequence | None = None):
+        batch_module = _batch_module()
+        if not isinstance(nsim, (int, np.integer)) or isinstance(nsim, bool) or nsim < 1:
+            raise SuiteError(f"nsim must be a positive integer (simulations), got {nsim!r}")
+        if nthread is not None and (not isinstance(nthread, (int, np.integer)) or nthread < 0):
+            raise SuiteError(f"nthread must be a non-negative integer (0: every CPU), got {nthread!r}")
+        self._model = load_model(model)
+        self._nsim = int(nsim)
+        self._n = steps_per_control_step(self._model, physics_steps_per_control_step, control_timestep)
+        self._control_timestep = self._n * float(self._model.opt.timestep)
+        if time_limit is not None and time_limit <= 0:
+            raise SuiteError(f"time_limit must be positive seconds, got {time_limit!r}")
+        self._step_limit = None if time_limit is None else max(1, round(time_limit / self._control_timestep))
+        observables, flags = _suite_and_observables(suite, self._model)
+        physics = Physics(self._model)
+        mujoco.mj_forward(self._model, physics.data)
+        self._updater = BatchUpdater(observables, physics, self._nsim, self._n, **flags)
+        self._batch = batch_module.Batch(self._model, self._nsim, 0 if nthread is None else int(nthread))
+        self._simulation_error = batch_module.SimulationError
+        self._record = list(self._updater.record_out)
+        self._bound = {f: self._batch.bind(f) for f in self._record}  # bound before any call: kept current
+        self._qpos, self._qvel = self._batch.bind("qpos"), self._batch.bind("qvel")
+        self._seed = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+        self._random_states = [random_state_from(sim_seed(self._seed, i)) for i in range(self._nsim)]
+        self._needs_reset = np.ones(self._nsim, bool)
+        self._bad = np.zeros(self._nsim, np.int64)
+        self.last_divergence: list[str | None] = [None] * self._nsim
+        lo, hi = self._model.actuator_ctrlrange.T.copy()
+        limited = self._model.actuator_ctrllimited.astype(bool)
+        self._action_spec = specs.BoundedArray(
+            shape=(self._nsim, self._model.nu), dtype=np.float64, name="action",
+            minimum=np.where(limited, lo, -np.inf), maximum=np.where(limited, hi, np.inf))
+        self._observation_spec = self._updater.observation_spec()
+
+    # -- properties -------------------------------------------------------------------------------
+
+    @property
+    def nsim(self) -> int:
+        return self._nsim
+
+    @property
+    def batch(self) -> Any:
+        """The `mujoco.batch.Batch` (state fields are writable there; write them before a step)."""
+        return self._batch
+
+    @property
+    def updater(self) -> BatchUpdater:
+        return self._updater
+
+    @property
+    def physics_steps_per_control_step(self) -> int:
+        return self._n
+
+    @property
+    def control_timestep(self) -> float:
+        return self._control_timestep
+
+    @property
+    def seed_sequence(self) -> np.random.SeedSequence:
+        """The batch's root seed; simulation i's is `sim_seed(seed_sequence, i)`."""
+        return self._seed
+
+    def action_spec(self) -> specs.BoundedArray:
+        return self._action_spec
+
+    def observation_spec(self) -> dict[str, specs.Array]:
+        return self._observation_spec
+
+    def reward_spec(self) -> specs.Array:
+        return specs.Array(shape=(self._nsim,), dtype=np.float64, name="reward")
+
+    def discount_spec(self) -> specs.BoundedArray:
+        return specs.BoundedArray(shape=(self._nsim,), dtype=np.float64, minimum=0.0, maximum=1.0, name="discount")
+
+    # -- episodes ---------------------------------------------------------------------------------
+
+    def _ids(self, ids: Any) -> np.ndarray:
+        """Validated simulation ids (sorted, unique) from None, integers or a boolean mask."""
+        if ids is None:
+            return np.arange(self._nsim)
+        arr = np.asarray(ids)
+        if arr.dtype == bool:
+            if arr.shape != (self._nsim,):
+                raise SuiteError(f"a boolean mask of simulations must have shape ({self._nsim},), got {arr.shape}")
+            return np.flatnonzero(arr)
+        if arr.ndim == 0:
+            arr = arr.reshape(1)
+        if arr.ndim != 1 or (arr.size and not np.issubdtype(arr.dtype, np.integer)):
+            raise SuiteError(f"ids must be simulation indices (a 1-D array of integers) or a boolean mask, got {ids!r}")
+        bad = arr[(arr < 0) | (arr >= self._nsim)]
+        if bad.size:
+            raise SuiteError(f"simulation id {int(bad[0])} is out of range: the batch has {self._nsim} simulations "
+                             f"(ids 0 to {self._nsim - 1})")
+        return np.unique(arr.astype(np.intp))
+
+    def _reset_sims(self, ids: np.ndarray) -> None:
+        """Physics and updater reset of `ids` (non-empty)."""
+        try:
+            self._batch.reset(ids)
+        except self._simulation_error as e:  # a reset that raises: report it, keep it for the next step
+            raise SuiteError(f"resetting simulations {list(e.ids)[:5]} raised in MuJoCo: {e}") from None
+        for f in self._record:
+            self._updater.reset_values[f][ids] = self._bound[f][ids]
+        self._updater.reset(ids, self._random_states)
+        self._needs_reset[ids] = False
+        self._bad[ids] = self._bad_counts()[ids]
+        for i in ids:
+            self.last_divergence[int(i)] = None
+
+    def reset(self, ids: Any = None) -> BatchTimeStep:
+        """Start new episodes of simulations `ids` (all when None); the others continue."""
+        ids = self._ids(ids)
+        if ids.size:
+            self._reset_sims(ids)
+        step_type = np.full(self._nsim, _MID, np.uint8)
+        step_type[ids] = _FIRST
+        return BatchTimeStep(step_type, np.zeros(self._nsim), np.ones(self._nsim), self._updater.get_observation())
+
+    def step(self, actions: Any) -> BatchTimeStep:
+        """One control step of every simulation (auto-resetting those whose episode ended)."""
+        actions = self._check_actions(actions)
+        restart = self._needs_reset.copy()
+        active = ~restart
+        updater = self._updater
+        failed = np.zeros(self._nsim, bool)
+        messages: dict[int, str] = {}
+        if active.any():
+            updater.prepare(active)
+            try:
+                self._batch.rollout(self._n, control=actions[:, None, :], record=self._record, out=updater.record_out)
+            except self._simulation_error as e:  # those simulations kept their state; the others ran
+                failed[e.ids] = True
+                for i in e.ids:
+                    messages[int(i)] = f"MuJoCo raised: {self._batch.error(int(i))}"
+            updater.update(active)
+        ids = np.flatnonzero(restart)
+        if ids.size:
+            self._reset_sims(ids)
+        observation = updater.get_observation()
+        step_type = np.full(self._nsim, _MID, np.uint8)
+        discount = np.ones(self._nsim)
+        step_type[restart] = _FIRST
+        diverged = self._diverged(active, failed, messages)
+        if self._step_limit is not None:
+            over = active & (updater.control_steps >= self._step_limit)
+            step_type[over] = _LAST
+            self._needs_reset |= over
+        if diverged.any():
+            step_type[diverged] = _LAST
+            discount[diverged] = 0.0
+            self._needs_reset |= diverged
+        return BatchTimeStep(step_type, np.zeros(self._nsim), discount, observation)
+
+    def _bad_counts(self) -> np.ndarray:
+        warning = self._batch.warning  # (nsim, mjNWARNING, (lastinfo, number))
+        return sum(warning[:, int(w), 1].astype(np.int64) for w in _BAD_STATE)
+
+    def _diverged(self, active: np.ndarray, failed: np.ndarray, messages: dict[int, str]) -> np.ndarray:
+        bad = self._bad_counts()
+        warned = bad != self._bad
+        self._bad = bad
+        finite = np.isfinite(self._qpos).all(axis=1) & np.isfinite(self._qvel).all(axis=1)
+        diverged = active & (failed | warned | ~finite)
+        if diverged.any():
+            for i in np.flatnonzero(diverged):
+                i = int(i)
+                self.last_divergence[i] = messages.get(i) or (
+                    "MuJoCo found a non-finite or huge qpos, qvel or qacc" if warned[i] else "non-finite qpos or qvel")
+            first = [int(i) for i in np.flatnonzero(diverged)[:5]]
+            warnings.warn(f"sensorcfg: {int(diverged.sum())} of {self._nsim} simulations diverged ({first}"
+                          f"{', ...' if diverged.sum() > 5 else ''}; simulation {first[0]}: "
+                          f"{self.last_divergence[first[0]]}); their episodes end here (discount 0)",
+                          RuntimeWarning, stacklevel=3)
+        return diverged
+
+    def _check_actions(self, actions: Any) -> np.ndarray:
+        try:
+            arr = np.asarray(actions, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise SuiteError(f"actions must be a ({self._nsim}, {self._model.nu}) array of numbers") from None
+        if arr.shape != (self._nsim, self._model.nu):
+            raise SuiteError(f"actions must have shape ({self._nsim}, {self._model.nu}) (one control per simulation "
+                             f"and actuator), got {arr.shape}")
+        return arr
+
+    def close(self) -> None:
+        pass
