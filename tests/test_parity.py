@@ -193,6 +193,8 @@ def run_side_by_side(oracle: Any, model: Model, theirs: Any, ours: Any, n: int, 
             our_updater.update()
         assert_same_structure(our_updater.get_observation(), their_updater.get_observation(), assert_same_value,
                               f"{where} control step {step + 1}")
+        assert_same_structure(our_updater.observation_spec(), their_updater.observation_spec(), assert_same_spec,
+                              f"{where} spec at control step {step + 1}")
     return our_updater, their_updater
 
 
@@ -435,3 +437,31 @@ def test_pad_aliasing_deviation(oracle: Any, models: dict[str, Model]) -> None:
     live = model.physics.bind(root_joint).qpos.copy()  # refreshes dm_control's cached binding array
     np.testing.assert_array_equal(ours.get_observation()["qpos"], [initial] * 3)
     np.testing.assert_array_equal(theirs.get_observation()["qpos"], [live] * 3)  # nothing delivered yet
+
+
+def test_episodes_reuse_updaters(oracle: Any, models: dict[str, Model]) -> None:
+    """Several episodes on the same pair of updaters (reset again, one random_state across episodes)."""
+    for name, model in models.items():
+        configs = random.Random(f"episodes-{name}")
+        for k in range(20):
+            config = feature_config(configs, oracle, model)
+            seed, arrangement = configs.randrange(2**31), configs.randrange(2**31)
+            theirs = oracle.updater.Updater(build_features(oracle, config, False, random.Random(arrangement)),
+                                            config["n"], config["strip"], config["pad"])
+            ours = sensorcfg.Updater(build_features(oracle, config, True, random.Random(arrangement)),
+                                     config["n"], config["strip"], config["pad"])
+            their_random, our_random = np.random.RandomState(seed), np.random.RandomState(seed)
+            for episode in range(3):
+                model.reset()
+                model.physics.data.qvel[:] += episode
+                theirs.reset(model.physics, their_random)
+                ours.reset(model.physics, our_random)
+                for step in range(8 + 5 * episode):
+                    theirs.prepare_for_next_control_step()
+                    ours.prepare_for_next_control_step()
+                    for _ in range(config["n"]):
+                        model.physics.step()
+                        theirs.update()
+                        ours.update()
+                    assert_same_structure(ours.get_observation(), theirs.get_observation(), assert_same_value,
+                                          f"{name} config {k} episode {episode} control step {step + 1}")
