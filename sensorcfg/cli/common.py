@@ -15,8 +15,9 @@ from typing import Any
 
 from ..errors import Problem, SuiteError
 
-__all__ = ["EXIT_OK", "EXIT_INVALID", "EXIT_USAGE", "UsageError", "SensorRow", "override", "add_suite_args",
-           "load_suite", "model_path", "describe", "describe_schedule"]
+__all__ = ["EXIT_OK", "EXIT_INVALID", "EXIT_USAGE", "UsageError", "SensorRow", "override", "positive_int",
+           "positive_float", "writable", "require_matplotlib", "add_suite_args", "load_suite", "model_path",
+           "describe", "describe_schedule", "naive_samples"]
 
 EXIT_OK, EXIT_INVALID, EXIT_USAGE = 0, 1, 2
 
@@ -48,6 +49,45 @@ def add_suite_args(parser: argparse.ArgumentParser, *, suite_optional: bool = Fa
     parser.add_argument("--model", metavar="MODEL", help="MJCF/MJB model (default: the suite's 'model:')")
     parser.add_argument("--set", dest="overrides", action="append", default=[], type=override,
                         metavar="KEY=VALUE", help="override a suite key (repeatable), e.g. defaults.buffer=2")
+
+
+def positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value}")
+    return value
+
+
+def positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected seconds, e.g. 0.02, got {text!r}") from None
+    if not value > 0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a positive number of seconds, got {text!r}")
+    return value
+
+
+def require_matplotlib() -> None:
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        raise UsageError("plotting needs matplotlib, which is not installed; install it with\n"
+                         "    pip install 'sensorcfg[plot]'\n(or pip install matplotlib)") from None
+
+
+def writable(path: str | None) -> Path | None:
+    if path is None:
+        return None
+    p = Path(path)
+    if p.is_dir():
+        raise UsageError(f"{path}: is a directory; give a file name")
+    if not p.parent.is_dir():
+        raise UsageError(f"{path}: the folder {str(p.parent)!r} does not exist")
+    return p
 
 
 def existing_file(path: str, what: str) -> Path:

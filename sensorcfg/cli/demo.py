@@ -11,8 +11,8 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from .common import EXIT_OK, UsageError, add_suite_args, load_suite, model_path
-from .run import add_run_args, execute, require_matplotlib, settings_from, writable
+from .common import EXIT_OK, UsageError, add_suite_args, load_suite, model_path, require_matplotlib, writable
+from .run import add_run_args, execute, settings_from
 from .spec import build_spec, format_spec
 
 __all__ = ["add_parser"]
@@ -22,10 +22,11 @@ PREFIX = "sensorcfg-demo"
 
 EXAMPLES = """examples:
   sensorcfg demo                              spec, run and plot into the current folder
-  sensorcfg demo --steps 500 --random-actions
+  sensorcfg demo --steps 500 --zero-actions
   sensorcfg demo --prefix out/arm my_suite.yaml
 
-Writes PREFIX.npz, PREFIX.json and PREFIX.png (PREFIX defaults to 'sensorcfg-demo'). The plot needs
+The robot is driven by uniform random controls (seeded: --seed) so the signals move; --zero-actions
+lets it settle instead. Writes PREFIX.npz, PREFIX.json and PREFIX.png (PREFIX defaults to 'sensorcfg-demo'). The plot needs
 matplotlib (pip install 'sensorcfg[plot]'); without it the demo skips the plot and says so."""
 
 
@@ -35,7 +36,7 @@ def add_parser(sub: Any, epilog: str) -> None:
                        "it, and write the observations and a plot into the current folder.",
                        epilog=EXAMPLES + "\n\n" + epilog, formatter_class=argparse.RawDescriptionHelpFormatter)
     add_suite_args(p, suite_optional=True)
-    add_run_args(p, steps=300)
+    add_run_args(p, steps=300, random_actions=True)
     p.add_argument("--prefix", default=PREFIX, help=f"output file prefix (default: {PREFIX})")
     p.add_argument("--no-plot", action="store_true", help="skip the plot")
     p.set_defaults(handler=command)
@@ -61,7 +62,8 @@ def command(args: argparse.Namespace) -> int:
     settings = settings_from(args)
     spec = build_spec(suite, model_file, control_steps=_control_steps(suite, model_file, settings))
     print(format_spec(spec), end="\n\n")
-    status = execute(suite, model_file, settings, out, plot, args.overrides, label="demo")
+    title = "sensorcfg demo (bundled suite and robot)" if args.suite is None else None
+    status = execute(suite, model_file, settings, out, plot, args.overrides, label="demo", title=title)
     if status == EXIT_OK:
         print(f"\nnext: open {plot or out}, or try 'sensorcfg spec {suite_file}' and "
               f"'sensorcfg run {suite_file} --help'")

@@ -40,13 +40,13 @@ def _timing(ax: Any, timing: Any, window: int, n: int, dt: float) -> None:
     if timing is not None:
         keep = timing.sampled <= window
         s, d, seen = timing.sampled[keep] * dt, timing.delivered[keep] * dt, timing.visible[keep]
-        for a, b, v in zip(s, d, seen):
-            ax.plot([a, b], [1, 0], color="0.55" if v else "0.85", lw=0.6, zorder=1)
+        if not seen.all():  # samples no read can show: the Updater skips them
+            ax.plot(s[~seen], np.ones((~seen).sum()), "|", color="0.85", ms=7, mew=1)
+            ax.plot(d[~seen], np.zeros((~seen).sum()), "|", color="0.85", ms=7, mew=1)
+        for a, b in zip(s[seen], d[seen]):
+            ax.plot([a, b], [1, 0], color="0.55", lw=0.6, zorder=1)
         ax.plot(s[seen], np.ones(seen.sum()), "|", color="C0", ms=10, mew=1.5)
         ax.plot(d[seen], np.zeros(seen.sum()), "|", color="C3", ms=10, mew=1.5)
-        if not seen.all():  # samples no read can show: the Updater skips them
-            ax.plot(s[~seen], np.ones((~seen).sum()), "|", color="0.8", ms=10, mew=1.5)
-            ax.plot(d[~seen], np.zeros((~seen).sum()), "|", color="0.8", ms=10, mew=1.5)
     ax.set_yticks([0, 1], ["delivered", "sampled"], fontsize=7)
     ax.set_ylim(-0.5, 1.5)
     ax.set_xlim(-0.5 * dt, window * dt + 0.5 * dt)
@@ -67,7 +67,7 @@ def _signal(ax: Any, t: np.ndarray, values: np.ndarray, row: SensorRow) -> None:
     note = f"{flat.shape[1]} value{'s' if flat.shape[1] != 1 else ''}"
     if flat.shape[1] > MAX_LINES:
         note = f"first {MAX_LINES} of {note}"
-    ax.text(0.995, 0.96, note, transform=ax.transAxes, ha="right", va="top", fontsize=7, color="0.35")
+    ax.set_title(note, loc="right", fontsize=7, color="0.35")
     ax.tick_params(labelsize=7)
 
 
@@ -97,7 +97,8 @@ def _contact_sheet(ax: Any, t: np.ndarray, values: np.ndarray, row: SensorRow) -
     for k, tile in enumerate(tiles):
         sheet[:, k * (w + gap):k * (w + gap) + w] = tile
     ax.imshow(sheet, interpolation="nearest", aspect="equal")
-    ax.set_xticks([k * (w + gap) + w / 2 for k in range(len(tiles))], [f"t={t[i]:.3g}s" for i in picks], fontsize=7)
+    labels = [f"t={t[i]:.3g}s" + ("\n(nothing delivered yet)" if not np.any(frames[i]) else "") for i in picks]
+    ax.set_xticks([k * (w + gap) + w / 2 for k in range(len(tiles))], labels, fontsize=7)
     ax.set_yticks([])
 
 
@@ -132,7 +133,7 @@ def plot_run(path: Path, rec: Any, rows: list[SensorRow], timings: dict[str, Any
         if i == len(rows) - 1:
             ax_t.set_xlabel("time (s): sample and delivery, first steps", fontsize=8)
     if first_signal is not None:
-        first_signal.set_title("signal over the run (newest sample, step-held)", fontsize=8, loc="right")
+        first_signal.set_title("signal over the run (newest sample, held between reads)", fontsize=8, loc="left")
     try:
         fig.savefig(path, dpi=100)
     except OSError as e:

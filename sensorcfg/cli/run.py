@@ -19,10 +19,10 @@ import numpy as np
 
 from .._version import __version__
 from .common import (EXIT_INVALID, EXIT_OK, SensorRow, UsageError, add_suite_args, describe, load_suite,
-                     model_path, naive_samples)
+                     model_path, naive_samples, positive_float, positive_int, require_matplotlib, writable)
 from .report import Progress, table
 
-__all__ = ["add_parser", "Settings", "Recording", "execute", "require_matplotlib", "add_run_args"]
+__all__ = ["add_parser", "Settings", "Recording", "execute", "add_run_args", "settings_from"]
 
 TIME_KEY, ACTION_KEY = "sensorcfg.time", "sensorcfg.action"  # '.' is not allowed in sensor names
 MAX_RECORDING_BYTES = 4 << 30
@@ -69,27 +69,7 @@ class Recording:
         self.time, self.action = self.time[:n], self.action[:n - 1]
 
 
-def positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value}")
-    return value
-
-
-def positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected seconds, e.g. 0.02, got {text!r}") from None
-    if not value > 0 or value == float("inf"):
-        raise argparse.ArgumentTypeError(f"expected a positive number of seconds, got {text!r}")
-    return value
-
-
-def add_run_args(p: argparse.ArgumentParser, steps: int) -> None:
+def add_run_args(p: argparse.ArgumentParser, steps: int, random_actions: bool = False) -> None:
     p.add_argument("--steps", type=positive_int, default=steps, metavar="N",
                    help=f"control steps to simulate (default: {steps})")
     group = p.add_mutually_exclusive_group()
@@ -98,9 +78,13 @@ def add_run_args(p: argparse.ArgumentParser, steps: int) -> None:
     group.add_argument("--control-timestep", type=positive_float, metavar="T",
                        help="seconds per control step, a whole number of physics steps")
     p.add_argument("--seed", type=int, default=0, metavar="S", help="seed of the episode and the actions (default 0)")
-    p.add_argument("--random-actions", action="store_true",
-                   help="uniform random controls within each actuator's ctrlrange ([-1, 1] if unlimited); "
-                   "default: zero controls")
+    if random_actions:
+        p.add_argument("--zero-actions", dest="random_actions", action="store_false",
+                       help="zero controls (default: uniform random controls within each actuator's ctrlrange)")
+    else:
+        p.add_argument("--random-actions", action="store_true",
+                       help="uniform random controls within each actuator's ctrlrange ([-1, 1] if unlimited); "
+                       "default: zero controls")
 
 
 def add_parser(sub: Any, epilog: str) -> None:
@@ -113,25 +97,6 @@ def add_parser(sub: Any, epilog: str) -> None:
     p.add_argument("--out", metavar="FILE.npz", help="write the observations here (and the sidecar FILE.json)")
     p.add_argument("--plot", metavar="FILE.png", help="draw timing and signals per sensor (needs matplotlib)")
     p.set_defaults(handler=command)
-
-
-def require_matplotlib() -> None:
-    try:
-        import matplotlib  # noqa: F401
-    except ImportError:
-        raise UsageError("plotting needs matplotlib, which is not installed; install it with\n"
-                         "    pip install 'sensorcfg[plot]'\n(or pip install matplotlib)") from None
-
-
-def writable(path: str | None) -> Path | None:
-    if path is None:
-        return None
-    p = Path(path)
-    if p.is_dir():
-        raise UsageError(f"{path}: is a directory; give a file name")
-    if not p.parent.is_dir():
-        raise UsageError(f"{path}: the folder {str(p.parent)!r} does not exist")
-    return p
 
 
 # -- build -----------------------------------------------------------------------------------------------
@@ -234,7 +199,7 @@ def _store(rec: Recording, i: int | None, observation: dict[str, Any], env: Any)
 # -- report ----------------------------------------------------------------------------------------------
 
 def summary(rec: Recording, rows: list[SensorRow], substeps: int, timestep: float) -> str:
-    physics_steps = rec.steps_done * substeps
+    physics_steps = rec.steps_done * substeps  # samples_taken counts to the last step taken
     wall = max(rec.wall_seconds, 1e-9)
     sim = physics_steps * timestep
     lines = [f"ran {rec.steps_done} control steps ({physics_steps} physics steps, {sim:.3g} s simulated) in "
@@ -250,6 +215,8 @@ def summary(rec: Recording, rows: list[SensorRow], substeps: int, timestep: floa
             renders[0] += taken
             renders[1] += skipped or 0
     lines.append(table(["sensor", "kind", "samples taken", "every interval", "skipped"], body, right=(2, 3, 4)))
+    lines.append("(every interval: samples a sample-every-interval schedule takes; skipped: samples no "
+                 "observation could show, so never taken)")
     if any(r.kind in ("rgb", "depth", "segmentation") for r in rows):
         total = renders[0] + renders[1]
         share = f" ({100 * renders[1] / total:.0f}%)" if total else ""
@@ -276,7 +243,7 @@ def save(rec: Recording, path: Path, sidecar: dict[str, Any]) -> Path:
 
 
 def execute(suite: Any, model_file: str, settings: Settings, out: Path | None, plot: Path | None,
-            overrides: list[str], label: str = "running") -> int:
+            overrides: list[str], *, label: str = "running", title: str | None = None) -> int:
     """Build, simulate, summarise, save and plot; what `run` and `demo` share."""
     env, observables = make_env(suite, model_file, settings, record_timing=plot is not None)
     n, dt = env.physics_steps_per_control_step, float(env.physics.model.opt.timestep)
@@ -285,8 +252,9 @@ def execute(suite: Any, model_file: str, settings: Settings, out: Path | None, p
     print(summary(rec, rows, n, dt))
     if out is not None:
         sidecar = {"sensorcfg": __version__, "suite": suite.file, "model": model_file, "overrides": overrides,
-                   "settings": {**dataclasses.asdict(settings), "physics_steps_per_control_step": n,
-                                "physics_timestep": dt, "control_timestep": n * dt, "steps_done": rec.steps_done},
+                   "settings": {"steps": settings.steps, "steps_done": rec.steps_done, "seed": settings.seed,
+                                "random_actions": settings.random_actions, "physics_timestep": dt,
+                                "physics_steps_per_control_step": n, "control_timestep": n * dt},
                    "arrays": {TIME_KEY: "time in seconds at each control step, reset first",
                               ACTION_KEY: "controls applied at each control step"},
                    "observations": [r.as_dict() for r in rows], "samples_taken": rec.samples_taken,
@@ -298,7 +266,7 @@ def execute(suite: Any, model_file: str, settings: Settings, out: Path | None, p
         from .plot import plot_run
 
         times = timing.timings(observables, rec.steps_done * n, n)
-        plot_run(plot, rec, rows, times, dt, title=f"{suite.file} on {Path(model_file).name}")
+        plot_run(plot, rec, rows, times, dt, title=title or f"{suite.file} on {Path(model_file).name}")
         print(f"wrote {plot}")
     return EXIT_INVALID if rec.diverged else EXIT_OK
 

@@ -37,6 +37,7 @@ class FileResult:
     path: str
     model: str | None  # the model it was checked against, None when checked without one
     problems: list[Problem]
+    loaded: bool = True  # False when syntax or schema problems stopped it before the model
 
     @property
     def valid(self) -> bool:
@@ -95,7 +96,7 @@ def check_file(path: Path, model: tuple[str, Any] | None, overrides: Sequence[st
     try:
         suite = load(path, list(overrides) or None)
     except SuiteError as e:
-        return FileResult(str(path), None, list(e.problems))
+        return FileResult(str(path), None, list(e.problems), loaded=False)
     if model is not None:
         return FileResult(str(path), model[0], suite.check(model[1], import_callables=import_callables))
     if suite.model is None:
@@ -107,7 +108,7 @@ def check_file(path: Path, model: tuple[str, Any] | None, overrides: Sequence[st
                 models[target] = load_model(target)
             except SuiteError:
                 models[target] = None  # let check() report it, positioned at the suite's `model:` line
-        target = models[target] if models[target] is not None else target
+        target = models[target]  # None: let the suite load it and report where its `model:` is
     return FileResult(str(path), suite.model, suite.check(target, import_callables=import_callables))
 
 
@@ -124,16 +125,17 @@ def load_model(path: str) -> Any:
 # -- reporters ------------------------------------------------------------------------------------------
 
 def _summary(results: Sequence[FileResult]) -> dict[str, int]:
-    return {"files": len(results), "checked_with_model": sum(r.model is not None for r in results),
-            "invalid_files": sum(not r.valid for r in results),
-            "problems": sum(len(r.problems) for r in results)}
+    return {"files": len(results), "invalid_files": sum(not r.valid for r in results),
+            "problems": sum(len(r.problems) for r in results),
+            "checked_with_model": sum(r.model is not None for r in results),
+            "without_model": sum(r.loaded and r.model is None for r in results)}
 
 
 def report_text(results: Sequence[FileResult]) -> str:
     lines = [p.format() for r in results for p in r.problems]
     s = _summary(results)
     files = f"{s['files']} suite{'s' if s['files'] != 1 else ''}"
-    no_model = s["files"] - s["checked_with_model"]
+    no_model = s["without_model"]
     scope = f" ({no_model} without a model: syntax and schema only)" if no_model else ""
     if s["problems"]:
         lines.append(f"{s['problems']} problem{'s' if s['problems'] != 1 else ''} in {s['invalid_files']} of "
