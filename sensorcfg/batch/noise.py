@@ -224,13 +224,15 @@ class BatchPipeline:
                              f"noise on float64 values, the observation is {np.dtype(pipeline.dtype)}")
         stages = tuple(pipeline._stages)  # the pipeline's runtime stages (after fusing)
         batched = []
-        for position, stage in enumerate(stages):
+        for stage in stages:
             make = BATCHED.get(type(stage))
             if make is None:
-                name = getattr(stage, "name", None) or type(stage).__name__.lower()
-                raise SuiteError(f"sensor {sensor!r}: noise stage {position} ({name}) cannot be vectorised across "
-                                 "simulations (a custom callable runs once per sample and simulation); use it "
-                                 "with the single-simulation Environment, or express it with built-in stages")
+                kind = type(stage).__name__.lower()
+                what = getattr(stage, "name", None)
+                raise SuiteError(f"sensor {sensor!r}: its {kind} noise stage{f' ({what})' if what else ''} cannot be "
+                                 "vectorised across simulations (it runs a Python callable once per sample and "
+                                 "simulation); use it with the single-simulation Environment, or express it with "
+                                 "built-in stages")
             batched.append(make(stage, nsim))
         self.stages = stages
         self.batched = batched

@@ -139,6 +139,9 @@ class BatchUpdater:
 
     @staticmethod
     def _check(name: str, obs: Any, ch: Channel) -> None:
+        if getattr(obs, "corruptor", None) is not None:
+            raise SuiteError(f"sensor {name!r}: a corruptor runs a Python callable per sample and simulation and "
+                             "cannot be vectorised; use noise stages instead")
         sampler = ch.sampler
         what = type(obs).__name__
         if getattr(sampler, "struct", None) != "data" or not hasattr(sampler, "index"):
@@ -146,9 +149,6 @@ class BatchUpdater:
             raise SuiteError(f"sensor {name!r} ({kind}) cannot run in a BatchEnvironment: only features of mjData "
                              "fields are vectorised across simulations (cameras and generic callables would run "
                              "Python per simulation); use the single-simulation Environment for it")
-        if getattr(obs, "corruptor", None) is not None:
-            raise SuiteError(f"sensor {name!r}: a corruptor runs a Python callable per sample and simulation and "
-                             "cannot be vectorised; use noise stages instead")
         if ch.dtype != np.float64:
             raise SuiteError(f"sensor {name!r}: {ch.dtype} features cannot be vectorised (float64 only)")
         aggregator = ch.aggregator

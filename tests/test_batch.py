@@ -1,0 +1,362 @@
+"""BatchEnvironment: each simulation against the single-simulation Environment, bit for bit.
+
+The differential tests draw random suites (intervals 1-8, delays 0-8, drawn `{uniform}` / `{choice}`
+intervals and delays, buffers, aggregators, noise stages) and compare every simulation's observations,
+step types, rewards and discounts with `Environment(model, suite, seed=sim_seed(seed, i))` given the same
+actions, through time-limit auto-resets and partial resets.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import dm_env
+import mujoco
+import numpy as np
+import pytest
+
+import sensorcfg
+from sensorcfg import SuiteError, assets
+from sensorcfg.batch import BatchEnvironment, sim_seed
+from sensorcfg.draws import ChoiceSteps, UniformSteps
+from sensorcfg.noise import build_noise
+from sensorcfg.physics import Physics
+
+ROBOT = str(assets.path("robot.xml"))
+MUJOCO4 = int(mujoco.__version__.split(".")[0]) >= 4
+needs_batch = pytest.mark.skipif(not MUJOCO4, reason=f"mujoco.batch needs MuJoCo 4; this is {mujoco.__version__}")
+
+FEATURES = [
+    ("qpos", ["joint:shoulder", "joint:elbow"]),
+    ("qvel", "joint:elbow"),
+    ("qacc", ["joint:shoulder", "joint:elbow"]),
+    ("qpos", "joint:wrist"),
+    ("sensordata", "sensor:imu_gyro"),
+    ("sensordata", "sensor:imu_accel"),
+    ("xpos", "site:hand_site"),
+    ("xmat", "site:fingertip"),
+    ("xquat", "body:hand"),
+    ("cvel", "body:forearm"),
+    ("qfrc_actuator", ["joint:shoulder", "joint:elbow"]),
+    ("force", "actuator:elbow_motor"),
+]
+
+NOISE = [
+    {"type": "gaussian", "std": 0.01},
+    {"type": "gaussian", "mean": 0.001, "std": 0.02},
+    {"type": "uniform", "low": -0.01, "high": 0.02},
+    {"type": "bias", "std": 0.1},
+    {"type": "scale", "low": 0.9, "high": 1.1},
+    {"type": "random_walk", "std": 0.01, "correlation_time": 0.05},
+    {"type": "random_walk", "std": 0.01},
+    {"type": "quantize", "step": 0.001},
+    {"type": "clip", "min": -0.5, "max": 0.5},
+    {"type": "dropout", "p": 0.3, "mode": "hold"},
+    {"type": "dropout", "p": 0.3, "mode": "zero", "per": "value"},
+    {"type": "dropout", "p": 0.2, "mode": "nan"},
+    {"type": "outlier", "p": 0.1, "scale": 1.0},
+    {"type": "lowpass", "cutoff": 20.0},
+]
+
+
+def _schedule(rng: np.random.Generator, low: int, high: int, drawn: bool):
+    if drawn and rng.random() < 0.3:
+        lo = int(rng.integers(low, high + 1))
+        return UniformSteps(lo, int(rng.integers(lo, high + 1)))
+    if drawn and rng.random() < 0.15:
+        values = tuple(int(v) for v in rng.integers(low, high + 1, size=int(rng.integers(1, 4))))
+        return ChoiceSteps(values)
+    return int(rng.integers(low, high + 1))
+
+
+def random_suite(seed: int, *, drawn: bool = True, noise: bool = True) -> dict[str, sensorcfg.Observable]:
+    """A fresh dict of observables (bound once to read shapes, so noise fits them)."""
+    rng = np.random.default_rng(seed)
+    physics = Physics(mujoco.MjModel.from_xml_path(ROBOT))
+    out = {}
+    for j in range(int(rng.integers(3, 8))):
+        kind, element = FEATURES[int(rng.integers(len(FEATURES)))]
+        buffer = int(rng.integers(1, 6))
+        aggregator = [None, None, "min", "max", "sum", "mean", "median"][int(rng.integers(7))]
+        obs = sensorcfg.Feature(kind, element, update_interval=_schedule(rng, 1, 8, drawn),
+                                delay=_schedule(rng, 0, 8, drawn), buffer_size=buffer, aggregator=aggregator)
+        obs.reader(physics)
+        if noise and rng.random() < 0.6:
+            picks = rng.choice(len(NOISE), size=int(rng.integers(1, 4)), replace=False)
+            spec = obs.array_spec
+            obs.noise = build_noise([NOISE[int(p)] for p in picks], spec.shape, spec.dtype, physics.timestep)
+        obs.enabled = True
+        out[f"s{j}_{kind}"] = obs
+    return out
+
+
+def same(a: np.ndarray, b: np.ndarray) -> bool:
+    a, b = np.asarray(a), np.asarray(b)
+    return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
+
+
+def check_sim(batch_steps, single_steps, i: int, where: str) -> None:
+    for s, (bt, st) in enumerate(zip(batch_steps, single_steps)):
+        assert int(bt.step_type[i]) == int(st.step_type), f"{where}: sim {i} step {s} step type"
+        if not st.first():
+            assert bt.reward[i] == (st.reward or 0.0) and bt.discount[i] == st.discount, f"{where}: sim {i} step {s}"
+        assert bt.observation.keys() == st.observation.keys()
+        for k, v in st.observation.items():
+            assert same(bt.observation[k][i], v), f"{where}: sim {i} step {s} {k}: {bt.observation[k][i]} != {v}"
+
+
+def run_pair(suite_seed: int, nsim: int, steps: int, *, seed=7, n=3, time_limit=None, resets=(), **suite_kw):
+    """The batch's TimeSteps, and each simulation's single-simulation TimeSteps, for the same actions.
+
+    `resets`: (step, ids) pairs: before that step, `reset(ids)` on the batch and `reset()` on those singles.
+    """
+    env = BatchEnvironment(ROBOT, random_suite(suite_seed, **suite_kw), nsim, nthread=2,
+                           physics_steps_per_control_step=n, time_limit=time_limit, seed=seed)
+    singles = [sensorcfg.Environment(ROBOT, random_suite(suite_seed, **suite_kw), physics_steps_per_control_step=n,
+                                     time_limit=time_limit, seed=sim_seed(seed, i)) for i in range(nsim)]
+    lo, hi = env.action_spec().minimum, env.action_spec().maximum
+    actions = np.random.default_rng(suite_seed).uniform(lo, hi, (steps, nsim, len(lo)))
+    resets = dict(resets)
+    batch_steps = [env.reset()]
+    single_steps = [[e.reset()] for e in singles]
+    for s, a in enumerate(actions):
+        if s in resets:
+            ids = resets[s]
+            batch_steps.append(env.reset(ids))
+            for i, e in enumerate(singles):
+                single_steps[i].append(e.reset() if i in ids else single_steps[i][-1]._replace(
+                    step_type=dm_env.StepType.MID, reward=0.0, discount=1.0))
+        batch_steps.append(env.step(a))
+        for i, e in enumerate(singles):
+            single_steps[i].append(e.step(a[i]))
+    return env, batch_steps, single_steps
+
+
+# -- the differential test ---------------------------------------------------------------------------
+
+
+@needs_batch
+@pytest.mark.parametrize("suite_seed", range(12))
+def test_each_simulation_is_the_single_environment_bit_for_bit(suite_seed):
+    nsim = 5
+    rng = np.random.default_rng(1000 + suite_seed)
+    resets = [(int(rng.integers(3, 30)), sorted(set(rng.integers(0, nsim, 2).tolist())))]
+    _, batch_steps, single_steps = run_pair(suite_seed, nsim, 40, n=int(rng.integers(1, 6)), time_limit=0.06,
+                                            resets=resets)
+    for i in range(nsim):
+        check_sim(batch_steps, [s for s in single_steps[i]], i, f"suite {suite_seed}")
+
+
+@needs_batch
+@pytest.mark.parametrize("suite_seed", range(12, 18))
+def test_fixed_schedules_without_noise_take_the_bank_path(suite_seed):
+    _, batch_steps, single_steps = run_pair(suite_seed, 3, 30, drawn=False, noise=False, n=5)
+    for i in range(3):
+        check_sim(batch_steps, single_steps[i], i, f"suite {suite_seed}")
+
+
+@needs_batch
+def test_pad_with_initial_value_and_strip_follow_the_suite_options():
+    suite = sensorcfg.loads(OPTIONS_SUITE)
+    env = BatchEnvironment(ROBOT, suite, 3, physics_steps_per_control_step=4, seed=11)
+    single = [sensorcfg.Environment(ROBOT, sensorcfg.loads(OPTIONS_SUITE), physics_steps_per_control_step=4,
+                                    seed=sim_seed(11, i)) for i in range(3)]
+    actions = np.random.default_rng(3).uniform(-1, 1, (20, 3, 3)) * [1, 1, 0.04]
+    b = [env.reset()] + [env.step(a) for a in actions]
+    for i, e in enumerate(single):
+        check_sim(b, [e.reset()] + [e.step(a[i]) for a in actions], i, "options")
+    assert b[1].observation["gyro"].shape == (3, 3)  # the singleton buffer is stripped
+
+
+OPTIONS_SUITE = """
+version: 1
+options: {pad_with_initial_value: true, strip_singleton_buffer_dim: true}
+sensors:
+  elbow: {kind: qpos, element: "joint:elbow", delay: 3, buffer: 4}
+  gyro: {kind: sensordata, element: "sensor:imu_gyro", interval: 2, noise: [{type: gaussian, std: 0.1}]}
+  hand: {kind: xpos, element: "site:hand_site", delay: {uniform: [0, 4]}, buffer: 3, aggregator: mean}
+"""
+
+
+# -- seeds -------------------------------------------------------------------------------------------
+
+
+@needs_batch
+def test_growing_nsim_leaves_the_first_simulations_streams_unchanged():
+    def run(nsim: int):
+        env = BatchEnvironment(ROBOT, random_suite(3), nsim, physics_steps_per_control_step=2, seed=5)
+        actions = np.random.default_rng(0).uniform(-1, 1, (25, 5, 3))[:, :nsim]
+        return [env.reset()] + [env.step(a) for a in actions]
+
+    small, large = run(2), run(5)
+    for s, l in zip(small, large):
+        for k in s.observation:
+            assert same(s.observation[k], l.observation[k][:2]), k
+
+
+@needs_batch
+def test_sim_seed_is_the_spawned_child():
+    root = np.random.SeedSequence(42)
+    children = root.spawn(4)
+    for i, child in enumerate(children):
+        assert sim_seed(42, i).generate_state(4).tolist() == child.generate_state(4).tolist()
+    assert sim_seed(42, 1).generate_state(4).tolist() != sim_seed(42, 2).generate_state(4).tolist()
+
+
+@needs_batch
+def test_noise_streams_differ_between_simulations():
+    obs = random_suite(0, drawn=False, noise=False)
+    first = next(iter(obs.values()))
+    first.noise = build_noise([{"type": "gaussian", "std": 1.0}], first.array_spec.shape, np.float64, 0.002)
+    env = BatchEnvironment(ROBOT, obs, 4, seed=1)
+    name = next(iter(obs))
+    values = env.reset().observation[name]
+    assert len({v.tobytes() for v in values}) == 4
+
+
+# -- resets ------------------------------------------------------------------------------------------
+
+
+@needs_batch
+def test_partial_reset_touches_only_its_simulations():
+    env = BatchEnvironment(ROBOT, random_suite(4), 4, physics_steps_per_control_step=2, seed=2)
+    env.reset()
+    actions = np.random.default_rng(1).uniform(-1, 1, (10, 4, 3))
+    for a in actions:
+        env.step(a)
+    before = env.updater.get_observation()
+    qpos = env.batch.bind("qpos").copy()
+    ts = env.reset([1, 3])
+    assert ts.step_type.tolist() == [int(dm_env.StepType.MID), int(dm_env.StepType.FIRST)] * 2
+    for k, v in ts.observation.items():
+        assert same(v[[0, 2]], before[k][[0, 2]]), k
+    np.testing.assert_array_equal(env.batch.bind("qpos")[[0, 2]], qpos[[0, 2]])
+    assert (env.updater.t == [20, 0, 20, 0]).all()
+
+
+@needs_batch
+def test_time_limit_truncates_then_auto_resets():
+    env = BatchEnvironment(ROBOT, random_suite(5), 3, physics_steps_per_control_step=5, time_limit=0.03, seed=0)
+    env.reset()
+    types = [env.step(np.zeros((3, 3))) for _ in range(4)]
+    assert [int(t.step_type[0]) for t in types] == [1, 1, 2, 0]
+    assert types[2].discount.tolist() == [1.0, 1.0, 1.0]
+    assert types[3].first().all()
+
+
+# -- divergence --------------------------------------------------------------------------------------
+
+
+@needs_batch
+def test_a_diverged_simulation_ends_its_episode_and_not_the_others():
+    seed, nsim = 9, 4
+    env = BatchEnvironment(ROBOT, random_suite(6), nsim, physics_steps_per_control_step=2, seed=seed)
+    singles = [sensorcfg.Environment(ROBOT, random_suite(6), physics_steps_per_control_step=2, seed=sim_seed(seed, i))
+               for i in range(nsim)]
+    actions = np.random.default_rng(2).uniform(-1, 1, (12, nsim, 3))
+    b = [env.reset()]
+    s = [[e.reset()] for e in singles]
+    for step, a in enumerate(actions):
+        if step == 5:
+            env.batch.bind("qvel")[2] = np.inf
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            b.append(env.step(a))
+        if step == 5:
+            assert b[-1].step_type.tolist() == [1, 1, 2, 1] and b[-1].discount[2] == 0.0
+            assert env.last_divergence[2] and "diverged" in str(caught[0].message)
+        if step == 6:
+            assert b[-1].first()[2] and env.last_divergence[2] is None
+        for i, e in enumerate(singles):
+            s[i].append(e.step(a[i]))
+    for i in (0, 1, 3):
+        check_sim(b, s[i], i, "diverged neighbour")
+    # its next episode is the single environment's after the same 6 control steps (the 6th diverged)
+    e2 = sensorcfg.Environment(ROBOT, random_suite(6), physics_steps_per_control_step=2, seed=sim_seed(seed, 2))
+    e2.reset()
+    for a in actions[:6]:
+        e2.step(a[2])
+    tail = [e2.reset()] + [e2.step(a[2]) for a in actions[7:]]
+    check_sim(b[7:], tail, 2, "after divergence")
+
+
+# -- bad input ---------------------------------------------------------------------------------------
+
+
+@needs_batch
+@pytest.mark.parametrize("actions, message", [
+    pytest.param(np.zeros((3, 3)), r"actions must have shape \(4, 3\) \(one control per simulation and actuator\), "
+                                   r"got \(3, 3\)", id="too-few-simulations"),
+    pytest.param(np.zeros((4, 2)), r"got \(4, 2\)", id="too-few-actuators"),
+    pytest.param(np.zeros(12), r"got \(12,\)", id="flat"),
+    pytest.param([["a"] * 3] * 4, r"actions must be a \(4, 3\) array of numbers", id="not-numbers"),
+])
+def test_bad_actions_raise_before_stepping(actions, message):
+    env = BatchEnvironment(ROBOT, random_suite(0), 4, seed=0)
+    env.reset()
+    time = env.batch.bind("time").copy()
+    with pytest.raises(SuiteError, match=message):
+        env.step(actions)
+    np.testing.assert_array_equal(env.batch.bind("time"), time)
+
+
+@needs_batch
+@pytest.mark.parametrize("ids, message", [
+    pytest.param([4], r"simulation id 4 is out of range: the batch has 4 simulations \(ids 0 to 3\)", id="high"),
+    pytest.param([-1], r"simulation id -1 is out of range", id="negative"),
+    pytest.param([0.5], r"ids must be simulation indices", id="float"),
+    pytest.param(np.ones(3, bool), r"a boolean mask of simulations must have shape \(4,\), got \(3,\)", id="mask"),
+])
+def test_bad_ids_raise(ids, message):
+    env = BatchEnvironment(ROBOT, random_suite(0), 4, seed=0)
+    with pytest.raises(SuiteError, match=message):
+        env.reset(ids)
+
+
+def _one(**kwargs) -> dict[str, sensorcfg.Observable]:
+    obs = sensorcfg.Feature("qpos", ["joint:shoulder", "joint:elbow"], **kwargs)
+    obs.enabled = True
+    return {"arm": obs}
+
+
+@needs_batch
+def test_unvectorisable_suites_raise_before_stepping():
+    custom = _one()
+    custom["arm"].noise = build_noise([{"type": "gaussian", "std": 0.1},
+                                       {"type": "custom", "callable": lambda value, random_state: value}],
+                                      (2,), np.float64, 0.002)
+    with pytest.raises(SuiteError, match=r"sensor 'arm': its custom noise stage \(custom noise callable '.*<lambda>'\) "
+                                         r"cannot be vectorised across simulations"):
+        BatchEnvironment(ROBOT, custom, 2)
+    with pytest.raises(SuiteError, match=r"sensor 'arm': its delay is a callable .* cannot be vectorised"):
+        BatchEnvironment(ROBOT, _one(delay=lambda random_state: 1), 2)
+    with pytest.raises(SuiteError, match=r"sensor 'arm': a corruptor runs a Python callable"):
+        BatchEnvironment(ROBOT, _one(corruptor=lambda v, random_state: v), 2)
+    with pytest.raises(SuiteError, match=r"sensor 'arm': its aggregator cannot be vectorised"):
+        BatchEnvironment(ROBOT, _one(buffer_size=2, aggregator=lambda x: x.sum(0)), 2)
+    generic = {"time": sensorcfg.Generic(lambda physics: np.array([physics.data.time]))}
+    generic["time"].enabled = True
+    with pytest.raises(SuiteError, match=r"sensor 'time' \(a Generic\) cannot run in a BatchEnvironment"):
+        BatchEnvironment(ROBOT, generic, 2)
+    with pytest.raises(SuiteError, match=r"nsim must be a positive integer"):
+        BatchEnvironment(ROBOT, _one(), 0)
+
+
+@needs_batch
+def test_specs_have_a_leading_simulation_axis():
+    env = BatchEnvironment(ROBOT, _one(buffer_size=3), 6)
+    assert env.observation_spec()["arm"].shape == (6, 3, 2)
+    assert env.action_spec().shape == (6, 3)
+    obs = env.reset().observation
+    assert obs["arm"].shape == (6, 3, 2)
+    env.observation_spec()["arm"].validate(obs["arm"])
+
+
+# -- MuJoCo 3 ----------------------------------------------------------------------------------------
+
+
+@pytest.mark.skipif(MUJOCO4, reason="checks the error on MuJoCo 3; this is MuJoCo 4")
+def test_mujoco3_says_it_needs_mujoco4():
+    with pytest.raises(SuiteError, match=r"BatchEnvironment needs MuJoCo 4 \(its mujoco.batch module\); this is "
+                                         r"mujoco 3\.[0-9.]+: pip install 'mujoco>=4'"):
+        BatchEnvironment(ROBOT, _one(), 2)
