@@ -260,6 +260,9 @@ def test_overrides_are_validated_like_the_file() -> None:
     pytest.param("buffer 2",
                  "override 'buffer 2':1:1: error: an override is written key=value, for example "
                  "sensors.cam.interval=10 or defaults.buffer=2", id="form"),
+    pytest.param("extends=base.yaml",
+                 "override 'extends=base.yaml':1:1: error: extends: extends cannot be overridden (overrides apply "
+                 "after the files are merged); write a suite that extends the other one instead", id="extends"),
     pytest.param("sensors.hand_vel.noise.3.std=1",
                  "override 'sensors.hand_vel.noise.3.std=1':1:1: error: sensors.hand_vel.noise.3.std: "
                  "sensors.hand_vel.noise is a list of 1; use an index 0..0", id="index"),

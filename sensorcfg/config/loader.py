@@ -130,6 +130,9 @@ def apply_override(doc: Doc, text: str) -> list[Problem]:
         return [Problem("an override is written key=value, for example sensors.cam.interval=10 or "
                         "defaults.buffer=2", file=label, line=1, col=1)]
     path = _parse_key(key.strip())
+    if path[0] == "extends":
+        return [Problem("extends cannot be overridden (overrides apply after the files are merged); "
+                        "write a suite that extends the other one instead", "extends", label, 1, 1)]
     try:
         value = compose(raw, label, col_offset=len(key) + 1)
     except SuiteError as e:
