@@ -62,6 +62,8 @@ def _fixed(value: Any, *, rates: bool, minimum: int) -> int | str:
 
 def _schedule(value: Any, *, rates: bool, minimum: int) -> int | str | UniformDraw | ChoiceDraw:
     """Validate an interval (rates allowed, >= 1 step) or a delay (>= 0 steps) without the model."""
+    if isinstance(value, (UniformDraw, ChoiceDraw)):  # built in Python
+        return value
     if not isinstance(value, dict):
         return _fixed(value, rates=rates, minimum=minimum)
     keys = set(value)
