@@ -396,6 +396,15 @@ def test_run_user_mistakes(tmp_path: Path, args: list[str], code: int, message: 
     assert message in proc.stderr
 
 
+def test_run_error_in_the_users_sensor_code_points_at_it(tmp_path: Path) -> None:
+    write(tmp_path / "mysensors.py", "def far(physics):\n    if physics.data.time > 0.01:\n"
+          "        raise ValueError('target site missing')\n    return 1.0\n")
+    write(tmp_path / "s.yaml", VALID + "  far: {kind: generic, callable: 'mysensors:far'}\n")
+    proc = cli("run", "s.yaml", "--steps", "10", cwd=tmp_path)
+    assert proc.returncode == 1
+    assert proc.stderr.strip().endswith("mysensors.py:3: error: in far: ValueError: target site missing")
+
+
 # -- demo -------------------------------------------------------------------------------------------------
 
 def test_demo_in_an_empty_folder(tmp_path: Path) -> None:

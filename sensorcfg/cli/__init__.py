@@ -9,13 +9,14 @@ One module per command; shared pieces live in `common` (errors, suite and model 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Sequence
 
 from .._version import __version__
 from ..errors import SuiteError
 from . import demo, run, schema, spec, validate
-from .common import EXIT_CODES_HELP, EXIT_INVALID, EXIT_USAGE, UsageError
+from .common import EXIT_CODES_HELP, EXIT_INVALID, EXIT_USAGE, UsageError, user_code_failure
 
 __all__ = ["main", "build_parser"]
 
@@ -75,5 +76,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         print("sensorcfg: interrupted", file=sys.stderr)
         return 130
     except BrokenPipeError:  # `sensorcfg schema | head`: the reader left; not an error of ours
-        sys.stderr.close()
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())  # so the interpreter's final flush does not complain
         return 0
+    except Exception as e:  # noqa: BLE001 - the user's sensor code failing is their error to see, briefly
+        lines = user_code_failure(e)
+        if lines is None:
+            raise  # a bug in sensorcfg: the traceback is for us
+        print("\n".join(lines), file=sys.stderr)
+        return EXIT_INVALID

@@ -226,3 +226,42 @@ def naive_samples(row: SensorRow, physics_steps: int) -> int | None:
         return None
     return physics_steps // row.interval_steps + 1
 
+
+
+# -- errors in the user's own Python code (generic sensors, custom noise) --------------------------------
+
+_LIBRARIES = ("numpy", "mujoco", "dm_env")
+
+
+def user_code_failure(exc: BaseException) -> list[str] | None:
+    """`path:line: error: ...` lines when `exc` was raised in the user's code called by sensorcfg, else None.
+
+    A generic sensor or a custom noise stage is the user's code: its bug deserves its own file and line,
+    not a traceback through sensorcfg. An exception raised in sensorcfg itself is a sensorcfg bug: None.
+    """
+    import sysconfig
+    import traceback
+
+    package = Path(__file__).resolve().parent.parent
+    stdlib = Path(sysconfig.get_paths()["stdlib"]).resolve()
+
+    def ours(filename: str) -> bool:
+        path = Path(filename).resolve()
+        return path.is_relative_to(package) and path.parent.name != "assets"
+
+    def library(filename: str) -> bool:
+        path = Path(filename).resolve()
+        return path.is_relative_to(stdlib) and "site-packages" not in path.parts or any(
+            part in _LIBRARIES for part in path.parts)
+
+    frames = traceback.extract_tb(exc.__traceback__)
+    called = [i for i, f in enumerate(frames) if ours(f.filename)]
+    if not called:
+        return None
+    user = [f for f in frames[called[0]:] if not ours(f.filename) and not library(f.filename)]
+    if not user or ours(frames[-1].filename):
+        return None
+    lines = [f"{f.filename}:{f.lineno}: note: in {f.name}: {(f.line or '').strip()}" for f in user[:-1]]
+    last = user[-1]
+    lines.append(f"{last.filename}:{last.lineno}: error: in {last.name}: {type(exc).__name__}: {exc}")
+    return lines

@@ -65,8 +65,7 @@ def command(args: argparse.Namespace) -> int:
     title = "sensorcfg demo (bundled suite and robot)" if args.suite is None else None
     status = execute(suite, model_file, settings, out, plot, args.overrides, label="demo", title=title)
     if status == EXIT_OK:
-        print(f"\nnext: open {plot or out}, or try 'sensorcfg spec {suite_file}' and "
-              f"'sensorcfg run {suite_file} --help'")
+        print(f"\nnext: open {plot or out}; the suite it ran is {suite_file}")
     return status
 
 

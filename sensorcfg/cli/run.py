@@ -215,8 +215,8 @@ def summary(rec: Recording, rows: list[SensorRow], substeps: int, timestep: floa
             renders[0] += taken
             renders[1] += skipped or 0
     lines.append(table(["sensor", "kind", "samples taken", "every interval", "skipped"], body, right=(2, 3, 4)))
-    lines.append("(every interval: samples a sample-every-interval schedule takes; skipped: samples no "
-                 "observation could show, so never taken)")
+    lines.append("(every interval: what sampling at every interval would take; skipped: samples no read "
+                 "could ever show, so not taken)")
     if any(r.kind in ("rgb", "depth", "segmentation") for r in rows):
         total = renders[0] + renders[1]
         share = f" ({100 * renders[1] / total:.0f}%)" if total else ""

@@ -42,8 +42,8 @@ class _Replay:
 
 @dataclasses.dataclass
 class Timing:
-    """Sample and delivery steps of one sensor (equal lengths; delivery >= sample), and which samples
-    some read shows (the others the Updater never takes)."""
+    """Sample and delivery steps of one sensor (equal lengths; delivery >= sample, possibly after the run),
+    and which samples some read shows (the others the Updater never takes)."""
 
     sampled: np.ndarray
     delivered: np.ndarray
@@ -81,11 +81,9 @@ def timings(observables: dict[str, Any], physics_steps: int, steps_per_control: 
         if isinstance(interval, Recorder) or isinstance(delay, Recorder):
             drawn[name] = obs
             continue
-        sampled = np.arange(0, physics_steps + 1, int(interval))
-        delivered = sampled + int(delay)
-        keep = delivered <= physics_steps
-        out[name] = Timing(sampled[keep], delivered[keep],
-                           _visible(sampled[keep], int(interval), int(delay), steps_per_control, obs.buffer_size or 1))
+        sampled = np.arange(0, physics_steps + 1, int(interval))  # delivery may fall after the run
+        out[name] = Timing(sampled, sampled + int(delay),
+                           _visible(sampled, int(interval), int(delay), steps_per_control, obs.buffer_size or 1))
     if drawn:
         out.update(_replay(drawn, physics_steps, steps_per_control))
     return {name: out[name] for name in observables if name in out}
