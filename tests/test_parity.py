@@ -112,6 +112,18 @@ class OwnDraws:
         return int(self._rng.randint(self._low, self._high + 1))
 
 
+class OptionalRandomState:
+    """Takes an optional random_state, like dm_control's test sequences: dm_control never passes one to a
+    callable that is not a Variation, so it draws from its own generator (and so must ours)."""
+
+    def __init__(self, seed: int, low: int, high: int):
+        self._own = np.random.RandomState(seed)
+        self._low, self._high = low, high
+
+    def __call__(self, random_state: Any = None) -> int:
+        return int((random_state or self._own).randint(self._low, self._high + 1))
+
+
 def make_random_state_draw(oracle: Any, low: int, high: int) -> Any:
     """A custom Variation: dm_control (and sensorcfg) call it with the episode's random_state."""
 
@@ -124,7 +136,7 @@ def make_random_state_draw(oracle: Any, low: int, high: int) -> Any:
 
 def draw_schedule(rng: random.Random, oracle: Any, low: int, high: int) -> Any:
     """A factory (called once per side) for an interval or delay setting."""
-    style = rng.choice(("int", "int", "int", "uniform", "custom", "own"))
+    style = rng.choice(("int", "int", "int", "int", "uniform", "custom", "own", "optional"))
     if style == "int":
         value = rng.randint(low, high)
         return lambda: value
@@ -135,6 +147,8 @@ def draw_schedule(rng: random.Random, oracle: Any, low: int, high: int) -> Any:
         variation = make_random_state_draw(oracle, low, high)
         return lambda: variation
     seed = rng.randrange(2**31)
+    if style == "optional":
+        return lambda: OptionalRandomState(seed, low, high)
     return lambda: OwnDraws(seed, low, high)
 
 
@@ -248,7 +262,7 @@ def feature_config(rng: random.Random, oracle: Any, model: Model) -> dict[str, A
 
 def single(value: Any, random_state: Any = None) -> Any:
     """A corruptor that changes the dtype: the observation's spec follows it."""
-    return np.asarray(value, dtype=np.float32) * 2
+    return np.array(np.asarray(value, dtype=np.float32) * 2)  # an array: see copied()
 
 
 def noisy(value: Any, random_state: Any) -> Any:
@@ -360,6 +374,9 @@ def test_ours_in_dm_control_updater(oracle: Any, models: dict[str, Model]) -> No
         seed, arrangement = configs.randrange(2**31), configs.randrange(2**31)
         theirs = build_features(oracle, config, False, random.Random(arrangement))
         ours = build_features(oracle, config, True, random.Random(arrangement))
+        for observables in ours if isinstance(ours, (list, tuple)) else [ours]:
+            for observable in observables.values():  # dm_control pads with the raw first value: see copied()
+                observable.corruptor = observable.corruptor or copied
         n, strip, pad = config["n"], config["strip"], config["pad"]
         reference = oracle.updater.Updater(theirs, n, strip, pad)
         hosted = oracle.updater.Updater(ours, n, strip, pad)

@@ -50,6 +50,23 @@ def _episode_entropy(random_state: Any) -> list[int]:
     return [int(x) for x in random_state.randint(0, 2**32, size=4, dtype=np.uint64)]
 
 
+def _takes_random_state(value: Callable[..., Any]) -> bool:
+    """Whether a schedule callable is given the episode's random_state.
+
+    dm_control passes it to its Variations only, and calls any other callable with no arguments, even one
+    with an optional `random_state` (which then draws from its own generator). We do the same, and also
+    pass it to callables that require it (`lambda random_state: ...`), which dm_control cannot call.
+    """
+    if any(c.__name__ == "Variation" and c.__module__.startswith("dm_control.") for c in type(value).__mro__):
+        return True
+    try:
+        param = inspect.signature(value).parameters.get("random_state")
+    except (TypeError, ValueError):
+        return False
+    return (param is not None and param.default is param.empty
+            and param.kind in (param.POSITIONAL_OR_KEYWORD, param.KEYWORD_ONLY))
+
+
 def _drawer(owner: str, attr: str, value: Any, default: int, random_state: Any) -> int | Callable[[], int]:
     """An int, or a zero-argument function drawing validated ints (dm_control Variations get random_state)."""
     if not value:
@@ -59,12 +76,7 @@ def _drawer(owner: str, attr: str, value: Any, default: int, random_state: Any) 
             raise SuiteError(f"observable {owner!r}: {attr} must be a "
                              f"{'non-negative' if attr == 'delay' else 'positive'} integer, got {value!r}")
         return int(value)
-    try:
-        params = inspect.signature(value).parameters
-        takes_rs = "random_state" in params or any(p.kind is p.VAR_KEYWORD for p in params.values())
-    except (TypeError, ValueError):
-        takes_rs = False
-    draw = functools.partial(value, random_state=random_state) if takes_rs else value
+    draw = functools.partial(value, random_state=random_state) if _takes_random_state(value) else value
     lowest = 0 if attr == "delay" else 1
 
     def checked() -> int:
