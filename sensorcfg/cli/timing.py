@@ -24,7 +24,7 @@ class Recorder:
         self.draw = draw
         self.values: list[int] = []
 
-    def __call__(self, random_state: Any = None) -> int:
+    def __call__(self, random_state: Any) -> int:  # required: the Updater passes it only then
         value = int(self.draw(random_state=random_state))
         self.values.append(value)
         return value
