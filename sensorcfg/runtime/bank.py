@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from .bank_noise import BankNoise, program
 from .channels import FixedChannel
 
 __all__ = ["FeatureBank", "BankMember", "buffer_view", "read_plan"]
@@ -48,6 +49,9 @@ _REDUCERS = {
     "mean": _mean,
     "median": _median,
 }
+
+
+_CHUNK_STEPS = 256  # physics steps of noise drawn at a time (rounded up to the sampling period)
 
 
 def buffer_view(data: Any, fields: list[str]) -> tuple[np.ndarray, dict[str, int]] | None:
@@ -118,7 +122,12 @@ class FeatureBank:
             [offsets[ch.sampler.field] + ch.sampler.index.ravel() for ch in channels]).astype(np.intp)
         period = math.lcm(read_interval, *(ch.interval for ch in channels))
         span = max(ch.delay + ch.buffer_size * ch.interval for ch in channels) + read_interval + 1
-        self.rows = period * -(-span // period)  # history length: a multiple of every sampling period
+        programs = [program(ch.noise) for ch in channels]
+        noisy = any(programs)
+        # Noise is drawn a chunk ahead; the history then also holds a chunk (rows: a multiple of the chunk).
+        self.chunk = period * -(-_CHUNK_STEPS // period) if noisy else 0
+        unit = self.chunk or period
+        self.rows = unit * -(-(span + self.chunk) // unit)  # a multiple of every sampling period
         self.history = np.zeros((self.rows, self.width))
         self.flat = self.history.reshape(-1)
         self.history_rows = list(self.history)
@@ -130,13 +139,41 @@ class FeatureBank:
             for p in phases:
                 for t in range(p, self.rows, ch.period()):
                     self.snap_rows[t] = True
-        self._gathers: dict[int, tuple[np.ndarray, list[Any], list[Any]]] = {}
+        self._gathers: dict[int, tuple[np.ndarray, list[Any], list[Any], list[Any]]] = {}
+        self._early: dict[int, np.ndarray] = {}
+        self.noise = None
+        if noisy:
+            offsets = [np.array(sorted(p + m for p in phases for m in range(0, self.chunk, period_c)), np.intp)
+                       for period_c, _, phases in self.phases]
+            self.noise = BankNoise(channels, programs, self.cols, self.rows, self.chunk, offsets)
+            self.pad_values = np.zeros(self.width)
+
+    @staticmethod
+    def key(channels: list[FixedChannel], data: Any, read_interval: int, pad: bool) -> tuple[Any, ...]:
+        """What the bank's layout and plans depend on: equal keys let a reset reuse the bank."""
+        return (id(data), read_interval, pad) + tuple(
+            (ch.sampler.field, ch.sampler.index.shape, ch.sampler.index.tobytes(), ch.interval, ch.delay,
+             ch.buffer_size, getattr(ch.aggregator, "name", None), ch.has_buffer_dim, id(ch.noise))
+            for ch in channels)
+
+    def rebind(self, channels: list[FixedChannel]) -> None:
+        """Take this episode's channels (same settings as the ones the bank was built for)."""
+        self.channels = channels
+        if self.noise is not None:
+            self.noise.programs = [program(ch.noise) for ch in channels]
 
     def members(self) -> list[BankMember]:
         return [BankMember(self, i, ch) for i, ch in enumerate(self.channels)]
 
     def snapshot_steps(self) -> list[int]:
         return [t for t, snap in enumerate(self.snap_rows) if snap]
+
+    def tasks(self) -> list[tuple[int, list[int], Any]]:
+        """(period, phases, task(step)) for the Updater's plan: snapshots, and noise drawn a chunk ahead."""
+        out = [(self.rows, self.snapshot_steps(), self.snapshot)]
+        if self.noise is not None:
+            out.append((self.chunk, [0], self.noise.fill))
+        return out
 
     def start(self) -> None:
         """Take the reset sample (step 0) and pad the history."""
@@ -145,6 +182,12 @@ class FeatureBank:
             self.history[1:] = self.history[0]
         else:
             self.history[1:] = 0.0
+        if self.noise is not None:
+            self.noise.start()
+            if self.pad:  # padding repeats the first sample as delivered: with its noise
+                first = np.arange(self.width)
+                self.pad_values = self.history[0].copy()
+                self.noise.apply(self.pad_values, self.noise.plan(first))
 
     def snapshot(self, step: int) -> None:
         # mode="clip": indices are valid by construction, and "raise" would buffer the output
@@ -156,8 +199,9 @@ class FeatureBank:
         full, rest = divmod(step, period)
         return 1 + full * per_period + sum(1 for p in phases if p <= rest) - (1 if 0 in phases else 0)
 
-    def _plan_read(self, phase: int) -> tuple[np.ndarray, list[Any], list[Any]]:
-        return read_plan(self.channels, self.cols, self.rows, phase)
+    def _plan_read(self, phase: int) -> tuple[np.ndarray, list[Any], list[Any], list[Any]]:
+        index, groups, plain = read_plan(self.channels, self.cols, self.rows, phase)
+        return index, groups, plain, (self.noise.plan(index) if self.noise is not None else [])
 
     def read(self, step: int) -> list[np.ndarray]:
         """Every member's observation at `step`: fresh arrays (views of this read's own gather)."""
@@ -165,8 +209,16 @@ class FeatureBank:
         plan = self._gathers.get(phase)
         if plan is None:
             plan = self._gathers[phase] = self._plan_read(phase)
-        index, groups, plain = plan
+        index, groups, plain, noise = plan
         gathered = self.flat.take(index, None, None, "clip")
+        if noise:
+            self.noise.apply(gathered, noise)
+            if step < self.rows:  # early in an episode: windows reach before the reset sample
+                early = self._early.get(step)
+                if early is None:
+                    early = self._early[step] = np.flatnonzero(index // self.width > step)
+                if len(early):
+                    gathered[early] = self.pad_values.take(index[early] % self.width)
         outputs: list[Any] = [None] * len(self.channels)
         for i, part, shape in plain:
             outputs[i] = gathered[part].reshape(shape)
@@ -179,10 +231,11 @@ class FeatureBank:
 
 
 def qualifies(ch: Any) -> bool:
-    """Whether a channel can join the bank: a noise-free, uncorrupted float64 mjData feature."""
+    """Whether a channel can join the bank: an uncorrupted float64 mjData feature whose noise (if any)
+    the bank can apply."""
     sampler = ch.sampler
-    return (isinstance(ch, FixedChannel) and ch.read_into is not None
-            and getattr(sampler, "struct", None) == "data" and ch.dtype == np.float64
+    return (isinstance(ch, FixedChannel) and getattr(sampler, "struct", None) == "data"
+            and hasattr(sampler, "index") and ch.dtype == np.float64 and program(ch.noise) is not None
             and (ch.aggregator is None or (ch.builtin_aggregator and ch.has_buffer_dim
                                            and getattr(ch.aggregator, "name", None) in _REDUCERS)))
 

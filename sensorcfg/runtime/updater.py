@@ -154,10 +154,18 @@ class Updater:
         members = [ch for ch in self._channels if qualifies(ch)]
         if not members:
             return None
+        data = raw_structs(physics)[1]
+        key = FeatureBank.key(members, data, self._n, self._pad)
+        cached = getattr(self, "_bank_cache", None)
+        if cached is not None and cached[0] == key:  # same sensors: keep the layout and its read plans
+            cached[1].rebind(members)
+            return cached[1]
         try:
-            return FeatureBank(members, raw_structs(physics)[1], self._n, self._pad)
+            bank = FeatureBank(members, data, self._n, self._pad)
         except ValueError:  # fields outside MjData's main buffer: read them one by one
             return None
+        self._bank_cache = (key, bank)
+        return bank
 
     def _channel(self, label: str, observable: Any, physics: Any, random_state: Any,
                  entropy: list[int] | None) -> Channel:
@@ -197,8 +205,8 @@ class Updater:
         banked = {id(m.channel) for m in self._bank.members()} if self._bank else set()
         tasks = [(ch.period(), ch.needed_phases(), order, ch.sample) for order, ch in enumerate(self._channels)
                  if isinstance(ch, FixedChannel) and id(ch) not in banked]
-        if self._bank:
-            tasks.insert(0, (self._bank.rows, self._bank.snapshot_steps(), -1, self._bank.snapshot))
+        if self._bank:  # snapshots and noise draws: pure reads of the state, before any sampler
+            tasks[:0] = [(p, phases, -1, task) for p, phases, task in self._bank.tasks()]
         self._random = [(order, ch) for order, ch in enumerate(self._channels) if isinstance(ch, RandomChannel)]
         period = math.lcm(*(p for p, _, _, _ in tasks)) if tasks else 1
         if period > _MAX_PLAN_PERIOD:  # pathological interval mixes: each task checks its own phase
