@@ -405,6 +405,19 @@ def test_run_error_in_the_users_sensor_code_points_at_it(tmp_path: Path) -> None
     assert proc.stderr.strip().endswith("mysensors.py:3: error: in far: ValueError: target site missing")
 
 
+def test_run_that_diverges_keeps_its_record_and_exits_1(tmp_path: Path) -> None:
+    write(tmp_path / "boom.xml", '<mujoco><option timestep="0.01" integrator="Euler"/><worldbody><body>'
+          '<joint name="j" type="slide" stiffness="1e9" springref="1"/><geom size=".1" mass="1"/></body>'
+          '</worldbody></mujoco>')
+    write(tmp_path / "s.yaml", "model: boom.xml\nsensors:\n  x: {kind: qpos, element: 'joint:j'}\n")
+    proc = cli("run", "s.yaml", "--steps", "50", "--out", "o.npz", cwd=tmp_path)
+    assert proc.returncode == 1
+    assert "sensorcfg: error: the simulation diverged after 2 control steps" in proc.stderr
+    with np.load(tmp_path / "o.npz") as data:
+        assert data["x"].shape == (3, 1, 1) and data["sensorcfg.action"].shape == (2, 0)
+    assert json.loads((tmp_path / "o.json").read_text())["settings"]["steps_done"] == 2
+
+
 # -- demo -------------------------------------------------------------------------------------------------
 
 def test_demo_in_an_empty_folder(tmp_path: Path) -> None:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import sys
 import time
 import warnings
 from pathlib import Path
@@ -113,8 +114,6 @@ class _Built:
 
 def make_env(suite: Any, model_file: str, settings: Settings, *, record_timing: bool) -> tuple[Any, dict[str, Any]]:
     """The Environment and the suite's observables (drawn schedules wrapped in Recorders when asked)."""
-    import sys
-
     from ..env import Environment
     from ..env.environment import load_model, steps_per_control_step
     from ..errors import SuiteError
@@ -164,8 +163,8 @@ def simulate(env: Any, settings: Settings, *, keep: bool, label: str = "running"
                     np.zeros(n + 1), np.zeros((n,) + env.action_spec().shape))
     act = _actions(env, settings)
     progress = Progress(n, label)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", RuntimeWarning)
+    with warnings.catch_warnings():  # a divergence is reported once, by `execute`, not as a Python warning
+        warnings.filterwarnings("ignore", message="sensorcfg: the simulation diverged", category=RuntimeWarning)
         ts = env.reset()
         _store(rec, 0 if keep else None, ts.observation, env)
         start = time.perf_counter()
@@ -182,7 +181,6 @@ def simulate(env: Any, settings: Settings, *, keep: bool, label: str = "running"
                 break
         rec.wall_seconds = time.perf_counter() - start
     progress.close()
-    del caught  # divergence is reported in the summary, not as a Python warning
     rec.samples_taken = dict(env.updater.samples_taken())
     if keep:
         rec.truncate()
@@ -205,6 +203,8 @@ def summary(rec: Recording, rows: list[SensorRow], substeps: int, timestep: floa
     lines = [f"ran {rec.steps_done} control steps ({physics_steps} physics steps, {sim:.3g} s simulated) in "
              f"{rec.wall_seconds:.3g} s: {rec.steps_done / wall:,.0f} control steps/s, "
              f"{physics_steps / wall:,.0f} physics steps/s, {sim / wall:.3g}x real time", ""]
+    if not rows:
+        return "\n".join(lines + ["the suite has no enabled observations"])
     body, renders = [], [0, 0]
     for r in rows:
         taken = rec.samples_taken.get(r.name)
@@ -221,9 +221,6 @@ def summary(rec: Recording, rows: list[SensorRow], substeps: int, timestep: floa
         total = renders[0] + renders[1]
         share = f" ({100 * renders[1] / total:.0f}%)" if total else ""
         lines += ["", f"camera renders: {renders[0]} taken, {renders[1]} skipped by the schedule{share}"]
-    if rec.diverged:
-        lines += ["", f"the simulation diverged after {rec.steps_done} control steps ({rec.diverged}); "
-                  "the run stopped there"]
     return "\n".join(lines)
 
 
@@ -260,15 +257,23 @@ def execute(suite: Any, model_file: str, settings: Settings, out: Path | None, p
                    "observations": [r.as_dict() for r in rows], "samples_taken": rec.samples_taken,
                    "wall_seconds": rec.wall_seconds, "diverged": rec.diverged}
         side = save(rec, out, sidecar)
-        print(f"\nwrote {out} ({len(rec.observations)} observations x {rec.steps_done + 1} steps) and {side}")
-    if plot is not None:
+        count = len(rec.observations)
+        print(f"\nwrote {out} ({count} observation{'s' if count != 1 else ''} x {rec.steps_done + 1} steps) "
+              f"and {side}")
+    if plot is not None and not rows:
+        print(f"no plot: the suite has no enabled observations to draw ({plot} not written)")
+    elif plot is not None:
         from . import timing
         from .plot import plot_run
 
         times = timing.timings(observables, rec.steps_done * n, n)
         plot_run(plot, rec, rows, times, dt, title=title or f"{suite.file} on {Path(model_file).name}")
         print(f"wrote {plot}")
-    return EXIT_INVALID if rec.diverged else EXIT_OK
+    if rec.diverged:
+        print(f"sensorcfg: error: the simulation diverged after {rec.steps_done} control steps ({rec.diverged}); "
+              "the run stopped there, and what it recorded is kept", file=sys.stderr)
+        return EXIT_INVALID
+    return EXIT_OK
 
 
 def settings_from(args: argparse.Namespace) -> Settings:
