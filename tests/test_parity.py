@@ -506,3 +506,26 @@ def test_long_buffers(oracle: Any, models: dict[str, Model], model_name: str) ->
         ours = build_features(oracle, config, True, random.Random(arrangement))
         run_side_by_side(oracle, model, theirs, ours, config["n"], config["strip"], config["pad"], seed,
                          f"{model_name} long-buffer config {k}", control_steps=20)
+
+
+def test_builtin_aggregators_keep_bounds_deviation(oracle: Any) -> None:
+    """A documented, intentional deviation: our Updater keeps the bounds of min/max/mean/median.
+
+    dm_control's built-in aggregators carry a misspelled `bounds_reserving` while its Updater reads
+    `preserves_bounds`, so dm_control drops the bounds even of a mean; we read both names. Sum drops
+    them in both.
+    """
+
+    class Bounded(oracle.observable.Generic):
+        @property
+        def array_spec(self) -> specs.BoundedArray:
+            return specs.BoundedArray(shape=(2,), dtype=np.float64, minimum=-1.0, maximum=1.0)
+
+    for name in ("min", "max", "mean", "median", "sum"):
+        observable = Bounded(lambda _: np.zeros(2), buffer_size=3, aggregator=name)
+        observable.enabled = True
+        theirs, ours = oracle.updater.Updater({"x": observable}), sensorcfg.Updater({"x": observable})
+        theirs.reset(None, None)
+        ours.reset(None, None)
+        assert type(theirs.observation_spec()["x"]) is specs.Array
+        assert type(ours.observation_spec()["x"]) is (specs.Array if name == "sum" else specs.BoundedArray)
