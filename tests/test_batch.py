@@ -360,3 +360,35 @@ def test_mujoco3_says_it_needs_mujoco4():
     with pytest.raises(SuiteError, match=r"BatchEnvironment needs MuJoCo 4 \(its mujoco.batch module\); this is "
                                          r"mujoco 3\.[0-9.]+: pip install 'mujoco>=4'"):
         BatchEnvironment(ROBOT, _one(), 2)
+
+
+# -- Gymnasium ---------------------------------------------------------------------------------------
+
+
+@needs_batch
+def test_gymnasium_vector_env_steps_and_autoresets_as_the_batch():
+    pytest.importorskip("gymnasium")
+    from gymnasium.vector import AutoresetMode
+
+    from sensorcfg.gym_vector import GymVectorEnv
+
+    def make():
+        return BatchEnvironment(ROBOT, random_suite(2, noise=False), 3, physics_steps_per_control_step=5,
+                                time_limit=0.03)
+
+    venv, env = GymVectorEnv(make()), make()
+    assert venv.metadata["autoreset_mode"] is AutoresetMode.NEXT_STEP
+    obs, _ = venv.reset(seed=4)
+    env.seed(4)
+    ref = env.reset().observation
+    assert venv.observation_space.contains(obs) and obs.keys() == ref.keys()
+    actions = np.random.default_rng(0).uniform(-1, 1, (5, 3, 3))
+    for step, a in enumerate(actions):
+        obs, reward, terminated, truncated, _ = venv.step(a)
+        ts = env.step(a)
+        assert all(same(obs[k], ts.observation[k]) for k in obs)
+        assert truncated.tolist() == [step == 2] * 3 and not terminated.any()
+        assert venv.observation_space.contains(obs)
+    obs, _ = venv.reset(options={"reset_mask": np.array([True, False, False])})
+    assert all(same(obs[k][1:], ts.observation[k][1:]) for k in obs)
+    venv.close()

@@ -53,8 +53,10 @@ _FIRST, _MID, _LAST = (int(t) for t in (dm_env.StepType.FIRST, dm_env.StepType.M
 
 def _batch_module() -> Any:
     try:
+        if int(mujoco.__version__.split(".")[0]) < 4:  # MuJoCo 3 has an unrelated `mujoco.batch`
+            raise ImportError
         from mujoco import batch
-    except ImportError:
+    except (ImportError, ValueError):
         raise SuiteError(f"BatchEnvironment needs MuJoCo 4 (its mujoco.batch module); this is mujoco "
                          f"{mujoco.__version__}: pip install 'mujoco>=4', or use sensorcfg.Environment per "
                          "simulation") from None
@@ -155,6 +157,13 @@ class BatchEnvironment:
     def seed_sequence(self) -> np.random.SeedSequence:
         """The batch's root seed; simulation i's is `sim_seed(seed_sequence, i)`."""
         return self._seed
+
+    def seed(self, seed: int | np.random.SeedSequence | None) -> None:
+        """Reseed every simulation (simulation i from `sim_seed(seed, i)`); the next step resets them all."""
+        self._seed = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+        self._random_states = [random_state_from(sim_seed(self._seed, i)) for i in range(self._nsim)]
+        self._updater.started[:] = False  # no episode to rewind in the new streams
+        self._needs_reset[:] = True
 
     def action_spec(self) -> specs.BoundedArray:
         return self._action_spec

@@ -53,29 +53,32 @@ def _bound(label: str, attr: str, value: Any, default: int) -> int:
                      "{choice: [...]}")
 
 
-class _Source:
-    """Where each history column comes from: offsets in the record buffer and in the reset buffer."""
+class _Store:
+    """One flat float64 buffer: the history, then the records of a control step, then the reset values.
 
-    def __init__(self, fields: dict[str, tuple[int, ...]], nsim: int, n: int):
-        self.fields = fields
-        sizes = {f: math.prod(shape) for f, shape in fields.items()}
-        self.sizes = sizes
-        rec_total = sum(nsim * n * s for s in sizes.values())
-        now_total = sum(nsim * s for s in sizes.values())
-        self.record = np.zeros(max(rec_total, 1))
-        self.reset = np.zeros(max(now_total, 1))
-        self.record_offset: dict[str, int] = {}
+    One buffer, so one gather can read a window whose older samples are in the history and whose samples
+    of the current control step are still in the records.
+    """
+
+    def __init__(self, fields: dict[str, tuple[int, ...]], nsim: int, n: int, history: tuple[int, ...]):
+        self.sizes = {f: math.prod(shape) for f, shape in fields.items()}
+        hsize = math.prod(history)
+        rsize = sum(nsim * n * s for s in self.sizes.values())
+        zsize = sum(nsim * s for s in self.sizes.values())
+        self.flat = np.zeros(hsize + rsize + zsize)
+        self.history = self.flat[:hsize].reshape(history)
+        self.record_offset: dict[str, int] = {}  # of each field's (nsim, n, ...) records, in `flat`
         self.reset_offset: dict[str, int] = {}
         self.record_out: dict[str, np.ndarray] = {}
         self.reset_values: dict[str, np.ndarray] = {}
-        r = z = 0
+        r, z = hsize, hsize + rsize
         for f, shape in fields.items():
-            s = sizes[f]
+            size = self.sizes[f]
             self.record_offset[f], self.reset_offset[f] = r, z
-            self.record_out[f] = self.record[r:r + nsim * n * s].reshape(nsim, n, *shape)
-            self.reset_values[f] = self.reset[z:z + nsim * s].reshape(nsim, *shape)
-            r += nsim * n * s
-            z += nsim * s
+            self.record_out[f] = self.flat[r:r + nsim * n * size].reshape(nsim, n, *shape)
+            self.reset_values[f] = self.flat[z:z + nsim * size].reshape(nsim, *shape)
+            r += nsim * n * size
+            z += nsim * size
 
 
 class BatchUpdater:
@@ -109,8 +112,6 @@ class BatchUpdater:
         fields = {}
         for _, _, ch in ordered:
             fields.setdefault(ch.sampler.field, tuple(getattr(data, ch.sampler.field).shape))
-        self.source = _Source(fields, self.nsim, self.n)
-        self.record_out, self.reset_values = self.source.record_out, self.source.reset_values
         widths = [math.prod(ch.shape) for _, _, ch in ordered]
         self.cols = np.cumsum([0] + widths).astype(np.intp)
         self.width = int(self.cols[-1])
@@ -123,12 +124,14 @@ class BatchUpdater:
                       for i, (name, _, ch) in enumerate(ordered) if ch.noise is not None}
         self.noisy = bool(self.noise)
         self._rows(fixed, drawn)
-        self._snapshot_index()
+        # history rows: one per physics step (mod rows), then the reset sample, then zeros
+        self.store = _Store(fields, self.nsim, self.n, (self.rows + 2, self.nsim, self.width))
+        self.record_out, self.reset_values = self.store.record_out, self.store.reset_values
+        self.history, self.flat = self.store.history, self.store.flat
+        self._sources()
         self._read_plans()
         self.timelines = Timelines(
             [(name, ch, self._drawers(name, obs)) for name, obs, ch in drawn], self.nsim, self.n, self.pad)
-        self.history = np.zeros((self.rows + 2, self.nsim, self.width))  # + the reset sample, + zeros
-        self.flat = self.history.reshape(-1)
         self.G = 0  # global physics steps
         self.t = np.zeros(self.nsim, np.int64)  # physics steps since each simulation's reset
         self.control_steps = np.zeros(self.nsim, np.int64)
@@ -178,21 +181,30 @@ class BatchUpdater:
             span = max(span, delay + (ch.buffer_size + 1) * interval + 2 * n + 1)
         self.rows = period * -(-span // period)
 
-    def _snapshot_index(self) -> None:
-        """Positions in the record buffer of every column, per (substep, simulation); and in the reset buffer."""
-        src, nsim, n = self.source, self.nsim, self.n
-        k = np.arange(n)[:, None, None]
-        i = np.arange(nsim)[None, :, None]
-        snap, reset = [], []
+    def _sources(self) -> None:
+        """Where each column's value of simulation i at substep k sits in the records:
+        `record_base[j] + i * record_stride[j] + k * record_step[j]`; and the reset sample's positions."""
+        store, nsim, n = self.store, self.nsim, self.n
+        base, stride, step, reset = [], [], [], []
         for ch in self.channels:
             field = ch.sampler.field
-            size = src.sizes[field]
-            within = ch.sampler.index.ravel().astype(np.intp)[None, None, :]
-            snap.append(src.record_offset[field] + (i * n + k) * size + within)
-            reset.append(src.reset_offset[field] + i[0] * size + within[0])
-        shape = (n, nsim, self.width)
-        self.snap_index = np.concatenate(snap, axis=2) if snap else np.zeros(shape, np.intp)
+            size = store.sizes[field]
+            within = ch.sampler.index.ravel().astype(np.intp)
+            base.append(store.record_offset[field] + within)
+            stride.append(np.full(within.size, n * size, np.intp))
+            step.append(np.full(within.size, size, np.intp))
+            reset.append(store.reset_offset[field] + np.arange(nsim)[:, None] * size + within[None, :])
+        empty = np.zeros(0, np.intp)
+        self.record_base = np.concatenate(base) if base else empty
+        self.record_stride = np.concatenate(stride) if stride else empty
+        self.record_step = np.concatenate(step) if step else empty
         self.reset_index = np.concatenate(reset, axis=1) if reset else np.zeros((nsim, 0), np.intp)
+        # columns whose every substep goes to the history: noise runs there, random windows read there
+        always = np.zeros(self.width, bool)
+        for c in range(len(self.channels)):
+            if c in self.noise or c >= self.nfixed:
+                always[self.cols[c]:self.cols[c + 1]] = True
+        self.always = always
 
     def _read_plans(self) -> None:
         """The bank's read plan at each phase of a read (steps since reset, mod rows), as row offsets."""
@@ -201,6 +213,7 @@ class BatchUpdater:
         if not self.fixed:
             self.delta = np.zeros((self.nphase, 0), np.intp)
             self.plain, self.groups, self.plain_cols, self.col = [], [], np.zeros(0, np.intp), np.zeros(0, np.intp)
+            self.later = np.zeros((self.nphase, self.n, self.width), bool)
             return
         fixed_cols = self.cols[:self.nfixed + 1]
         wf = int(fixed_cols[-1])
@@ -223,6 +236,26 @@ class BatchUpdater:
         self.plain_cols = np.concatenate(pos) if pos else np.zeros(0, np.intp)
         self.groups = [(reduce, np.arange(part.start, part.stop), block, members)
                        for reduce, part, block, members in groups]
+        # Positions a read takes from this control step's records rather than the history: noise-free
+        # samples of the last n steps (never at the reset read, whose samples are all in the history).
+        recent = (self.delta == 0) | (self.delta > rows - n)
+        plain = ~self.always[self.col]
+        self.from_record = np.vstack([recent & plain[None, :], np.zeros((1, plain.size), bool)])
+        k = np.where(self.delta == 0, n, self.delta - (rows - n))  # substep 1..n of a recent sample
+        self.record_read = np.vstack([self.record_base[self.col] + (k - 1) * self.record_step[self.col],
+                                      np.zeros((1, plain.size), np.intp)])
+        self.record_read_stride = self.record_stride[self.col]
+        # Per phase and substep: the noise-free columns whose sample a later read takes from the history
+        later = np.zeros((self.nphase, n, self.width), bool)
+        for c, ch in enumerate(self.fixed):
+            if c in self.noise:
+                continue
+            i, d, b = ch.interval, ch.delay, ch.buffer_size
+            for q in range(self.nphase):
+                for kk in range(1, n + 1):
+                    if (q * n + kk) % i == 0 and kk + b * i + d - 1 >= 2 * n:
+                        later[q, kk - 1, self.cols[c]:self.cols[c + 1]] = True
+        self.later = later
 
     # -- episodes ---------------------------------------------------------------------------------
 
@@ -246,7 +279,7 @@ class BatchUpdater:
             if self.timelines.specs:
                 self.timelines.start(i, rs)
         self.started[ids] = True
-        values = self.source.reset.take(self.reset_index[ids])  # (m, width): the reset sample
+        values = self.flat.take(self.reset_index[ids])  # (m, width): the reset sample
         zeros = np.zeros(ids.size, np.int64)
         for c, pipeline in self.noise.items():
             lo, hi = self.cols[c], self.cols[c + 1]
@@ -271,7 +304,8 @@ class BatchUpdater:
     def update(self, active: np.ndarray) -> None:
         """After a control step's rollout (into `record_out`): store, sample and corrupt its n steps."""
         n, gp = self.n, self.G % self.rows
-        self.source.record.take(self.snap_index, None, self.history[gp:gp + n], "clip")
+        source, target = self._snapshot(gp)
+        self.flat.put(target, self.flat.take(source), "clip")
         everyone = bool(active.all())
         plan = self._plan(gp)
         if self.timelines.specs:
@@ -310,11 +344,37 @@ class BatchUpdater:
             row[sims, lo:hi] = self.noise[c](raw.reshape(sims.size, *shape), sims, steps).reshape(sims.size, -1)
 
     def _phases(self) -> np.ndarray:
-        return (self.t % self.rows) // self.n
+        """Each simulation's read phase: steps since reset mod rows, in control steps; `nphase` at a reset."""
+        return np.where(self.t == 0, self.nphase, (self.t % self.rows) // self.n)
+
+    def _snapshot(self, gp: int) -> tuple[np.ndarray, np.ndarray]:
+        """Positions of the values this control step stores: in the records, and in the history (cached).
+
+        Every substep of noisy and random-schedule columns; of the others, only the samples a later
+        control step's read takes from the history (the current read takes its own from the records).
+        """
+        key = ("snapshot", gp)
+        cached = self._cache.get(key)
+        if cached is None:
+            nsim, w, n = self.nsim, self.width, self.n
+            phases = np.unique((self.t % self.rows) // n)
+            sims = np.arange(nsim)[:, None]
+            source, target = [], []
+            for k in range(1, n + 1):
+                cols = np.flatnonzero(self.always | self.later[phases, k - 1].any(axis=0))
+                if not cols.size:
+                    continue
+                source.append((self.record_base[cols] + (k - 1) * self.record_step[cols]
+                               + sims * self.record_stride[cols]).ravel())
+                target.append(((gp + k - 1) * nsim * w + sims * w + cols).ravel())
+            empty = np.zeros(0, np.intp)
+            cached = self._cache[key] = (np.concatenate(source) if source else empty,
+                                         np.concatenate(target) if target else empty)
+        return cached
 
     def _plan(self, gp: int) -> list[list[tuple[int, np.ndarray]]]:
         """Per substep, the noisy fixed channels and the simulations that sample them (cached per phase)."""
-        key = -1 - gp
+        key = ("noise", gp)
         plan = self._cache.get(key)
         if plan is None:
             local = self.t % self.rows
@@ -337,15 +397,22 @@ class BatchUpdater:
 
     def _gathers(self, gp: int) -> tuple[np.ndarray, list[np.ndarray]]:
         """Flat history positions of every read value, per simulation (cached per phase until a reset)."""
-        cached = self._cache.get(gp)
+        fresh = bool((self.t == 0).any())  # a reset read: its phase is not the one gp implies later on
+        cached = None if fresh else self._cache.get(("read", gp))
         if cached is None:
             rows, nsim, w = self.rows, self.nsim, self.width
-            rowg = (gp - 1 + self.delta[self._phases()]) % rows  # (nsim, read width)
-            index = rowg * (nsim * w) + (np.arange(nsim) * w)[:, None] + self.col[None, :]
+            phases = self._phases()
+            delta = np.vstack([self.delta, self.delta[:1]])  # the reset read: phase 0's, from the history
+            sims = np.arange(nsim)[:, None]
+            index = ((gp - 1 + delta[phases]) % rows) * (nsim * w) + sims * w + self.col[None, :]
+            recent = self.from_record[phases]
+            index[recent] = (self.record_read[phases] + sims * self.record_read_stride[None, :])[recent]
             plain = np.ascontiguousarray(index[:, self.plain_cols])
             groups = [np.ascontiguousarray(index[:, part].reshape(nsim, *block).transpose(1, 0, 2))
                       for _, part, block, _ in self.groups]
-            cached = self._cache[gp] = (plain, groups)
+            cached = (plain, groups)
+            if not fresh:
+                self._cache[("read", gp)] = cached
         return cached
 
     def get_observation(self) -> dict[str, np.ndarray]:

@@ -1,0 +1,110 @@
+"""Environment steps per second on mujoco.batch: physics alone, with the suite, and a loop of Environments.
+
+Setting: dm_control's suite/humanoid.xml, 5 physics steps per control step, the 20-observable suite of
+benchmarks/_humanoid.py, random controls. For each nsim (64 and 512 by default), each repeat times K
+control steps of:
+
+  physics    `Batch.rollout(5, control=...)` recording nothing: the floor for any batched suite
+  batched    `BatchEnvironment.step`: one rollout recording the suite's fields, plus the vectorised updater
+  loop       nsim single-simulation `Environment.step`s with the same suite (one MjData each)
+
+interleaved (drift hits all three alike). Prints medians of environment steps per second (control steps
+times simulations, per second of wall time) and the ratios. Targets: the suite adds at most 5% to
+batched physics at 512 simulations; batched at least 1.8x the loop on 2 cores.
+
+    MUJOCO_GL=egl python benchmarks/batch.py [--nsim 64 512] [--repeats 7] [--control-steps 20] [--nthread 0]
+
+Needs MuJoCo 4 (mujoco.batch).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+import time
+
+sys.path.insert(0, os.path.dirname(__file__))
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import mujoco  # noqa: E402
+import numpy as np  # noqa: E402
+from _humanoid import SUITE, humanoid_xml, sensorcfg_observables  # noqa: E402
+
+import sensorcfg  # noqa: E402
+from sensorcfg.batch import BatchEnvironment  # noqa: E402
+
+N = 5
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--nsim", type=int, nargs="+", default=[64, 512])
+    parser.add_argument("--repeats", type=int, default=7)
+    parser.add_argument("--control-steps", type=int, default=20)
+    parser.add_argument("--nthread", type=int, default=0, help="batch threads (0: every CPU)")
+    parser.add_argument("--no-loop", action="store_true", help="skip the single-simulation loop")
+    args = parser.parse_args()
+    from mujoco import batch as mjbatch
+
+    xml, assets = humanoid_xml()
+    model = mujoco.MjModel.from_xml_string(xml, assets)
+    k = args.control_steps
+    print(f"humanoid, {N} physics steps per control step, {len(SUITE)} observables; mujoco {mujoco.__version__}, "
+          f"{os.cpu_count()} CPUs, nthread={args.nthread or 'all'}; medians of {args.repeats} repeats x {k} "
+          "control steps")
+    print(f"{'nsim':>6} {'physics':>12} {'batched':>12} {'loop':>12} {'suite cost':>11} {'batched/loop':>13}")
+    for nsim in args.nsim:
+        rng = np.random.default_rng(0)
+        lo, hi = model.actuator_ctrlrange.T
+        actions = rng.uniform(lo, hi, (k, nsim, model.nu)) * 0.2
+        physics = mjbatch.Batch(model, nsim, args.nthread)
+        env = BatchEnvironment(model, sensorcfg_observables(), nsim, nthread=args.nthread,
+                               physics_steps_per_control_step=N, seed=0)
+        loop = [] if args.no_loop else [
+            sensorcfg.Environment(model, sensorcfg_observables(), physics_steps_per_control_step=N, seed=i)
+            for i in range(nsim)]
+
+        def run_physics() -> float:
+            physics.reset()
+            t0 = time.perf_counter()
+            for a in actions:
+                physics.rollout(N, control=a[:, None, :], record=())
+            return time.perf_counter() - t0
+
+        def run_batched() -> float:
+            env.reset()
+            t0 = time.perf_counter()
+            for a in actions:
+                env.step(a)
+            return time.perf_counter() - t0
+
+        def run_loop() -> float:
+            for e in loop:
+                e.reset()
+            t0 = time.perf_counter()
+            for a in actions:
+                for e, ai in zip(loop, a):
+                    e.step(ai)
+            return time.perf_counter() - t0
+
+        run_physics(), run_batched()  # warm-up
+        if loop:
+            run_loop()
+        rows: dict[str, list[float]] = {"physics": [], "batched": [], "loop": []}
+        for _ in range(args.repeats):
+            rows["physics"].append(k * nsim / run_physics())
+            rows["batched"].append(k * nsim / run_batched())
+            if loop:
+                rows["loop"].append(k * nsim / run_loop())
+        med = {name: statistics.median(v) if v else float("nan") for name, v in rows.items()}
+        cost = med["physics"] / med["batched"] - 1
+        print(f"{nsim:>6} {med['physics']:>12,.0f} {med['batched']:>12,.0f} {med['loop']:>12,.0f} "
+              f"{100 * cost:>10.1f}% {med['batched'] / med['loop']:>12.2f}x")
+    print("env steps/s (control steps x simulations per second); suite cost = physics/batched - 1 "
+          "(target <= 5% at 512); batched/loop target >= 1.8x")
+
+
+if __name__ == "__main__":
+    main()
