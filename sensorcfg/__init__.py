@@ -5,6 +5,7 @@ from ._gl import choose_gl_backend as _choose_gl_backend
 _choose_gl_backend()
 
 from ._version import __version__  # noqa: E402
+from .batch import BatchEnvironment  # noqa: E402
 from .env import Environment, dm_control_observables, make_env  # noqa: E402
 from .errors import Problem, SuiteError  # noqa: E402
 from .observables import AGGREGATORS, Camera, Feature, Generic, Observable  # noqa: E402
@@ -14,6 +15,7 @@ from .suite import Suite, load, loads  # noqa: E402
 
 __all__ = [
     "AGGREGATORS",
+    "BatchEnvironment",
     "Camera",
     "Environment",
     "Feature",
