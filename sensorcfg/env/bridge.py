@@ -9,6 +9,7 @@ and each sample is corrupted with the simulated time read from the physics.
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable
 from typing import Any
 
@@ -26,6 +27,21 @@ class BridgedObservable:
     def __init__(self, name: str, observable: Any):
         self._name = name
         self._observable = observable
+        self._random_state: Any = None
+
+    def _schedule(self, value: Any) -> Any:
+        """dm_control passes its random state only to its own Variations: bind ours to the episode's."""
+        if callable(value) and _takes_random_state(value):
+            return lambda: value(random_state=self._random_state)
+        return value
+
+    @property
+    def update_interval(self) -> Any:
+        return self._schedule(self._observable.update_interval)
+
+    @property
+    def delay(self) -> Any:
+        return self._schedule(self._observable.delay)
 
     def __getattr__(self, attr: str) -> Any:
         return getattr(self._observable, attr)
@@ -36,7 +52,16 @@ class BridgedObservable:
         else:
             setattr(self._observable, attr, value)
 
+    @property
+    def enabled(self) -> bool:
+        return self._observable.enabled
+
+    @enabled.setter
+    def enabled(self, value: bool) -> None:
+        self._observable.enabled = value
+
     def observation_callable(self, physics: Any, random_state: Any = None) -> Callable[[], Any]:
+        self._random_state = random_state  # dm_control binds each observable before reading its schedule
         sample = self._observable.observation_callable(physics, random_state)
         noise = self._observable.noise
         if noise is None:
@@ -52,6 +77,13 @@ class BridgedObservable:
 
     def __call__(self, physics: Any, random_state: Any = None) -> Any:
         return self.observation_callable(physics, random_state)()
+
+
+def _takes_random_state(fn: Any) -> bool:
+    try:
+        return "random_state" in inspect.signature(fn).parameters
+    except (TypeError, ValueError):
+        return False
 
 
 def dm_control_observables(suite: Any, physics: Any) -> dict[str, Any]:

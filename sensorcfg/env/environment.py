@@ -77,22 +77,23 @@ def steps_per_control_step(model: mujoco.MjModel, steps: int | None, control_tim
     return steps
 
 
-def _suite_and_observables(suite: Any, model: mujoco.MjModel) -> tuple[dict[str, Any], dict[str, bool]]:
-    """Observables and Updater flags from a Suite, a suite path, or a dict of observables."""
+def _suite_and_observables(suite: Any, model: mujoco.MjModel) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Observables and Updater keyword arguments from a Suite, a suite path, or a dict of observables."""
     if isinstance(suite, Mapping):
         return dict(suite), {}
     if isinstance(suite, (str, os.PathLike)):
         from .. import load
 
         suite = load(suite)
-    options = suite.options
-    flags = {"strip_singleton_buffer_dim": bool(options.strip_singleton_buffer_dim),
-             "pad_with_initial_value": bool(options.pad_with_initial_value)}
-    return suite.build(model), flags
+    return suite.build(model), suite.updater_kwargs(model)
 
 
 class Environment(dm_env.Environment):
-    """A MuJoCo model stepped with zero-cost glue, observed through a sensor suite."""
+    """A MuJoCo model stepped with zero-cost glue, observed through a sensor suite.
+
+    The control step is `physics_steps_per_control_step` or `control_timestep` when given, else the suite's
+    `options.control_interval`, else one physics step.
+    """
 
     def __init__(self, model: mujoco.MjModel | str | os.PathLike, suite: Any, *,
                  physics_steps_per_control_step: int | None = None, control_timestep: float | None = None,
@@ -102,10 +103,13 @@ class Environment(dm_env.Environment):
                  initialize_episode: InitializeFn | None = None, keyframe: int | str | None = None):
         self._model = load_model(model)
         self._physics = Physics(self._model)
+        observables, kwargs = _suite_and_observables(suite, self._model)
+        suite_steps = kwargs.pop("physics_steps_per_control_step", None)
+        if physics_steps_per_control_step is None and control_timestep is None:  # the suite's control_interval
+            physics_steps_per_control_step = suite_steps
         self._n = steps_per_control_step(self._model, physics_steps_per_control_step, control_timestep)
-        observables, flags = _suite_and_observables(suite, self._model)
         self._observables = observables
-        self._updater = Updater(observables, self._n, **flags)
+        self._updater = Updater(observables, self._n, **kwargs)
         self._random_state = random_state_from(seed)
         self._reward_fn, self._termination_fn, self._initialize = reward_fn, termination_fn, initialize_episode
         self._keyframe = self._keyframe_id(keyframe)
