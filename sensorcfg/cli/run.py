@@ -103,13 +103,17 @@ def add_parser(sub: Any, epilog: str) -> None:
 # -- build -----------------------------------------------------------------------------------------------
 
 class _Built:
-    """A suite whose observables are already built (the Environment asks for `options` and `build`)."""
+    """The suite, with its observables already built (so the run can watch their draws): `build` returns
+    them, everything else the Environment asks of a suite is the suite's own."""
 
     def __init__(self, suite: Any, observables: dict[str, Any]):
-        self.options, self._observables = suite.options, observables
+        self._suite, self._observables = suite, observables
 
-    def build(self, model: Any) -> dict[str, Any]:
+    def build(self, model: Any = None, **kwargs: Any) -> dict[str, Any]:
         return self._observables
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._suite, name)
 
 
 def make_env(suite: Any, model_file: str, settings: Settings, *, record_timing: bool) -> tuple[Any, dict[str, Any]]:
