@@ -148,10 +148,14 @@ def test_each_simulation_is_the_single_environment_bit_for_bit(suite_seed):
 
 
 @needs_batch
-@pytest.mark.parametrize("suite_seed", range(12, 18))
-def test_fixed_schedules_without_noise_take_the_bank_path(suite_seed):
-    _, batch_steps, single_steps = run_pair(suite_seed, 3, 30, drawn=False, noise=False, n=5)
-    for i in range(3):
+@pytest.mark.parametrize("suite_seed", range(12, 24))
+def test_fixed_noise_free_schedules_read_records_and_history(suite_seed):
+    # the path that reads the current control step's samples from the records and older ones from history
+    rng = np.random.default_rng(2000 + suite_seed)
+    resets = [(int(rng.integers(2, 20)), [int(rng.integers(0, 4))])]
+    _, batch_steps, single_steps = run_pair(suite_seed, 4, 30, drawn=False, noise=False, n=int(rng.integers(1, 9)),
+                                            time_limit=0.05, resets=resets)
+    for i in range(4):
         check_sim(batch_steps, single_steps[i], i, f"suite {suite_seed}")
 
 

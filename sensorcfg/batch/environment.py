@@ -27,6 +27,8 @@ finite ends its episode with discount 0, its message in `last_divergence[i]` (an
 others go on. The batch stops stepping a simulation at its first warning, so the observation of that last
 step may differ from a single simulation's (which MuJoCo resets and steps on).
 
+The control step is chosen as `Environment` chooses it: `physics_steps_per_control_step` or
+`control_timestep` when given, else the suite's `options.control_interval`, else one physics step.
 Rewards are 0 (the suite observes; shape rewards from the observations).
 """
 
@@ -104,14 +106,18 @@ class BatchEnvironment:
             raise SuiteError(f"nthread must be a non-negative integer (0: every CPU), got {nthread!r}")
         self._model = load_model(model)
         self._nsim = int(nsim)
+        observables, options = _suite_and_observables(suite, self._model)
+        suite_steps = options.get("physics_steps_per_control_step")  # the suite's control_interval, if any
+        if physics_steps_per_control_step is None and control_timestep is None:
+            physics_steps_per_control_step = suite_steps
         self._n = steps_per_control_step(self._model, physics_steps_per_control_step, control_timestep)
         self._control_timestep = self._n * float(self._model.opt.timestep)
         if time_limit is not None and time_limit <= 0:
             raise SuiteError(f"time_limit must be positive seconds, got {time_limit!r}")
         self._step_limit = None if time_limit is None else max(1, round(time_limit / self._control_timestep))
-        observables, flags = _suite_and_observables(suite, self._model)
         physics = Physics(self._model)
         mujoco.mj_forward(self._model, physics.data)
+        flags = {k: bool(options[k]) for k in ("strip_singleton_buffer_dim", "pad_with_initial_value") if k in options}
         self._updater = BatchUpdater(observables, physics, self._nsim, self._n, **flags)
         self._batch = batch_module.Batch(self._model, self._nsim, 0 if nthread is None else int(nthread))
         self._simulation_error = batch_module.SimulationError
