@@ -43,9 +43,10 @@ import mujoco
 import numpy as np
 from dm_env import specs
 
+from ..env.environment import (_BAD_STATE, _suite_and_observables, load_model, random_state_from,
+                               steps_per_control_step)
 from ..errors import SuiteError
 from ..physics import Physics
-from ..env.environment import _BAD_STATE, _suite_and_observables, load_model, random_state_from, steps_per_control_step
 from .updater import BatchUpdater
 
 __all__ = ["BatchEnvironment", "BatchTimeStep", "sim_seed"]

@@ -1,11 +1,9 @@
-"""The Updater's semantics for nsim simulations at once: one history, one gather per read.
+"""The Updater's semantics for nsim simulations at once: one copy per control step, one gather per read.
 
-This is `FeatureBank` across simulations. The physics of a control step arrives as `rollout`'s records,
-(nsim, n, ...) per mjData field, all in one flat buffer this class owns; one `take` copies every
-observed value of every simulation and substep into a history of (rows, nsim, width) values, indexed by
-global physics step (so the copy is the same for every simulation, whatever its episode's age). Reads
-follow the bank's periodic read plan (`runtime.bank.read_plan`), shifted per simulation by the age of its
-episode: one gather per output group, one reduction per (aggregator, buffer) group, over all simulations.
+This is `FeatureBank` across simulations. A control step's physics arrives as `rollout`'s records in the
+store of a `Layout` (`batch.layout`); one `take`/`put` keeps in the history what later reads need, and a
+read is one gather per output group over every simulation (the bank's read plan, shifted by each
+episode's age), then one reduction per (aggregator, buffer) group.
 
 Noise runs at each sample's own step on the simulations that sample then, in place in the history
 (`batch.noise`); random intervals and delays are planned per simulation by the single-simulation
@@ -19,7 +17,6 @@ they are rejected with a SuiteError naming the sensor), and `samples_taken` is n
 
 from __future__ import annotations
 
-import math
 import numbers
 from collections.abc import Mapping
 from typing import Any
@@ -29,9 +26,10 @@ from dm_env import specs
 
 from ..draws import ChoiceSteps, UniformSteps
 from ..errors import SuiteError
-from ..runtime.bank import _REDUCERS, read_plan
+from ..runtime.bank import _REDUCERS
 from ..runtime.channels import Channel, FixedChannel, RandomChannel
 from ..runtime.updater import DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, Updater, _drawer, _episode_entropy, sensor_rng
+from .layout import Layout
 from .noise import BatchPipeline
 from .timeline import Timelines
 
@@ -51,34 +49,6 @@ def _bound(label: str, attr: str, value: Any, default: int) -> int:
     raise SuiteError(f"sensor {label!r}: its {attr} is a callable ({value!r}) that cannot be vectorised across "
                      "simulations: the batch must know its largest value; use {uniform: [lo, hi]} or "
                      "{choice: [...]}")
-
-
-class _Store:
-    """One flat float64 buffer: the history, then the records of a control step, then the reset values.
-
-    One buffer, so one gather can read a window whose older samples are in the history and whose samples
-    of the current control step are still in the records.
-    """
-
-    def __init__(self, fields: dict[str, tuple[int, ...]], nsim: int, n: int, history: tuple[int, ...]):
-        self.sizes = {f: math.prod(shape) for f, shape in fields.items()}
-        hsize = math.prod(history)
-        rsize = sum(nsim * n * s for s in self.sizes.values())
-        zsize = sum(nsim * s for s in self.sizes.values())
-        self.flat = np.zeros(hsize + rsize + zsize)
-        self.history = self.flat[:hsize].reshape(history)
-        self.record_offset: dict[str, int] = {}  # of each field's (nsim, n, ...) records, in `flat`
-        self.reset_offset: dict[str, int] = {}
-        self.record_out: dict[str, np.ndarray] = {}
-        self.reset_values: dict[str, np.ndarray] = {}
-        r, z = hsize, hsize + rsize
-        for f, shape in fields.items():
-            size = self.sizes[f]
-            self.record_offset[f], self.reset_offset[f] = r, z
-            self.record_out[f] = self.flat[r:r + nsim * n * size].reshape(nsim, n, *shape)
-            self.reset_values[f] = self.flat[z:z + nsim * size].reshape(nsim, *shape)
-            r += nsim * n * size
-            z += nsim * size
 
 
 class BatchUpdater:
@@ -112,9 +82,6 @@ class BatchUpdater:
         fields = {}
         for _, _, ch in ordered:
             fields.setdefault(ch.sampler.field, tuple(getattr(data, ch.sampler.field).shape))
-        widths = [math.prod(ch.shape) for _, _, ch in ordered]
-        self.cols = np.cumsum([0] + widths).astype(np.intp)
-        self.width = int(self.cols[-1])
         self.fixed = [ch for _, _, ch in fixed]
         self.nfixed = len(fixed)
         self.output_index = {name: i for i, (name, _, _) in enumerate(ordered)}
@@ -123,20 +90,21 @@ class BatchUpdater:
         self.noise = {i: BatchPipeline(ch.noise, self.nsim, name)
                       for i, (name, _, ch) in enumerate(ordered) if ch.noise is not None}
         self.noisy = bool(self.noise)
-        self._rows(fixed, drawn)
-        # history rows: one per physics step (mod rows), then the reset sample, then zeros
-        self.store = _Store(fields, self.nsim, self.n, (self.rows + 2, self.nsim, self.width))
-        self.record_out, self.reset_values = self.store.record_out, self.store.reset_values
-        self.history, self.flat = self.store.history, self.store.flat
-        self._sources()
-        self._read_plans()
+        span = 0  # how long a random-schedule sample may wait to be read, at most
+        for name, obs, ch in drawn:
+            interval = _bound(name, "update_interval", obs.update_interval, DEFAULT_UPDATE_INTERVAL)
+            delay = _bound(name, "delay", obs.delay, DEFAULT_DELAY)
+            span = max(span, delay + (ch.buffer_size + 1) * interval + 2 * n + 1)
+        layout = self.layout = Layout(self.channels, self.nfixed, set(self.noise), span, fields, self.nsim, self.n)
+        self.record_out, self.reset_values = layout.record_out, layout.reset_values
+        self.history, self.flat, self.cols, self.rows = layout.history, layout.flat, layout.cols, layout.rows
         self.timelines = Timelines(
             [(name, ch, self._drawers(name, obs)) for name, obs, ch in drawn], self.nsim, self.n, self.pad)
         self.G = 0  # global physics steps
         self.t = np.zeros(self.nsim, np.int64)  # physics steps since each simulation's reset
         self.control_steps = np.zeros(self.nsim, np.int64)
         self.started = np.zeros(self.nsim, bool)
-        self._cache: dict[int, Any] = {}
+        self._noise_plans: dict[int, list[list[tuple[int, np.ndarray]]]] = {}
 
     # -- construction -----------------------------------------------------------------------------
 
@@ -168,95 +136,6 @@ class BatchUpdater:
             return as_fn(interval), as_fn(delay)
         return make
 
-    def _rows(self, fixed: list[Any], drawn: list[Any]) -> None:
-        """History length: a multiple of every sampling period, longer than any sample can wait to be read."""
-        n = self.n
-        period = math.lcm(n, *(ch.interval for _, _, ch in fixed))
-        span = n + 1
-        for _, _, ch in fixed:
-            span = max(span, ch.delay + ch.buffer_size * ch.interval + n + 1)
-        for name, obs, ch in drawn:
-            interval = _bound(name, "update_interval", obs.update_interval, DEFAULT_UPDATE_INTERVAL)
-            delay = _bound(name, "delay", obs.delay, DEFAULT_DELAY)
-            span = max(span, delay + (ch.buffer_size + 1) * interval + 2 * n + 1)
-        self.rows = period * -(-span // period)
-
-    def _sources(self) -> None:
-        """Where each column's value of simulation i at substep k sits in the records:
-        `record_base[j] + i * record_stride[j] + k * record_step[j]`; and the reset sample's positions."""
-        store, nsim, n = self.store, self.nsim, self.n
-        base, stride, step, reset = [], [], [], []
-        for ch in self.channels:
-            field = ch.sampler.field
-            size = store.sizes[field]
-            within = ch.sampler.index.ravel().astype(np.intp)
-            base.append(store.record_offset[field] + within)
-            stride.append(np.full(within.size, n * size, np.intp))
-            step.append(np.full(within.size, size, np.intp))
-            reset.append(store.reset_offset[field] + np.arange(nsim)[:, None] * size + within[None, :])
-        empty = np.zeros(0, np.intp)
-        self.record_base = np.concatenate(base) if base else empty
-        self.record_stride = np.concatenate(stride) if stride else empty
-        self.record_step = np.concatenate(step) if step else empty
-        self.reset_index = np.concatenate(reset, axis=1) if reset else np.zeros((nsim, 0), np.intp)
-        # columns whose every substep goes to the history: noise runs there, random windows read there
-        always = np.zeros(self.width, bool)
-        for c in range(len(self.channels)):
-            if c in self.noise or c >= self.nfixed:
-                always[self.cols[c]:self.cols[c + 1]] = True
-        self.always = always
-
-    def _read_plans(self) -> None:
-        """The bank's read plan at each phase of a read (steps since reset, mod rows), as row offsets."""
-        rows, n = self.rows, self.n
-        self.nphase = rows // n
-        if not self.fixed:
-            self.delta = np.zeros((self.nphase, 0), np.intp)
-            self.plain, self.groups, self.plain_cols, self.col = [], [], np.zeros(0, np.intp), np.zeros(0, np.intp)
-            self.later = np.zeros((self.nphase, self.n, self.width), bool)
-            return
-        fixed_cols = self.cols[:self.nfixed + 1]
-        wf = int(fixed_cols[-1])
-        deltas = []
-        for q in range(self.nphase):
-            index, groups, plain = read_plan(self.fixed, fixed_cols, rows, q * n)
-            row, col = np.divmod(index, wf)
-            deltas.append((row - q * n) % rows)
-        self.delta = np.stack(deltas)  # (phase, read width): row offset from the read's own row
-        self.col = col
-        # the layout (which positions form which output) does not depend on the phase
-        self.plain = []
-        pos = []
-        at = 0
-        for i, part, shape in plain:
-            size = part.stop - part.start
-            self.plain.append((i, slice(at, at + size), (self.nsim, *shape)))
-            pos.append(np.arange(part.start, part.stop))
-            at += size
-        self.plain_cols = np.concatenate(pos) if pos else np.zeros(0, np.intp)
-        self.groups = [(reduce, np.arange(part.start, part.stop), block, members)
-                       for reduce, part, block, members in groups]
-        # Positions a read takes from this control step's records rather than the history: noise-free
-        # samples of the last n steps (never at the reset read, whose samples are all in the history).
-        recent = (self.delta == 0) | (self.delta > rows - n)
-        plain = ~self.always[self.col]
-        self.from_record = np.vstack([recent & plain[None, :], np.zeros((1, plain.size), bool)])
-        k = np.where(self.delta == 0, n, self.delta - (rows - n))  # substep 1..n of a recent sample
-        self.record_read = np.vstack([self.record_base[self.col] + (k - 1) * self.record_step[self.col],
-                                      np.zeros((1, plain.size), np.intp)])
-        self.record_read_stride = self.record_stride[self.col]
-        # Per phase and substep: the noise-free columns whose sample a later read takes from the history
-        later = np.zeros((self.nphase, n, self.width), bool)
-        for c, ch in enumerate(self.fixed):
-            if c in self.noise:
-                continue
-            i, d, b = ch.interval, ch.delay, ch.buffer_size
-            for q in range(self.nphase):
-                for kk in range(1, n + 1):
-                    if (q * n + kk) % i == 0 and kk + b * i + d - 1 >= 2 * n:
-                        later[q, kk - 1, self.cols[c]:self.cols[c + 1]] = True
-        self.later = later
-
     # -- episodes ---------------------------------------------------------------------------------
 
     def reset(self, ids: np.ndarray, random_states: list[np.random.RandomState]) -> None:
@@ -279,7 +158,7 @@ class BatchUpdater:
             if self.timelines.specs:
                 self.timelines.start(i, rs)
         self.started[ids] = True
-        values = self.flat.take(self.reset_index[ids])  # (m, width): the reset sample
+        values = self.flat.take(self.layout.reset_index[ids])  # (m, width): the reset sample
         zeros = np.zeros(ids.size, np.int64)
         for c, pipeline in self.noise.items():
             lo, hi = self.cols[c], self.cols[c + 1]
@@ -292,7 +171,8 @@ class BatchUpdater:
         h[self.rows + 1, ids] = 0.0
         self.t[ids] = 0
         self.control_steps[ids] = 0
-        self._cache.clear()
+        self.layout.clear()
+        self._noise_plans.clear()
 
     # -- the physics loop -------------------------------------------------------------------------
 
@@ -304,7 +184,7 @@ class BatchUpdater:
     def update(self, active: np.ndarray) -> None:
         """After a control step's rollout (into `record_out`): store, sample and corrupt its n steps."""
         n, gp = self.n, self.G % self.rows
-        source, target = self._snapshot(gp)
+        source, target = self.layout.snapshot(gp, self.t)
         self.flat.put(target, self.flat.take(source), "clip")
         everyone = bool(active.all())
         plan = self._plan(gp)
@@ -343,39 +223,9 @@ class BatchUpdater:
             raw = row[sims, lo:hi]
             row[sims, lo:hi] = self.noise[c](raw.reshape(sims.size, *shape), sims, steps).reshape(sims.size, -1)
 
-    def _phases(self) -> np.ndarray:
-        """Each simulation's read phase: steps since reset mod rows, in control steps; `nphase` at a reset."""
-        return np.where(self.t == 0, self.nphase, (self.t % self.rows) // self.n)
-
-    def _snapshot(self, gp: int) -> tuple[np.ndarray, np.ndarray]:
-        """Positions of the values this control step stores: in the records, and in the history (cached).
-
-        Every substep of noisy and random-schedule columns; of the others, only the samples a later
-        control step's read takes from the history (the current read takes its own from the records).
-        """
-        key = ("snapshot", gp)
-        cached = self._cache.get(key)
-        if cached is None:
-            nsim, w, n = self.nsim, self.width, self.n
-            phases = np.unique((self.t % self.rows) // n)
-            sims = np.arange(nsim)[:, None]
-            source, target = [], []
-            for k in range(1, n + 1):
-                cols = np.flatnonzero(self.always | self.later[phases, k - 1].any(axis=0))
-                if not cols.size:
-                    continue
-                source.append((self.record_base[cols] + (k - 1) * self.record_step[cols]
-                               + sims * self.record_stride[cols]).ravel())
-                target.append(((gp + k - 1) * nsim * w + sims * w + cols).ravel())
-            empty = np.zeros(0, np.intp)
-            cached = self._cache[key] = (np.concatenate(source) if source else empty,
-                                         np.concatenate(target) if target else empty)
-        return cached
-
     def _plan(self, gp: int) -> list[list[tuple[int, np.ndarray]]]:
         """Per substep, the noisy fixed channels and the simulations that sample them (cached per phase)."""
-        key = ("noise", gp)
-        plan = self._cache.get(key)
+        plan = self._noise_plans.get(gp)
         if plan is None:
             local = self.t % self.rows
             plan = [[] for _ in range(self.n)]
@@ -390,41 +240,21 @@ class BatchUpdater:
                     sims = np.flatnonzero(needed[(local + k) % period])
                     if sims.size:
                         plan[k - 1].append((c, sims))
-            self._cache[key] = plan
+            self._noise_plans[gp] = plan
         return plan
 
     # -- reads ------------------------------------------------------------------------------------
-
-    def _gathers(self, gp: int) -> tuple[np.ndarray, list[np.ndarray]]:
-        """Flat history positions of every read value, per simulation (cached per phase until a reset)."""
-        fresh = bool((self.t == 0).any())  # a reset read: its phase is not the one gp implies later on
-        cached = None if fresh else self._cache.get(("read", gp))
-        if cached is None:
-            rows, nsim, w = self.rows, self.nsim, self.width
-            phases = self._phases()
-            delta = np.vstack([self.delta, self.delta[:1]])  # the reset read: phase 0's, from the history
-            sims = np.arange(nsim)[:, None]
-            index = ((gp - 1 + delta[phases]) % rows) * (nsim * w) + sims * w + self.col[None, :]
-            recent = self.from_record[phases]
-            index[recent] = (self.record_read[phases] + sims * self.record_read_stride[None, :])[recent]
-            plain = np.ascontiguousarray(index[:, self.plain_cols])
-            groups = [np.ascontiguousarray(index[:, part].reshape(nsim, *block).transpose(1, 0, 2))
-                      for _, part, block, _ in self.groups]
-            cached = (plain, groups)
-            if not fresh:
-                self._cache[("read", gp)] = cached
-        return cached
 
     def get_observation(self) -> dict[str, np.ndarray]:
         """Every observation of every simulation, (nsim, ...) arrays in the observables' order."""
         out: list[Any] = [None] * len(self.channels)
         if self.fixed:
-            plain_index, group_index = self._gathers(self.G % self.rows)
+            plain_index, group_index = self.layout.gathers(self.G % self.rows, self.t)
             flat = self.flat
             gathered = flat.take(plain_index)
-            for i, part, shape in self.plain:
+            for i, part, shape in self.layout.plain:
                 out[i] = gathered[:, part].reshape(shape)
-            for (reduce, _, _, members), index in zip(self.groups, group_index):
+            for (reduce, _, _, members), index in zip(self.layout.groups, group_index):
                 reduced = reduce(flat.take(index))
                 for i, sub, shape in members:
                     out[i] = reduced[:, sub].reshape(self.nsim, *shape)
@@ -433,28 +263,17 @@ class BatchUpdater:
         return {name: out[self.output_index[name]] for name in self.names}
 
     def _read_drawn(self, out: list[Any]) -> None:
-        windows = self.timelines.last
-        nsim, w, rows = self.nsim, self.width, self.rows
-        start = (self.G - self.t)[:, None]  # each simulation's reset, in global steps
-        sims = (np.arange(nsim) * w)[:, None, None]
-        for r, codes in enumerate(windows):
+        for r, codes in enumerate(self.timelines.last):
             c = self.nfixed + r
             ch = self.channels[c]
-            step = codes - 1
-            old = (codes > 1) & (self.t[:, None] - step >= rows)
-            if old.any():
-                raise RuntimeError(f"sensor {self.labels[c]!r}: a read reaches further back than the batch's "
-                                   f"history of {rows} steps (an internal sizing error)")
-            row = np.where(codes == 0, rows + 1, np.where(codes == 1, rows, (start + step - 1) % rows))
-            index = row[:, :, None] * (nsim * w) + sims + np.arange(self.cols[c], self.cols[c + 1])
-            values = self.flat.take(index)  # (nsim, buffer, width)
+            values = self.flat.take(self.layout.drawn(c, codes, self.t, self.G))  # (nsim, buffer, width)
             if ch.aggregator is not None:
                 reduced = _REDUCERS[ch.aggregator.name](np.ascontiguousarray(values.transpose(1, 0, 2)))
-                out[c] = reduced.reshape(nsim, *ch.shape)
+                out[c] = reduced.reshape(self.nsim, *ch.shape)
             elif ch.has_buffer_dim:
-                out[c] = values.reshape(nsim, ch.buffer_size, *ch.shape)
+                out[c] = values.reshape(self.nsim, ch.buffer_size, *ch.shape)
             else:
-                out[c] = values.reshape(nsim, *ch.shape)
+                out[c] = values.reshape(self.nsim, *ch.shape)
 
     # -- specs ------------------------------------------------------------------------------------
 

@@ -1,0 +1,193 @@
+"""Where a batch's values live, and which positions each copy and each read gathers. Numpy only.
+
+One flat float64 store holds the history, then the records of the current control step (`rollout`
+writes them there: (nsim, n, ...) per mjData field), then the reset values. The history has one row
+per global physics step modulo `rows`, then a row of reset samples and a row of zeros; a row is
+(nsim, width), one column per observed value. Global rows make the copy of a control step the same for
+every simulation whatever its episode's age; a read shifts the bank's periodic read plan
+(`runtime.bank.read_plan`) by that age, per simulation.
+
+A read takes the noise-free samples of its own control step straight from the records, so the history
+keeps only the samples that a later read needs (and every sample of noisy channels, which are corrupted
+there, and of random-schedule channels).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from ..runtime.bank import read_plan
+from ..runtime.channels import Channel, FixedChannel
+
+__all__ = ["Layout"]
+
+
+class Layout:
+    """Columns, store and gather positions for `channels` (fixed-schedule ones first) of nsim simulations."""
+
+    def __init__(self, channels: list[Channel], nfixed: int, noisy: set[int], span: int,
+                 fields: dict[str, tuple[int, ...]], nsim: int, n: int):
+        """`span`: steps a sample of a random-schedule channel may wait to be read (0 without any)."""
+        self.channels, self.nfixed, self.nsim, self.n = channels, nfixed, nsim, n
+        self.fixed: list[FixedChannel] = channels[:nfixed]  # type: ignore[assignment]
+        self.cols = np.cumsum([0] + [math.prod(ch.shape) for ch in channels]).astype(np.intp)
+        self.width = int(self.cols[-1])
+        period = math.lcm(n, *(ch.interval for ch in self.fixed))
+        span = max(span, n + 1, *(ch.delay + ch.buffer_size * ch.interval + n + 1 for ch in self.fixed))
+        self.rows = period * -(-span // period)  # a multiple of every period, longer than any wait
+        self.nphase = self.rows // n
+        self._store(fields)
+        always = np.zeros(self.width, bool)  # every substep to the history: noise runs there, random reads
+        for c in range(len(channels)):
+            if c in noisy or c >= nfixed:
+                always[self.cols[c]:self.cols[c + 1]] = True
+        self.always = always
+        self._sources()
+        self._read_plans(noisy)
+        self._cache: dict[Any, Any] = {}
+
+    def _store(self, fields: dict[str, tuple[int, ...]]) -> None:
+        nsim, n = self.nsim, self.n
+        self.sizes = {f: math.prod(shape) for f, shape in fields.items()}
+        hsize = (self.rows + 2) * nsim * self.width
+        rsize = sum(nsim * n * s for s in self.sizes.values())
+        zsize = sum(nsim * s for s in self.sizes.values())
+        self.flat = np.zeros(hsize + rsize + zsize)
+        self.history = self.flat[:hsize].reshape(self.rows + 2, nsim, self.width)
+        self.record_offset: dict[str, int] = {}
+        self.reset_offset: dict[str, int] = {}
+        self.record_out: dict[str, np.ndarray] = {}  # what `rollout` records into
+        self.reset_values: dict[str, np.ndarray] = {}  # what the caller fills after a physics reset
+        r, z = hsize, hsize + rsize
+        for f, shape in fields.items():
+            size = self.sizes[f]
+            self.record_offset[f], self.reset_offset[f] = r, z
+            self.record_out[f] = self.flat[r:r + nsim * n * size].reshape(nsim, n, *shape)
+            self.reset_values[f] = self.flat[z:z + nsim * size].reshape(nsim, *shape)
+            r += nsim * n * size
+            z += nsim * size
+
+    def _sources(self) -> None:
+        """Column j of simulation i at substep k (1..n) is at `record_base[j] + i * record_stride[j] +
+        (k - 1) * record_step[j]` of the store; its reset value at `reset_index[i, j]`."""
+        nsim, n = self.nsim, self.n
+        base, stride, step, reset = [], [], [], []
+        for ch in self.channels:
+            field = ch.sampler.field
+            size = self.sizes[field]
+            within = ch.sampler.index.ravel().astype(np.intp)
+            base.append(self.record_offset[field] + within)
+            stride.append(np.full(within.size, n * size, np.intp))
+            step.append(np.full(within.size, size, np.intp))
+            reset.append(self.reset_offset[field] + np.arange(nsim)[:, None] * size + within[None, :])
+        empty = np.zeros(0, np.intp)
+        self.record_base = np.concatenate(base) if base else empty
+        self.record_stride = np.concatenate(stride) if stride else empty
+        self.record_step = np.concatenate(step) if step else empty
+        self.reset_index = np.concatenate(reset, axis=1) if reset else np.zeros((nsim, 0), np.intp)
+
+    def _read_plans(self, noisy: set[int]) -> None:
+        """The bank's read plan at each phase of a read (steps since reset, mod rows), as row offsets."""
+        rows, n = self.rows, self.n
+        self.later = np.zeros((self.nphase, n, self.width), bool)
+        self.plain: list[tuple[int, slice, tuple[int, ...]]] = []
+        self.groups: list[tuple[Any, np.ndarray, tuple[int, int], list[Any]]] = []
+        if not self.fixed:
+            return
+        fixed_cols = self.cols[:self.nfixed + 1]
+        deltas = []
+        for q in range(self.nphase):
+            index, groups, plain = read_plan(self.fixed, fixed_cols, rows, q * n)
+            row, col = np.divmod(index, int(fixed_cols[-1]))
+            deltas.append((row - q * n) % rows)
+        delta = np.stack(deltas)  # (phase, read width): row offset from the read's own row
+        self.delta = np.vstack([delta, delta[:1]])  # + the reset read: phase 0's, all from the history
+        self.col = col
+        at, positions = 0, []  # the layout (which positions form which output) is the same at every phase
+        for i, part, shape in plain:
+            self.plain.append((i, slice(at, at + part.stop - part.start), (self.nsim, *shape)))
+            positions.append(np.arange(part.start, part.stop))
+            at += part.stop - part.start
+        self.plain_cols = np.concatenate(positions) if positions else np.zeros(0, np.intp)
+        self.groups = [(reduce, np.arange(part.start, part.stop), block, members)
+                       for reduce, part, block, members in groups]
+        # positions a read takes from its control step's records: noise-free samples of the last n steps
+        recent = ((delta == 0) | (delta > rows - n)) & ~self.always[col][None, :]
+        self.from_record = np.vstack([recent, np.zeros((1, col.size), bool)])  # never at a reset read
+        k = np.where(delta == 0, n, delta - (rows - n))  # the substep (1..n) of a recent sample
+        read = self.record_base[col] + (k - 1) * self.record_step[col]
+        self.record_read = np.vstack([read, np.zeros((1, col.size), np.intp)])
+        self.record_read_stride = self.record_stride[col]
+        # per phase and substep, the noise-free columns a later read takes from the history: sample
+        # s = t + k of a channel is read at R < s + b i + d, so later ones need k + b i + d - 1 >= 2n
+        for c, ch in enumerate(self.fixed):
+            if c in noisy:
+                continue
+            i, d, b = ch.interval, ch.delay, ch.buffer_size
+            for q in range(self.nphase):
+                for k in range(1, n + 1):
+                    if (q * n + k) % i == 0 and k + b * i + d - 1 >= 2 * n:
+                        self.later[q, k - 1, self.cols[c]:self.cols[c + 1]] = True
+
+    def clear(self) -> None:
+        """Forget cached positions (a reset changed which simulation is at which phase)."""
+        self._cache.clear()
+
+    def snapshot(self, gp: int, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Store positions of the values a control step keeps: in the records, and in the history.
+
+        `gp`: the global step before the control step, mod rows; `t`: each simulation's steps since reset.
+        Cached per `gp` until `clear`.
+        """
+        key = ("snapshot", gp)
+        cached = self._cache.get(key)
+        if cached is None:
+            nsim, w, n = self.nsim, self.width, self.n
+            phases = np.unique((t % self.rows) // n)
+            sims = np.arange(nsim)[:, None]
+            source, target = [], []
+            for k in range(1, n + 1):
+                cols = np.flatnonzero(self.always | self.later[phases, k - 1].any(axis=0))
+                if cols.size:
+                    source.append((self.record_base[cols] + (k - 1) * self.record_step[cols]
+                                   + sims * self.record_stride[cols]).ravel())
+                    target.append(((gp + k - 1) * nsim * w + sims * w + cols).ravel())
+            empty = np.zeros(0, np.intp)
+            cached = self._cache[key] = (np.concatenate(source) if source else empty,
+                                         np.concatenate(target) if target else empty)
+        return cached
+
+    def gathers(self, gp: int, t: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+        """Store positions of every fixed-schedule read value: (nsim, plain width), and per reduction
+        group (buffer, nsim, group width). `gp`: the global step mod rows. Cached until `clear`."""
+        fresh = bool((t == 0).any())  # a reset read: its phase is not the one gp implies later on
+        cached = None if fresh else self._cache.get(("read", gp))
+        if cached is None:
+            rows, nsim, w = self.rows, self.nsim, self.width
+            phases = np.where(t == 0, self.nphase, (t % rows) // self.n)
+            sims = np.arange(nsim)[:, None]
+            index = ((gp - 1 + self.delta[phases]) % rows) * (nsim * w) + sims * w + self.col[None, :]
+            recent = self.from_record[phases]
+            index[recent] = (self.record_read[phases] + sims * self.record_read_stride[None, :])[recent]
+            cached = (np.ascontiguousarray(index[:, self.plain_cols]),
+                      [np.ascontiguousarray(index[:, part].reshape(nsim, *block).transpose(1, 0, 2))
+                       for _, part, block, _ in self.groups])
+            if not fresh:
+                self._cache[("read", gp)] = cached
+        return cached
+
+    def drawn(self, c: int, codes: np.ndarray, t: np.ndarray, G: int) -> np.ndarray:
+        """Store positions (nsim, buffer, width) of a random-schedule channel's window, from its codes
+        (0: zero fill, s + 1: the sample of step s since reset)."""
+        nsim, w, rows = self.nsim, self.width, self.rows
+        step = codes - 1
+        if ((codes > 1) & (t[:, None] - step >= rows)).any():
+            raise RuntimeError(f"a read of {self.channels[c].name!r} reaches further back than the batch's history "
+                               f"of {rows} steps (an internal sizing error)")
+        start = (G - t)[:, None]  # each simulation's reset, in global steps
+        row = np.where(codes == 0, rows + 1, np.where(codes == 1, rows, (start + step - 1) % rows))
+        return (row[:, :, None] * (nsim * w) + (np.arange(nsim) * w)[:, None, None]
+                + np.arange(self.cols[c], self.cols[c + 1]))
