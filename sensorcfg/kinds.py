@@ -85,6 +85,19 @@ RAGGED: dict[str, tuple[str, str]] = {
 SOFT_RAGGED = frozenset({"na", "nu", "nout"})
 
 
+# dm_control's bind treats these mjData kinds as inputs: writing one (a walker's `bind(actuators).ctrl = a`)
+# marks a dm_control Physics dirty, and reading any other mjData kind, or one of the purely visual
+# mjModel kinds, while it is dirty runs mj_forward first (dm_control.mjcf.constants:
+# MJDATA_TRIGGERS_DIRTY and MJMODEL_DOESNT_TRIGGER_DIRTY).
+INPUT_KINDS = frozenset({"qpos", "qvel", "act", "ctrl", "qfrc_applied", "xfrc_applied"})
+VISUAL_MODEL_KINDS = frozenset({"rgba", "matid", "emission", "specular", "shininess", "reflectance", "needstage"})
+
+
+def forwards_when_dirty(struct: str, kind: str) -> bool:
+    """Whether dm_control's bind runs mj_forward on a dirty physics before reading this kind."""
+    return kind not in INPUT_KINDS if struct == "data" else kind in VISUAL_MODEL_KINDS
+
+
 @dataclasses.dataclass(frozen=True)
 class FieldSpec:
     """Where one kind of one element type lives."""

@@ -74,6 +74,8 @@ class Model:
         self.name = name
         self.root = build_model(oracle, name)
         self.physics = oracle.mjcf.Physics.from_mjcf_model(self.root)
+        self.twin = oracle.mjcf.Physics.from_mjcf_model(self.root)  # ours runs on its own, identical copy
+        self.actuators = self.root.find_all("actuator")
         self.elements = {}
         for type_name in KINDS:
             found = [e for e in self.root.find_all(type_name) if e.full_identifier]
@@ -84,6 +86,16 @@ class Model:
 
     def reset(self) -> None:
         self.physics.reset(keyframe_id=0)
+        self.twin.reset(keyframe_id=0)
+
+    def set_controls(self, controls: np.ndarray, via_bind: bool) -> None:
+        """Set both physics' controls: through a binding (as composer walkers do, which marks a dm_control
+        physics dirty: its next read of a derived quantity runs mj_forward first) or directly."""
+        for physics in (self.physics, self.twin):
+            if via_bind:
+                physics.bind(self.actuators).ctrl = controls
+            else:
+                physics.data.ctrl[:] = controls
 
 
 @pytest.fixture(scope="module")
@@ -185,24 +197,32 @@ def assert_same_spec(ours: Any, theirs: Any, where: str) -> None:
 
 def run_side_by_side(oracle: Any, model: Model, theirs: Any, ours: Any, n: int, strip: bool, pad: bool,
                      seed: int, where: str, control_steps: int = CONTROL_STEPS) -> tuple[Any, Any]:
-    """Run both updaters over one trajectory, comparing at reset and after every control step."""
+    """Run both updaters over one trajectory each, comparing at reset and after every control step.
+
+    Each updater has its own physics, reset and driven identically: MuJoCo is deterministic, so the two
+    trajectories stay bit-identical unless an updater changes its simulation (dm_control's reads run
+    mj_forward on a dirty physics, which also seeds the next step's constraint solver).
+    """
     their_updater = oracle.updater.Updater(theirs, n, strip, pad)
     our_updater = sensorcfg.Updater(ours, n, strip, pad)
-    physics = model.physics
+    physics, twin = model.physics, model.twin
     model.reset()
+    via_bind = seed % 2 == 0
+    model.set_controls(np.full(physics.model.nu, 0.5), via_bind)
     their_updater.reset(physics, np.random.RandomState(seed))
-    our_updater.reset(physics, np.random.RandomState(seed))
+    our_updater.reset(twin, np.random.RandomState(seed))
     assert_same_structure(our_updater.observation_spec(), their_updater.observation_spec(), assert_same_spec,
                           f"{where} spec")
     assert_same_structure(our_updater.get_observation(), their_updater.get_observation(), assert_same_value,
                           f"{where} reset")
     controls = np.random.RandomState(seed + 1)
     for step in range(control_steps):
-        physics.data.ctrl[:] = controls.uniform(-1, 1, physics.model.nu)
+        model.set_controls(controls.uniform(-1, 1, physics.model.nu), via_bind)
         their_updater.prepare_for_next_control_step()
         our_updater.prepare_for_next_control_step()
         for _ in range(n):
             physics.step()
+            twin.step()
             their_updater.update()
             our_updater.update()
         assert_same_structure(our_updater.get_observation(), their_updater.get_observation(), assert_same_value,

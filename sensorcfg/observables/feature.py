@@ -16,12 +16,12 @@ import numpy as np
 from dm_env import specs
 
 from ..errors import SuiteError, did_you_mean
-from ..kinds import SOFT_RAGGED, kinds_of, ragged_slices
+from ..kinds import SOFT_RAGGED, forwards_when_dirty, kinds_of, ragged_slices
 from ..physics import raw_structs
 from ..selection import select, split_selector
 from .base import Observable
 
-__all__ = ["Feature", "FieldReader", "feature_index"]
+__all__ = ["Feature", "FieldReader", "SyncingFieldReader", "feature_index", "forward_if_dirty"]
 
 
 class FieldReader:
@@ -42,6 +42,42 @@ class FieldReader:
 
     def read_into(self, out: np.ndarray) -> None:
         np.take(self.source, self.index, out=out)
+
+
+class SyncingFieldReader(FieldReader):
+    """A reader on a dm_control Physics that first brings a dirty physics up to date, as its bind does.
+
+    After a write through a binding (a walker setting `ctrl`), dm_control runs mj_forward before the next
+    read of a derived quantity; that read's values, and the state the next step starts from, depend on it.
+    `sync` is that check; the Updater also runs it before reading features together.
+    """
+
+    __slots__ = ("sync",)
+
+    def __init__(self, struct: str, field: str, source: np.ndarray, index: np.ndarray, sync: Callable[[], None]):
+        super().__init__(struct, field, source, index)
+        self.sync = sync
+
+    def __call__(self) -> np.ndarray:
+        self.sync()
+        return self.source.take(self.index)
+
+    def read_into(self, out: np.ndarray) -> None:
+        self.sync()
+        np.take(self.source, self.index, out=out)
+
+
+def forward_if_dirty(physics: Any) -> Callable[[], None] | None:
+    """For a dm_control Physics (it tracks `is_dirty`), a check that runs `forward()` when dirty."""
+    if not isinstance(getattr(type(physics), "is_dirty", None), property) or not callable(
+            getattr(physics, "forward", None)):
+        return None
+
+    def sync() -> None:
+        if physics.is_dirty:
+            physics.forward()
+
+    return sync
 
 
 def feature_index(model: mujoco.MjModel, kind: str, element: str | Sequence[str],
@@ -133,6 +169,9 @@ class Feature(Observable):
             self._bound = bound
         template = bound[1]
         source = getattr(data if template.struct == "data" else model, template.field).reshape(-1)
+        sync = forward_if_dirty(physics) if forwards_when_dirty(template.struct, self._kind) else None
+        if sync is not None:
+            return SyncingFieldReader(template.struct, template.field, source, template.index, sync)
         return FieldReader(template.struct, template.field, source, template.index)
 
     def _callable(self, physics: Any) -> Callable[[], np.ndarray]:

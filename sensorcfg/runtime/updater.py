@@ -139,9 +139,13 @@ class Updater:
                                for (name, ch), (_, m) in zip(entries, self._layout[i][1])])
                        for i, (kind, entries) in enumerate(layout)]
         self._step = 0
+        synced = False
         for ch in self._channels:  # dm_control's order: per observable, its delay draw then its sample
             if id(ch) not in positions:
                 ch.start(0)
+            elif not synced and getattr(ch.sampler, "sync", None) is not None:
+                ch.sampler.sync()  # where dm_control's read would bring a dirty physics up to date
+                synced = True
         if self._bank:
             self._bank.start()
         self._build_plan()
@@ -207,6 +211,12 @@ class Updater:
                  if isinstance(ch, FixedChannel) and id(ch) not in banked]
         if self._bank:  # snapshots and noise draws: pure reads of the state, before any sampler
             tasks[:0] = [(p, phases, -1, task) for p, phases, task in self._bank.tasks()]
+        syncing = [m.channel for m in self._bank.members() if getattr(m.channel.sampler, "sync", None)] \
+            if self._bank else []
+        if syncing:  # on a dirty dm_control physics, mj_forward before a step's derived reads (as its bind does)
+            rows, sync = self._bank.rows, syncing[0].sampler.sync
+            steps = sorted({t for ch in syncing for p in ch.needed_phases() for t in range(p, rows, ch.period())})
+            tasks[:0] = [(rows, steps, -2, lambda step: sync())]
         self._random = [(order, ch) for order, ch in enumerate(self._channels) if isinstance(ch, RandomChannel)]
         period = math.lcm(*(p for p, _, _, _ in tasks)) if tasks else 1
         if period > _MAX_PLAN_PERIOD:  # pathological interval mixes: each task checks its own phase
