@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -17,7 +18,7 @@ from ..errors import Problem, SuiteError
 
 __all__ = ["EXIT_OK", "EXIT_INVALID", "EXIT_USAGE", "UsageError", "SensorRow", "override", "positive_int",
            "positive_float", "writable", "require_matplotlib", "add_suite_args", "load_suite", "model_path",
-           "describe", "describe_schedule", "naive_samples"]
+           "describe", "describe_schedule", "naive_samples", "importable_cwd", "user_code_failure"]
 
 EXIT_OK, EXIT_INVALID, EXIT_USAGE = 0, 1, 2
 
@@ -88,6 +89,13 @@ def writable(path: str | None) -> Path | None:
     if not p.parent.is_dir():
         raise UsageError(f"{path}: the folder {str(p.parent)!r} does not exist")
     return p
+
+
+def importable_cwd() -> None:
+    """Let `generic` and `custom` callables of the project being worked on import, as `python -m` would:
+    the console script does not put the working directory on sys.path by itself."""
+    if "" not in sys.path:
+        sys.path.insert(0, "")
 
 
 def existing_file(path: str, what: str) -> Path:

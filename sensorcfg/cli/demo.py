@@ -26,8 +26,9 @@ EXAMPLES = """examples:
   sensorcfg demo --prefix out/arm my_suite.yaml
 
 The robot is driven by uniform random controls (seeded: --seed) so the signals move; --zero-actions
-lets it settle instead. Writes PREFIX.npz, PREFIX.json and PREFIX.png (PREFIX defaults to 'sensorcfg-demo'). The plot needs
-matplotlib (pip install 'sensorcfg[plot]'); without it the demo skips the plot and says so."""
+lets it settle instead. Writes PREFIX.npz, PREFIX.json and PREFIX.png (PREFIX defaults to
+'sensorcfg-demo'). The plot needs matplotlib (pip install 'sensorcfg[plot]'); without it the demo skips
+the plot and says so."""
 
 
 def add_parser(sub: Any, epilog: str) -> None:

@@ -19,8 +19,9 @@ from typing import Any
 import numpy as np
 
 from .._version import __version__
-from .common import (EXIT_INVALID, EXIT_OK, SensorRow, UsageError, add_suite_args, describe, load_suite,
-                     model_path, naive_samples, positive_float, positive_int, require_matplotlib, writable)
+from .common import (EXIT_INVALID, EXIT_OK, SensorRow, UsageError, add_suite_args, describe, importable_cwd,
+                     load_suite, model_path, naive_samples, positive_float, positive_int, require_matplotlib,
+                     writable)
 from .report import Progress, table
 
 __all__ = ["add_parser", "Settings", "Recording", "execute", "add_run_args", "settings_from"]
@@ -123,8 +124,7 @@ def make_env(suite: Any, model_file: str, settings: Settings, *, record_timing: 
     from ..errors import SuiteError
     from . import timing
 
-    if "" not in sys.path:
-        sys.path.insert(0, "")  # generic callables of the project, as `python -m` would find them
+    importable_cwd()
     model = load_model(model_file)
     if settings.substeps is None and settings.control_timestep is None:
         substeps = suite.updater_kwargs(model)["physics_steps_per_control_step"]

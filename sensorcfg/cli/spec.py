@@ -8,11 +8,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from collections.abc import Callable
 from typing import Any
 
-from .common import EXIT_OK, SensorRow, add_suite_args, describe, load_suite, model_path
+from .common import EXIT_OK, SensorRow, add_suite_args, describe, importable_cwd, load_suite, model_path
 from .report import table
 
 __all__ = ["add_parser", "Spec", "build_spec", "format_spec", "REPORTERS"]
@@ -60,8 +59,7 @@ def build_spec(suite: Any, model_file: str, control_steps: int | None = None) ->
     from ..physics import Physics
     from ..runtime.updater import Updater
 
-    if "" not in sys.path:
-        sys.path.insert(0, "")  # generic callables of the project, as `python -m` would find them
+    importable_cwd()
     model = load_model(model_file)
     observables = suite.build(model)
     steps = control_steps or suite.updater_kwargs(model)["physics_steps_per_control_step"]

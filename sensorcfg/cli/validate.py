@@ -8,15 +8,14 @@ so editors and CI annotate them.
 from __future__ import annotations
 
 import argparse
-import json
 import dataclasses
-import sys
+import json
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
 from ..errors import Problem, SuiteError
-from .common import EXIT_INVALID, EXIT_OK, UsageError, existing_file, override
+from .common import EXIT_INVALID, EXIT_OK, UsageError, existing_file, importable_cwd, override
 
 __all__ = ["add_parser", "FileResult", "REPORTERS", "collect", "check_file"]
 
@@ -159,8 +158,8 @@ REPORTERS: dict[str, Callable[[Sequence[FileResult]], str]] = {"text": report_te
 def command(args: argparse.Namespace) -> int:
     files = collect(args.paths)
     model = (args.model, load_model(str(existing_file(args.model, "model file")))) if args.model else None
-    if args.import_callables and "" not in sys.path:
-        sys.path.insert(0, "")  # callables of the project being checked, as `python -m` would find them
+    if args.import_callables:
+        importable_cwd()
     models: dict[str, Any] = {}
     results = [check_file(f, model, args.overrides, args.import_callables, models) for f in files]
     print(REPORTERS[args.format](results))
