@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import mujoco
 
+from .runtime.handle import structs_of
+
 __all__ = ["Physics", "raw_structs"]
 
 
@@ -42,15 +44,4 @@ class Physics:
 
 def raw_structs(physics: object) -> tuple[mujoco.MjModel, mujoco.MjData]:
     """The raw (MjModel, MjData) of a sensorcfg or dm_control physics handle."""
-    model = getattr(physics, "model", None)
-    data = getattr(physics, "data", None)
-    if isinstance(model, mujoco.MjModel) and isinstance(data, mujoco.MjData):
-        return model, data
-    model_ptr = getattr(model, "ptr", None)
-    data_ptr = getattr(data, "ptr", None)
-    if isinstance(model_ptr, mujoco.MjModel) and isinstance(data_ptr, mujoco.MjData):
-        return model_ptr, data_ptr
-    raise TypeError(
-        "expected a sensorcfg.Physics or a dm_control Physics (with .model.ptr and .data.ptr), "
-        f"got {type(physics).__name__}"
-    )
+    return structs_of(physics)

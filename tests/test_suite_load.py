@@ -410,3 +410,20 @@ def test_alias_bombs_are_cut_short() -> None:
     lists += [f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 10)}]" for i in range(1, 9)]  # 10**9 values
     with pytest.raises(SuiteError, match="expands to more than 100000 values"):
         sensorcfg.loads("defaults:\n  x:\n" + "".join(f"    {line}\n" for line in lists) + "sensors: {}\n")
+
+
+def test_runtime_layer_does_not_import_mujoco() -> None:
+    """The scheduling runtime is numpy only (STYLE.md): import it with the package __init__ bypassed."""
+    code = textwrap.dedent(f"""
+        import sys, types, importlib
+        package = types.ModuleType("sensorcfg")
+        package.__path__ = [{str(Path(sensorcfg.__file__).parent)!r}]
+        sys.modules["sensorcfg"] = package
+        importlib.import_module("sensorcfg.runtime.updater")
+        importlib.import_module("sensorcfg.runtime.bank")
+        bad = [name for name in sys.modules if name == "mujoco" or name.startswith("mujoco.")]
+        assert not bad, bad
+        print("ok")
+    """)
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert result.stdout.strip() == "ok", result.stderr

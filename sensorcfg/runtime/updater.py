@@ -21,7 +21,7 @@ from dm_env import specs
 
 from ..errors import SuiteError
 from ..observables.aggregators import AGGREGATORS, preserves_bounds
-from ..physics import raw_structs
+from .handle import structs_of as raw_structs
 from .bank import FeatureBank, qualifies
 from .channels import Channel, FixedChannel, RandomChannel
 
