@@ -27,7 +27,7 @@ from .errors import Problem, SuiteError, did_you_mean
 from .kinds import kinds_of
 from .noise import build_noise
 from .observables import Camera, Feature, Generic, Observable
-from .observables.camera import MODES
+from .observables.camera import MODES, SCENE_FLAGS
 from .observables.feature import feature_index
 from .physics import Physics
 from .selection import select, split_selector
@@ -39,7 +39,7 @@ Schedule = int | Callable[..., int] | None
 
 def scene_flags() -> tuple[str, ...]:
     """The names `camera.scene` accepts: mjtVisFlag without the `mjVIS_` prefix, lower case."""
-    return tuple(n[len("mjVIS_"):].lower() for n in mujoco.mjtVisFlag.__members__ if n != "mjVIS_NUMVISFLAG")
+    return tuple(SCENE_FLAGS)
 
 
 @dataclasses.dataclass

@@ -18,7 +18,7 @@ from ..errors import SuiteError, did_you_mean
 from ..physics import raw_structs
 from .base import Observable
 
-__all__ = ["Camera", "MODES", "close_renderers"]
+__all__ = ["Camera", "MODES", "SCENE_FLAGS", "close_renderers"]
 
 # mode -> (channels, dtype, minimum, maximum)
 MODES: dict[str, tuple[int, type, float, float]] = {
@@ -26,6 +26,11 @@ MODES: dict[str, tuple[int, type, float, float]] = {
     "depth": (1, np.float32, 0.0, np.inf),
     "segmentation": (2, np.int32, -1, np.iinfo(np.int32).max),
 }
+
+# scene flags a camera accepts: mjtVisFlag names without the `mjVIS_` prefix, lower case -> enum value
+SCENE_FLAGS: dict[str, int] = {
+    name[len("mjVIS_"):].lower(): int(getattr(mujoco.mjtVisFlag, name))
+    for name in mujoco.mjtVisFlag.__members__ if name != "mjVIS_NUMVISFLAG"}
 
 _RENDERERS: weakref.WeakKeyDictionary[mujoco.MjModel, dict[tuple[int, int], mujoco.Renderer]] = (
     weakref.WeakKeyDictionary())
@@ -57,8 +62,7 @@ def _scene_option(value: mujoco.MjvOption | Mapping[str, bool] | None) -> mujoco
     if value is None or isinstance(value, mujoco.MjvOption):
         return value
     option = mujoco.MjvOption()
-    flags = {name[len("mjVIS_"):].lower(): int(getattr(mujoco.mjtVisFlag, name))
-             for name in dir(mujoco.mjtVisFlag) if name.startswith("mjVIS_") and name != "mjVIS_NUMVISFLAG"}
+    flags = SCENE_FLAGS
     for key, on in value.items():
         if key not in flags:
             raise SuiteError(f"unknown scene flag {key!r}{did_you_mean(key, flags)}; flags: {', '.join(flags)}")
