@@ -69,8 +69,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"sensorcfg: error: {e}", file=sys.stderr)
         return EXIT_USAGE
     except SuiteError as e:
-        for problem in e.problems:
-            print(problem.format(), file=sys.stderr)
+        for problem in e.problems:  # one without a place is about the command, not a file
+            print(problem.format() if problem.file else f"sensorcfg: error: {problem.message}", file=sys.stderr)
         return EXIT_INVALID
     except KeyboardInterrupt:
         print("sensorcfg: interrupted", file=sys.stderr)

@@ -18,7 +18,7 @@ from ..errors import Problem, SuiteError
 
 __all__ = ["EXIT_OK", "EXIT_INVALID", "EXIT_USAGE", "UsageError", "SensorRow", "override", "positive_int",
            "positive_float", "writable", "require_matplotlib", "add_suite_args", "load_suite", "model_path",
-           "describe", "describe_schedule", "naive_samples", "importable_cwd", "user_code_failure"]
+           "describe", "describe_schedule", "naive_samples", "importable_cwd", "user_code_failure", "load_model"]
 
 EXIT_OK, EXIT_INVALID, EXIT_USAGE = 0, 1, 2
 
@@ -105,6 +105,16 @@ def existing_file(path: str, what: str) -> Path:
     if p.is_dir():
         raise UsageError(f"{path}: is a directory, expected a {what}")
     return p
+
+
+def load_model(path: str) -> Any:
+    """The MjModel at `path`; a file MuJoCo rejects is a problem of that file (exit 1)."""
+    import mujoco
+
+    try:
+        return mujoco.MjModel.from_xml_path(str(path))
+    except (ValueError, OSError) as e:
+        raise SuiteError(Problem(f"MuJoCo cannot load this model: {str(e).strip()}", file=str(path))) from None
 
 
 def load_suite(path: str, overrides: Sequence[str] = ()) -> Any:

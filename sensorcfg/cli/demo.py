@@ -11,8 +11,9 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from .common import EXIT_OK, UsageError, add_suite_args, load_suite, model_path, require_matplotlib, writable
-from .run import add_run_args, execute, settings_from
+from .common import (EXIT_OK, UsageError, add_suite_args, load_model, load_suite, model_path, require_matplotlib,
+                     writable)
+from .run import add_run_args, control_steps, execute, settings_from
 from .spec import build_spec, format_spec
 
 __all__ = ["add_parser"]
@@ -61,20 +62,10 @@ def command(args: argparse.Namespace) -> int:
     suite = load_suite(suite_file, args.overrides)
     model_file = model_path(suite, args.model)
     settings = settings_from(args)
-    spec = build_spec(suite, model_file, control_steps=_control_steps(suite, model_file, settings))
+    spec = build_spec(suite, model_file, control_steps=control_steps(suite, load_model(model_file), settings))
     print(format_spec(spec), end="\n\n")
     title = "sensorcfg demo (bundled suite and robot)" if args.suite is None else None
     status = execute(suite, model_file, settings, out, plot, args.overrides, label="demo", title=title)
     if status == EXIT_OK:
         print(f"\nnext: open {plot or out}; the suite it ran is {suite_file}")
     return status
-
-
-def _control_steps(suite: Any, model_file: str, settings: Any) -> int | None:
-    if settings.substeps is not None:
-        return settings.substeps
-    if settings.control_timestep is not None:
-        from ..env.environment import load_model, steps_per_control_step
-
-        return steps_per_control_step(load_model(model_file), None, settings.control_timestep)
-    return None

@@ -20,11 +20,11 @@ import numpy as np
 
 from .._version import __version__
 from .common import (EXIT_INVALID, EXIT_OK, SensorRow, UsageError, add_suite_args, describe, importable_cwd,
-                     load_suite, model_path, naive_samples, positive_float, positive_int, require_matplotlib,
-                     writable)
+                     load_model, load_suite, model_path, naive_samples, positive_float, positive_int,
+                     require_matplotlib, writable)
 from .report import Progress, table
 
-__all__ = ["add_parser", "Settings", "Recording", "execute", "add_run_args", "settings_from"]
+__all__ = ["add_parser", "Settings", "Recording", "execute", "add_run_args", "settings_from", "control_steps"]
 
 TIME_KEY, ACTION_KEY = "sensorcfg.time", "sensorcfg.action"  # '.' is not allowed in sensor names
 MAX_RECORDING_BYTES = 4 << 30
@@ -117,22 +117,27 @@ class _Built:
         return getattr(self._suite, name)
 
 
+def control_steps(suite: Any, model: Any, settings: Settings) -> int:
+    """Physics steps per control step: --substeps, --control-timestep, else the suite's control_interval."""
+    from ..env.environment import steps_per_control_step
+    from ..errors import SuiteError
+
+    if settings.substeps is None and settings.control_timestep is None:
+        return int(suite.updater_kwargs(model)["physics_steps_per_control_step"])
+    try:
+        return steps_per_control_step(model, settings.substeps, settings.control_timestep)
+    except SuiteError as e:
+        raise UsageError(f"--control-timestep: {e.problems[0].message}") from None
+
+
 def make_env(suite: Any, model_file: str, settings: Settings, *, record_timing: bool) -> tuple[Any, dict[str, Any]]:
     """The Environment and the suite's observables (drawn schedules wrapped in Recorders when asked)."""
     from ..env import Environment
-    from ..env.environment import load_model, steps_per_control_step
-    from ..errors import SuiteError
     from . import timing
 
     importable_cwd()
     model = load_model(model_file)
-    if settings.substeps is None and settings.control_timestep is None:
-        substeps = suite.updater_kwargs(model)["physics_steps_per_control_step"]
-    else:
-        try:
-            substeps = steps_per_control_step(model, settings.substeps, settings.control_timestep)
-        except SuiteError as e:
-            raise UsageError(f"--control-timestep: {e.problems[0].message}") from None
+    substeps = control_steps(suite, model, settings)
     observables = suite.build(model)
     if record_timing:
         timing.record_draws(observables)

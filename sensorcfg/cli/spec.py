@@ -11,7 +11,8 @@ import json
 from collections.abc import Callable
 from typing import Any
 
-from .common import EXIT_OK, SensorRow, add_suite_args, describe, importable_cwd, load_suite, model_path
+from .common import (EXIT_OK, SensorRow, add_suite_args, describe, importable_cwd, load_model, load_suite,
+                     model_path)
 from .report import table
 
 __all__ = ["add_parser", "Spec", "build_spec", "format_spec", "REPORTERS"]
@@ -55,7 +56,6 @@ def build_spec(suite: Any, model_file: str, control_steps: int | None = None) ->
     """Build the suite on the model and read the specs (imports generic callables: their shapes are needed)."""
     import numpy as np
 
-    from ..env.environment import load_model
     from ..physics import Physics
     from ..runtime.updater import Updater
 

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import Problem, SuiteError
-from .common import EXIT_INVALID, EXIT_OK, UsageError, existing_file, importable_cwd, override
+from .common import EXIT_INVALID, EXIT_OK, UsageError, existing_file, importable_cwd, load_model, override
 
 __all__ = ["add_parser", "FileResult", "REPORTERS", "collect", "check_file"]
 
@@ -109,16 +109,6 @@ def check_file(path: Path, model: tuple[str, Any] | None, overrides: Sequence[st
                 models[target] = None  # let check() report it, positioned at the suite's `model:` line
         target = models[target]  # None: let the suite load it and report where its `model:` is
     return FileResult(str(path), suite.model, suite.check(target, import_callables=import_callables))
-
-
-def load_model(path: str) -> Any:
-    import mujoco
-
-    try:
-        model = mujoco.MjModel.from_xml_path(str(path))
-    except (ValueError, OSError) as e:
-        raise SuiteError(Problem(f"MuJoCo cannot load this model: {str(e).strip()}", file=str(path))) from None
-    return model
 
 
 # -- reporters ------------------------------------------------------------------------------------------
