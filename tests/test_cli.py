@@ -385,7 +385,7 @@ def test_run_plot_without_matplotlib_says_how_to_install_it(tmp_path: Path, no_m
 @pytest.mark.parametrize("args, code, message", [
     pytest.param(["--out", "no/such/dir/o.npz"], 2, "does not exist", id="out-folder-missing"),
     pytest.param(["--out", "."], 2, "is a directory", id="out-is-directory"),
-    pytest.param(["--model", "broken.xml"], 1, "MuJoCo could not load the model", id="unreadable-model"),
+    pytest.param(["--model", "broken.xml"], 1, "broken.xml: error: MuJoCo cannot load this model", id="unreadable-model"),
     pytest.param(["--set", "sensors.joints.element=joint:knee"], 1, "override", id="bad-override-value"),
 ])
 def test_run_user_mistakes(tmp_path: Path, args: list[str], code: int, message: str) -> None:
