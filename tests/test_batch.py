@@ -396,3 +396,69 @@ def test_gymnasium_vector_env_steps_and_autoresets_as_the_batch():
     obs, _ = venv.reset(options={"reset_mask": np.array([True, False, False])})
     assert all(same(obs[k][1:], ts.observation[k][1:]) for k in obs)
     venv.close()
+
+
+# -- cameras -----------------------------------------------------------------------------------------
+
+
+def cameras() -> dict[str, sensorcfg.Observable]:
+    obs = {
+        "overview": sensorcfg.Camera("overview", height=24, width=32, update_interval=3, buffer_size=2),
+        "wrist_depth": sensorcfg.Camera("wrist", height=16, width=16, mode="depth", delay=2),
+        "hand": sensorcfg.Feature("xpos", "site:hand_site", buffer_size=2, delay=1),
+        "wrist_seg": sensorcfg.Camera("camera:wrist", height=8, width=8, mode="segmentation", update_interval=2,
+                                      delay=3, buffer_size=3),
+    }
+    for o in obs.values():
+        o.enabled = True
+    return obs
+
+
+@needs_batch
+def test_cameras_render_per_simulation_bit_for_bit():
+    seed, nsim, n = 3, 3, 4
+    env = BatchEnvironment(ROBOT, cameras(), nsim, physics_steps_per_control_step=n, time_limit=0.06, seed=seed)
+    assert env.batch.persistent
+    singles = [sensorcfg.Environment(ROBOT, cameras(), physics_steps_per_control_step=n, time_limit=0.06,
+                                     seed=sim_seed(seed, i)) for i in range(nsim)]
+    actions = np.random.default_rng(5).uniform(-1, 1, (12, nsim, 3)) * [1, 1, 0.04]
+    b = [env.reset()]
+    s = [[e.reset()] for e in singles]
+    for step, a in enumerate(actions):
+        if step == 4:
+            b.append(env.reset([1]))
+            s[1].append(singles[1].reset())
+            for i in (0, 2):
+                s[i].append(s[i][-1]._replace(step_type=dm_env.StepType.MID, reward=0.0, discount=1.0))
+        b.append(env.step(a))
+        for i, e in enumerate(singles):
+            s[i].append(e.step(a[i]))
+    assert b[-1].observation["overview"].shape == (nsim, 2, 24, 32, 3)
+    assert b[-1].observation["overview"].any()
+    for i in range(nsim):
+        check_sim(b, s[i], i, "cameras")
+
+
+@needs_batch
+def test_cameras_render_only_frames_a_read_can_see(monkeypatch):
+    from sensorcfg.batch import camera
+
+    obs = {"cam": sensorcfg.Camera("overview", height=8, width=8)}  # every step, buffer 1
+    obs["cam"].enabled = True
+    env = BatchEnvironment(ROBOT, obs, 2, physics_steps_per_control_step=5)
+    env.reset()
+    frames = []
+    render = camera.BatchCameras._frame
+    monkeypatch.setattr(camera.BatchCameras, "_frame", lambda self, i, cam: frames.append(i) or render(self, i, cam))
+    for _ in range(4):
+        env.step(np.zeros((2, 3)))
+    assert frames == [0, 1] * 4  # once per control step and simulation, not 5 times
+
+
+@needs_batch
+def test_noisy_cameras_are_rejected():
+    obs = {"cam": sensorcfg.Camera("overview", height=8, width=8, buffer_size=2, aggregator="mean")}
+    obs["cam"].enabled = True
+    with pytest.raises(SuiteError, match=r"camera 'cam': a BatchEnvironment renders cameras per simulation and "
+                                         r"cannot apply an aggregator to them"):
+        BatchEnvironment(ROBOT, obs, 2)

@@ -120,7 +120,13 @@ class BatchEnvironment:
         mujoco.mj_forward(self._model, physics.data)
         flags = {k: bool(options[k]) for k in ("strip_singleton_buffer_dim", "pad_with_initial_value") if k in options}
         self._updater = BatchUpdater(observables, physics, self._nsim, self._n, **flags)
-        self._batch = batch_module.Batch(self._model, self._nsim, 0 if nthread is None else int(nthread))
+        cameras = self._updater.cameras
+        # cameras render a simulation's whole MjData after its step: one MjData per simulation
+        self._batch = batch_module.Batch(self._model, self._nsim, 0 if nthread is None else int(nthread),
+                                         persistent=cameras is not None)
+        if cameras is not None:
+            cameras.batch = self._batch
+        self._segments: dict[int, dict[str, np.ndarray]] = {}
         self._simulation_error = batch_module.SimulationError
         self._record = list(self._updater.record_out)
         self._bound = {f: self._batch.bind(f) for f in self._record}  # bound before any call: kept current
@@ -238,12 +244,7 @@ class BatchEnvironment:
         messages: dict[int, str] = {}
         if active.any():
             updater.prepare(active)
-            try:
-                self._batch.rollout(self._n, control=actions[:, None, :], record=self._record, out=updater.record_out)
-            except self._simulation_error as e:  # those simulations kept their state; the others ran
-                failed[e.ids] = True
-                for i in e.ids:
-                    messages[int(i)] = f"MuJoCo raised: {self._batch.error(int(i))}"
+            self._rollout(actions, active, failed, messages)
             updater.update(active)
         ids = np.flatnonzero(restart)
         if ids.size:
@@ -262,6 +263,39 @@ class BatchEnvironment:
             discount[diverged] = 0.0
             self._needs_reset |= diverged
         return BatchTimeStep(step_type, np.zeros(self._nsim), discount, observation)
+
+    def _rollout(self, actions: np.ndarray, active: np.ndarray, failed: np.ndarray, messages: dict[int, str]) -> None:
+        """The control step's physics, recorded into the updater's store: one rollout, or with cameras one
+        per substep after which some camera samples (each followed by its renders)."""
+        updater, n = self._updater, self._n
+        cameras = updater.cameras
+        stops = [] if cameras is None else cameras.substeps(updater.t, active)
+        control = actions[:, None, :]
+        start = 0
+        for stop in [*stops, n] if n not in stops else stops:
+            length = stop - start
+            whole = length == n
+            out = updater.record_out if whole else self._segment(length)
+            try:
+                self._batch.rollout(length, control=control, record=self._record, out=out)
+            except self._simulation_error as e:  # those simulations kept their state; the others ran
+                failed[e.ids] = True
+                for i in e.ids:
+                    messages.setdefault(int(i), f"MuJoCo raised: {self._batch.error(int(i))}")
+            if not whole:
+                for f, values in out.items():
+                    updater.record_out[f][:, start:stop] = values
+            if cameras is not None and stop in stops:
+                cameras.sample(stop, updater.t, active)
+            start = stop
+
+    def _segment(self, length: int) -> dict[str, np.ndarray]:
+        """Record arrays for a rollout of `length` substeps (a control step split at camera samples)."""
+        out = self._segments.get(length)
+        if out is None:
+            out = self._segments[length] = {f: np.empty((self._nsim, length, *v.shape[2:]), v.dtype)
+                                            for f, v in self._updater.record_out.items()}
+        return out
 
     def _bad_counts(self) -> np.ndarray:
         warning = self._batch.warning  # (nsim, mjNWARNING, (lastinfo, number))

@@ -73,18 +73,29 @@ class BatchUpdater:
         enabled = [(name, obs) for name, obs in observables.items() if obs.enabled]
         channels: list[Channel] = list(template._channels)
         self.names = [name for name, _ in enabled]
-        for (name, obs), ch in zip(enabled, channels):
+        cameras = [(name, obs, ch) for (name, obs), ch in zip(enabled, channels) if hasattr(obs, "camera_id")]
+        features = [(name, obs, ch) for (name, obs), ch in zip(enabled, channels) if not hasattr(obs, "camera_id")]
+        for name, obs, ch in cameras:
+            self._check_camera(name, obs, ch)
+        for name, obs, ch in features:
             self._check(name, obs, ch)
         data = physics.data if not hasattr(physics.data, "ptr") else physics.data.ptr
-        fixed = [(name, obs, ch) for (name, obs), ch in zip(enabled, channels) if isinstance(ch, FixedChannel)]
-        drawn = [(name, obs, ch) for (name, obs), ch in zip(enabled, channels) if isinstance(ch, RandomChannel)]
+        fixed = [(name, obs, ch) for name, obs, ch in features if isinstance(ch, FixedChannel)]
+        drawn = [(name, obs, ch) for name, obs, ch in features if isinstance(ch, RandomChannel)]
         ordered = fixed + drawn  # history columns: fixed channels first (the read plan's), then random ones
         fields = {}
         for _, _, ch in ordered:
             fields.setdefault(ch.sampler.field, tuple(getattr(data, ch.sampler.field).shape))
         self.fixed = [ch for _, _, ch in fixed]
         self.nfixed = len(fixed)
-        self.output_index = {name: i for i, (name, _, _) in enumerate(ordered)}
+        self.output_index = {name: i for i, (name, _, _) in enumerate(ordered + cameras)}
+        self.cameras = None  # rendered per simulation (batch.camera); the caller sets `cameras.batch`
+        if cameras:
+            from .camera import BatchCameras
+
+            model = physics.model if not hasattr(physics.model, "ptr") else physics.model.ptr
+            self.cameras = BatchCameras([(self.output_index[name], obs, ch) for name, obs, ch in cameras],
+                                        model, self.nsim, self.n, self.pad)
         self.labels = [name for name, _, _ in ordered]
         self.channels = [ch for _, _, ch in ordered]
         self.noise = {i: BatchPipeline(ch.noise, self.nsim, name)
@@ -117,9 +128,10 @@ class BatchUpdater:
         what = type(obs).__name__
         if getattr(sampler, "struct", None) != "data" or not hasattr(sampler, "index"):
             kind = "a model field" if getattr(sampler, "struct", None) == "model" else f"a {what}"
-            raise SuiteError(f"sensor {name!r} ({kind}) cannot run in a BatchEnvironment: only features of mjData "
-                             "fields are vectorised across simulations (cameras and generic callables would run "
-                             "Python per simulation); use the single-simulation Environment for it")
+            raise SuiteError(f"sensor {name!r} ({kind}) cannot run in a BatchEnvironment: it takes features of "
+                             "mjData fields (vectorised across simulations) and cameras (rendered per simulation); "
+                             "a generic callable would run Python per sample and simulation: use the "
+                             "single-simulation Environment for it")
         if ch.dtype != np.float64:
             raise SuiteError(f"sensor {name!r}: {ch.dtype} features cannot be vectorised (float64 only)")
         aggregator = ch.aggregator
@@ -127,6 +139,15 @@ class BatchUpdater:
                                            and getattr(aggregator, "name", None) in _REDUCERS):
             raise SuiteError(f"sensor {name!r}: its aggregator cannot be vectorised across simulations: use one of "
                              f"{', '.join(_REDUCERS)} on a buffer (a custom callable would run per simulation)")
+
+    @staticmethod
+    def _check_camera(name: str, obs: Any, ch: Channel) -> None:
+        what = ("noise" if ch.noise is not None else "a corruptor" if getattr(obs, "corruptor", None) is not None
+                else "an aggregator" if ch.aggregator is not None
+                else "a drawn interval or delay" if not isinstance(ch, FixedChannel) else None)
+        if what:
+            raise SuiteError(f"camera {name!r}: a BatchEnvironment renders cameras per simulation and cannot apply "
+                             f"{what} to them; remove it, or use the single-simulation Environment")
 
     def _drawers(self, label: str, obs: Any) -> Any:
         def make(random_state: Any) -> tuple[Any, Any]:
@@ -171,6 +192,8 @@ class BatchUpdater:
         h[self.rows + 1, ids] = 0.0
         self.t[ids] = 0
         self.control_steps[ids] = 0
+        if self.cameras is not None:
+            self.cameras.reset(ids)
         self.layout.clear()
         self._noise_plans.clear()
 
@@ -247,7 +270,9 @@ class BatchUpdater:
 
     def get_observation(self) -> dict[str, np.ndarray]:
         """Every observation of every simulation, (nsim, ...) arrays in the observables' order."""
-        out: list[Any] = [None] * len(self.channels)
+        out: list[Any] = [None] * len(self.output_index)
+        if self.cameras is not None:
+            self.cameras.read(self.t, out)
         if self.fixed:
             plain_index, group_index = self.layout.gathers(self.G % self.rows, self.t)
             flat = self.flat

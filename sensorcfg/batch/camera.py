@@ -1,0 +1,85 @@
+"""Cameras across simulations: rendered one simulation at a time, only when some read can see the frame.
+
+A frame needs the simulation's whole MjData as it was right after its physics step, so a batch with
+cameras is persistent (one MjData per simulation: memory grows with nsim) and a control step is split
+into one `rollout` per substep at which some camera samples. Each sampled frame costs one `get_data` and
+one render of that simulation: a Python loop over the simulations that sample it. Which steps sample is
+the single-simulation channel's periodic plan (`FixedChannel.needed_phases`), so a frame that no read can
+see is never rendered; a camera sampling every step with a buffer of 1 renders once per control step.
+
+Frames wait in a per-simulation ring laid out as `FixedChannel`'s, read with one fancy index for all
+simulations. Cameras with noise, corruptors, aggregators or drawn intervals or delays are rejected.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from ..physics import Physics
+from ..runtime.channels import FixedChannel
+
+__all__ = ["BatchCameras"]
+
+
+class _Camera:
+    def __init__(self, channel: FixedChannel, render: Any, nsim: int):
+        self.ch = channel
+        self.render = render
+        self.ring = np.zeros((nsim, channel.capacity, *channel.shape), channel.dtype)
+        self.needed = np.zeros(channel.period(), bool)
+        self.needed[channel.needed_phases()] = True
+
+
+class BatchCameras:
+    """The camera observables of a batch (`entries`: (position, observable, channel) each)."""
+
+    def __init__(self, entries: list[tuple[int, Any, FixedChannel]], model: mujoco.MjModel, nsim: int, n: int,
+                 pad: bool):
+        self.data = mujoco.MjData(model)  # each simulation's MjData is copied here to render it
+        physics = Physics(model, self.data)
+        self.nsim, self.n, self.pad = nsim, n, pad
+        self.positions = [position for position, _, _ in entries]
+        self.cameras = [_Camera(ch, obs.observation_callable(physics), nsim) for _, obs, ch in entries]
+        self.batch: Any = None  # the persistent mujoco.batch.Batch to render from
+
+    def _frame(self, i: int, camera: _Camera) -> np.ndarray:
+        self.batch.get_data(int(i), self.data)
+        return camera.render()
+
+    def substeps(self, t: np.ndarray, active: np.ndarray) -> list[int]:
+        """The substeps (1..n) of this control step after which some camera samples some simulation."""
+        out = set()
+        for camera in self.cameras:
+            period = camera.needed.size
+            for k in range(1, self.n + 1):
+                if k not in out and (camera.needed[(t + k) % period] & active).any():
+                    out.add(k)
+        return sorted(out)
+
+    def sample(self, k: int, t: np.ndarray, active: np.ndarray) -> None:
+        """Render the frames due after substep k (`t`: steps since reset before this control step)."""
+        for camera in self.cameras:
+            ch = camera.ch
+            due = np.flatnonzero(camera.needed[(t + k) % camera.needed.size] & active)
+            for i in due:  # one get_data and one render per simulation: the documented cost
+                camera.ring[i, ((t[i] + k) // ch.interval) % ch.capacity] = self._frame(i, camera)
+
+    def reset(self, ids: np.ndarray) -> None:
+        """The reset frames of simulations `ids` (rendered after their physics reset)."""
+        for camera in self.cameras:
+            for i in ids:
+                frame = self._frame(i, camera)
+                camera.ring[i] = frame if self.pad else 0
+                camera.ring[i, 0] = frame
+
+    def read(self, t: np.ndarray, out: list[Any]) -> None:
+        """Each camera's observation of every simulation into `out` at its position."""
+        sims = np.arange(self.nsim)[:, None]
+        for position, camera in zip(self.positions, self.cameras):
+            ch = camera.ch
+            start = (t - ch.delay) // ch.interval - ch.buffer_size + 1
+            window = camera.ring[sims, (start[:, None] + np.arange(ch.buffer_size)) % ch.capacity]
+            out[position] = window if ch.has_buffer_dim else window[:, 0]
