@@ -27,6 +27,13 @@ finite ends its episode with discount 0, its message in `last_divergence[i]` (an
 others go on. The batch stops stepping a simulation at its first warning, so the observation of that last
 step may differ from a single simulation's (which MuJoCo resets and steps on).
 
+Cameras render per simulation: each sampled frame costs a `get_data` and a render of that simulation
+(a Python loop over the simulations that sample it), the batch keeps one MjData per simulation
+(`persistent=True`), and a control step becomes one rollout per substep at which a camera samples.
+Frames no read can see are never rendered. Generic callables, corruptors and custom aggregators are
+rejected before stepping (they would run Python per sample and simulation); so are noise stages without a
+batched form (custom) and drawn intervals or delays other than `{uniform}` / `{choice}`.
+
 The control step is chosen as `Environment` chooses it: `physics_steps_per_control_step` or
 `control_timestep` when given, else the suite's `options.control_interval`, else one physics step.
 Rewards are 0 (the suite observes; shape rewards from the observations).

@@ -10,9 +10,10 @@ Noise runs at each sample's own step on the simulations that sample then, in pla
 channel itself (`batch.timeline`). Scheduling, buffers and noise are the single-simulation Updater's to
 the bit: the per-simulation state is its episode's age (`t`), random state, noise and random plans.
 
-Differences from the Updater: every observable must be a float64 mjData feature without a corruptor
-(cameras, generic callables, corruptors and custom aggregators run Python per sample and simulation:
-they are rejected with a SuiteError naming the sensor), and `samples_taken` is not kept.
+Differences from the Updater: every observable must be a float64 mjData feature without a corruptor, or
+a camera (rendered per simulation by `batch.camera`); generic callables, corruptors and custom
+aggregators would run Python per sample and simulation and are rejected with a SuiteError naming the
+sensor. `samples_taken` is not kept.
 """
 
 from __future__ import annotations
