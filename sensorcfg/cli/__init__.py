@@ -16,7 +16,7 @@ from collections.abc import Sequence
 from .._version import __version__
 from ..errors import SuiteError
 from . import demo, run, schema, spec, validate
-from .common import EXIT_CODES_HELP, EXIT_INVALID, EXIT_USAGE, UsageError, user_code_failure
+from .common import EXIT_CODES_HELP, EXIT_INVALID, EXIT_USAGE, HelpFormatter, UsageError, user_code_failure
 
 __all__ = ["main", "build_parser"]
 
@@ -27,8 +27,8 @@ DESCRIPTION = """Declarative robot sensing for MuJoCo: check, inspect and run YA
 EXAMPLES = """examples:
   sensorcfg demo                                     run the bundled demo suite end to end
   sensorcfg validate configs/                        check every suite in a folder
-  sensorcfg spec configs/arm.yaml                    shapes, rates, delays and noise of each observation
-  sensorcfg run configs/arm.yaml --steps 500 --out obs.npz --plot obs.png
+  sensorcfg spec configs/sim2real.yaml               shapes, rates, delays and noise of each observation
+  sensorcfg run configs/vision.yaml --steps 500 --out obs.npz --plot obs.png
   sensorcfg schema -o sensor-suite.schema.json       JSON Schema for editors
 
 'sensorcfg COMMAND --help' describes each command; 'python -m sensorcfg' works the same."""
@@ -44,7 +44,7 @@ class _Parser(argparse.ArgumentParser):
 
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="sensorcfg", description=DESCRIPTION, epilog=EXAMPLES + "\n\n" + EXIT_CODES_HELP,
-                     formatter_class=argparse.RawDescriptionHelpFormatter)
+                     formatter_class=HelpFormatter)
     parser.add_argument("--version", action="version", version=f"sensorcfg {__version__}")
     sub = parser.add_subparsers(title="commands", metavar="COMMAND", parser_class=_Parser)
     for command in COMMANDS:

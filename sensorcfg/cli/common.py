@@ -16,7 +16,7 @@ from typing import Any
 
 from ..errors import Problem, SuiteError
 
-__all__ = ["EXIT_OK", "EXIT_INVALID", "EXIT_USAGE", "UsageError", "SensorRow", "override", "positive_int",
+__all__ = ["HelpFormatter", "EXIT_OK", "EXIT_INVALID", "EXIT_USAGE", "UsageError", "SensorRow", "override", "positive_int",
            "positive_float", "writable", "require_matplotlib", "add_suite_args", "load_suite", "model_path",
            "describe", "describe_schedule", "naive_samples", "importable_cwd", "user_code_failure", "load_model"]
 
@@ -24,8 +24,18 @@ EXIT_OK, EXIT_INVALID, EXIT_USAGE = 0, 1, 2
 
 EXIT_CODES_HELP = """exit status:
   0  every suite is valid (or the command succeeded)
-  1  a suite or model has problems (listed as path:line:col: error: message)
+  1  a suite or model has problems (listed as path:line:col: error: message), a run diverged,
+     or a generic sensor or custom noise callable raised (its file and line are shown)
   2  usage or I/O error: unknown option, missing file, unwritable output, missing optional dependency"""
+
+
+class HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """Wraps one-paragraph descriptions to the terminal; keeps laid-out text (examples, exit status) as is."""
+
+    def _fill_text(self, text: str, width: int, indent: str) -> str:
+        if "\n" in text:
+            return super()._fill_text(text, width, indent)
+        return argparse.HelpFormatter._fill_text(self, text, width, indent)
 
 
 class UsageError(Exception):

@@ -11,8 +11,8 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from .common import (EXIT_OK, UsageError, add_suite_args, load_model, load_suite, model_path, require_matplotlib,
-                     writable)
+from .common import (EXIT_OK, HelpFormatter, UsageError, add_suite_args, load_model, load_suite, model_path,
+                     require_matplotlib, writable)
 from .run import add_run_args, control_steps, execute, settings_from
 from .spec import build_spec, format_spec
 
@@ -36,7 +36,7 @@ def add_parser(sub: Any, epilog: str) -> None:
     p = sub.add_parser("demo", help="run the bundled demo suite end to end: spec, run, plot (into this folder)",
                        description="Run the bundled demo suite on the bundled robot: print its spec, simulate "
                        "it, and write the observations and a plot into the current folder.",
-                       epilog=EXAMPLES + "\n\n" + epilog, formatter_class=argparse.RawDescriptionHelpFormatter)
+                       epilog=EXAMPLES + "\n\n" + epilog, formatter_class=HelpFormatter)
     add_suite_args(p, suite_optional=True)
     add_run_args(p, steps=300, random_actions=True)
     p.add_argument("--prefix", default=PREFIX, help=f"output file prefix (default: {PREFIX})")

@@ -19,9 +19,9 @@ from typing import Any
 import numpy as np
 
 from .._version import __version__
-from .common import (EXIT_INVALID, EXIT_OK, SensorRow, UsageError, add_suite_args, describe, importable_cwd,
-                     load_model, load_suite, model_path, naive_samples, positive_float, positive_int,
-                     require_matplotlib, writable)
+from .common import (EXIT_INVALID, EXIT_OK, HelpFormatter, SensorRow, UsageError, add_suite_args, describe,
+                     importable_cwd, load_model, load_suite, model_path, naive_samples, positive_float,
+                     positive_int, require_matplotlib, writable)
 from .report import Progress, table
 
 __all__ = ["add_parser", "Settings", "Recording", "execute", "add_run_args", "settings_from", "control_steps"]
@@ -30,9 +30,9 @@ TIME_KEY, ACTION_KEY = "sensorcfg.time", "sensorcfg.action"  # '.' is not allowe
 MAX_RECORDING_BYTES = 4 << 30
 
 EXAMPLES = """examples:
-  sensorcfg run configs/arm.yaml                         200 control steps, summary only
-  sensorcfg run configs/arm.yaml --steps 1000 --out obs.npz --plot obs.png
-  sensorcfg run configs/arm.yaml --control-timestep 0.02 --random-actions --seed 3
+  sensorcfg run configs/imu.yaml                         200 control steps, summary only
+  sensorcfg run configs/vision.yaml --steps 500 --out obs.npz --plot obs.png
+  sensorcfg run configs/sim2real.yaml --control-timestep 0.02 --random-actions --seed 3
 
 The .npz holds one array per enabled observation, named as the sensor, with a leading axis of control
 steps (the reset observation first, so N+1 entries), plus 'sensorcfg.time' (seconds, N+1) and
@@ -93,7 +93,7 @@ def add_parser(sub: Any, epilog: str) -> None:
     p = sub.add_parser("run", help="simulate a suite, record observations to .npz, summarise, plot",
                        description="Simulate the suite's model with zero (or random) controls, record every "
                        "observation at every control step, and print a summary.",
-                       epilog=EXAMPLES + "\n\n" + epilog, formatter_class=argparse.RawDescriptionHelpFormatter)
+                       epilog=EXAMPLES + "\n\n" + epilog, formatter_class=HelpFormatter)
     add_suite_args(p)
     add_run_args(p, steps=200)
     p.add_argument("--out", metavar="FILE.npz", help="write the observations here (and the sidecar FILE.json)")

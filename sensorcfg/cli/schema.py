@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from .common import EXIT_OK, UsageError
+from .common import EXIT_OK, HelpFormatter, UsageError
 
 __all__ = ["add_parser"]
 
@@ -22,7 +22,7 @@ def add_parser(sub: Any, epilog: str) -> None:
     p = sub.add_parser("schema", help="print (or write) the JSON Schema of a suite file",
                        description="The JSON Schema (draft 2020-12) of a sensor suite file, generated from the "
                        "same models that validate suites.", epilog=EXAMPLES + "\n\n" + epilog,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+                       formatter_class=HelpFormatter)
     p.add_argument("-o", "--output", metavar="FILE", help="write the schema to FILE instead of standard output")
     p.set_defaults(handler=command)
 

@@ -11,16 +11,16 @@ import json
 from collections.abc import Callable
 from typing import Any
 
-from .common import (EXIT_OK, SensorRow, add_suite_args, describe, importable_cwd, load_model, load_suite,
-                     model_path)
+from .common import (EXIT_OK, HelpFormatter, SensorRow, add_suite_args, describe, importable_cwd, load_model,
+                     load_suite, model_path)
 from .report import table
 
 __all__ = ["add_parser", "Spec", "build_spec", "format_spec", "REPORTERS"]
 
 EXAMPLES = """examples:
-  sensorcfg spec configs/arm.yaml
-  sensorcfg spec configs/arm.yaml --model other_robot.xml --format json
-  sensorcfg spec configs/arm.yaml --set sensors.wrist_cam.interval=50Hz
+  sensorcfg spec configs/sim2real.yaml
+  sensorcfg spec configs/imu.yaml --model my_robot.xml --format json
+  sensorcfg spec configs/vision.yaml --set sensors.wrist_rgb.interval=50Hz
 
 Columns: elements selected, shape and dtype of the observation (buffer axis first), sampling interval in
 physics steps and Hz, delay in steps and ms, buffer length, aggregator, and the noise stages in order.
@@ -46,7 +46,7 @@ def add_parser(sub: Any, epilog: str) -> None:
     p = sub.add_parser("spec", help="table of every enabled observation: shape, dtype, rate, delay, noise",
                        description="Show what a suite produces on a model: every enabled observation with its "
                        "element count, shape, dtype, interval, delay, buffer, aggregator and noise.",
-                       epilog=EXAMPLES + "\n\n" + epilog, formatter_class=argparse.RawDescriptionHelpFormatter)
+                       epilog=EXAMPLES + "\n\n" + epilog, formatter_class=HelpFormatter)
     add_suite_args(p)
     p.add_argument("--format", choices=sorted(REPORTERS), default="text", help="output format (default: text)")
     p.set_defaults(handler=command)

@@ -15,17 +15,18 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import Problem, SuiteError
-from .common import EXIT_INVALID, EXIT_OK, UsageError, existing_file, importable_cwd, load_model, override
+from .common import (EXIT_INVALID, EXIT_OK, HelpFormatter, UsageError, existing_file, importable_cwd, load_model,
+                     override)
 
 __all__ = ["add_parser", "FileResult", "REPORTERS", "collect", "check_file"]
 
 SUFFIXES = (".yaml", ".yml")
 
 EXAMPLES = """examples:
-  sensorcfg validate configs/                       every *.yaml / *.yml below configs/
-  sensorcfg validate arm.yaml --model robot.xml     also check elements, kinds, units and shapes
-  sensorcfg validate arm.yaml --set defaults.buffer=2 --format json
-  sensorcfg validate arm.yaml --import              also import 'generic' and 'custom' callables
+  sensorcfg validate configs/                        every *.yaml / *.yml below configs/
+  sensorcfg validate my_suite.yaml --model robot.xml also check elements, kinds, units and shapes
+  sensorcfg validate configs/imu.yaml --set defaults.buffer=2 --format json
+  sensorcfg validate configs/ --import               also import 'generic' and 'custom' callables
 
 Without --model, a suite that names its model ('model: robot.xml') is checked against it; one that does
 not is checked for syntax and schema only (the summary says how many)."""
@@ -47,13 +48,14 @@ def add_parser(sub: Any, epilog: str) -> None:
     p = sub.add_parser("validate", help="check suites: syntax, schema and (with a model) elements, kinds, units",
                        description="Check sensor suites. Files are checked as given; directories are searched "
                        "recursively for *.yaml and *.yml (hidden folders skipped).",
-                       epilog=EXAMPLES + "\n\n" + epilog, formatter_class=argparse.RawDescriptionHelpFormatter)
+                       epilog=EXAMPLES + "\n\n" + epilog, formatter_class=HelpFormatter)
     p.add_argument("paths", nargs="+", metavar="PATH", help="suite files or directories")
     p.add_argument("--model", metavar="MODEL", help="check every suite against this MJCF/MJB model "
                    "(default: each suite's own 'model:')")
     p.add_argument("--format", choices=sorted(REPORTERS), default="text", help="output format (default: text)")
     p.add_argument("--import", dest="import_callables", action="store_true",
-                   help="import 'generic' and 'custom' callables too (they are never called)")
+                   help="import 'generic' and 'custom' callables too (a generic one with noise is called once, "
+                   "to learn its shape)")
     p.add_argument("--set", dest="overrides", action="append", default=[], type=override, metavar="KEY=VALUE",
                    help="override a key in every suite before checking (repeatable)")
     p.set_defaults(handler=command)
