@@ -136,7 +136,9 @@ class BatchEnvironment:
         self._segments: dict[int, dict[str, np.ndarray]] = {}
         self._simulation_error = batch_module.SimulationError
         self._record = list(self._updater.record_out)
-        self._bound = {f: self._batch.bind(f) for f in self._record}  # bound before any call: kept current
+        # Reset samples come from each reset simulation's own MjData (get_data, then mj_forward unless the
+        # batch is persistent), not from bound derived fields, which the batch would copy out after every call.
+        self._scratch = mujoco.MjData(self._model)
         self._qpos, self._qvel = self._batch.bind("qpos"), self._batch.bind("qvel")
         self._seed = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
         self._random_states = [random_state_from(sim_seed(self._seed, i)) for i in range(self._nsim)]
@@ -224,8 +226,14 @@ class BatchEnvironment:
             self._batch.reset(ids)
         except self._simulation_error as e:  # a reset that raises: report it, keep it for the next step
             raise SuiteError(f"resetting simulations {list(e.ids)[:5]} raised in MuJoCo: {e}") from None
-        for f in self._record:
-            self._updater.reset_values[f][ids] = self._bound[f][ids]
+        data, values = self._scratch, self._updater.reset_values
+        persistent = self._batch.persistent
+        for i in ids:  # per reset simulation: its reset state, forwarded as the reset computed it
+            self._batch.get_data(int(i), data)
+            if not persistent:
+                mujoco.mj_forward(self._model, data)
+            for f in self._record:
+                values[f][i] = getattr(data, f)
         self._updater.reset(ids, self._random_states)
         self._needs_reset[ids] = False
         self._bad[ids] = self._bad_counts()[ids]
