@@ -63,6 +63,10 @@ def command(args: argparse.Namespace) -> int:
     model_file = model_path(suite, args.model)
     settings = settings_from(args)
     spec = build_spec(suite, model_file, control_steps=control_steps(suite, load_model(model_file), settings))
+    if args.suite is None:
+        actions = "random" if settings.random_actions else "zero"
+        print(f"sensorcfg demo: the bundled sensor suite on the bundled robot, {settings.steps} control steps of "
+              f"{actions} controls\n")
     print(format_spec(spec), end="\n\n")
     title = "sensorcfg demo (bundled suite and robot)" if args.suite is None else None
     status = execute(suite, model_file, settings, out, plot, args.overrides, label="demo", title=title)

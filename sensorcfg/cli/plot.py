@@ -102,6 +102,10 @@ def _contact_sheet(ax: Any, t: np.ndarray, values: np.ndarray, row: SensorRow) -
     ax.set_yticks([])
 
 
+def _steps(text: str) -> str:
+    return f"{text} step" if text == "1" else f"{text} steps"
+
+
 def plot_run(path: Path, rec: Any, rows: list[SensorRow], timings: dict[str, Any], dt: float, *,
              title: str) -> None:
     try:
@@ -120,8 +124,8 @@ def plot_run(path: Path, rec: Any, rows: list[SensorRow], timings: dict[str, Any
         ax_t = fig.add_subplot(grid[i, 0], sharex=first_timing)
         first_timing = first_timing or ax_t
         _timing(ax_t, timings.get(row.name), window, n, dt)
-        label = (f"{row.name}: {row.kind}, every {row.interval} steps ({row.rate_hz} Hz), "
-                 f"delay {row.delay} steps ({row.delay_ms} ms)")
+        label = (f"{row.name}: {row.kind}, every {_steps(row.interval)} ({row.rate_hz} Hz), "
+                 f"delay {_steps(row.delay)} ({row.delay_ms} ms)")
         ax_t.set_title(label, fontsize=8, loc="left")
         values = rec.observations[row.name]
         if row.kind in IMAGE_KINDS:
@@ -131,7 +135,9 @@ def plot_run(path: Path, rec: Any, rows: list[SensorRow], timings: dict[str, Any
             first_signal = first_signal or ax_s
             _signal(ax_s, rec.time, values, row)
         if i == len(rows) - 1:
-            ax_t.set_xlabel("time (s): sample and delivery, first steps", fontsize=8)
+            ax_t.set_xlabel("time (s), the first steps", fontsize=8)
+            if row.kind not in IMAGE_KINDS:
+                ax_s.set_xlabel("time (s)", fontsize=8)
     if first_signal is not None:
         first_signal.set_title("signal over the run (newest sample, held between reads)", fontsize=8, loc="left")
     try:
