@@ -8,8 +8,9 @@ control steps of:
   batched    `BatchEnvironment.step`: one rollout recording the suite's fields, plus the vectorised updater
   loop       nsim single-simulation `Environment.step`s with the same suite (one MjData each)
 
-interleaved (drift hits all three alike). Prints medians of environment steps per second (control steps
-times simulations, per second of wall time) and the ratios. Targets: the suite adds at most 5% to
+Prints medians of environment steps per second (control steps
+times simulations, per second of wall time) and the ratios. Within a repeat the three variants alternate
+every control step, so that load from other processes hits them alike. Targets: the suite adds at most 5% to
 batched physics at 512 simulations; batched at least 1.8x the loop on 2 cores.
 
     MUJOCO_GL=egl python benchmarks/batch.py [--nsim 64 512] [--repeats 7] [--control-steps 20] [--nthread 0]
@@ -66,38 +67,34 @@ def main() -> None:
             sensorcfg.Environment(model, sensorcfg_observables(), physics_steps_per_control_step=N, seed=i)
             for i in range(nsim)]
 
-        def run_physics() -> float:
+        def physics_step(a: np.ndarray) -> None:
+            physics.rollout(N, control=a[:, None, :], record=())
+
+        def loop_step(a: np.ndarray) -> None:
+            for e, ai in zip(loop, a):
+                e.step(ai)
+
+        def repeat() -> dict[str, float]:
+            """One run of K control steps of each variant, interleaved per control step (so that load from
+            other processes hits all three alike); returns env steps per second of each."""
             physics.reset()
-            t0 = time.perf_counter()
-            for a in actions:
-                physics.rollout(N, control=a[:, None, :], record=())
-            return time.perf_counter() - t0
-
-        def run_batched() -> float:
             env.reset()
-            t0 = time.perf_counter()
-            for a in actions:
-                env.step(a)
-            return time.perf_counter() - t0
-
-        def run_loop() -> float:
             for e in loop:
                 e.reset()
-            t0 = time.perf_counter()
+            total = {"physics": 0.0, "batched": 0.0, "loop": 0.0}
+            variants = [("physics", physics_step), ("batched", env.step)] + ([("loop", loop_step)] if loop else [])
             for a in actions:
-                for e, ai in zip(loop, a):
-                    e.step(ai)
-            return time.perf_counter() - t0
+                for name, fn in variants:
+                    t0 = time.perf_counter()
+                    fn(a)
+                    total[name] += time.perf_counter() - t0
+            return {name: k * nsim / t if t else float("nan") for name, t in total.items()}
 
-        run_physics(), run_batched()  # warm-up
-        if loop:
-            run_loop()
+        repeat()  # warm-up
         rows: dict[str, list[float]] = {"physics": [], "batched": [], "loop": []}
         for _ in range(args.repeats):
-            rows["physics"].append(k * nsim / run_physics())
-            rows["batched"].append(k * nsim / run_batched())
-            if loop:
-                rows["loop"].append(k * nsim / run_loop())
+            for name, rate in repeat().items():
+                rows[name].append(rate)
         med = {name: statistics.median(v) if v else float("nan") for name, v in rows.items()}
         cost = med["physics"] / med["batched"] - 1
         print(f"{nsim:>6} {med['physics']:>12,.0f} {med['batched']:>12,.0f} {med['loop']:>12,.0f} "
