@@ -8,10 +8,10 @@ control steps of:
   batched    `BatchEnvironment.step`: one rollout recording the suite's fields, plus the vectorised updater
   loop       nsim single-simulation `Environment.step`s with the same suite (one MjData each)
 
-Prints medians of environment steps per second (control steps
-times simulations, per second of wall time) and the ratios. Within a repeat the three variants alternate
-every control step, so that load from other processes hits them alike. Targets: the suite adds at most 5% to
-batched physics at 512 simulations; batched at least 1.8x the loop on 2 cores.
+Within a repeat the three variants alternate every control step, so that load from other processes hits
+them alike. Prints medians over repeats of environment steps per second (control steps times
+simulations, per second of wall time) and the ratios. Targets: the suite adds at most 5% to batched
+physics at 512 simulations; batched at least 1.8x the loop on 2 cores.
 
     MUJOCO_GL=egl python benchmarks/batch.py [--nsim 64 512] [--repeats 7] [--control-steps 20] [--nthread 0]
 
