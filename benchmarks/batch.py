@@ -39,6 +39,18 @@ from sensorcfg.batch import BatchEnvironment  # noqa: E402
 N = 5
 
 
+def noisy(observables: dict, model: mujoco.MjModel) -> dict:
+    """Two gaussian stages on every observable (bound once to learn its shape)."""
+    from sensorcfg.noise import build_noise
+
+    physics = sensorcfg.Physics(model)
+    for obs in observables.values():
+        spec = obs.reader(physics).index
+        obs.noise = build_noise([{"type": "gaussian", "std": 0.01}, {"type": "gaussian", "mean": 0.001, "std": 0.002}],
+                                spec.shape, np.float64, model.opt.timestep)
+    return observables
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--nsim", type=int, nargs="+", default=[64, 512])
@@ -46,13 +58,15 @@ def main() -> None:
     parser.add_argument("--control-steps", type=int, default=20)
     parser.add_argument("--nthread", type=int, default=0, help="batch threads (0: every CPU)")
     parser.add_argument("--no-loop", action="store_true", help="skip the single-simulation loop")
+    parser.add_argument("--noise", action="store_true", help="two gaussian noise stages on every sensor")
     args = parser.parse_args()
     from mujoco import batch as mjbatch
 
     xml, assets = humanoid_xml()
     model = mujoco.MjModel.from_xml_string(xml, assets)
     k = args.control_steps
-    print(f"humanoid, {N} physics steps per control step, {len(SUITE)} observables; mujoco {mujoco.__version__}, "
+    print(f"humanoid, {N} physics steps per control step, {len(SUITE)} observables"
+          f"{' (+2 gaussian noise stages each)' if args.noise else ''}; mujoco {mujoco.__version__}, "
           f"{os.cpu_count()} CPUs, nthread={args.nthread or 'all'}; medians of {args.repeats} repeats x {k} "
           "control steps")
     print(f"{'nsim':>6} {'physics':>12} {'batched':>12} {'loop':>12} {'suite cost':>11} {'batched/loop':>13}")
@@ -61,11 +75,13 @@ def main() -> None:
         lo, hi = model.actuator_ctrlrange.T
         actions = rng.uniform(lo, hi, (k, nsim, model.nu)) * 0.2
         physics = mjbatch.Batch(model, nsim, args.nthread)
-        env = BatchEnvironment(model, sensorcfg_observables(), nsim, nthread=args.nthread,
-                               physics_steps_per_control_step=N, seed=0)
+        def suite() -> dict:
+            observables = sensorcfg_observables()
+            return noisy(observables, model) if args.noise else observables
+
+        env = BatchEnvironment(model, suite(), nsim, nthread=args.nthread, physics_steps_per_control_step=N, seed=0)
         loop = [] if args.no_loop else [
-            sensorcfg.Environment(model, sensorcfg_observables(), physics_steps_per_control_step=N, seed=i)
-            for i in range(nsim)]
+            sensorcfg.Environment(model, suite(), physics_steps_per_control_step=N, seed=i) for i in range(nsim)]
 
         def physics_step(a: np.ndarray) -> None:
             physics.rollout(N, control=a[:, None, :], record=())
