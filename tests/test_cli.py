@@ -387,6 +387,7 @@ def test_run_plot_without_matplotlib_says_how_to_install_it(tmp_path: Path, no_m
     pytest.param(["--out", "."], 2, "is a directory", id="out-is-directory"),
     pytest.param(["--model", "broken.xml"], 1, "broken.xml: error: MuJoCo cannot load this model", id="unreadable-model"),
     pytest.param(["--set", "sensors.joints.element=joint:knee"], 1, "override", id="bad-override-value"),
+    pytest.param(["--steps", "100000000", "--out", "o.npz"], 2, "GiB; use fewer --steps", id="too-big-to-record"),
 ])
 def test_run_user_mistakes(tmp_path: Path, args: list[str], code: int, message: str) -> None:
     write(tmp_path / "s.yaml", VALID)
