@@ -160,29 +160,31 @@ def _actions(env: Any, settings: Settings) -> Any:
 
 
 def simulate(env: Any, settings: Settings, *, keep: bool, label: str = "running") -> Recording:
-    """Step the environment `settings.steps` control steps (fewer if it diverges), keeping observations."""
-    spec = env.observation_spec()
+    """Step the environment `settings.steps` control steps (fewer if it diverges); with `keep`, record each
+    observation, the time and the action (the arrays are allocated once, before the first step)."""
+    spec, nu = env.observation_spec(), env.action_spec().shape
     n = settings.steps
-    size = sum(int(np.prod(s.shape)) * np.dtype(s.dtype).itemsize for s in spec.values()) * (n + 1)
-    if keep and size > MAX_RECORDING_BYTES:
+    rows = n + 1 if keep else 0
+    size = sum(int(np.prod(s.shape)) * np.dtype(s.dtype).itemsize for s in spec.values()) * rows
+    if size > MAX_RECORDING_BYTES:
         raise UsageError(f"recording {n} steps would take {size / 2**30:.1f} GiB; use fewer --steps or smaller "
                          "camera images (--set defaults.camera.width=64)")
-    rows = n + 1 if keep else 1
     rec = Recording({k: np.zeros((rows,) + tuple(s.shape), s.dtype) for k, s in spec.items()},
-                    np.zeros(n + 1), np.zeros((n,) + env.action_spec().shape))
+                    np.zeros(rows), np.zeros((max(rows - 1, 0),) + nu))
     act = _actions(env, settings)
     progress = Progress(n, label)
     with warnings.catch_warnings():  # a divergence is reported once, by `execute`, not as a Python warning
         warnings.filterwarnings("ignore", message="sensorcfg: the simulation diverged", category=RuntimeWarning)
         ts = env.reset()
-        _store(rec, 0 if keep else None, ts.observation, env)
+        if keep:
+            _store(rec, 0, ts.observation, env)
         start = time.perf_counter()
         for i in range(1, n + 1):
             action = act()
             ts = env.step(action)
-            rec.action[i - 1] = action
-            rec.time[i] = env.physics.data.time
-            _store(rec, i if keep else None, ts.observation, env)
+            if keep:
+                rec.action[i - 1] = action
+                _store(rec, i, ts.observation, env)
             rec.steps_done = i
             progress.update(i)
             if ts.last():
@@ -196,9 +198,8 @@ def simulate(env: Any, settings: Settings, *, keep: bool, label: str = "running"
     return rec
 
 
-def _store(rec: Recording, i: int | None, observation: dict[str, Any], env: Any) -> None:
-    if i is None:
-        return
+def _store(rec: Recording, i: int, observation: dict[str, Any], env: Any) -> None:
+    rec.time[i] = env.physics.data.time
     for name, value in observation.items():
         rec.observations[name][i] = value
 
