@@ -6,6 +6,8 @@ Renderers are expensive (an OpenGL context and framebuffers each), so cameras sh
 
 from __future__ import annotations
 
+import atexit
+import functools
 import weakref
 from collections.abc import Callable, Mapping
 from typing import Any, Literal
@@ -47,7 +49,19 @@ def _renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer
                 f"add <visual><global offwidth=\"{max(width, offwidth)}\" offheight=\"{max(height, offheight)}\"/>"
                 "</visual> to the model or ask for a smaller image")
         renderer = pool[(width, height)] = mujoco.Renderer(model, height=height, width=width)
+        _close_at_exit()
     return renderer
+
+
+@functools.cache
+def _close_at_exit() -> None:
+    """Close shared renderers before the GL backend shuts down at exit.
+
+    MuJoCo's EGL backend registers `eglTerminate` with atexit when it creates its first context; handlers
+    run last-registered first, so registering after that keeps renderers from being freed on a terminated
+    display (which prints EGL errors at every exit).
+    """
+    atexit.register(close_renderers)
 
 
 def close_renderers() -> None:
