@@ -135,7 +135,11 @@ class BatchEnvironment:
             cameras.batch = self._batch
         self._segments: dict[int, dict[str, np.ndarray]] = {}
         self._simulation_error = batch_module.SimulationError
-        self._record = list(self._updater.record_out)
+        # Fields read only after the last substep are copied out by the batch after each call (`bind`)
+        # rather than recorded at every substep: a fraction of the memory traffic at large nsim.
+        layout = self._updater.layout
+        self._last = {f: self._batch.bind(f) for f in layout.last_only}
+        self._record = [f for f in self._updater.record_out if f not in self._last]
         # Reset samples come from each reset simulation's own MjData (get_data, then mj_forward unless the
         # batch is persistent), not from bound derived fields, which the batch would copy out after every call.
         self._scratch = mujoco.MjData(self._model)
@@ -232,7 +236,7 @@ class BatchEnvironment:
             self._batch.get_data(int(i), data)
             if not persistent:
                 mujoco.mj_forward(self._model, data)
-            for f in self._record:
+            for f in self._updater.record_out:
                 values[f][i] = getattr(data, f)
         self._updater.reset(ids, self._random_states)
         self._needs_reset[ids] = False
@@ -303,13 +307,15 @@ class BatchEnvironment:
             if cameras is not None and stop in stops:
                 cameras.sample(stop, updater.t, active)
             start = stop
+        for f, values in self._last.items():
+            updater.record_out[f][:, n - 1] = values
 
     def _segment(self, length: int) -> dict[str, np.ndarray]:
         """Record arrays for a rollout of `length` substeps (a control step split at camera samples)."""
         out = self._segments.get(length)
         if out is None:
             out = self._segments[length] = {f: np.empty((self._nsim, length, *v.shape[2:]), v.dtype)
-                                            for f, v in self._updater.record_out.items()}
+                                            for f, v in self._updater.record_out.items() if f in self._record}
         return out
 
     def _bad_counts(self) -> np.ndarray:

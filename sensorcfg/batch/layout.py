@@ -47,6 +47,7 @@ class Layout:
         self.always = always
         self._sources()
         self._read_plans(noisy)
+        self.last_only = self._last_only(fields)
         self._cache: dict[Any, Any] = {}
 
     def _store(self, fields: dict[str, tuple[int, ...]]) -> None:
@@ -131,6 +132,27 @@ class Layout:
                 for k in range(1, n + 1):
                     if (q * n + k) % i == 0 and k + b * i + d - 1 >= 2 * n:
                         self.later[q, k - 1, self.cols[c]:self.cols[c + 1]] = True
+
+    def _last_only(self, fields: dict[str, tuple[int, ...]]) -> list[str]:
+        """The fields read only after a control step's last substep (at any phase): the caller can copy them
+        in after the rollout (`record_out[f][:, -1]`) instead of having every substep recorded."""
+        n = self.n
+        needed = np.zeros((n, self.width), bool)  # substep, column: needed at some phase
+        needed[:] = self.always
+        needed |= self.later.any(axis=0)
+        if self.fixed:
+            k = np.where(self.delta[:-1] == 0, n, self.delta[:-1] - (self.rows - n))
+            for q in range(self.nphase):
+                recent = self.from_record[q]
+                needed[k[q][recent] - 1, self.col[recent]] = True
+        early = needed[:-1].any(axis=0)
+        out = []
+        for f in fields:
+            columns = [np.arange(self.cols[c], self.cols[c + 1]) for c, ch in enumerate(self.channels)
+                       if ch.sampler.field == f]
+            if not early[np.concatenate(columns)].any():
+                out.append(f)
+        return out
 
     def clear(self) -> None:
         """Forget cached positions (a reset changed which simulation is at which phase)."""
