@@ -130,6 +130,24 @@ def test_egl_is_chosen_without_a_display() -> None:
     assert result.stdout.strip() == "ok egl"
 
 
+def test_egl_even_when_mujoco_was_imported_first() -> None:
+    """mujoco picks its GL backend at import; imported before sensorcfg it picked GLFW, which aborts the
+    process on a headless machine. The camera follows MUJOCO_GL=egl anyway."""
+    env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "DISPLAY", "WAYLAND_DISPLAY",
+                                                            "PYOPENGL_PLATFORM")}
+    script = (
+        "import mujoco\n"
+        "import sensorcfg\n"
+        "from sensorcfg import assets\n"
+        "p = sensorcfg.Physics.from_xml_path(str(assets.path('robot.xml')))\n"
+        "p.forward()\n"
+        "print('ok', sensorcfg.Camera('overview', 24, 32)(p).max() > 0)\n"
+    )
+    result = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert result.stdout.strip() == "ok True"
+
+
 def test_a_user_choice_of_backend_is_kept() -> None:
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
     env["MUJOCO_GL"] = "osmesa"

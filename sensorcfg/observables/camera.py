@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import atexit
 import functools
+import os
+import sys
 import weakref
 from collections.abc import Callable, Mapping
 from typing import Any, Literal
@@ -38,10 +40,28 @@ _RENDERERS: weakref.WeakKeyDictionary[mujoco.MjModel, dict[tuple[int, int], mujo
     weakref.WeakKeyDictionary())
 
 
+def _follow_mujoco_gl() -> None:
+    """Render with EGL when MUJOCO_GL says so, even if mujoco was imported before it was set.
+
+    mujoco picks its GL backend once, when imported. Imported before sensorcfg on a headless machine, it
+    picked GLFW, which cannot open a context there (the process dies); sensorcfg has since set
+    MUJOCO_GL=egl (see _gl.py). mujoco's Renderer looks its context class up at construction, so point
+    it at EGL's.
+    """
+    gl_context = getattr(sys.modules.get(mujoco.Renderer.__module__), "gl_context", None)
+    current = getattr(gl_context, "GLContext", None)
+    if (os.environ.get("MUJOCO_GL", "").strip().lower() == "egl" and current is not None
+            and getattr(current, "__module__", "").startswith("mujoco.glfw")):
+        from mujoco.egl import GLContext
+
+        gl_context.GLContext = GLContext
+
+
 def _renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
     pool = _RENDERERS.setdefault(model, {})
     renderer = pool.get((width, height))
     if renderer is None:
+        _follow_mujoco_gl()
         offwidth, offheight = model.vis.global_.offwidth, model.vis.global_.offheight
         if width > offwidth or height > offheight:
             raise SuiteError(
