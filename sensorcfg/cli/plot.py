@@ -14,7 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from .common import SensorRow, UsageError
+from .common import UsageError
+from .describe import SensorRow
 
 __all__ = ["plot_run"]
 

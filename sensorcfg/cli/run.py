@@ -19,9 +19,9 @@ from typing import Any
 import numpy as np
 
 from .._version import __version__
-from .common import (EXIT_INVALID, EXIT_OK, HelpFormatter, SensorRow, UsageError, add_suite_args, describe,
-                     importable_cwd, load_model, load_suite, model_path, naive_samples, positive_float,
-                     positive_int, require_matplotlib, writable)
+from .common import (EXIT_INVALID, EXIT_OK, HelpFormatter, UsageError, add_suite_args, importable_cwd, load_model,
+                     load_suite, model_path, positive_float, positive_int, require_matplotlib, writable)
+from .describe import SensorRow, describe, naive_samples
 from .report import Progress, table
 
 __all__ = ["add_parser", "Settings", "Recording", "execute", "add_run_args", "settings_from", "control_steps"]

@@ -11,8 +11,8 @@ import json
 from collections.abc import Callable
 from typing import Any
 
-from .common import (EXIT_OK, HelpFormatter, SensorRow, add_suite_args, describe, importable_cwd, load_model,
-                     load_suite, model_path)
+from .common import EXIT_OK, HelpFormatter, add_suite_args, importable_cwd, load_model, load_suite, model_path
+from .describe import SensorRow, describe
 from .report import table
 
 __all__ = ["add_parser", "Spec", "build_spec", "format_spec", "REPORTERS"]
