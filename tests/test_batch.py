@@ -462,3 +462,37 @@ def test_noisy_cameras_are_rejected():
     with pytest.raises(SuiteError, match=r"camera 'cam': a BatchEnvironment renders cameras per simulation and "
                                          r"cannot apply an aggregator to them"):
         BatchEnvironment(ROBOT, obs, 2)
+
+
+WELD = """
+<mujoco>
+  <worldbody>
+    <body name="mocap" mocap="true"/>
+    <body name="pole" pos="0 0 1">
+      <joint name="hinge" type="hinge" axis="0 1 0"/>
+      <geom type="capsule" size=".05" fromto="0 0 0 0 0 -.5"/>
+    </body>
+  </worldbody>
+  <equality><weld body1="mocap" body2="pole"/></equality>
+  <actuator><motor joint="hinge"/></actuator>
+</mujoco>
+"""
+
+
+@needs_batch
+def test_a_simulation_mujoco_raises_in_is_reported_for_it_alone():
+    model = mujoco.MjModel.from_xml_string(WELD)
+    obs = {"angle": sensorcfg.Feature("qpos", "joint:hinge", buffer_size=2)}
+    obs["angle"].enabled = True
+    env = BatchEnvironment(model, obs, 4, physics_steps_per_control_step=2)
+    env.reset()
+    eq_type = env.batch.expand("eq_type")
+    eq_type[1] = 99  # an unknown constraint type: mj_step raises in simulation 1 only
+    with pytest.warns(RuntimeWarning, match=r"1 of 4 simulations diverged \(\[1\]; simulation 1: MuJoCo raised"):
+        ts = env.step(np.full((4, 1), 0.5))
+    assert ts.step_type.tolist() == [1, 2, 1, 1] and ts.discount.tolist() == [1.0, 0.0, 1.0, 1.0]
+    assert env.last_divergence[1].startswith("MuJoCo raised: ")
+    assert (env.batch.bind("time")[[0, 2, 3]] > 0).all()
+    eq_type[1] = model.eq_type[0]
+    ts = env.step(np.full((4, 1), 0.5))
+    assert ts.step_type.tolist() == [1, 0, 1, 1] and env.last_divergence[1] is None
