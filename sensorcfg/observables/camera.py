@@ -7,7 +7,6 @@ Renderers are expensive (an OpenGL context and framebuffers each), so cameras sh
 from __future__ import annotations
 
 import atexit
-import functools
 import os
 import sys
 import weakref
@@ -73,14 +72,14 @@ def _renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer
     return renderer
 
 
-@functools.cache
 def _close_at_exit() -> None:
     """Close shared renderers before the GL backend shuts down at exit.
 
-    MuJoCo's EGL backend registers `eglTerminate` with atexit when it creates its first context; handlers
-    run last-registered first, so registering after that keeps renderers from being freed on a terminated
-    display (which prints EGL errors at every exit).
+    MuJoCo's EGL backend (and dm_control's) registers `eglTerminate` with atexit when it creates its first
+    context; handlers run last-registered first, so (re-)registering after each new renderer keeps them
+    from being freed on a terminated display (which prints EGL errors at exit).
     """
+    atexit.unregister(close_renderers)
     atexit.register(close_renderers)
 
 
