@@ -132,6 +132,20 @@ def test_index_matches_mjcf_feature(oracle: Any, oracle_models: dict[str, tuple[
         assert_same(ours, theirs, f"{kind}[{index!r}]")
 
 
+def test_dirty_physics_is_brought_up_to_date(oracle: Any) -> None:
+    """After a write through a binding, dm_control's bind runs mj_forward before reading derived values."""
+    root = oracle.mjcf.from_path(str(MODELS / "arm.xml"))
+    physics = oracle.mjcf.Physics.from_mjcf_model(root)
+    physics.bind(root.find("joint", "root")).qpos[:3] = [1.0, 2.0, 3.0]
+    assert physics.is_dirty
+    qpos = sensorcfg.Feature("qpos", "joint:root")(physics)  # an input: read as is, no forward
+    assert physics.is_dirty and qpos[:3].tolist() == [1.0, 2.0, 3.0]
+    ours = sensorcfg.Feature("xpos", "body:base")(physics)  # derived: forward first, as bind would
+    assert not physics.is_dirty
+    np.testing.assert_array_equal(ours, [1.0, 2.0, 3.0])
+    np.testing.assert_array_equal(ours, physics.bind(root.find("body", "base")).xpos)
+
+
 # -- oracle-free: shapes by hand on plain MuJoCo ---------------------------------------------------
 
 
