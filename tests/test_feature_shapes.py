@@ -213,8 +213,8 @@ def test_values_are_the_model_arrays(arm: sensorcfg.Physics) -> None:
     np.testing.assert_array_equal(qpos, np.concatenate([d.qpos[a:a + 4], d.qpos[b:b + 7]]))
     sensors = sensorcfg.Feature("sensordata", ["sensor:gyro", "sensor:accel"])(arm)
     gyro, accel = (mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, n) for n in ("gyro", "accel"))
-    np.testing.assert_array_equal(sensors, np.concatenate([
-        d.sensordata[m.sensor_adr[gyro]:m.sensor_adr[gyro] + 3], d.sensordata[m.sensor_adr[accel]:m.sensor_adr[accel] + 3]]))
+    np.testing.assert_array_equal(sensors, np.concatenate([d.sensordata[m.sensor_adr[gyro]:m.sensor_adr[gyro] + 3],
+                                                           d.sensordata[m.sensor_adr[accel]:m.sensor_adr[accel] + 3]]))
     body = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "hand")
     assert sensorcfg.Feature("mass", "body:hand")(arm) == m.body_mass[body]
     np.testing.assert_array_equal(sensorcfg.Feature("xmat", ["body:hand"])(arm), d.xmat[[body]])
@@ -289,7 +289,8 @@ def test_names_with_slashes() -> None:
     np.testing.assert_array_equal(sensorcfg.Feature("sensordata", "sensor:right/tip_pos")(physics),
                                   d.sensordata[m.sensor_adr[right]:m.sensor_adr[right] + 3])
     np.testing.assert_array_equal(sensorcfg.Feature("xpos", "site:*/tip")(physics), d.site_xpos)
-    with pytest.raises(sensorcfg.SuiteError, match=r"no joint named 'left/swng' \(did you mean 'left/swing' or 'right/swing'\?\)"):
+    with pytest.raises(sensorcfg.SuiteError,
+                       match=r"no joint named 'left/swng' \(did you mean 'left/swing' or 'right/swing'\?\)"):
         sensorcfg.Feature("qpos", "joint:left/swng")(physics)
 
 

@@ -74,7 +74,8 @@ def test_closed_form_schedule(n: int) -> None:
             for i, d, b in GRID:
                 got, expected = obs[f"{i}/{d}/{b}"], expected_window(step, i, d, b, pad)
                 assert np.array_equal(got, expected), (
-                    f"n={n} pad={pad} step={step} interval={i} delay={d} buffer={b}: {got.tolist()} != {expected.tolist()}")
+                    f"n={n} pad={pad} step={step} interval={i} delay={d} buffer={b}: "
+                    f"{got.tolist()} != {expected.tolist()}")
 
 
 @pytest.mark.parametrize("name,reduce", [pytest.param(name, reduce, id=name) for name, reduce in (
