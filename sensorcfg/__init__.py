@@ -5,13 +5,21 @@ from ._gl import choose_gl_backend as _choose_gl_backend
 _choose_gl_backend()
 
 from ._version import __version__  # noqa: E402
-from .batch import BatchEnvironment  # noqa: E402
 from .env import Environment, dm_control_observables, make_env  # noqa: E402
 from .errors import Problem, SuiteError  # noqa: E402
 from .observables import AGGREGATORS, Camera, Feature, Generic, Observable  # noqa: E402
 from .physics import Physics  # noqa: E402
 from .runtime.updater import Updater  # noqa: E402
 from .suite import Suite, load, loads  # noqa: E402
+
+
+def __getattr__(name: str) -> object:
+    """`BatchEnvironment` loads on first use: most programs (and every CLI call) never need it."""
+    if name == "BatchEnvironment":
+        from .batch import BatchEnvironment
+
+        return BatchEnvironment
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 __all__ = [
     "AGGREGATORS",

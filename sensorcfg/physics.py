@@ -6,11 +6,13 @@ the raw MuJoCo structs as `.model.ptr` and `.data.ptr`), so the same observable 
 
 from __future__ import annotations
 
+import os
+
 import mujoco
 
 from .runtime.handle import structs_of
 
-__all__ = ["Physics", "raw_structs"]
+__all__ = ["Physics", "raw_structs", "read_model"]
 
 
 class Physics:
@@ -40,6 +42,14 @@ class Physics:
 
     def __repr__(self) -> str:
         return f"Physics(nbody={self.model.nbody}, nq={self.model.nq}, t={self.data.time:.4f})"
+
+
+def read_model(path: str | os.PathLike[str]) -> mujoco.MjModel:
+    """The MjModel in a file: MJCF XML, or a compiled MJB by its suffix. MuJoCo's ValueError on failure."""
+    path = os.fspath(path)
+    if path.lower().endswith(".mjb"):
+        return mujoco.MjModel.from_binary_path(path)
+    return mujoco.MjModel.from_xml_path(path)
 
 
 def raw_structs(physics: object) -> tuple[mujoco.MjModel, mujoco.MjData]:

@@ -80,7 +80,9 @@ class Suite:
         else:
             path, pos = str(model), None
         try:
-            return mujoco.MjModel.from_xml_path(str(path))
+            from .physics import read_model
+
+            return read_model(path)
         except (ValueError, OSError) as e:
             message = f"cannot load the model {str(path)!r}: {str(e).strip()}"
             raise SuiteError(pos.problem(message, "model") if pos else Problem(message, file=str(path))) from None

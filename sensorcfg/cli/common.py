@@ -118,12 +118,10 @@ def existing_file(path: str, what: str) -> Path:
 
 def load_model(path: str) -> Any:
     """The MjModel at `path` (MJCF, or MJB by its suffix); a file MuJoCo rejects is a problem of that file."""
-    import mujoco
+    from ..physics import read_model
 
     try:
-        if str(path).lower().endswith(".mjb"):
-            return mujoco.MjModel.from_binary_path(str(path))
-        return mujoco.MjModel.from_xml_path(str(path))
+        return read_model(path)
     except (ValueError, OSError) as e:
         raise SuiteError(Problem(f"MuJoCo cannot load this model: {str(e).strip()}", file=str(path))) from None
 

@@ -21,7 +21,7 @@ import numpy as np
 from dm_env import specs
 
 from ..errors import SuiteError
-from ..physics import Physics
+from ..physics import Physics, read_model
 from ..runtime.updater import Updater
 
 __all__ = ["Environment", "make_env", "load_model", "random_state_from", "steps_per_control_step"]
@@ -44,14 +44,14 @@ def random_state_from(seed: int | np.random.SeedSequence | np.random.RandomState
 
 
 def load_model(model: mujoco.MjModel | str | os.PathLike) -> mujoco.MjModel:
-    """An MjModel, or one loaded from an MJCF path with a clear error."""
+    """An MjModel, or one loaded from an MJCF (or MJB) path with a clear error."""
     if isinstance(model, mujoco.MjModel):
         return model
     path = os.fspath(model)
     if not os.path.isfile(path):
         raise SuiteError(f"model file {path!r} does not exist")
     try:
-        return mujoco.MjModel.from_xml_path(path)
+        return read_model(path)
     except ValueError as e:
         raise SuiteError(f"{path}: MuJoCo could not load the model: {e}") from None
 
