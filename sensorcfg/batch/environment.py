@@ -58,6 +58,7 @@ from .updater import BatchUpdater
 
 __all__ = ["BatchEnvironment", "BatchTimeStep", "sim_seed"]
 
+_BAD_INDEX = np.array([int(w) for w in _BAD_STATE])
 _FIRST, _MID, _LAST = (int(t) for t in (dm_env.StepType.FIRST, dm_env.StepType.MID, dm_env.StepType.LAST))
 
 
@@ -320,7 +321,7 @@ class BatchEnvironment:
 
     def _bad_counts(self) -> np.ndarray:
         warning = self._batch.warning  # (nsim, mjNWARNING, (lastinfo, number))
-        return sum(warning[:, int(w), 1].astype(np.int64) for w in _BAD_STATE)
+        return warning[:, _BAD_INDEX, 1].sum(axis=1, dtype=np.int64)
 
     def _diverged(self, active: np.ndarray, failed: np.ndarray, messages: dict[int, str]) -> np.ndarray:
         bad = self._bad_counts()
