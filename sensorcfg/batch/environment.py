@@ -134,13 +134,11 @@ class BatchEnvironment:
                                          persistent=cameras is not None)
         if cameras is not None:
             cameras.batch = self._batch
-        self._segments: dict[int, dict[str, np.ndarray]] = {}
         self._simulation_error = batch_module.SimulationError
-        # Fields read only after the last substep are copied out by the batch after each call (`bind`)
-        # rather than recorded at every substep: a fraction of the memory traffic at large nsim.
-        layout = self._updater.layout
-        self._last = {f: self._batch.bind(f) for f in layout.last_only}
-        self._record = [f for f in self._updater.record_out if f not in self._last]
+        # one rollout per segment of the control step, each recording only the fields its substeps need
+        self._segments = [(last - first + 1, last, list(fields), out)
+                          for (first, last, fields), out in zip(self._updater.layout.segments,
+                                                                 self._updater.layout.record_out)]
         # Reset samples come from each reset simulation's own MjData (get_data, then mj_forward unless the
         # batch is persistent), not from bound derived fields, which the batch would copy out after every call.
         self._scratch = mujoco.MjData(self._model)
@@ -237,7 +235,7 @@ class BatchEnvironment:
             self._batch.get_data(int(i), data)
             if not persistent:
                 mujoco.mj_forward(self._model, data)
-            for f in self._updater.record_out:
+            for f in values:
                 values[f][i] = getattr(data, f)
         self._updater.reset(ids, self._random_states)
         self._needs_reset[ids] = False
@@ -285,39 +283,21 @@ class BatchEnvironment:
         return BatchTimeStep(step_type, np.zeros(self._nsim), discount, observation)
 
     def _rollout(self, actions: np.ndarray, active: np.ndarray, failed: np.ndarray, messages: dict[int, str]) -> None:
-        """The control step's physics, recorded into the updater's store: one rollout, or with cameras one
-        per substep after which some camera samples (each followed by its renders)."""
-        updater, n = self._updater, self._n
+        """The control step's physics: one rollout per segment of substeps (`Layout.segments`), recording
+        into the updater's store; cameras render after the substeps at which they sample."""
+        updater = self._updater
         cameras = updater.cameras
-        stops = [] if cameras is None else cameras.substeps(updater.t, active)
+        stops = set() if cameras is None else set(cameras.substeps(updater.t, active))
         control = actions[:, None, :]
-        start = 0
-        for stop in [*stops, n] if n not in stops else stops:
-            length = stop - start
-            whole = length == n
-            out = updater.record_out if whole else self._segment(length)
+        for length, last, fields, out in self._segments:
             try:
-                self._batch.rollout(length, control=control, record=self._record, out=out)
+                self._batch.rollout(length, control=control, record=fields, out=out)
             except self._simulation_error as e:  # those simulations kept their state; the others ran
                 failed[e.ids] = True
                 for i in e.ids:
                     messages.setdefault(int(i), f"MuJoCo raised: {self._batch.error(int(i))}")
-            if not whole:
-                for f, values in out.items():
-                    updater.record_out[f][:, start:stop] = values
-            if cameras is not None and stop in stops:
-                cameras.sample(stop, updater.t, active)
-            start = stop
-        for f, values in self._last.items():
-            updater.record_out[f][:, n - 1] = values
-
-    def _segment(self, length: int) -> dict[str, np.ndarray]:
-        """Record arrays for a rollout of `length` substeps (a control step split at camera samples)."""
-        out = self._segments.get(length)
-        if out is None:
-            out = self._segments[length] = {f: np.empty((self._nsim, length, *v.shape[2:]), v.dtype)
-                                            for f, v in self._updater.record_out.items() if f in self._record}
-        return out
+            if last in stops:
+                cameras.sample(last, updater.t, active)
 
     def _bad_counts(self) -> np.ndarray:
         warning = self._batch.warning  # (nsim, mjNWARNING, (lastinfo, number))

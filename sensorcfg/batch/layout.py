@@ -1,15 +1,16 @@
 """Where a batch's values live, and which positions each copy and each read gathers. Numpy only.
 
-One flat float64 store holds the history, then the records of the current control step (`rollout`
-writes them there: (nsim, n, ...) per mjData field), then the reset values. The history has one row
-per global physics step modulo `rows`, then a row of reset samples and a row of zeros; a row is
-(nsim, width), one column per observed value. Global rows make the copy of a control step the same for
-every simulation whatever its episode's age; a read shifts the bank's periodic read plan
-(`runtime.bank.read_plan`) by that age, per simulation.
+One flat float64 store holds the history, then the records of the current control step, then the reset
+values. The history has one row per global physics step modulo `rows`, then a row of reset samples and a
+row of zeros; a row is (nsim, width), one column per observed value. Global rows make the copy of a
+control step the same for every simulation whatever its episode's age; a read shifts the bank's periodic
+read plan (`runtime.bank.read_plan`) by that age, per simulation.
 
 A read takes the noise-free samples of its own control step straight from the records, so the history
 keeps only the samples that a later read needs (and every sample of noisy channels, which are corrupted
-there, and of random-schedule channels).
+there, and of random-schedule channels). And a control step is recorded in `segments`: runs of substeps
+that need the same mjData fields, each one `rollout` call recording only those (a field read only after
+the last substep is recorded once, not n times), split also where a camera may render.
 """
 
 from __future__ import annotations
@@ -29,8 +30,9 @@ class Layout:
     """Columns, store and gather positions for `channels` (fixed-schedule ones first) of nsim simulations."""
 
     def __init__(self, channels: list[Channel], nfixed: int, noisy: set[int], span: int,
-                 fields: dict[str, tuple[int, ...]], nsim: int, n: int):
-        """`span`: steps a sample of a random-schedule channel may wait to be read (0 without any)."""
+                 fields: dict[str, tuple[int, ...]], nsim: int, n: int, stops: set[int] = frozenset()):
+        """`span`: steps a sample of a random-schedule channel may wait to be read (0 without any);
+        `stops`: substeps after which a rollout must return (cameras render there)."""
         self.channels, self.nfixed, self.nsim, self.n = channels, nfixed, nsim, n
         self.fixed: list[FixedChannel] = channels[:nfixed]  # type: ignore[assignment]
         self.cols = np.cumsum([0] + [math.prod(ch.shape) for ch in channels]).astype(np.intp)
@@ -39,56 +41,88 @@ class Layout:
         span = max(span, n + 1, *(ch.delay + ch.buffer_size * ch.interval + n + 1 for ch in self.fixed))
         self.rows = period * -(-span // period)  # a multiple of every period, longer than any wait
         self.nphase = self.rows // n
-        self._store(fields)
         always = np.zeros(self.width, bool)  # every substep to the history: noise runs there, random reads
         for c in range(len(channels)):
             if c in noisy or c >= nfixed:
                 always[self.cols[c]:self.cols[c + 1]] = True
         self.always = always
-        self._sources()
         self._read_plans(noisy)
-        self.last_only = self._last_only(fields)
+        self._segments(fields, stops)
+        self._store(fields)
+        self._sources()
         self._cache: dict[Any, Any] = {}
 
+    def _segments(self, fields: dict[str, tuple[int, ...]], stops: set[int]) -> None:
+        """Runs of substeps needing the same fields (at any phase), cut also after each stop."""
+        n = self.n
+        needed = np.zeros((n, self.width), bool)  # substep, column: read or kept at some phase
+        needed[:] = self.always
+        needed |= self.later.any(axis=0)
+        if self.fixed:
+            for q in range(self.nphase):
+                recent = self.from_record[q]
+                needed[self.substep[q][recent] - 1, self.col[recent]] = True
+        owner = {f: np.concatenate([np.arange(self.cols[c], self.cols[c + 1]) for c, ch in enumerate(self.channels)
+                                    if ch.sampler.field == f]) for f in fields}
+        per_step = [tuple(f for f in fields if needed[k, owner[f]].any()) for k in range(n)]
+        self.segments: list[tuple[int, int, tuple[str, ...]]] = []  # (first, last substep, fields), 1-based
+        first = 1
+        for k in range(1, n + 1):
+            if k == n or k in stops or per_step[k] != per_step[k - 1]:
+                self.segments.append((first, k, per_step[k - 1]))
+                first = k + 1
+
     def _store(self, fields: dict[str, tuple[int, ...]]) -> None:
-        nsim, n = self.nsim, self.n
+        nsim = self.nsim
         self.sizes = {f: math.prod(shape) for f, shape in fields.items()}
         hsize = (self.rows + 2) * nsim * self.width
-        rsize = sum(nsim * n * s for s in self.sizes.values())
+        rsize = sum(nsim * (b - a + 1) * self.sizes[f] for a, b, fs in self.segments for f in fs)
         zsize = sum(nsim * s for s in self.sizes.values())
         self.flat = np.zeros(hsize + rsize + zsize)
         self.history = self.flat[:hsize].reshape(self.rows + 2, nsim, self.width)
-        self.record_offset: dict[str, int] = {}
+        self.record_offset: dict[tuple[int, str], int] = {}  # (segment, field) -> offset in `flat`
         self.reset_offset: dict[str, int] = {}
-        self.record_out: dict[str, np.ndarray] = {}  # what `rollout` records into
+        self.record_out: list[dict[str, np.ndarray]] = []  # per segment: what its `rollout` records into
         self.reset_values: dict[str, np.ndarray] = {}  # what the caller fills after a physics reset
         r, z = hsize, hsize + rsize
+        for s, (a, b, fs) in enumerate(self.segments):
+            out = {}
+            for f in fs:
+                size = nsim * (b - a + 1) * self.sizes[f]
+                self.record_offset[(s, f)] = r
+                out[f] = self.flat[r:r + size].reshape(nsim, b - a + 1, *fields[f])
+                r += size
+            self.record_out.append(out)
         for f, shape in fields.items():
-            size = self.sizes[f]
-            self.record_offset[f], self.reset_offset[f] = r, z
-            self.record_out[f] = self.flat[r:r + nsim * n * size].reshape(nsim, n, *shape)
-            self.reset_values[f] = self.flat[z:z + nsim * size].reshape(nsim, *shape)
-            r += nsim * n * size
-            z += nsim * size
+            self.reset_offset[f] = z
+            self.reset_values[f] = self.flat[z:z + nsim * self.sizes[f]].reshape(nsim, *shape)
+            z += nsim * self.sizes[f]
 
     def _sources(self) -> None:
-        """Column j of simulation i at substep k (1..n) is at `record_base[j] + i * record_stride[j] +
-        (k - 1) * record_step[j]` of the store; its reset value at `reset_index[i, j]`."""
+        """Column j of simulation i at substep k (1..n) is at `record_base[k - 1, j] + i *
+        record_stride[k - 1, j]` of the store when its segment records it; its reset value at
+        `reset_index[i, j]`."""
         nsim, n = self.nsim, self.n
-        base, stride, step, reset = [], [], [], []
-        for ch in self.channels:
+        self.record_base = np.zeros((n, self.width), np.intp)
+        self.record_stride = np.zeros((n, self.width), np.intp)
+        reset = []
+        for c, ch in enumerate(self.channels):
             field = ch.sampler.field
             size = self.sizes[field]
             within = ch.sampler.index.ravel().astype(np.intp)
-            base.append(self.record_offset[field] + within)
-            stride.append(np.full(within.size, n * size, np.intp))
-            step.append(np.full(within.size, size, np.intp))
+            cols = slice(self.cols[c], self.cols[c + 1])
+            for s, (a, b, fs) in enumerate(self.segments):
+                if field in fs:
+                    for k in range(a, b + 1):
+                        self.record_base[k - 1, cols] = self.record_offset[(s, field)] + (k - a) * size + within
+                        self.record_stride[k - 1, cols] = (b - a + 1) * size
             reset.append(self.reset_offset[field] + np.arange(nsim)[:, None] * size + within[None, :])
-        empty = np.zeros(0, np.intp)
-        self.record_base = np.concatenate(base) if base else empty
-        self.record_stride = np.concatenate(stride) if stride else empty
-        self.record_step = np.concatenate(step) if step else empty
         self.reset_index = np.concatenate(reset, axis=1) if reset else np.zeros((nsim, 0), np.intp)
+        if self.fixed:  # where a read finds its recent samples (the reset read row: never used)
+            k = self.substep - 1
+            self.record_read = np.vstack([self.record_base[k, self.col[None, :]], np.zeros((1, self.col.size), np.intp)])
+            self.record_read_stride = np.vstack([self.record_stride[k, self.col[None, :]],
+                                                 np.zeros((1, self.col.size), np.intp)])
 
     def _read_plans(self, noisy: set[int]) -> None:
         """The bank's read plan at each phase of a read (steps since reset, mod rows), as row offsets."""
@@ -118,10 +152,7 @@ class Layout:
         # positions a read takes from its control step's records: noise-free samples of the last n steps
         recent = ((delta == 0) | (delta > rows - n)) & ~self.always[col][None, :]
         self.from_record = np.vstack([recent, np.zeros((1, col.size), bool)])  # never at a reset read
-        k = np.where(delta == 0, n, delta - (rows - n))  # the substep (1..n) of a recent sample
-        read = self.record_base[col] + (k - 1) * self.record_step[col]
-        self.record_read = np.vstack([read, np.zeros((1, col.size), np.intp)])
-        self.record_read_stride = self.record_stride[col]
+        self.substep = np.where(recent, np.where(delta == 0, n, delta - (rows - n)), n)  # of a recent sample
         # per phase and substep, the noise-free columns a later read takes from the history: sample
         # s = t + k of a channel is read at R < s + b i + d, so later ones need k + b i + d - 1 >= 2n
         for c, ch in enumerate(self.fixed):
@@ -132,27 +163,6 @@ class Layout:
                 for k in range(1, n + 1):
                     if (q * n + k) % i == 0 and k + b * i + d - 1 >= 2 * n:
                         self.later[q, k - 1, self.cols[c]:self.cols[c + 1]] = True
-
-    def _last_only(self, fields: dict[str, tuple[int, ...]]) -> list[str]:
-        """The fields read only after a control step's last substep (at any phase): the caller can copy them
-        in after the rollout (`record_out[f][:, -1]`) instead of having every substep recorded."""
-        n = self.n
-        needed = np.zeros((n, self.width), bool)  # substep, column: needed at some phase
-        needed[:] = self.always
-        needed |= self.later.any(axis=0)
-        if self.fixed:
-            k = np.where(self.delta[:-1] == 0, n, self.delta[:-1] - (self.rows - n))
-            for q in range(self.nphase):
-                recent = self.from_record[q]
-                needed[k[q][recent] - 1, self.col[recent]] = True
-        early = needed[:-1].any(axis=0)
-        out = []
-        for f in fields:
-            columns = [np.arange(self.cols[c], self.cols[c + 1]) for c, ch in enumerate(self.channels)
-                       if ch.sampler.field == f]
-            if not early[np.concatenate(columns)].any():
-                out.append(f)
-        return out
 
     def clear(self) -> None:
         """Forget cached positions (a reset changed which simulation is at which phase)."""
@@ -174,8 +184,7 @@ class Layout:
             for k in range(1, n + 1):
                 cols = np.flatnonzero(self.always | self.later[phases, k - 1].any(axis=0))
                 if cols.size:
-                    source.append((self.record_base[cols] + (k - 1) * self.record_step[cols]
-                                   + sims * self.record_stride[cols]).ravel())
+                    source.append((self.record_base[k - 1, cols] + sims * self.record_stride[k - 1, cols]).ravel())
                     target.append(((gp + k - 1) * nsim * w + sims * w + cols).ravel())
             empty = np.zeros(0, np.intp)
             cached = self._cache[key] = (np.concatenate(source) if source else empty,
@@ -193,7 +202,7 @@ class Layout:
             sims = np.arange(nsim)[:, None]
             index = ((gp - 1 + self.delta[phases]) % rows) * (nsim * w) + sims * w + self.col[None, :]
             recent = self.from_record[phases]
-            index[recent] = (self.record_read[phases] + sims * self.record_read_stride[None, :])[recent]
+            index[recent] = (self.record_read[phases] + sims * self.record_read_stride[phases])[recent]
             cached = (np.ascontiguousarray(index[:, self.plain_cols]),
                       [np.ascontiguousarray(index[:, part].reshape(nsim, *block).transpose(1, 0, 2))
                        for _, part, block, _ in self.groups])

@@ -18,6 +18,7 @@ sensor. `samples_taken` is not kept.
 
 from __future__ import annotations
 
+import math
 import numbers
 from collections.abc import Mapping
 from typing import Any
@@ -55,7 +56,8 @@ def _bound(label: str, attr: str, value: Any, default: int) -> int:
 class BatchUpdater:
     """Samples, delays, buffers, aggregates and corrupts observables of nsim simulations of one model.
 
-    Per control step: `prepare(active)`, the caller's `rollout` into `record_out`, `update(active)`, then
+    Per control step: `prepare(active)`, the caller's rollouts (one per `layout.segments`, into
+    `layout.record_out`, cameras sampled after each), `update(active)`, then
     resets of finished simulations with `reset(ids, random_states)` (after filling `reset_values`), then
     `get_observation()`.
     """
@@ -107,8 +109,14 @@ class BatchUpdater:
             interval = _bound(name, "update_interval", obs.update_interval, DEFAULT_UPDATE_INTERVAL)
             delay = _bound(name, "delay", obs.delay, DEFAULT_DELAY)
             span = max(span, delay + (ch.buffer_size + 1) * interval + 2 * n + 1)
-        layout = self.layout = Layout(self.channels, self.nfixed, set(self.noise), span, fields, self.nsim, self.n)
-        self.record_out, self.reset_values = layout.record_out, layout.reset_values
+        stops = set()  # substeps after which some camera may render: a rollout returns there
+        for _, _, ch in cameras:
+            needed = set(ch.needed_phases())
+            period = ch.period()
+            stops |= {k for k in range(1, n + 1) for t in range(0, math.lcm(period, n), n) if (t + k) % period in needed}
+        layout = self.layout = Layout(self.channels, self.nfixed, set(self.noise), span, fields, self.nsim, self.n,
+                                      stops)
+        self.reset_values = layout.reset_values
         self.history, self.flat, self.cols, self.rows = layout.history, layout.flat, layout.cols, layout.rows
         self.timelines = Timelines(
             [(name, ch, self._drawers(name, obs)) for name, obs, ch in drawn], self.nsim, self.n, self.pad)
