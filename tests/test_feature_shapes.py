@@ -304,3 +304,17 @@ def test_unknown_element_and_kind(arm: sensorcfg.Physics) -> None:
         sensorcfg.Feature("xpos", "bdy:base")
     with pytest.raises(sensorcfg.SuiteError, match=r"one sensor reads one element type; this list mixes body, site"):
         sensorcfg.Feature("xpos", ["body:base", "site:tip"])(arm)
+
+
+def test_getitem_selects_part_of_the_value_like_mjcffeature() -> None:
+    from sensorcfg import assets
+
+    model = mujoco.MjModel.from_xml_path(str(assets.path("robot.xml")))
+    physics = sensorcfg.Physics(model)
+    mujoco.mj_forward(model, physics.data)
+    whole = sensorcfg.Feature("xpos", "body:hand", buffer_size=2)
+    z = whole[2]
+    assert z.buffer_size == 2 and whole.buffer_size == 2
+    np.testing.assert_array_equal(z(physics), whole(physics)[2])
+    with pytest.raises(sensorcfg.SuiteError, match="already has index"):
+        z[0]

@@ -135,6 +135,13 @@ class Feature(Observable):
         self._bound: tuple[weakref.ref, FieldReader] | None = None
         super().__init__(update_interval, buffer_size, delay, aggregator, corruptor)
 
+    def __getitem__(self, index: Any) -> Feature:
+        """A copy reading part of the value (dm_control's `MJCFFeature[...]`): `Feature('xpos', 'body:b')[2]`."""
+        if self._index is not None:
+            raise SuiteError(f"{self!r} already has index {self._index!r}; give one index that selects both parts")
+        return Feature(self._kind, self._element, self._update_interval, self._buffer_size, self._delay,
+                       self._aggregator, self._corruptor, index, self._within)
+
     def _check_kind(self) -> None:
         selectors = [self._element] if isinstance(self._element, str) else list(self._element)
         if not selectors:
