@@ -285,11 +285,11 @@ class BatchUpdater:
         if self.fixed:
             plain_index, group_index = self.layout.gathers(self.G % self.rows, self.t)
             flat = self.flat
-            gathered = flat.take(plain_index)
+            gathered = flat.take(plain_index, mode="clip")  # positions are valid by construction
             for i, part, shape in self.layout.plain:
                 out[i] = gathered[:, part].reshape(shape)
             for (reduce, _, _, members), index in zip(self.layout.groups, group_index):
-                reduced = reduce(flat.take(index))
+                reduced = reduce(flat.take(index, mode="clip"))
                 for i, sub, shape in members:
                     out[i] = reduced[:, sub].reshape(self.nsim, *shape)
         if self.timelines.specs:
