@@ -41,11 +41,15 @@ class Layout:
         span = max(span, n + 1, *(ch.delay + ch.buffer_size * ch.interval + n + 1 for ch in self.fixed))
         self.rows = period * -(-span // period)  # a multiple of every period, longer than any wait
         self.nphase = self.rows // n
-        always = np.zeros(self.width, bool)  # every substep to the history: noise runs there, random reads
+        # Columns read only from the history: noisy ones (corrupted there, at their samples) and those of
+        # random-schedule channels, which keep every substep (when they sample is per simulation).
+        self.history_only = np.zeros(self.width, bool)
+        self.always = np.zeros(self.width, bool)
         for c in range(len(channels)):
             if c in noisy or c >= nfixed:
-                always[self.cols[c]:self.cols[c + 1]] = True
-        self.always = always
+                self.history_only[self.cols[c]:self.cols[c + 1]] = True
+            if c >= nfixed:
+                self.always[self.cols[c]:self.cols[c + 1]] = True
         self._read_plans(noisy)
         self._segments(fields, stops)
         self._store(fields)
@@ -155,18 +159,22 @@ class Layout:
         self.groups = [(reduce, np.arange(part.start, part.stop), block, members)
                        for reduce, part, block, members in groups]
         # positions a read takes from its control step's records: noise-free samples of the last n steps
-        recent = ((delta == 0) | (delta > rows - n)) & ~self.always[col][None, :]
+        recent = ((delta == 0) | (delta > rows - n)) & ~self.history_only[col][None, :]
         self.from_record = np.vstack([recent, np.zeros((1, col.size), bool)])  # never at a reset read
         self.substep = np.where(recent, np.where(delta == 0, n, delta - (rows - n)), n)  # of a recent sample
-        # per phase and substep, the noise-free columns a later read takes from the history: sample
-        # s = t + k of a channel is read at R < s + b i + d, so later ones need k + b i + d - 1 >= 2n
+        # Per phase and substep, the columns the history keeps: a noisy channel's samples (the steps its
+        # single-simulation plan samples at); a noise-free channel's samples that a later read takes from
+        # there: sample s = t + k is read at R < s + b i + d, so later ones need k + b i + d - 1 >= 2n.
         for c, ch in enumerate(self.fixed):
-            if c in noisy:
-                continue
             i, d, b = ch.interval, ch.delay, ch.buffer_size
+            sampled = set(ch.needed_phases())
             for q in range(self.nphase):
                 for k in range(1, n + 1):
-                    if (q * n + k) % i == 0 and k + b * i + d - 1 >= 2 * n:
+                    if c in noisy:
+                        keep = (q * n + k) % ch.period() in sampled
+                    else:
+                        keep = (q * n + k) % i == 0 and k + b * i + d - 1 >= 2 * n
+                    if keep:
                         self.later[q, k - 1, self.cols[c]:self.cols[c + 1]] = True
 
     def clear(self) -> None:

@@ -72,8 +72,12 @@ class _Blocks(_Batched):
                     self.rows = np.zeros((self.nsim, *drawn.shape), drawn.dtype)
                 self.rows[i] = drawn
             k[empty] = 0
+        rows = self.rows
+        if sims.size == self.nsim and (k == k[0]).all():  # every simulation (sims is sorted), in step: a view
+            self.k[:] = k[0] + 1
+            return rows[:, k[0]]  # type: ignore[index]
         self.k[sims] = k + 1
-        return self.rows[sims, k]  # type: ignore[index]
+        return rows[sims, k]  # type: ignore[index]
 
 
 class _Additive(_Blocks):
@@ -187,6 +191,7 @@ class _Dropout(_Blocks):
         if fresh.any():
             self.fresh[sims] = False
             if self.held is not None:  # nothing delivered yet: the first sample always is
+                lost = lost.copy()  # (it may be a view of the block)
                 lost[fresh] = False
         if dst is not src:
             np.copyto(dst, src)
