@@ -249,9 +249,11 @@ class BatchPipeline:
         for stage, batched in zip(self.stages, self.batched):
             batched.load(i, stage)
 
-    def __call__(self, value: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> np.ndarray:
-        """The noisy samples (m, *shape) of simulations `sims` taken at their physics steps `steps`."""
-        dst = np.empty(value.shape, np.float64)
+    def __call__(self, value: np.ndarray, sims: np.ndarray, steps: np.ndarray,
+                 out: np.ndarray | None = None) -> np.ndarray:
+        """The noisy samples (m, *shape) of simulations `sims` taken at their physics steps `steps`, in
+        `out` when given (it may be `value` itself: every stage reads a value before writing it)."""
+        dst = np.empty(value.shape, np.float64) if out is None else out
         src = value
         for stage in self.batched:
             stage(src, dst, sims, steps)

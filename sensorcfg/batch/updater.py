@@ -249,8 +249,10 @@ class BatchUpdater:
         lo, hi = self.cols[c], self.cols[c + 1]
         shape = self.channels[c].shape
         if sims.size == self.nsim:
-            raw = row[:, lo:hi]
-            row[:, lo:hi] = self.noise[c](raw.reshape(self.nsim, *shape), sims, steps).reshape(self.nsim, -1)
+            samples = row[:, lo:hi].reshape(self.nsim, *shape)  # a view: columns are contiguous in a row
+            noisy = self.noise[c](samples, sims, steps, out=samples)
+            if not np.shares_memory(samples, row):
+                row[:, lo:hi] = noisy.reshape(self.nsim, -1)
         else:
             raw = row[sims, lo:hi]
             row[sims, lo:hi] = self.noise[c](raw.reshape(sims.size, *shape), sims, steps).reshape(sims.size, -1)
