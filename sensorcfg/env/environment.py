@@ -26,7 +26,7 @@ from ..runtime.updater import Updater
 
 __all__ = ["Environment", "make_env", "load_model", "random_state_from", "steps_per_control_step"]
 
-_BAD_STATE = tuple(getattr(mujoco.mjtWarning, f"mjWARN_BAD{w}") for w in ("QPOS", "QVEL", "QACC", "CTRL"))
+_BAD_STATE = np.array([int(getattr(mujoco.mjtWarning, f"mjWARN_BAD{w}")) for w in ("QPOS", "QVEL", "QACC", "CTRL")])
 RewardFn = Callable[[Physics], float]
 TerminationFn = Callable[[Physics], bool]
 InitializeFn = Callable[[Physics, np.random.RandomState], None]
@@ -103,6 +103,7 @@ class Environment(dm_env.Environment):
                  initialize_episode: InitializeFn | None = None, keyframe: int | str | None = None):
         self._model = load_model(model)
         self._physics = Physics(self._model)
+        self._warning_counts = self._physics.data.warning.number  # a live view of MjData's counters
         observables, kwargs = _suite_and_observables(suite, self._model)
         suite_steps = kwargs.pop("physics_steps_per_control_step", None)
         if physics_steps_per_control_step is None and control_timestep is None:  # the suite's control_interval
@@ -238,18 +239,16 @@ class Environment(dm_env.Environment):
         return action
 
     def _warnings(self) -> int:
-        """MuJoCo's count of bad-state warnings (it resets the state after each, silently otherwise)."""
-        warning = self._physics.data.warning
-        return sum(int(warning[w].number) for w in _BAD_STATE)
+        """MuJoCo's count of bad-state warnings. mj_step checks qpos, qvel (at its start) and qacc for
+        non-finite or huge values, resets the state and counts a warning, silently otherwise; so the count
+        is the whole divergence test (a NaN written after the last step is caught at the next one)."""
+        return int(self._warning_counts.take(_BAD_STATE).sum())
 
     def _divergence(self) -> str | None:
-        data = self._physics.data
         bad = self._warnings()
         if bad != self._bad_qacc:
             self._bad_qacc = bad
-            return "MuJoCo found a non-finite or huge qpos, qvel or qacc and reset the state"
-        if not (np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()):
-            return "non-finite qpos or qvel"
+            return "MuJoCo found a non-finite or huge qpos, qvel, qacc or ctrl and reset the state"
         return None
 
     def close(self) -> None:
