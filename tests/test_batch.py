@@ -9,6 +9,7 @@ actions, through time-limit auto-resets and partial resets.
 from __future__ import annotations
 
 import warnings
+from pathlib import Path
 
 import dm_env
 import mujoco
@@ -496,3 +497,28 @@ def test_a_simulation_mujoco_raises_in_is_reported_for_it_alone():
     eq_type[1] = model.eq_type[0]
     ts = env.step(np.full((4, 1), 0.5))
     assert ts.step_type.tolist() == [1, 0, 1, 1] and env.last_divergence[1] is None
+
+
+# -- the bundled example suites ----------------------------------------------------------------------
+
+
+CONFIGS = Path(__file__).resolve().parent.parent / "configs"
+
+
+@needs_batch
+@pytest.mark.parametrize("name, steps", [
+    pytest.param("proprioception.yaml", 25, id="proprioception"),
+    pytest.param("imu.yaml", 25, id="imu"),
+    pytest.param("sim2real.yaml", 25, id="sim2real"),  # random latencies and noise
+    pytest.param("vision.yaml", 4, id="vision"),  # cameras
+])
+def test_example_suites_run_bit_for_bit(name, steps):
+    path = CONFIGS / name
+    suite = sensorcfg.load(path)
+    env = BatchEnvironment(suite.model, suite, 2, seed=21)
+    singles = [sensorcfg.Environment(suite.model, sensorcfg.load(path), seed=sim_seed(21, i)) for i in range(2)]
+    spec = env.action_spec()
+    actions = np.random.default_rng(4).uniform(spec.minimum, spec.maximum, (steps, *spec.shape))
+    b = [env.reset()] + [env.step(a) for a in actions]
+    for i, e in enumerate(singles):
+        check_sim(b, [e.reset()] + [e.step(a[i]) for a in actions], i, name)
