@@ -49,6 +49,11 @@ class NoisePipeline:
     def __repr__(self) -> str:
         return f"NoisePipeline({', '.join(self.names)}; shape={self.shape}, dtype={self.dtype})"
 
+    @property
+    def stages(self) -> tuple[rt.Stage, ...]:
+        """The runtime stages in order, adjacent additive ones fused (`sensorcfg.batch` vectorises each)."""
+        return self._stages
+
     def reset(self, rng: np.random.Generator | np.random.RandomState) -> None:
         """Start an episode: per-episode draws (bias, scale, random-walk start) and cleared state."""
         if isinstance(rng, np.random.RandomState):
