@@ -227,7 +227,7 @@ class BatchPipeline:
         if np.dtype(pipeline.dtype) != np.float64:
             raise SuiteError(f"sensor {sensor!r}: its noise cannot be vectorised across simulations: the batch runs "
                              f"noise on float64 values, the observation is {np.dtype(pipeline.dtype)}")
-        stages = tuple(pipeline._stages)  # the pipeline's runtime stages (after fusing)
+        stages = tuple(pipeline.stages)  # the pipeline's runtime stages (after fusing)
         batched = []
         for stage in stages:
             make = BATCHED.get(type(stage))
