@@ -522,3 +522,15 @@ def test_example_suites_run_bit_for_bit(name, steps):
     b = [env.reset()] + [env.step(a) for a in actions]
     for i, e in enumerate(singles):
         check_sim(b, [e.reset()] + [e.step(a[i]) for a in actions], i, name)
+
+
+@needs_batch
+@pytest.mark.parametrize("suite_seed", [0, 3, 7])
+def test_short_noise_blocks_draw_the_same_numbers(monkeypatch, suite_seed):
+    # thousands of simulations draw their noise in shorter blocks than one simulation: same streams
+    from sensorcfg.batch import noise
+
+    monkeypatch.setattr(noise, "_BLOCK_BYTES", 8)  # blocks of one sample wherever the stream allows
+    _, batch_steps, single_steps = run_pair(suite_seed, 3, 30, drawn=False, n=2)
+    for i in range(3):
+        check_sim(batch_steps, single_steps[i], i, f"suite {suite_seed}")

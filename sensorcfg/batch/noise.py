@@ -14,6 +14,7 @@ A stage type without a batched form here (a custom callable) makes `BatchPipelin
 from __future__ import annotations
 
 import copy
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -46,12 +47,31 @@ class _Stateless(_Batched):
         self.template(src, dst, 0)
 
 
+_BLOCK_BYTES = 8 << 20  # pre-drawn random numbers per stage, across simulations, at most (when chunkable)
+
+
+def _chunkable(stage: rt.Stage) -> bool:
+    """Whether drawing `ctx.block` samples in smaller chunks gives the same numbers: a draw of one array per
+    block from one stream is sequential; an outlier draws two arrays per block (hits, then jumps)."""
+    if isinstance(stage, getattr(rt, "Sum", ())):
+        return all(_chunkable(part) or isinstance(part, rt.EpisodeDraw) for part in stage.parts)
+    return isinstance(stage, (rt.Gaussian, rt.Uniform, rt.RandomWalk, rt.Dropout))
+
+
 class _Blocks(_Batched):
-    """Per-sample random numbers: each simulation's own block, refilled by its own copy of the stage."""
+    """Per-sample random numbers: each simulation's own block, refilled by its own copy of the stage.
+
+    Where the stream allows (`_chunkable`), blocks are shorter than the single simulation's so that their
+    memory stays bounded across thousands of simulations; the numbers are the same.
+    """
 
     def __init__(self, template: rt.Stage, nsim: int):
         super().__init__(template, nsim)
-        self.block = template.ctx.block
+        block = template.ctx.block
+        if _chunkable(template):
+            per_sample = 8 * max(1, math.prod(template.ctx.shape)) * nsim
+            block = max(1, min(block, _BLOCK_BYTES // per_sample))
+        self.block = block
         self.copies: list[Any] = [None] * nsim
         self.k = np.full(nsim, self.block, np.intp)  # next row of each block; `block` means empty
         self.rows: np.ndarray | None = None
