@@ -58,6 +58,19 @@ def _chunkable(stage: rt.Stage) -> bool:
     return isinstance(stage, (rt.Gaussian, rt.Uniform, rt.RandomWalk, rt.Dropout))
 
 
+def _fork(stage: Any) -> Any:
+    """A copy of a just-reset stage that keeps drawing what it would: it shares the parameters and the
+    generators (a reset binds new ones to the template), and owns what a reset writes in place."""
+    clone = copy.copy(stage)
+    parts = getattr(stage, "parts", None)
+    if parts is not None:
+        clone.parts = [_fork(part) for part in parts]
+    value = getattr(stage, "value", None)
+    if isinstance(value, np.ndarray):
+        clone.value = value.copy()
+    return clone
+
+
 class _Blocks(_Batched):
     """Per-sample random numbers: each simulation's own block, refilled by its own copy of the stage.
 
@@ -77,7 +90,7 @@ class _Blocks(_Batched):
         self.rows: np.ndarray | None = None
 
     def load(self, i: int, stage: rt.Stage) -> None:
-        self.copies[i] = copy.deepcopy(stage)  # its generator(s), positioned at the episode's start
+        self.copies[i] = _fork(stage)  # its generator(s), positioned at the episode's start
         self.k[i] = self.block
 
     def take(self, sims: np.ndarray) -> np.ndarray:
