@@ -131,7 +131,7 @@ def test_validate_valid_file(tmp_path: Path) -> None:
 
 
 def test_validate_invalid_file_lists_every_problem_as_path_line_col(tmp_path: Path) -> None:
-    suite = write(tmp_path / "bad.yaml", INVALID)
+    write(tmp_path / "bad.yaml", INVALID)
     proc = cli("validate", "bad.yaml", cwd=tmp_path)
     assert proc.returncode == 1
     lines = proc.stdout.strip().splitlines()

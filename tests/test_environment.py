@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import unittest
-import warnings
 
 import dm_env
 import mujoco

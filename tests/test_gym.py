@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 
 import sensorcfg
-from sensorcfg import assets
 
 gymnasium = pytest.importorskip("gymnasium", reason="the gym extra is not installed")
 from gymnasium.utils.env_checker import check_env  # noqa: E402
