@@ -50,8 +50,8 @@ import mujoco
 import numpy as np
 from dm_env import specs
 
-from ..env.environment import (_BAD_STATE, _suite_and_observables, load_model, random_state_from,
-                               steps_per_control_step)
+from ..env.environment import (_BAD_STATE, _suite_and_observables, action_spec, episode_timing, load_model,
+                               random_state_from)
 from ..errors import SuiteError
 from ..physics import Physics
 from .updater import BatchUpdater
@@ -116,14 +116,9 @@ class BatchEnvironment:
         self._model = load_model(model)
         self._nsim = int(nsim)
         observables, options = _suite_and_observables(suite, self._model)
-        suite_steps = options.get("physics_steps_per_control_step")  # the suite's control_interval, if any
-        if physics_steps_per_control_step is None and control_timestep is None:
-            physics_steps_per_control_step = suite_steps
-        self._n = steps_per_control_step(self._model, physics_steps_per_control_step, control_timestep)
-        self._control_timestep = self._n * float(self._model.opt.timestep)
-        if time_limit is not None and time_limit <= 0:
-            raise SuiteError(f"time_limit must be positive seconds, got {time_limit!r}")
-        self._step_limit = None if time_limit is None else max(1, round(time_limit / self._control_timestep))
+        self._n, self._control_timestep, self._step_limit = episode_timing(
+            self._model, physics_steps_per_control_step, control_timestep, time_limit,
+            options.get("physics_steps_per_control_step"))
         physics = Physics(self._model)
         mujoco.mj_forward(self._model, physics.data)
         flags = {k: bool(options[k]) for k in ("strip_singleton_buffer_dim", "pad_with_initial_value") if k in options}
@@ -148,11 +143,7 @@ class BatchEnvironment:
         self._needs_reset = np.ones(self._nsim, bool)
         self._bad = np.zeros(self._nsim, np.int64)
         self.last_divergence: list[str | None] = [None] * self._nsim
-        lo, hi = self._model.actuator_ctrlrange.T.copy()
-        limited = self._model.actuator_ctrllimited.astype(bool)
-        self._action_spec = specs.BoundedArray(
-            shape=(self._nsim, self._model.nu), dtype=np.float64, name="action",
-            minimum=np.where(limited, lo, -np.inf), maximum=np.where(limited, hi, np.inf))
+        self._action_spec = action_spec(self._model, (self._nsim,))
         self._observation_spec = self._updater.observation_spec()
 
     # -- properties -------------------------------------------------------------------------------

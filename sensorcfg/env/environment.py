@@ -77,6 +77,30 @@ def steps_per_control_step(model: mujoco.MjModel, steps: int | None, control_tim
     return steps
 
 
+def episode_timing(model: mujoco.MjModel, steps: int | None, control_timestep: float | None,
+                   time_limit: float | None, suite_steps: int | None = None) -> tuple[int, float, int | None]:
+    """(physics steps per control step, control timestep in s, control steps per episode or None).
+
+    The control step is `steps` or `control_timestep` when given, else the suite's `control_interval`
+    (`suite_steps`), else one physics step; `time_limit` (s) becomes a number of control steps.
+    """
+    if steps is None and control_timestep is None:
+        steps = suite_steps
+    n = steps_per_control_step(model, steps, control_timestep)
+    dt = n * float(model.opt.timestep)
+    if time_limit is not None and not time_limit > 0:
+        raise SuiteError(f"time_limit must be positive seconds, got {time_limit!r}")
+    return n, dt, None if time_limit is None else max(1, round(time_limit / dt))
+
+
+def action_spec(model: mujoco.MjModel, leading: tuple[int, ...] = ()) -> specs.BoundedArray:
+    """One control per actuator, bounded by `ctrlrange` where the actuator is control-limited."""
+    lo, hi = model.actuator_ctrlrange.T.copy()
+    limited = model.actuator_ctrllimited.astype(bool)
+    return specs.BoundedArray(shape=leading + (model.nu,), dtype=np.float64, name="action",
+                              minimum=np.where(limited, lo, -np.inf), maximum=np.where(limited, hi, np.inf))
+
+
 def _suite_and_observables(suite: Any, model: mujoco.MjModel) -> tuple[dict[str, Any], dict[str, Any]]:
     """Observables and Updater keyword arguments from a Suite, a suite path, or a dict of observables."""
     if isinstance(suite, Mapping):
@@ -105,27 +129,18 @@ class Environment(dm_env.Environment):
         self._physics = Physics(self._model)
         self._warning_counts = self._physics.data.warning.number  # a live view of MjData's counters
         observables, kwargs = _suite_and_observables(suite, self._model)
-        suite_steps = kwargs.pop("physics_steps_per_control_step", None)
-        if physics_steps_per_control_step is None and control_timestep is None:  # the suite's control_interval
-            physics_steps_per_control_step = suite_steps
-        self._n = steps_per_control_step(self._model, physics_steps_per_control_step, control_timestep)
+        self._n, self._control_timestep, self._step_limit = episode_timing(
+            self._model, physics_steps_per_control_step, control_timestep, time_limit,
+            kwargs.pop("physics_steps_per_control_step", None))
         self._observables = observables
         self._updater = Updater(observables, self._n, **kwargs)
         self._random_state = random_state_from(seed)
         self._reward_fn, self._termination_fn, self._initialize = reward_fn, termination_fn, initialize_episode
         self._keyframe = self._keyframe_id(keyframe)
-        self._control_timestep = self._n * float(self._model.opt.timestep)
-        if time_limit is not None and time_limit <= 0:
-            raise SuiteError(f"time_limit must be positive seconds, got {time_limit!r}")
-        self._step_limit = None if time_limit is None else max(1, round(time_limit / self._control_timestep))
         self._needs_reset = True
         self._steps = 0
         self.last_divergence: str | None = None
-        lo, hi = self._model.actuator_ctrlrange.T.copy()
-        limited = self._model.actuator_ctrllimited.astype(bool)
-        self._action_spec = specs.BoundedArray(
-            shape=(self._model.nu,), dtype=np.float64, name="action",
-            minimum=np.where(limited, lo, -np.inf), maximum=np.where(limited, hi, np.inf))
+        self._action_spec = action_spec(self._model)
         # Specs need one bound reset; it uses its own random state so the episode streams stay untouched.
         self._reset_physics(np.random.RandomState(0), initialize=False)
         self._updater.reset(self._physics, np.random.RandomState(0))
