@@ -139,7 +139,9 @@ def test_validate_invalid_file_lists_every_problem_as_path_line_col(tmp_path: Pa
     assert all(problems), lines
     assert {(m["file"], m["line"]) for m in problems} >= {("bad.yaml", "10")}  # the unknown key, at its line
     assert lines[-1].startswith(f"{len(problems)} problem")
-    # Syntax and schema problems stop before the model: fix them and the model's problems show.
+    # A schema problem in one sensor does not hide the model problems of the others (joints' kind).
+    assert "bad.yaml:4:11: error: sensors.joints.kind:" in proc.stdout and "did you mean 'qpos'" in proc.stdout
+    # Fix the schema problem and the rest of that sensor is checked against the model too.
     fixed = INVALID.replace("    colour: red\n", "")
     write(tmp_path / "bad.yaml", fixed)
     proc = cli("validate", "bad.yaml", cwd=tmp_path)
@@ -163,7 +165,7 @@ def test_validate_directory_of_mixed_suites(tmp_path: Path) -> None:
     assert set(files) == {"a_ok.yaml", "b_bad.yml", "c_ok.yaml"}
     assert files["a_ok.yaml"]["valid"] and files["c_ok.yaml"]["valid"] and not files["b_bad.yml"]["valid"]
     assert out["summary"] == {"files": 3, "invalid_files": 1, "problems": files["b_bad.yml"]["problems"],
-                              "checked_with_model": 2, "without_model": 0}  # b_bad.yml stopped at its schema
+                              "checked_with_model": 3, "without_model": 0}  # b_bad.yml's valid sensors too
     assert {Path(p["file"]).name for p in out["problems"]} == {"b_bad.yml"}
     assert all(p["severity"] == "error" and p["line"] >= 1 and p["col"] >= 1 for p in out["problems"])
     # Text format: one line per problem, all in the invalid file, and the summary.

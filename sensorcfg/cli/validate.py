@@ -91,26 +91,37 @@ def _walk(root: Path) -> Iterator[Path]:
 def check_file(path: Path, model: tuple[str, Any] | None, overrides: Sequence[str], import_callables: bool,
                models: dict[str, Any] | None = None) -> FileResult:
     """One suite's problems. `model` is (name, MjModel) from --model, or None for the suite's own `model:`;
-    `models` caches the suites' own models by path so a folder of suites for one robot loads it once."""
-    from ..suite import load
+    `models` caches the suites' own models by path so a folder of suites for one robot loads it once.
+    Sensors that pass the schema are checked against the model even when others do not."""
+    from ..suite import Suite, load
 
     try:
         suite = load(path, list(overrides) or None)
+        problems: list[Any] = []
     except SuiteError as e:
-        return FileResult(str(path), None, list(e.problems), loaded=False)
+        partial = getattr(e, "_partial", None)
+        if partial is None or (model is None and partial.model is None):
+            return FileResult(str(path), None, list(e.problems), loaded=False)
+        suite, problems = Suite(partial), list(e.problems)
     if model is not None:
-        return FileResult(str(path), model[0], suite.check(model[1], import_callables=import_callables))
-    if suite.model is None:
-        return FileResult(str(path), None, [])
-    target: Any = suite.model
-    if models is not None:
-        if target not in models:
-            try:
-                models[target] = load_model(target)
-            except SuiteError:
-                models[target] = None  # let check() report it, positioned at the suite's `model:` line
-        target = models[target]  # None: let the suite load it and report where its `model:` is
-    return FileResult(str(path), suite.model, suite.check(target, import_callables=import_callables))
+        name, target = model
+    elif suite.model is None:
+        return FileResult(str(path), None, problems, loaded=not problems)
+    else:
+        name = target = suite.model
+        if models is not None:
+            if target not in models:
+                try:
+                    models[target] = load_model(target)
+                except SuiteError:
+                    models[target] = None  # let check() report it, positioned at the suite's `model:` line
+            target = models[target]  # None: let the suite load it and report where its `model:` is
+    seen = {(p.file, p.line, p.col, p.message) for p in problems}
+    problems += [p for p in suite.check(target, import_callables=import_callables)
+                 if (p.file, p.line, p.col, p.message) not in seen]
+    files = list(dict.fromkeys(p.file for p in problems))
+    problems.sort(key=lambda p: (files.index(p.file), p.line or 0, p.col or 0))
+    return FileResult(str(path), name, problems)
 
 
 # -- reporters ------------------------------------------------------------------------------------------

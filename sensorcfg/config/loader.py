@@ -266,7 +266,49 @@ def _finish(doc: Doc, file: str, dirs: dict[str, Path], problems: list[Problem])
     except ValidationError as e:
         found = {(p.file, p.line, p.col) for p in doc.problems}  # a removed node: report it once
         later = [p for p in problems_from(e, doc, SuiteConfig) if (p.file, p.line, p.col) not in found]
-        raise SuiteError(_sorted(problems + later)) from None
+        partial = _without_invalid(value, e)
+        rest: list[Problem] = []
+        loaded = None
+        if partial is not None:  # the sensors that passed: their own problems, and a suite to bind them
+            try:
+                loaded = _finish_valid(SuiteConfig.model_validate(partial), doc, file, dirs, rest)
+            except ValidationError:
+                loaded = None
+            if loaded is not None:  # bind only the sensors with no problem so far
+                bad = {p.loc.split(".")[1] for p in rest if p.loc.startswith("sensors.")}
+                loaded = dataclasses.replace(loaded, sensors={k: v for k, v in loaded.sensors.items()
+                                                              if k not in bad})
+        error = SuiteError(_sorted(problems + later + rest))
+        error._partial = loaded  # type: ignore[attr-defined]  # read by `sensorcfg.suite.check_file`
+        raise error from None
+    loaded = _finish_valid(config, doc, file, dirs, problems)
+    if problems:
+        raise SuiteError(_sorted(problems))
+    return loaded
+
+
+def _without_invalid(value: dict[str, Any], error: ValidationError) -> dict[str, Any] | None:
+    """The suite without the sensors (and top-level keys) the schema rejected, or None when the rest
+    cannot stand alone (the `sensors` mapping itself is malformed)."""
+    sensors_out: set[Any] = set()
+    keys_out: set[Any] = set()
+    for e in error.errors(include_url=False):
+        loc = tuple(e["loc"])
+        if len(loc) >= 2 and loc[0] == "sensors":
+            sensors_out.add(loc[1])
+        elif loc and loc[0] != "sensors":
+            keys_out.add(loc[0])
+        else:
+            return None
+    rest = {k: v for k, v in value.items() if k not in keys_out}
+    if isinstance(rest.get("sensors"), dict):
+        rest["sensors"] = {k: v for k, v in rest["sensors"].items() if k not in sensors_out}
+    return rest
+
+
+def _finish_valid(config: SuiteConfig, doc: Doc, file: str, dirs: dict[str, Path],
+                  problems: list[Problem]) -> LoadedSuite:
+    """Effective sensors and the model path of a schema-valid suite; their problems go to `problems`."""
     sensors: dict[str, SensorConfig] = {}
     for name, sensor in config.sensors.items():
         sensors[name], found = _effective(name, sensor, config, doc)
@@ -279,8 +321,6 @@ def _finish(doc: Doc, file: str, dirs: dict[str, Path], problems: list[Problem])
             model = resolve_model_path(config.model, base)
         except ValueError as e:
             problems.append(problem_at(doc, ("model",), str(e)))
-    if problems:
-        raise SuiteError(_sorted(problems))
     return LoadedSuite(config, sensors, doc, file, model)
 
 
