@@ -10,12 +10,15 @@ from __future__ import annotations
 import dataclasses
 from typing import Any
 
+import numpy as np
+
 __all__ = ["UniformSteps", "ChoiceSteps"]
 
 
 def _integers(random_state: Any, low: int, high_exclusive: int) -> int:
-    draw = getattr(random_state, "integers", None) or random_state.randint
-    return int(draw(low, high_exclusive))
+    if isinstance(random_state, np.random.RandomState):
+        return int(random_state.randint(low, high_exclusive))
+    return int(random_state.integers(low, high_exclusive))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -24,6 +27,11 @@ class UniformSteps:
 
     low: int
     high: int
+
+    @property
+    def minimum(self) -> int:
+        """The smallest value a draw can give: the Updater checks it once, not every draw."""
+        return self.low if isinstance(self.low, int) and self.low <= self.high else -1
 
     def __call__(self, random_state: Any) -> int:
         return _integers(random_state, self.low, self.high + 1)
@@ -35,6 +43,11 @@ class ChoiceSteps:
 
     values: tuple[int, ...]
     p: tuple[float, ...] | None = None
+
+    @property
+    def minimum(self) -> int:
+        """The smallest value a draw can give: the Updater checks it once, not every draw."""
+        return min(self.values) if self.values and all(isinstance(v, int) for v in self.values) else -1
 
     def __call__(self, random_state: Any) -> int:
         if self.p is None:

@@ -165,22 +165,33 @@ class RandomChannel(Channel):
         """Drop scheduled samples with `buffer_size` or more samples delivered after them by their first read.
 
         Delivery order is arrival order, ties going to the earlier insertion: samples already in flight
-        come before scheduled ones, and scheduled ones in timestamp order.
+        come before scheduled ones, and scheduled ones in timestamp order. A sample arriving at `a` is
+        first read at the end of its read window ceil(a / n); what is delivered after it by then arrived
+        in the same window, later in that order. So: per window, keep the last `buffer_size` samples.
         """
         n, b = self.read_interval, self.buffer_size
-        in_flight = [a for a, _, _ in self.pending]
-        arrivals = [t + d for t, d in self.schedule]
-        keep = []
-        for i, (t, d) in enumerate(self.schedule):
-            arrival = t + d
-            first_read = -(-arrival // n) * n
-            later = sum(1 for a in in_flight if arrival < a <= first_read)
-            later += sum(1 for j, a in enumerate(arrivals)
-                         if (arrival < a or (a == arrival and j > i)) and a <= first_read)
-            if later < b:
-                keep.append((t, d))
-        if len(keep) != len(self.schedule):
-            self.schedule = keep
+        schedule = self.schedule
+        order = sorted((-(-(t + d) // n), t + d, j) for j, (t, d) in enumerate(schedule))
+        in_flight: dict[int, list[int]] = {}
+        for a, _, _ in self.pending:
+            in_flight.setdefault(-(-a // n), []).append(a)
+        drop = []
+        count = len(order)
+        for k, (window, arrival, j) in enumerate(order):
+            later = 0
+            m = k + 1  # scheduled samples after this one in its window
+            while m < count and order[m][0] == window:
+                m += 1
+            later = m - k - 1
+            if later >= b:
+                drop.append(j)
+                continue
+            later += sum(1 for a in in_flight.get(window, ()) if a > arrival)
+            if later >= b:
+                drop.append(j)
+        if drop:
+            dropped = set(drop)
+            self.schedule = [entry for j, entry in enumerate(schedule) if j not in dropped]
 
     def due(self, step: int) -> bool:
         return bool(self.schedule) and self.schedule[0][0] == step

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 from dm_env import specs
 
+from ..draws import ChoiceSteps, UniformSteps
 from ..errors import SuiteError
 from ..observables.aggregators import AGGREGATORS, preserves_bounds
 from .handle import structs_of as raw_structs
@@ -78,6 +79,10 @@ def _drawer(owner: str, attr: str, value: Any, default: int, random_state: Any) 
         return int(value)
     draw = functools.partial(value, random_state=random_state) if _takes_random_state(value) else value
     lowest = 0 if attr == "delay" else 1
+    if isinstance(value, (UniformSteps, ChoiceSteps)) and value.minimum >= lowest:
+        # sensorcfg's own draws give integers >= their minimum: no check per draw. A closure, not the
+        # partial: copies of a channel (deepcopy) must keep drawing from the episode's random state.
+        return lambda: value(random_state)
 
     def checked() -> int:
         drawn = draw()
