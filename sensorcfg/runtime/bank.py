@@ -141,11 +141,12 @@ class FeatureBank:
                     self.snap_rows[t] = True
         self._gathers: dict[int, tuple[np.ndarray, list[Any], list[Any], list[Any]]] = {}
         self._early: dict[int, np.ndarray] = {}
-        self.noise = None
-        if noisy:
-            offsets = [np.array(sorted(p + m for p in phases for m in range(0, self.chunk, period_c)), np.intp)
-                       for period_c, _, phases in self.phases]
-            self.noise = BankNoise(channels, programs, self.cols, self.rows, self.chunk, offsets)
+        self.noise: BankNoise | None = None
+        if noisy:  # each member's sample steps within one chunk, for drawing its noise a chunk ahead
+            in_chunk = [np.array(sorted(p + m for p in phases for m in range(0, self.chunk, period_c)), np.intp)
+                        for period_c, _, phases in self.phases]
+            self.noise = BankNoise(channels, [ops or () for ops in programs], self.cols, self.rows, self.chunk,
+                                   in_chunk)
             self.pad_values = np.zeros(self.width)
 
     @staticmethod
