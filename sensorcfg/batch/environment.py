@@ -48,9 +48,8 @@ from typing import Any, NamedTuple
 import dm_env
 import mujoco
 import numpy as np
-from dm_env import specs
 
-from ..env.environment import (_BAD_STATE, _suite_and_observables, action_spec, episode_timing, load_model,
+from ..env.environment import (_BAD_STATE, ControlLoop, _suite_and_observables, action_spec, episode_timing, load_model,
                                random_state_from)
 from ..errors import SuiteError
 from ..physics import Physics
@@ -101,7 +100,7 @@ class BatchTimeStep(NamedTuple):
         return self.step_type == _LAST
 
 
-class BatchEnvironment:
+class BatchEnvironment(ControlLoop):
     """nsim simulations of one MuJoCo model, stepped together and observed through one sensor suite."""
 
     def __init__(self, model: mujoco.MjModel | str | os.PathLike, suite: Any, nsim: int, *,
@@ -115,6 +114,7 @@ class BatchEnvironment:
             raise SuiteError(f"nthread must be a non-negative integer (0: every CPU), got {nthread!r}")
         self._model = load_model(model)
         self._nsim = int(nsim)
+        self._batch_shape = (self._nsim,)
         observables, options = _suite_and_observables(suite, self._model)
         self._n, self._control_timestep, self._step_limit = episode_timing(
             self._model, physics_steps_per_control_step, control_timestep, time_limit,
@@ -162,14 +162,6 @@ class BatchEnvironment:
         return self._updater
 
     @property
-    def physics_steps_per_control_step(self) -> int:
-        return self._n
-
-    @property
-    def control_timestep(self) -> float:
-        return self._control_timestep
-
-    @property
     def seed_sequence(self) -> np.random.SeedSequence:
         """The batch's root seed; simulation i's is `sim_seed(seed_sequence, i)`."""
         return self._seed
@@ -180,18 +172,6 @@ class BatchEnvironment:
         self._random_states = [random_state_from(sim_seed(self._seed, i)) for i in range(self._nsim)]
         self._updater.started[:] = False  # no episode to rewind in the new streams
         self._needs_reset[:] = True
-
-    def action_spec(self) -> specs.BoundedArray:
-        return self._action_spec
-
-    def observation_spec(self) -> dict[str, specs.Array]:
-        return self._observation_spec
-
-    def reward_spec(self) -> specs.Array:
-        return specs.Array(shape=(self._nsim,), dtype=np.float64, name="reward")
-
-    def discount_spec(self) -> specs.BoundedArray:
-        return specs.BoundedArray(shape=(self._nsim,), dtype=np.float64, minimum=0.0, maximum=1.0, name="discount")
 
     # -- episodes ---------------------------------------------------------------------------------
 

@@ -24,7 +24,7 @@ from ..errors import SuiteError
 from ..physics import Physics, read_model
 from ..runtime.updater import Updater
 
-__all__ = ["Environment", "make_env", "load_model", "random_state_from", "steps_per_control_step"]
+__all__ = ["ControlLoop", "Environment", "make_env", "load_model", "random_state_from", "steps_per_control_step"]
 
 _BAD_STATE = np.array([int(getattr(mujoco.mjtWarning, f"mjWARN_BAD{w}")) for w in ("QPOS", "QVEL", "QACC", "CTRL")])
 RewardFn = Callable[[Physics], float]
@@ -112,7 +112,39 @@ def _suite_and_observables(suite: Any, model: mujoco.MjModel) -> tuple[dict[str,
     return suite.build(model), suite.updater_kwargs(model)
 
 
-class Environment(dm_env.Environment):
+class ControlLoop:
+    """What both environments expose about their control loop; subclasses set `_n`, `_control_timestep`,
+    `_action_spec`, `_observation_spec` and `_batch_shape` (() for one simulation, (nsim,) for a batch)."""
+
+    _n: int
+    _control_timestep: float
+    _action_spec: specs.BoundedArray
+    _observation_spec: dict[str, specs.Array]
+    _batch_shape: tuple[int, ...] = ()
+
+    @property
+    def physics_steps_per_control_step(self) -> int:
+        return self._n
+
+    @property
+    def control_timestep(self) -> float:
+        return self._control_timestep
+
+    def action_spec(self) -> specs.BoundedArray:
+        return self._action_spec
+
+    def observation_spec(self) -> dict[str, specs.Array]:
+        return self._observation_spec
+
+    def reward_spec(self) -> specs.Array:
+        return specs.Array(shape=self._batch_shape, dtype=np.float64, name="reward")
+
+    def discount_spec(self) -> specs.BoundedArray:
+        return specs.BoundedArray(shape=self._batch_shape, dtype=np.float64, minimum=0.0, maximum=1.0,
+                                  name="discount")
+
+
+class Environment(ControlLoop, dm_env.Environment):
     """A MuJoCo model stepped with zero-cost glue, observed through a sensor suite.
 
     The control step is `physics_steps_per_control_step` or `control_timestep` when given, else the suite's
@@ -159,26 +191,6 @@ class Environment(dm_env.Environment):
     @property
     def random_state(self) -> np.random.RandomState:
         return self._random_state
-
-    @property
-    def physics_steps_per_control_step(self) -> int:
-        return self._n
-
-    @property
-    def control_timestep(self) -> float:
-        return self._control_timestep
-
-    def action_spec(self) -> specs.BoundedArray:
-        return self._action_spec
-
-    def observation_spec(self) -> dict[str, specs.Array]:
-        return self._observation_spec
-
-    def reward_spec(self) -> specs.Array:
-        return specs.Array(shape=(), dtype=np.float64, name="reward")
-
-    def discount_spec(self) -> specs.BoundedArray:
-        return specs.BoundedArray(shape=(), dtype=np.float64, minimum=0.0, maximum=1.0, name="discount")
 
     def seed(self, seed: int | np.random.SeedSequence | None) -> None:
         """Restart the episode random stream (the next reset draws from it)."""
