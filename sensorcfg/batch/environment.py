@@ -130,12 +130,14 @@ class BatchEnvironment(ControlLoop):
         if cameras is not None:
             cameras.batch = self._batch
         self._simulation_error = batch_module.SimulationError
-        # one rollout per segment of the control step, each recording only the fields its substeps need
-        self._segments = [(last - first + 1, last, list(fields), out)
-                          for (first, last, fields), out in zip(self._updater.layout.segments,
-                                                                 self._updater.layout.record_out)]
+        # one rollout per segment of the control step, each recording only the fields its substeps need;
+        # those needed only after its last substep are bound instead, and copied into their record slots
+        layout = self._updater.layout
+        self._segments = [(last - first + 1, last, list(out), out,
+                           [(slot, self._batch.bind(f)) for f, slot in bound.items()])
+                          for (first, last, _), out, bound in zip(layout.segments, layout.record_out, layout.bound_out)]
         # Reset samples come from each reset simulation's own MjData (get_data, then mj_forward unless the
-        # batch is persistent), not from bound derived fields, which the batch would copy out after every call.
+        # batch is persistent), not from bound derived fields (only those read after a segment are bound).
         self._scratch = mujoco.MjData(self._model)
         self._qpos, self._qvel = self._batch.bind("qpos"), self._batch.bind("qvel")
         self._seed = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
@@ -260,13 +262,15 @@ class BatchEnvironment(ControlLoop):
         cameras = updater.cameras
         stops = set() if cameras is None else set(cameras.substeps(updater.t, active))
         control = actions[:, None, :]
-        for length, last, fields, out in self._segments:
+        for length, last, fields, out, bound in self._segments:
             try:
                 self._batch.rollout(length, control=control, record=fields, out=out)
             except self._simulation_error as e:  # those simulations kept their state; the others ran
                 failed[e.ids] = True
                 for i in e.ids:
                     messages.setdefault(int(i), f"MuJoCo raised: {self._batch.error(int(i))}")
+            for slot, values in bound:
+                np.copyto(slot, values)
             if last in stops:
                 cameras.sample(last, updater.t, active)
 

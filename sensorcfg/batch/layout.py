@@ -80,28 +80,45 @@ class Layout:
             else:
                 segments.append((k, k, set(per_step[k - 1])))
         self.segments = [(a, b, tuple(f for f in fields if f in fs)) for a, b, fs in segments]
+        # A field needed only at its segment's last substep is not recorded but bound (`Batch.bind`: the
+        # batch copies it out once, after the call) and copied into a one-substep record slot: a fifth of
+        # the bytes when five substeps would record it.
+        self.bound = [tuple(f for f in fs if b > a and all(f not in per_step[k - 1] for k in range(a, b)))
+                      for a, b, fs in self.segments]
+
+    def _steps(self, s: int, field: str) -> int:
+        """Substeps of segment s whose values of `field` the store holds (1 for a bound field)."""
+        a, b, _ = self.segments[s]
+        return 1 if field in self.bound[s] else b - a + 1
 
     def _store(self, fields: dict[str, tuple[int, ...]]) -> None:
         nsim = self.nsim
         self.sizes = {f: math.prod(shape) for f, shape in fields.items()}
         hsize = (self.rows + 2) * nsim * self.width
-        rsize = sum(nsim * (b - a + 1) * self.sizes[f] for a, b, fs in self.segments for f in fs)
+        rsize = sum(nsim * self._steps(s, f) * self.sizes[f] for s, (_, _, fs) in enumerate(self.segments) for f in fs)
         zsize = sum(nsim * s for s in self.sizes.values())
         self.flat = np.zeros(hsize + rsize + zsize)
         self.history = self.flat[:hsize].reshape(self.rows + 2, nsim, self.width)
         self.record_offset: dict[tuple[int, str], int] = {}  # (segment, field) -> offset in `flat`
         self.reset_offset: dict[str, int] = {}
         self.record_out: list[dict[str, np.ndarray]] = []  # per segment: what its `rollout` records into
+        self.bound_out: list[dict[str, np.ndarray]] = []  # per segment: where its bound fields are copied
         self.reset_values: dict[str, np.ndarray] = {}  # what the caller fills after a physics reset
         r, z = hsize, hsize + rsize
-        for s, (a, b, fs) in enumerate(self.segments):
-            out = {}
+        for s, (_, _, fs) in enumerate(self.segments):
+            out, bound = {}, {}
             for f in fs:
-                size = nsim * (b - a + 1) * self.sizes[f]
+                steps = self._steps(s, f)
+                size = nsim * steps * self.sizes[f]
                 self.record_offset[(s, f)] = r
-                out[f] = self.flat[r:r + size].reshape(nsim, b - a + 1, *fields[f])
+                view = self.flat[r:r + size].reshape(nsim, steps, *fields[f])
+                if f in self.bound[s]:
+                    bound[f] = view[:, 0]
+                else:
+                    out[f] = view
                 r += size
             self.record_out.append(out)
+            self.bound_out.append(bound)
         for f, shape in fields.items():
             self.reset_offset[f] = z
             self.reset_values[f] = self.flat[z:z + nsim * self.sizes[f]].reshape(nsim, *shape)
@@ -122,9 +139,10 @@ class Layout:
             cols = slice(self.cols[c], self.cols[c + 1])
             for s, (a, b, fs) in enumerate(self.segments):
                 if field in fs:
-                    for k in range(a, b + 1):
-                        self.record_base[k - 1, cols] = self.record_offset[(s, field)] + (k - a) * size + within
-                        self.record_stride[k - 1, cols] = (b - a + 1) * size
+                    steps = self._steps(s, field)  # the store holds substeps b - steps + 1 .. b
+                    for j, k in enumerate(range(b - steps + 1, b + 1)):
+                        self.record_base[k - 1, cols] = self.record_offset[(s, field)] + j * size + within
+                        self.record_stride[k - 1, cols] = steps * size
             reset.append(self.reset_offset[field] + np.arange(nsim)[:, None] * size + within[None, :])
         self.reset_index = np.concatenate(reset, axis=1) if reset else np.zeros((nsim, 0), np.intp)
         if self.fixed:  # where a read finds its recent samples (the reset read row: never used)
