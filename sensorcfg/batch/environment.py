@@ -22,8 +22,8 @@ reset costs one control step of physics whose result is discarded (the batch ste
 once).
 
 Divergence is per simulation, from the batch's own error state: a simulation whose MuJoCo call raised
-(`SimulationError`, `Batch.error(i)`), whose bad-state warning counters rose, or whose qpos/qvel is not
-finite ends its episode with discount 0, its message in `last_divergence[i]` (and a RuntimeWarning); the
+(`SimulationError`, `Batch.error(i)`) or whose bad-state warning counters rose (as in `Environment`, whose
+test this is: MuJoCo checks qpos, qvel and qacc at every step) ends its episode with discount 0, its message in `last_divergence[i]` (and a RuntimeWarning); the
 others go on. The batch stops stepping a simulation at its first warning, so the observation of that last
 step may differ from a single simulation's (which MuJoCo resets and steps on).
 
@@ -139,7 +139,6 @@ class BatchEnvironment(ControlLoop):
         # Reset samples come from each reset simulation's own MjData (get_data, then mj_forward unless the
         # batch is persistent), not from bound derived fields (only those read after a segment are bound).
         self._scratch = mujoco.MjData(self._model)
-        self._qpos, self._qvel = self._batch.bind("qpos"), self._batch.bind("qvel")
         self._seed = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
         self._random_states = [random_state_from(sim_seed(self._seed, i)) for i in range(self._nsim)]
         self._needs_reset = np.ones(self._nsim, bool)
@@ -282,13 +281,12 @@ class BatchEnvironment(ControlLoop):
         bad = self._bad_counts()
         warned = bad != self._bad
         self._bad = bad
-        finite = np.isfinite(self._qpos).all(axis=1) & np.isfinite(self._qvel).all(axis=1)
-        diverged = active & (failed | warned | ~finite)
+        diverged = active & (failed | warned)
         if diverged.any():
             for i in np.flatnonzero(diverged):
                 i = int(i)
                 self.last_divergence[i] = messages.get(i) or (
-                    "MuJoCo found a non-finite or huge qpos, qvel or qacc" if warned[i] else "non-finite qpos or qvel")
+                    "MuJoCo found a non-finite or huge qpos, qvel, qacc or ctrl")
             first = [int(i) for i in np.flatnonzero(diverged)[:5]]
             warnings.warn(f"sensorcfg: {int(diverged.sum())} of {self._nsim} simulations diverged ({first}"
                           f"{', ...' if diverged.sum() > 5 else ''}; simulation {first[0]}: "
