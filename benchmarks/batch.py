@@ -4,14 +4,21 @@ Setting: dm_control's suite/humanoid.xml, 5 physics steps per control step, the 
 benchmarks/_humanoid.py, random controls. For each nsim (64 and 512 by default), each repeat times K
 control steps of:
 
-  physics    `Batch.rollout(5, control=...)` recording nothing: the floor for any batched suite
   batched    `BatchEnvironment.step`: one rollout recording the suite's fields, plus the vectorised updater
+  physics    `Batch.rollout(5, control=...)` recording nothing, on the environment's own Batch from the
+             same state (saved before the step, restored after): the floor for any batched suite
+  null       the same physics again: the noise floor of the comparison (ideally 0%)
   loop       nsim single-simulation `Environment.step`s with the same suite (one MjData each)
 
-Within a repeat the three variants alternate every control step, so that load from other processes hits
-them alike. Prints medians over repeats of environment steps per second (control steps times
-simulations, per second of wall time) and the ratios. Targets: the suite adds at most 5% to batched
-physics at 512 simulations; batched at least 1.8x the loop on 2 cores.
+Paired measurement: physics, null and batched run every control step from the same simulation state on
+the same Batch (their order rotates), so that neither the state (contacts make steps dearer) nor the
+memory placement of a Batch instance (identical instances differ by up to 2% here) tilts the ratio.
+Physics and null also copy out the fields the environment binds (`Batch.bind`: those read only after a
+control step's last substep), which MuJoCo does after every call; the suite cost includes everything else.
+
+Prints medians over repeats of environment steps per second (control steps times simulations, per second
+of wall time) and the ratios. Targets: the suite adds at most 5% to batched physics at 512 simulations;
+batched at least 1.8x the loop on 2 cores.
 
     MUJOCO_GL=egl python benchmarks/batch.py [--nsim 64 512] [--repeats 7] [--control-steps 20] [--nthread 0]
 
@@ -60,7 +67,6 @@ def main() -> None:
     parser.add_argument("--no-loop", action="store_true", help="skip the single-simulation loop")
     parser.add_argument("--noise", action="store_true", help="two gaussian noise stages on every sensor")
     args = parser.parse_args()
-    from mujoco import batch as mjbatch
 
     xml, assets = humanoid_xml()
     model = mujoco.MjModel.from_xml_string(xml, assets)
@@ -69,13 +75,12 @@ def main() -> None:
           f"{' (+2 gaussian noise stages each)' if args.noise else ''}; mujoco {mujoco.__version__}, "
           f"{os.cpu_count()} CPUs, nthread={args.nthread or 'all'}; medians of {args.repeats} repeats x {k} "
           "control steps")
-    print(f"{'nsim':>6} {'physics':>12} {'batched':>12} {'loop':>12} {'suite cost':>11} {'batched/loop':>13} "
-          f"{'suite cost CPU':>14}")
+    print(f"{'nsim':>6} {'physics':>12} {'batched':>12} {'loop':>12} {'suite cost':>11} {'null':>10} "
+          f"{'batched/loop':>13}")
     for nsim in args.nsim:
         rng = np.random.default_rng(0)
         lo, hi = model.actuator_ctrlrange.T
         actions = rng.uniform(lo, hi, (k, nsim, model.nu)) * 0.2
-        physics = mjbatch.Batch(model, nsim, args.nthread)
 
         def suite() -> dict:
             observables = sensorcfg_observables()
@@ -84,33 +89,39 @@ def main() -> None:
         env = BatchEnvironment(model, suite(), nsim, nthread=args.nthread, physics_steps_per_control_step=N, seed=0)
         loop = [] if args.no_loop else [
             sensorcfg.Environment(model, suite(), physics_steps_per_control_step=N, seed=i) for i in range(nsim)]
+        state = env.batch.state  # (nsim, nstate): every simulation's mjSTATE_INTEGRATION row, writable
 
-        def physics_step(a: np.ndarray) -> None:
-            physics.rollout(N, control=a[:, None, :], record=())
+        def physics_step(a: np.ndarray, env: BatchEnvironment = env) -> None:
+            env.batch.rollout(N, control=a[:, None, :], record=())
 
-        def loop_step(a: np.ndarray) -> None:
+        def loop_step(a: np.ndarray, loop: list = loop) -> None:
             for e, ai in zip(loop, a):
                 e.step(ai)
 
-        def repeat() -> dict[str, float]:
-            """One run of K control steps of each variant, interleaved per control step (so that load from
-            other processes hits all three alike); returns env steps per second of each."""
-            physics.reset()
+        def repeat(env: BatchEnvironment = env, loop: list = loop, state: np.ndarray = state,
+                   actions: np.ndarray = actions, nsim: int = nsim) -> dict[str, float]:
+            """K control steps of each variant; returns env steps per second of each."""
             env.reset()
             for e in loop:
                 e.reset()
-            names = ["physics", "batched"] + (["loop"] if loop else [])
-            wall = dict.fromkeys(names, 0.0)
-            cpu = dict.fromkeys(names, 0.0)
-            variants = list(zip(names, [physics_step, env.step, loop_step]))
-            for a in actions:
-                for name, fn in variants:
-                    c0, t0 = time.process_time(), time.perf_counter()
+            paired = [("physics", physics_step), ("null", physics_step), ("batched", env.step)]
+            wall = dict.fromkeys(["physics", "null", "batched"] + (["loop"] if loop else []), 0.0)
+            for i, a in enumerate(actions):
+                start = state.copy()
+                after = None
+                for name, fn in paired[i % 3:] + paired[:i % 3]:
+                    state[:] = start
+                    t0 = time.perf_counter()
                     fn(a)
                     wall[name] += time.perf_counter() - t0
-                    cpu[name] += time.process_time() - c0
-            return {**{name: k * nsim / t for name, t in wall.items()},
-                    **{"cpu " + name: t / (k * nsim) for name, t in cpu.items()}}
+                    if name == "batched":
+                        after = state.copy()
+                state[:] = after  # the environment goes on from its own step
+                if loop:
+                    t0 = time.perf_counter()
+                    loop_step(a)
+                    wall["loop"] += time.perf_counter() - t0
+            return {name: k * nsim / t for name, t in wall.items()}
 
         repeat()  # warm-up
         rows: dict[str, list[float]] = {}
@@ -120,12 +131,12 @@ def main() -> None:
         med = {name: statistics.median(v) for name, v in rows.items()}
         nan = float("nan")
         cost = med["physics"] / med["batched"] - 1
-        cpu_cost = med["cpu batched"] / med["cpu physics"] - 1
+        null = med["physics"] / med["null"] - 1
         print(f"{nsim:>6} {med['physics']:>12,.0f} {med['batched']:>12,.0f} {med.get('loop', nan):>12,.0f} "
-              f"{100 * cost:>10.1f}% {med['batched'] / med.get('loop', nan):>12.2f}x {100 * cpu_cost:>13.1f}%")
+              f"{100 * cost:>10.1f}% {100 * null:>+9.1f}% {med['batched'] / med.get('loop', nan):>12.2f}x")
     print("env steps/s: control steps x simulations per wall-clock second. suite cost = physics/batched - 1 "
-          "(target <= 5% at 512), also in CPU seconds (all threads of this process, less sensitive to other "
-          "processes); batched/loop target >= 1.8x on 2 cores")
+          "(target <= 5% at 512); null = physics against itself (the comparison's noise); batched/loop target "
+          ">= 1.8x on 2 cores")
 
 
 if __name__ == "__main__":
