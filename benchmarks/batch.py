@@ -8,6 +8,8 @@ control steps of:
   physics    `Batch.rollout(5, control=...)` recording nothing, on the environment's own Batch from the
              same state (saved before the step, restored after): the floor for any batched suite
   null       the same physics again: the noise floor of the comparison (ideally 0%)
+  recording  the same rollout recording what the environment records, without the updater: MuJoCo's
+             share of the suite cost (the rest is the vectorised updater in Python)
   loop       nsim single-simulation `Environment.step`s with the same suite (one MjData each)
 
 Paired measurement: physics, null and batched run every control step from the same simulation state on
@@ -32,6 +34,7 @@ import os
 import statistics
 import sys
 import time
+from typing import Any
 
 sys.path.insert(0, os.path.dirname(__file__))
 os.environ.setdefault("MUJOCO_GL", "egl")
@@ -75,8 +78,8 @@ def main() -> None:
           f"{' (+2 gaussian noise stages each)' if args.noise else ''}; mujoco {mujoco.__version__}, "
           f"{os.cpu_count()} CPUs, nthread={args.nthread or 'all'}; medians of {args.repeats} repeats x {k} "
           "control steps")
-    print(f"{'nsim':>6} {'physics':>12} {'batched':>12} {'loop':>12} {'suite cost':>11} {'null':>10} "
-          f"{'batched/loop':>13}")
+    print(f"{'nsim':>6} {'physics':>12} {'batched':>12} {'loop':>12} {'suite cost':>11} {'recording':>11} "
+          f"{'null':>8} {'batched/loop':>13}")
     for nsim in args.nsim:
         rng = np.random.default_rng(0)
         lo, hi = model.actuator_ctrlrange.T
@@ -94,6 +97,12 @@ def main() -> None:
         def physics_step(a: np.ndarray, env: BatchEnvironment = env) -> None:
             env.batch.rollout(N, control=a[:, None, :], record=())
 
+        layout = env.updater.layout
+
+        def record_step(a: np.ndarray, env: BatchEnvironment = env, layout: Any = layout) -> None:
+            for (first, last, _), out in zip(layout.segments, layout.record_out):
+                env.batch.rollout(last - first + 1, control=a[:, None, :], record=list(out), out=out)
+
         def loop_step(a: np.ndarray, loop: list = loop) -> None:
             for e, ai in zip(loop, a):
                 e.step(ai)
@@ -104,12 +113,13 @@ def main() -> None:
             env.reset()
             for e in loop:
                 e.reset()
-            paired = [("physics", physics_step), ("null", physics_step), ("batched", env.step)]
-            wall = dict.fromkeys(["physics", "null", "batched"] + (["loop"] if loop else []), 0.0)
+            paired = [("physics", physics_step), ("null", physics_step), ("recording", record_step),
+                      ("batched", env.step)]
+            wall = dict.fromkeys([name for name, _ in paired] + (["loop"] if loop else []), 0.0)
             for i, a in enumerate(actions):
                 start = state.copy()
                 after = None
-                for name, fn in paired[i % 3:] + paired[:i % 3]:
+                for name, fn in paired[i % len(paired):] + paired[:i % len(paired)]:
                     state[:] = start
                     t0 = time.perf_counter()
                     fn(a)
@@ -132,10 +142,12 @@ def main() -> None:
         nan = float("nan")
         cost = med["physics"] / med["batched"] - 1
         null = med["physics"] / med["null"] - 1
+        recording = med["physics"] / med["recording"] - 1
         print(f"{nsim:>6} {med['physics']:>12,.0f} {med['batched']:>12,.0f} {med.get('loop', nan):>12,.0f} "
-              f"{100 * cost:>10.1f}% {100 * null:>+9.1f}% {med['batched'] / med.get('loop', nan):>12.2f}x")
+              f"{100 * cost:>10.1f}% {100 * recording:>10.1f}% {100 * null:>+7.1f}% "
+              f"{med['batched'] / med.get('loop', nan):>12.2f}x")
     print("env steps/s: control steps x simulations per wall-clock second. suite cost = physics/batched - 1 "
-          "(target <= 5% at 512); null = physics against itself (the comparison's noise); batched/loop target "
+          "(target <= 5% at 512), of which recording = physics/recording - 1 is MuJoCo's; null = physics against itself (the comparison's noise); batched/loop target "
           ">= 1.8x on 2 cores")
 
 

@@ -134,7 +134,8 @@ class BatchEnvironment(ControlLoop):
         # those needed only after its last substep are bound instead, and copied into their record slots
         layout = self._updater.layout
         self._segments = [(last - first + 1, last, list(out), out,
-                           [(slot, self._batch.bind(f)) for f, slot in bound.items()])
+                           [(slot, self._batch.bind(f).reshape(self._nsim, -1)[:, span])
+                            for f, (slot, span) in bound.items()])
                           for (first, last, _), out, bound in zip(layout.segments, layout.record_out, layout.bound_out)]
         # Reset samples come from each reset simulation's own MjData (get_data, then mj_forward unless the
         # batch is persistent), not from bound derived fields (only those read after a segment are bound).

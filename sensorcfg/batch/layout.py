@@ -102,7 +102,8 @@ class Layout:
         self.record_offset: dict[tuple[int, str], int] = {}  # (segment, field) -> offset in `flat`
         self.reset_offset: dict[str, int] = {}
         self.record_out: list[dict[str, np.ndarray]] = []  # per segment: what its `rollout` records into
-        self.bound_out: list[dict[str, np.ndarray]] = []  # per segment: where its bound fields are copied
+        # per segment: bound field -> (its record slot's columns that reads need, those columns of the field)
+        self.bound_out: list[dict[str, tuple[np.ndarray, slice]]] = []
         self.reset_values: dict[str, np.ndarray] = {}  # what the caller fills after a physics reset
         r, z = hsize, hsize + rsize
         for s, (_, _, fs) in enumerate(self.segments):
@@ -112,8 +113,10 @@ class Layout:
                 size = nsim * steps * self.sizes[f]
                 self.record_offset[(s, f)] = r
                 view = self.flat[r:r + size].reshape(nsim, steps, *fields[f])
-                if f in self.bound[s]:
-                    bound[f] = view[:, 0]
+                if f in self.bound[s]:  # only the span of values some channel reads is copied
+                    read = np.concatenate([ch.sampler.index.ravel() for ch in self.channels if ch.sampler.field == f])
+                    span = slice(int(read.min()), int(read.max()) + 1)
+                    bound[f] = (view.reshape(nsim, -1)[:, span], span)
                 else:
                     out[f] = view
                 r += size

@@ -237,8 +237,12 @@ class BatchUpdater:
                 if sims.size:
                     self._corrupt(row, c, sims, self.t[sims] + k)
         self.G += n
-        self.t[active] += n
-        self.control_steps[active] += 1
+        if everyone:
+            self.t += n
+            self.control_steps += 1
+        else:
+            self.t[active] += n
+            self.control_steps[active] += 1
         if self.timelines.specs:
             self.timelines.advance(np.flatnonzero(active))
 
