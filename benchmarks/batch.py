@@ -147,8 +147,8 @@ def main() -> None:
               f"{100 * cost:>10.1f}% {100 * recording:>10.1f}% {100 * null:>+7.1f}% "
               f"{med['batched'] / med.get('loop', nan):>12.2f}x")
     print("env steps/s: control steps x simulations per wall-clock second. suite cost = physics/batched - 1 "
-          "(target <= 5% at 512), of which recording = physics/recording - 1 is MuJoCo's; null = physics against itself (the comparison's noise); batched/loop target "
-          ">= 1.8x on 2 cores")
+          "(target <= 5% at 512), of which recording = physics/recording - 1 is MuJoCo's; null = physics "
+          "against itself (the comparison's noise); batched/loop target >= 1.8x on 2 cores")
 
 
 if __name__ == "__main__":

@@ -22,10 +22,11 @@ reset costs one control step of physics whose result is discarded (the batch ste
 once).
 
 Divergence is per simulation, from the batch's own error state: a simulation whose MuJoCo call raised
-(`SimulationError`, `Batch.error(i)`) or whose bad-state warning counters rose (as in `Environment`, whose
-test this is: MuJoCo checks qpos, qvel and qacc at every step) ends its episode with discount 0, its message in `last_divergence[i]` (and a RuntimeWarning); the
-others go on. The batch stops stepping a simulation at its first warning, so the observation of that last
-step may differ from a single simulation's (which MuJoCo resets and steps on).
+(`SimulationError`, `Batch.error(i)`) or whose bad-state warning counters rose (the test `Environment`
+makes: MuJoCo checks qpos, qvel and qacc at every step) ends its episode with discount 0, its message in
+`last_divergence[i]` (and a RuntimeWarning); the others go on. The batch stops stepping a simulation at
+its first warning, so the observation of that last step may differ from a single simulation's (which
+MuJoCo resets and steps on).
 
 Cameras render per simulation: each sampled frame costs a `get_data` and a render of that simulation
 (a Python loop over the simulations that sample it), the batch keeps one MjData per simulation

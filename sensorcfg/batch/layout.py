@@ -150,7 +150,8 @@ class Layout:
         self.reset_index = np.concatenate(reset, axis=1) if reset else np.zeros((nsim, 0), np.intp)
         if self.fixed:  # where a read finds its recent samples (the reset read row: never used)
             k = self.substep - 1
-            self.record_read = np.vstack([self.record_base[k, self.col[None, :]], np.zeros((1, self.col.size), np.intp)])
+            self.record_read = np.vstack([self.record_base[k, self.col[None, :]],
+                                          np.zeros((1, self.col.size), np.intp)])
             self.record_read_stride = np.vstack([self.record_stride[k, self.col[None, :]],
                                                  np.zeros((1, self.col.size), np.intp)])
 

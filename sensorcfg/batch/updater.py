@@ -113,7 +113,8 @@ class BatchUpdater:
         for _, _, ch in cameras:
             needed = set(ch.needed_phases())
             period = ch.period()
-            stops |= {k for k in range(1, n + 1) for t in range(0, math.lcm(period, n), n) if (t + k) % period in needed}
+            stops |= {k for k in range(1, n + 1) for t in range(0, math.lcm(period, n), n)
+                      if (t + k) % period in needed}
         layout = self.layout = Layout(self.channels, self.nfixed, set(self.noise), span, fields, self.nsim, self.n,
                                       stops)
         self.reset_values = layout.reset_values
