@@ -66,9 +66,10 @@ class GymVectorEnv(VectorEnv):
         terminated = last & (timestep.discount == 0.0)
         truncated = last & ~terminated
         info: dict[str, Any] = {}
-        if terminated.any():
+        diverged = terminated & np.array([m is not None for m in self.env.last_divergence])
+        if diverged.any():
             info["diverged"] = np.array([m or "" for m in self.env.last_divergence], dtype=object)
-            info["_diverged"] = terminated.copy()
+            info["_diverged"] = diverged
         return dict(timestep.observation), timestep.reward.copy(), terminated, truncated, info
 
     def close_extras(self, **kwargs: Any) -> None:

@@ -371,6 +371,64 @@ def test_mujoco3_says_it_needs_mujoco4():
 
 
 @needs_batch
+def test_rewards_and_terminations_are_the_single_environments():
+    """reward_fn / termination_fn per simulation, through terminations at different steps and their
+    auto-resets, give each simulation the single Environment's rewards, step types and discounts."""
+    nsim, n, seed = 4, 3, 11
+    limits = np.array([0.015, 0.03, 0.05, 1.0])  # simulated seconds before each simulation terminates
+
+    def batch_reward(batch):
+        return batch.qpos[:, 0] + 2.0 * batch.bind("qvel")[:, 1]
+
+    env = BatchEnvironment(ROBOT, random_suite(3), nsim, nthread=2, physics_steps_per_control_step=n, seed=seed,
+                           reward_fn=batch_reward, termination_fn=lambda batch: batch.time > limits)
+    singles = [sensorcfg.Environment(ROBOT, random_suite(3), physics_steps_per_control_step=n, seed=sim_seed(seed, i),
+                                     reward_fn=lambda p: p.data.qpos[0] + 2.0 * p.data.qvel[1],
+                                     termination_fn=lambda p, i=i: p.data.time > limits[i]) for i in range(nsim)]
+    lo, hi = env.action_spec().minimum, env.action_spec().maximum
+    actions = np.random.default_rng(0).uniform(lo, hi, (30, nsim, len(lo)))
+    batch_steps, single_steps = [env.reset()], [[e.reset()] for e in singles]
+    for a in actions:
+        batch_steps.append(env.step(a))
+        for i, e in enumerate(singles):
+            single_steps[i].append(e.step(a[i]))
+    for i in range(nsim):
+        check_sim(batch_steps, single_steps[i], i, "rewards")
+    ends = np.array([ts.last() & (ts.discount == 0) for ts in batch_steps])
+    assert ends[:, :3].sum(axis=0).min() >= 2 and not ends[:, 3].any()  # several terminations, not in lockstep
+    assert np.array([ts.reward for ts in batch_steps[1:]]).std() > 0
+
+
+@needs_batch
+def test_gymnasium_vector_env_reports_terminations_and_rewards():
+    pytest.importorskip("gymnasium")
+    from sensorcfg.gym_vector import GymVectorEnv
+
+    env = BatchEnvironment(ROBOT, _one(), 3, physics_steps_per_control_step=2, reward_fn=lambda b: b.time * 10,
+                           termination_fn=lambda b: b.time > np.array([0.0, 1.0, 1.0]))
+    venv = GymVectorEnv(env)
+    venv.reset(seed=0)
+    _, reward, terminated, truncated, info = venv.step(np.zeros((3, 3)))
+    np.testing.assert_array_equal(reward, env.batch.time * 10)
+    assert terminated.tolist() == [True, False, False] and not truncated.any()
+    assert "diverged" not in info  # a termination is not a divergence
+
+
+@needs_batch
+@pytest.mark.parametrize("fn, message", [
+    (lambda batch: 1.0, r"reward_fn returned shape \(\); it must return one value per simulation, shape \(2,\)"),
+    (lambda batch: ["a", "b"], r"reward_fn must return 2 numbers \(one per simulation\)"),
+])
+def test_a_reward_fn_of_the_wrong_shape_is_named(fn, message):
+    env = BatchEnvironment(ROBOT, _one(), 2, reward_fn=fn)
+    env.reset()
+    with pytest.raises(SuiteError, match=message):
+        env.step(np.zeros((2, 3)))
+    with pytest.raises(SuiteError, match="termination_fn must be a callable"):
+        BatchEnvironment(ROBOT, _one(), 2, termination_fn=3)
+
+
+@needs_batch
 def test_gymnasium_vector_env_steps_and_autoresets_as_the_batch():
     pytest.importorskip("gymnasium")
     from gymnasium.vector import AutoresetMode

@@ -37,13 +37,19 @@ batched form (custom) and drawn intervals or delays other than `{uniform}` / `{c
 
 The control step is chosen as `Environment` chooses it: `physics_steps_per_control_step` or
 `control_timestep` when given, else the suite's `options.control_interval`, else one physics step.
-Rewards are 0 (the suite observes; shape rewards from the observations).
+Rewards and terminations are vectorised as the physics is: `reward_fn(batch)` returns one reward per
+simulation and `termination_fn(batch)` one bool per simulation, from the `mujoco.batch.Batch` after the
+step (state fields such as `batch.qpos` are current; derived ones such as `batch.xpos` are current once
+bound, `batch.bind(name)`, which MuJoCo then copies out after every call). Only stepped simulations use
+them: a simulation's FIRST step has reward 0. A termination ends the episode with discount 0, as a
+divergence does (which takes precedence); without `reward_fn`, rewards are 0.
 """
 
 from __future__ import annotations
 
 import os
 import warnings
+from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import dm_env
@@ -57,6 +63,9 @@ from ..physics import Physics
 from .updater import BatchUpdater
 
 __all__ = ["BatchEnvironment", "BatchTimeStep", "sim_seed"]
+
+BatchRewardFn = Callable[[Any], Any]  # mujoco.batch.Batch -> (nsim,) rewards
+BatchTerminationFn = Callable[[Any], Any]  # mujoco.batch.Batch -> (nsim,) bools
 
 _BAD_INDEX = np.array([int(w) for w in _BAD_STATE])
 _FIRST, _MID, _LAST = (int(t) for t in (dm_env.StepType.FIRST, dm_env.StepType.MID, dm_env.StepType.LAST))
@@ -107,8 +116,13 @@ class BatchEnvironment(ControlLoop):
     def __init__(self, model: mujoco.MjModel | str | os.PathLike, suite: Any, nsim: int, *,
                  nthread: int | None = None, physics_steps_per_control_step: int | None = None,
                  control_timestep: float | None = None, time_limit: float | None = None,
-                 seed: int | np.random.SeedSequence | None = None):
+                 seed: int | np.random.SeedSequence | None = None, reward_fn: BatchRewardFn | None = None,
+                 termination_fn: BatchTerminationFn | None = None):
         batch_module = _batch_module()
+        for label, fn in (("reward_fn", reward_fn), ("termination_fn", termination_fn)):
+            if fn is not None and not callable(fn):
+                raise SuiteError(f"{label} must be a callable taking the mujoco.batch.Batch, got {fn!r}")
+        self._reward_fn, self._termination_fn = reward_fn, termination_fn
         if not isinstance(nsim, (int, np.integer)) or isinstance(nsim, bool) or nsim < 1:
             raise SuiteError(f"nsim must be a positive integer (simulations), got {nsim!r}")
         if nthread is not None and (not isinstance(nthread, (int, np.integer)) or nthread < 0):
@@ -245,16 +259,32 @@ class BatchEnvironment(ControlLoop):
         step_type = np.full(self._nsim, _MID, np.uint8)
         discount = np.ones(self._nsim)
         step_type[restart] = _FIRST
-        diverged = self._diverged(active, failed, messages)
+        reward = np.zeros(self._nsim)
+        if self._reward_fn is not None:
+            reward[active] = self._per_simulation("reward_fn", self._reward_fn, np.float64)[active]
+        ended = self._diverged(active, failed, messages)
+        if self._termination_fn is not None:
+            ended |= active & self._per_simulation("termination_fn", self._termination_fn, bool)
         if self._step_limit is not None:
             over = active & (updater.control_steps >= self._step_limit)
             step_type[over] = _LAST
             self._needs_reset |= over
-        if diverged.any():
-            step_type[diverged] = _LAST
-            discount[diverged] = 0.0
-            self._needs_reset |= diverged
-        return BatchTimeStep(step_type, np.zeros(self._nsim), discount, observation)
+        if ended.any():
+            step_type[ended] = _LAST
+            discount[ended] = 0.0
+            self._needs_reset |= ended
+        return BatchTimeStep(step_type, reward, discount, observation)
+
+    def _per_simulation(self, label: str, fn: Callable[[Any], Any], dtype: Any) -> np.ndarray:
+        """`fn(batch)` as one value per simulation."""
+        try:
+            values = np.asarray(fn(self._batch), dtype=dtype)
+        except (TypeError, ValueError) as e:
+            raise SuiteError(f"{label} must return {self._nsim} numbers (one per simulation): {e}") from None
+        if values.shape != (self._nsim,):
+            raise SuiteError(f"{label} returned shape {values.shape}; it must return one value per simulation, "
+                             f"shape ({self._nsim},)")
+        return values
 
     def _rollout(self, actions: np.ndarray, active: np.ndarray, failed: np.ndarray, messages: dict[int, str]) -> None:
         """The control step's physics: one rollout per segment of substeps (`Layout.segments`), recording
