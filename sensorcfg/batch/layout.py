@@ -55,6 +55,7 @@ class Layout:
         self._store(fields)
         self._sources()
         self._cache: dict[Any, Any] = {}
+        self._tables: dict[int, Any] = {}
 
     def _segments(self, fields: dict[str, tuple[int, ...]], stops: set[int]) -> None:
         """Runs of substeps needing the same fields (at any phase), cut also after each stop."""
@@ -232,18 +233,35 @@ class Layout:
         fresh = bool((t == 0).any())  # a reset read: its phase is not the one gp implies later on
         cached = None if fresh else self._cache.get(("read", gp))
         if cached is None:
-            rows, nsim, w = self.rows, self.nsim, self.width
-            phases = np.where(t == 0, self.nphase, (t % rows) // self.n)
-            sims = np.arange(nsim)[:, None]
-            index = ((gp - 1 + self.delta[phases]) % rows) * (nsim * w) + sims * w + self.col[None, :]
-            recent = self.from_record[phases]
-            index[recent] = (self.record_read[phases] + sims * self.record_read_stride[phases])[recent]
-            cached = (np.ascontiguousarray(index[:, self.plain_cols]),
-                      [np.ascontiguousarray(index[:, part].reshape(nsim, *block).transpose(1, 0, 2))
-                       for _, part, block, _ in self.groups])
+            (plain_base, plain_stride), groups = self._read_table(gp)
+            phases = np.where(t == 0, self.nphase, (t % self.rows) // self.n)
+            sims = np.arange(self.nsim)
+            if (phases == phases[0]).all():  # every simulation at one phase: one row of the table
+                q = int(phases[0])
+                cached = (plain_base[q] + sims[:, None] * plain_stride[q],
+                          [base[:, q, None, :] + sims[None, :, None] * stride[:, q, None, :]
+                           for base, stride in groups])
+            else:
+                cached = (plain_base[phases] + sims[:, None] * plain_stride[phases],
+                          [base[:, phases, :] + sims[None, :, None] * stride[:, phases, :] for base, stride in groups])
             if not fresh:
                 self._cache[("read", gp)] = cached
         return cached
+
+    def _read_table(self, gp: int) -> tuple[tuple[np.ndarray, np.ndarray], list[tuple[np.ndarray, np.ndarray]]]:
+        """Simulation i's read positions at global step gp and phase q are `base[q] + i * stride[q]`
+        (plain: (phase, width); groups: (buffer, phase, width)). Kept per gp: resets do not change it."""
+        table = self._tables.get(gp)
+        if table is None:
+            nsim, w = self.nsim, self.width
+            base = np.where(self.from_record, self.record_read,
+                            ((gp - 1 + self.delta) % self.rows) * (nsim * w) + self.col[None, :])
+            stride = np.where(self.from_record, self.record_read_stride, w)
+            table = self._tables[gp] = (
+                (np.ascontiguousarray(base[:, self.plain_cols]), np.ascontiguousarray(stride[:, self.plain_cols])),
+                [tuple(np.ascontiguousarray(a[:, part].reshape(-1, *block).transpose(1, 0, 2)) for a in (base, stride))
+                 for _, part, block, _ in self.groups])
+        return table
 
     def drawn(self, c: int, codes: np.ndarray, t: np.ndarray, G: int) -> np.ndarray:
         """Store positions (nsim, buffer, width) of a random-schedule channel's window, from its codes
