@@ -174,11 +174,14 @@ class _Binder:
         if not self.selection(name, cfg):
             return None
         index = _index(cfg.index)
-        try:
-            _, _, flat, dtype = feature_index(self.model, cfg.kind, cfg.element, cfg.within, index)
-        except SuiteError as e:
-            self.report_all(("sensors", name, "index"), e)
-            return None
+        for part, chosen in (("element", None), ("index", index)):  # whose problem a failure is
+            if part == "index" and index is None:
+                break
+            try:
+                _, _, flat, dtype = feature_index(self.model, cfg.kind, cfg.element, cfg.within, chosen)
+            except SuiteError as e:
+                self.report_all(("sensors", name, part), e)
+                return None
         element = cfg.element if isinstance(cfg.element, str) else list(cfg.element)
         feature = Feature(cfg.kind, element, index=index, within=cfg.within, **timing)
         return feature, flat.shape, dtype

@@ -36,7 +36,7 @@ def _obj(name: str) -> int:
 
 # One row per element type: the sizes of its arrays and the prefixes dm_control strips.
 _TYPE_ROWS = (
-    ("body", "BODY", "nbody", ("nbody",), ("body",)),
+    ("body", "BODY", "nbody", ("nbody", "nmocap"), ("body",)),
     ("joint", "JOINT", "njnt", ("nq", "nv", "njnt"), ("jnt", "dof")),
     ("geom", "GEOM", "ngeom", ("ngeom",), ("geom",)),
     ("site", "SITE", "nsite", ("nsite",), ("site",)),
@@ -77,12 +77,13 @@ RAGGED: dict[str, tuple[str, str]] = {
     "nu": ("actuator_ctrladr", "actuator_ctrlnum"),
     "nout": ("actuator_outadr", "actuator_outnum"),
     "nnumericdata": ("numeric_adr", "numeric_size"),
+    "nmocap": ("body_mocapid", "one"),  # mocap_pos, mocap_quat: a mocap body's row; other bodies have none
 }
 
 
 # Ragged sizes that dm_control indexes like plain per-element arrays when every selected element has
 # exactly one entry (an actuator's `ctrl`, `force` or `act` of one actuator is a scalar there).
-SOFT_RAGGED = frozenset({"na", "nu", "nout"})
+SOFT_RAGGED = frozenset({"na", "nu", "nout", "nmocap"})
 
 
 # dm_control's bind treats these mjData kinds as inputs: writing one (a walker's `bind(actuators).ctrl = a`)
@@ -163,6 +164,8 @@ def ragged_slices(model: mujoco.MjModel, spec: FieldSpec, ids: list[int]) -> lis
             width = _JOINT_QPOS_WIDTH.get(int(model.jnt_type[i]), 1)
         elif width_field == "dof":
             width = _JOINT_DOF_WIDTH.get(int(model.jnt_type[i]), 1)
+        elif width_field == "one":
+            width = 1
         else:
             width = int(getattr(model, width_field)[i])
         out.append(range(start, start + width) if start >= 0 else range(0))

@@ -318,3 +318,38 @@ def test_getitem_selects_part_of_the_value_like_mjcffeature() -> None:
     np.testing.assert_array_equal(z(physics), whole(physics)[2])
     with pytest.raises(sensorcfg.SuiteError, match="already has index"):
         z[0]
+
+
+# -- mocap bodies -------------------------------------------------------------------------------------
+
+MOCAP_XML = """<mujoco><worldbody>
+  <body name="free"><freejoint/><geom size=".1"/></body>
+  <body name="hand_target" mocap="true" pos="1 2 3"><geom size=".05" contype="0" conaffinity="0"/></body>
+  <body name="foot_target" mocap="true" pos="4 5 6" quat="0 1 0 0"><geom size=".05" contype="0" conaffinity="0"/></body>
+</worldbody></mujoco>"""
+
+
+def test_mocap_kinds_read_the_mocap_rows_of_mocap_bodies() -> None:
+    physics = sensorcfg.Physics(mujoco.MjModel.from_xml_string(MOCAP_XML))
+    physics.data.mocap_pos[1] = [7.0, 8.0, 9.0]  # foot_target's row, written as a controller would
+    np.testing.assert_array_equal(sensorcfg.Feature("mocap_pos", "body:foot_target")(physics), [7.0, 8.0, 9.0])
+    both = sensorcfg.Feature("mocap_pos", "body:*_target")(physics)
+    np.testing.assert_array_equal(both, [[1.0, 2.0, 3.0], [7.0, 8.0, 9.0]])
+    assert sensorcfg.Feature("mocap_quat", ["body:foot_target"])(physics).shape == (1, 4)
+    np.testing.assert_array_equal(sensorcfg.Feature("mocap_quat", "body:foot_target")(physics), [0, 1, 0, 0])
+
+
+def test_mocap_kinds_of_other_bodies_say_so() -> None:
+    physics = sensorcfg.Physics(mujoco.MjModel.from_xml_string(MOCAP_XML))
+    with pytest.raises(sensorcfg.SuiteError, match=r"mocap_pos exists only for mocap bodies .*'free' is not"):
+        sensorcfg.Feature("mocap_pos", ["body:hand_target", "body:free"])(physics)
+
+
+def test_mocap_kinds_match_bind(oracle_models: dict[str, tuple[Any, Any]]) -> None:
+    root, physics = oracle_models["extras"]
+    target = root.find("body", "target")
+    physics.bind(target).mocap_pos = [0.1, 0.2, 0.3]
+    for kind in ("mocap_pos", "mocap_quat"):
+        for one in (target, [target]):
+            assert_same(sensorcfg.Feature(kind, selector("body", one))(physics), getattr(physics.bind(one), kind),
+                        f"{kind} of {one}")

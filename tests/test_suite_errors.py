@@ -576,6 +576,13 @@ MODEL_MISTAKES = [
     pytest.param(
         'sensors:\n'
         '  s:\n'
+        '    kind: mocap_pos\n'
+        '    element: body:base\n',
+        "4:14: error: sensors.s.element: mocap_pos exists only for mocap bodies (mocap=\"true\" in the MJCF); 'base' is not: read xpos / xquat instead, or select a mocap body",
+        id='mocap_of_a_plain_body'),
+    pytest.param(
+        'sensors:\n'
+        '  s:\n'
         '    kind: qpos\n'
         '    element: joint:wrist\n'
         '    noise:\n'

@@ -94,6 +94,11 @@ def feature_index(model: mujoco.MjModel, kind: str, element: str | Sequence[str]
     ids = list(sel.ids)
     if spec.ragged:
         slices = ragged_slices(model, spec, ids)
+        if spec.size == "nmocap" and not all(slices):
+            names = [sel.names[j] for j, s in enumerate(slices) if not s]
+            raise SuiteError(f"{kind} exists only for mocap bodies (mocap=\"true\" in the MJCF); "
+                             f"{', '.join(repr(n) for n in names)} {'is' if len(names) == 1 else 'are'} not: "
+                             "read xpos / xquat instead, or select a mocap body")
         if spec.size in SOFT_RAGGED and all(len(s) == 1 for s in slices):
             rows = [s.start for s in slices]
             shape = ((len(rows),) if sel.batched else ()) + trailing
