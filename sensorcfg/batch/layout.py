@@ -56,6 +56,7 @@ class Layout:
         self._sources()
         self._cache: dict[Any, Any] = {}
         self._tables: dict[int, Any] = {}
+        self._uniform: dict[tuple[int, int], Any] = {}
 
     def _segments(self, fields: dict[str, tuple[int, ...]], stops: set[int]) -> None:
         """Runs of substeps needing the same fields (at any phase), cut also after each stop."""
@@ -233,20 +234,31 @@ class Layout:
         fresh = bool((t == 0).any())  # a reset read: its phase is not the one gp implies later on
         cached = None if fresh else self._cache.get(("read", gp))
         if cached is None:
-            (plain_base, plain_stride), groups = self._read_table(gp)
             phases = np.where(t == 0, self.nphase, (t % self.rows) // self.n)
-            sims = np.arange(self.nsim)
-            if (phases == phases[0]).all():  # every simulation at one phase: one row of the table
-                q = int(phases[0])
-                cached = (plain_base[q] + sims[:, None] * plain_stride[q],
-                          [base[:, q, None, :] + sims[None, :, None] * stride[:, q, None, :]
-                           for base, stride in groups])
+            if (phases == phases[0]).all():  # every simulation at one phase (as after a full reset)
+                cached = self._uniform_reads(gp, int(phases[0]))
             else:
+                (plain_base, plain_stride), groups = self._read_table(gp)
+                sims = np.arange(self.nsim)
                 cached = (plain_base[phases] + sims[:, None] * plain_stride[phases],
                           [base[:, phases, :] + sims[None, :, None] * stride[:, phases, :] for base, stride in groups])
             if not fresh:
                 self._cache[("read", gp)] = cached
         return cached
+
+    def _uniform_reads(self, gp: int, q: int) -> tuple[np.ndarray, list[np.ndarray]]:
+        """`gathers` when every simulation is at phase q: kept across resets (a few per gp at most)."""
+        key = (gp, q)
+        reads = self._uniform.get(key)
+        if reads is None:
+            if len(self._uniform) >= 2 * (self.nphase + 1):
+                self._uniform.clear()
+            (plain_base, plain_stride), groups = self._read_table(gp)
+            sims = np.arange(self.nsim)
+            reads = self._uniform[key] = (
+                plain_base[q] + sims[:, None] * plain_stride[q],
+                [base[:, q, None, :] + sims[None, :, None] * stride[:, q, None, :] for base, stride in groups])
+        return reads
 
     def _read_table(self, gp: int) -> tuple[tuple[np.ndarray, np.ndarray], list[tuple[np.ndarray, np.ndarray]]]:
         """Simulation i's read positions at global step gp and phase q are `base[q] + i * stride[q]`
