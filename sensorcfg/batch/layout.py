@@ -228,9 +228,10 @@ class Layout:
                                          np.concatenate(target) if target else empty)
         return cached
 
-    def gathers(self, gp: int, t: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
-        """Store positions of every fixed-schedule read value: (nsim, plain width), and per reduction
-        group (buffer, nsim, group width). `gp`: the global step mod rows. Cached until `clear`."""
+    def gathers(self, gp: int, t: np.ndarray) -> np.ndarray:
+        """Store positions of every fixed-schedule read value, for one `take`: (nsim, plain width), then
+        per reduction group (buffer, nsim, group width), raveled (`read_parts` splits the result).
+        `gp`: the global step mod rows. Cached until `clear`."""
         fresh = bool((t == 0).any())  # a reset read: its phase is not the one gp implies later on
         cached = None if fresh else self._cache.get(("read", gp))
         if cached is None:
@@ -240,13 +241,30 @@ class Layout:
             else:
                 (plain_base, plain_stride), groups = self._read_table(gp)
                 sims = np.arange(self.nsim)
-                cached = (plain_base[phases] + sims[:, None] * plain_stride[phases],
-                          [base[:, phases, :] + sims[None, :, None] * stride[:, phases, :] for base, stride in groups])
+                cached = self._fused(plain_base[phases] + sims[:, None] * plain_stride[phases],
+                                     [base[:, phases, :] + sims[None, :, None] * stride[:, phases, :]
+                                      for base, stride in groups])
             if not fresh:
                 self._cache[("read", gp)] = cached
         return cached
 
-    def _uniform_reads(self, gp: int, q: int) -> tuple[np.ndarray, list[np.ndarray]]:
+    @staticmethod
+    def _fused(plain: np.ndarray, groups: list[np.ndarray]) -> np.ndarray:
+        return np.concatenate([plain.ravel(), *(g.ravel() for g in groups)])
+
+    def read_parts(self, values: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+        """Views of one `take` over `gathers`: plain (nsim, width), and per group (buffer, nsim, width)."""
+        nsim = self.nsim
+        at = nsim * self.plain_cols.size
+        plain = values[:at].reshape(nsim, -1)
+        groups = []
+        for _, part, block, _ in self.groups:
+            size = nsim * part.size
+            groups.append(values[at:at + size].reshape(block[0], nsim, block[1]))
+            at += size
+        return plain, groups
+
+    def _uniform_reads(self, gp: int, q: int) -> np.ndarray:
         """`gathers` when every simulation is at phase q: kept across resets (a few per gp at most)."""
         key = (gp, q)
         reads = self._uniform.get(key)
@@ -255,7 +273,7 @@ class Layout:
                 self._uniform.clear()
             (plain_base, plain_stride), groups = self._read_table(gp)
             sims = np.arange(self.nsim)
-            reads = self._uniform[key] = (
+            reads = self._uniform[key] = self._fused(
                 plain_base[q] + sims[:, None] * plain_stride[q],
                 [base[:, q, None, :] + sims[None, :, None] * stride[:, q, None, :] for base, stride in groups])
         return reads

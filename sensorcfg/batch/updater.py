@@ -290,13 +290,14 @@ class BatchUpdater:
         if self.cameras is not None:
             self.cameras.read(self.t, out)
         if self.fixed:
-            plain_index, group_index = self.layout.gathers(self.G % self.rows, self.t)
-            flat = self.flat
-            gathered = flat.take(plain_index, mode="clip")  # positions are valid by construction
-            for i, part, shape in self.layout.plain:
+            layout = self.layout
+            # one take of every value read (positions are valid by construction), then views
+            values = self.flat.take(layout.gathers(self.G % self.rows, self.t), mode="clip")
+            gathered, windows = layout.read_parts(values)
+            for i, part, shape in layout.plain:
                 out[i] = gathered[:, part].reshape(shape)
-            for (reduce, _, _, members), index in zip(self.layout.groups, group_index):
-                reduced = reduce(flat.take(index, mode="clip"))
+            for (reduce, _, _, members), window in zip(layout.groups, windows):
+                reduced = reduce(window)
                 for i, sub, shape in members:
                     out[i] = reduced[:, sub].reshape(self.nsim, *shape)
         if self.timelines.specs:
