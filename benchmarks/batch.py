@@ -10,13 +10,16 @@ control steps of:
   null       the same physics again: the noise floor of the comparison (ideally 0%)
   recording  the same rollout recording what the environment records, without the updater: MuJoCo's
              share of the suite cost (the rest is the vectorised updater in Python)
+  floor      recording, plus the environment's copies of bound fields and one `take` of every value its
+             reads need: the least a suite that records with `rollout` and reads the records can add
   loop       nsim single-simulation `Environment.step`s with the same suite (one MjData each)
 
 Paired measurement: physics, null and batched run every control step from the same simulation state on
 the same Batch (their order rotates), so that neither the state (contacts make steps dearer) nor the
 memory placement of a Batch instance (identical instances differ by up to 2% here) tilts the ratio.
 Physics and null also copy out the fields the environment binds (`Batch.bind`: those read only after a
-control step's last substep), which MuJoCo does after every call; the suite cost includes everything else.
+control step's last substep), which MuJoCo does after every call; measured against unbound Batches from
+the same state, that is within their own spread (+-0.5%). The suite cost includes everything else.
 
 Prints medians over repeats of environment steps per second (control steps times simulations, per second
 of wall time) and the ratios. Targets: the suite adds at most 5% to batched physics at 512 simulations;
@@ -79,7 +82,7 @@ def main() -> None:
           f"{os.cpu_count()} CPUs, nthread={args.nthread or 'all'}; medians of {args.repeats} repeats x {k} "
           "control steps")
     print(f"{'nsim':>6} {'physics':>12} {'batched':>12} {'loop':>12} {'suite cost':>11} {'recording':>11} "
-          f"{'null':>8} {'batched/loop':>13}")
+          f"{'floor':>7} {'null':>8} {'batched/loop':>13}")
     for nsim in args.nsim:
         rng = np.random.default_rng(0)
         lo, hi = model.actuator_ctrlrange.T
@@ -103,6 +106,12 @@ def main() -> None:
             for (first, last, _), out in zip(layout.segments, layout.record_out):
                 env.batch.rollout(last - first + 1, control=a[:, None, :], record=list(out), out=out)
 
+        def floor_step(a: np.ndarray, env: BatchEnvironment = env, layout: Any = layout) -> None:
+            updater = env.updater
+            env._rollout(a, np.ones(env.nsim, bool), np.zeros(env.nsim, bool), {})
+            if layout.fixed:
+                updater.flat.take(layout.gathers(updater.G % updater.rows, updater.t), mode="clip")
+
         def loop_step(a: np.ndarray, loop: list = loop) -> None:
             for e, ai in zip(loop, a):
                 e.step(ai)
@@ -114,7 +123,7 @@ def main() -> None:
             for e in loop:
                 e.reset()
             paired = [("physics", physics_step), ("null", physics_step), ("recording", record_step),
-                      ("batched", env.step)]
+                      ("floor", floor_step), ("batched", env.step)]
             wall = dict.fromkeys([name for name, _ in paired] + (["loop"] if loop else []), 0.0)
             for i, a in enumerate(actions):
                 start = state.copy()
@@ -143,12 +152,14 @@ def main() -> None:
         cost = med["physics"] / med["batched"] - 1
         null = med["physics"] / med["null"] - 1
         recording = med["physics"] / med["recording"] - 1
+        floor = med["physics"] / med["floor"] - 1
         print(f"{nsim:>6} {med['physics']:>12,.0f} {med['batched']:>12,.0f} {med.get('loop', nan):>12,.0f} "
-              f"{100 * cost:>10.1f}% {100 * recording:>10.1f}% {100 * null:>+7.1f}% "
+              f"{100 * cost:>10.1f}% {100 * recording:>10.1f}% {100 * floor:>6.1f}% {100 * null:>+7.1f}% "
               f"{med['batched'] / med.get('loop', nan):>12.2f}x")
     print("env steps/s: control steps x simulations per wall-clock second. suite cost = physics/batched - 1 "
-          "(target <= 5% at 512), of which recording = physics/recording - 1 is MuJoCo's; null = physics "
-          "against itself (the comparison's noise); batched/loop target >= 1.8x on 2 cores")
+          "(target <= 5% at 512), of which recording = physics/recording - 1 is MuJoCo's; floor = recording "
+          "plus one gather of what the reads need; null = physics against itself (the comparison's noise); "
+          "batched/loop target >= 1.8x on 2 cores")
 
 
 if __name__ == "__main__":
