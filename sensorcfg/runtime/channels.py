@@ -175,20 +175,23 @@ class RandomChannel(Channel):
         in_flight: dict[int, list[int]] = {}
         for a, _, _ in self.pending:
             in_flight.setdefault(-(-a // n), []).append(a)
-        drop = []
+        drop: list[int] = []
         count = len(order)
-        for k, (window, arrival, j) in enumerate(order):
-            later = 0
-            m = k + 1  # scheduled samples after this one in its window
+        k = 0
+        while k < count:  # one window at a time: order[k:m]
+            window = order[k][0]
+            m = k + 1
             while m < count and order[m][0] == window:
                 m += 1
-            later = m - k - 1
-            if later >= b:
-                drop.append(j)
-                continue
-            later += sum(1 for a in in_flight.get(window, ()) if a > arrival)
-            if later >= b:
-                drop.append(j)
+            keep_from = max(k, m - b)  # the rest have b or more scheduled samples after them
+            drop.extend(order[i][2] for i in range(k, keep_from))
+            flight = in_flight.get(window)
+            if flight:
+                for i in range(keep_from, m):
+                    arrival = order[i][1]
+                    if m - i - 1 + sum(1 for a in flight if a > arrival) >= b:
+                        drop.append(order[i][2])
+            k = m
         if drop:
             dropped = set(drop)
             self.schedule = [entry for j, entry in enumerate(schedule) if j not in dropped]
