@@ -13,7 +13,7 @@ import dataclasses
 import importlib.util
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 from pydantic import ValidationError
 
@@ -65,7 +65,7 @@ def _with_parents(doc: Doc, base_dir: Path, chain: tuple[Path, ...]) -> Doc:
     if not isinstance(doc.value, dict) or "extends" not in doc.value:
         return doc
     target = doc.value.pop("extends")
-    at = doc.pos(("extends",))
+    at = cast(Pos, doc.pos(("extends",)))  # the key was read from YAML, so it has a position
     if target is None:
         return doc
     if not isinstance(target, str) or not target.strip():

@@ -14,6 +14,7 @@ import typing
 from typing import Any
 
 from pydantic import BaseModel, ValidationError
+from pydantic_core import ErrorDetails
 
 from ..errors import Problem, did_you_mean
 from .source import Doc, Path_, dotted
@@ -141,7 +142,7 @@ def problem_at(doc: Doc, path: Path_, message: str, *, key: bool = False, fallba
     return pos.problem(message, dotted(path))
 
 
-def _message(error: dict[str, Any], path: Path_, root: type[BaseModel], value: Any) -> str:
+def _message(error: ErrorDetails, path: Path_, root: type[BaseModel], value: Any) -> str:
     kind = error["type"]
     ctx = error.get("ctx") or {}
     given = error.get("input")

@@ -8,7 +8,7 @@ model (element names, kinds, time in steps) are checked for form here and resolv
 from __future__ import annotations
 
 import re
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal, TypeAlias
 
 from pydantic import (BaseModel, ConfigDict, Field, PlainSerializer, PlainValidator, StringConstraints,
                       WithJsonSchema)
@@ -168,7 +168,10 @@ Element = Annotated[str | tuple[str, ...], PlainValidator(_element), PlainSerial
 Index = Annotated[int | tuple[int, ...] | str, PlainValidator(_index), PlainSerializer(_dump_listlike, return_type=Any),
                   WithJsonSchema({"anyOf": [
     {"type": "integer"}, {"type": "array", "items": {"type": "integer"}, "minItems": 1}, {"type": "string"}]})]
-AggregatorName = Literal[aggregator_names()]  # type: ignore[valid-type]
+if TYPE_CHECKING:  # a Literal of the registered aggregators' names, built at import
+    AggregatorName: TypeAlias = str
+else:
+    AggregatorName = Literal[aggregator_names()]
 SensorName = Annotated[str, StringConstraints(pattern=SENSOR_NAME_PATTERN)]
 
 
@@ -204,16 +207,21 @@ _SHARED: dict[str, dict[str, Any]] = {
 }
 
 
+def _shared(name: str) -> Any:
+    """An optional field's `Field(None, ...)` with its shared description (a call mypy reads as a default)."""
+    return Field(None, **_SHARED[name])
+
+
 class DefaultsConfig(BaseModel):
     """Settings applied to every sensor that does not give its own (field by field)."""
 
     model_config = _FROZEN
-    interval: Interval | None = Field(None, **_SHARED["interval"])
-    delay: Delay | None = Field(None, **_SHARED["delay"])
-    buffer: int | None = Field(None, **_SHARED["buffer"])
-    aggregator: AggregatorName | None = Field(None, **_SHARED["aggregator"])  # type: ignore[valid-type]
-    enabled: bool | None = Field(None, **_SHARED["enabled"])
-    noise: tuple[NoiseStage, ...] | None = Field(None, **_SHARED["noise"])
+    interval: Interval | None = _shared("interval")
+    delay: Delay | None = _shared("delay")
+    buffer: int | None = _shared("buffer")
+    aggregator: AggregatorName | None = _shared("aggregator")
+    enabled: bool | None = _shared("enabled")
+    noise: tuple[NoiseStage, ...] | None = _shared("noise")
     camera: CameraConfig | None = Field(
         None, description="Camera settings for every image sensor that does not give its own.",
         examples=[{"width": 64, "height": 48}])
@@ -245,12 +253,12 @@ class SensorConfig(BaseModel):
         None, pattern=_CALLABLE.pattern.replace(r"\A", "^").replace(r"\Z", "$"),
         description="For kind 'generic': 'module:function', called with the physics handle; imported when the "
         "suite is built, not when it is checked.", examples=["my_pkg.sensors:distance_to_target"])
-    interval: Interval | None = Field(None, **_SHARED["interval"])
-    delay: Delay | None = Field(None, **_SHARED["delay"])
-    buffer: int | None = Field(None, **_SHARED["buffer"])
-    aggregator: AggregatorName | None = Field(None, **_SHARED["aggregator"])  # type: ignore[valid-type]
-    enabled: bool | None = Field(None, **_SHARED["enabled"])
-    noise: tuple[NoiseStage, ...] | None = Field(None, **_SHARED["noise"])
+    interval: Interval | None = _shared("interval")
+    delay: Delay | None = _shared("delay")
+    buffer: int | None = _shared("buffer")
+    aggregator: AggregatorName | None = _shared("aggregator")
+    enabled: bool | None = _shared("enabled")
+    noise: tuple[NoiseStage, ...] | None = _shared("noise")
 
 
 class OptionsConfig(BaseModel):
@@ -279,9 +287,9 @@ class SuiteConfig(BaseModel):
     extends: str | None = Field(
         None, description="Another suite (relative to this file) to start from; this file overrides it key by "
         "key, and `null` removes an inherited key.", examples=["base.yaml"])
-    options: OptionsConfig = Field(default_factory=OptionsConfig, description="Updater settings.",
+    options: OptionsConfig = Field(default_factory=OptionsConfig, description="Updater settings.",  # type: ignore[arg-type]
                                    examples=[{"strip_singleton_buffer_dim": True}])
-    defaults: DefaultsConfig = Field(default_factory=DefaultsConfig,
+    defaults: DefaultsConfig = Field(default_factory=DefaultsConfig,  # type: ignore[arg-type]
                                      description="Applied to every sensor that does not say otherwise.",
                                      examples=[{"buffer": 1, "interval": "4ms"}])
     sensors: dict[SensorName, SensorConfig] = Field(

@@ -16,7 +16,7 @@ import math
 import numbers
 import re
 from collections.abc import Callable, Mapping
-from typing import Annotated, Any, ClassVar, Literal, Union
+from typing import TYPE_CHECKING, Annotated, Any, ClassVar, Literal, TypeAlias, Union
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, WrapValidator, model_validator
 from pydantic.json_schema import SkipJsonSchema
@@ -123,12 +123,20 @@ def _per_value(meaning: str, **bounds: Any) -> Any:
     return Annotated[Union[item, Annotated[list[item], Field(min_length=1)]], WrapValidator(_Bound(meaning, **bounds))]
 
 
-Real = _per_value("the value")
-Std = _per_value("a standard deviation", ge=0)
-Probability = _per_value("a probability", ge=0, le=1)
-Step = _per_value("a quantisation step", gt=0)
-Duration = _per_value("a correlation time", gt=0, units=DURATION_UNITS, quantity="duration")
-Frequency = _per_value("a cutoff frequency", gt=0, units=RATE_UNITS, quantity="frequency")
+if TYPE_CHECKING:  # what a validated field holds; pydantic reads the annotated types below
+    Real: TypeAlias = PerValue
+    Std: TypeAlias = PerValue
+    Probability: TypeAlias = PerValue
+    Step: TypeAlias = PerValue
+    Duration: TypeAlias = PerValue
+    Frequency: TypeAlias = PerValue
+else:
+    Real = _per_value("the value")
+    Std = _per_value("a standard deviation", ge=0)
+    Probability = _per_value("a probability", ge=0, le=1)
+    Step = _per_value("a quantisation step", gt=0)
+    Duration = _per_value("a correlation time", gt=0, units=DURATION_UNITS, quantity="duration")
+    Frequency = _per_value("a cutoff frequency", gt=0, units=RATE_UNITS, quantity="frequency")
 
 _PER_VALUE = ("A number, or a list with one entry per value of the observation (or one per entry of its last "
               "axis, e.g. per colour channel).")
@@ -411,8 +419,12 @@ def _dispatch(value: Any, handler: Any, info: Any) -> Any:
     return row.model.model_validate(value, context=info.context)
 
 
-NoiseStage = Annotated[
-    Union[tuple(info.model for info in STAGES.values())],  # type: ignore[misc]
-    Field(discriminator="type"),
-    WrapValidator(_dispatch),
-]
+if TYPE_CHECKING:  # the union pydantic builds from the table below
+    NoiseStage = Union[GaussianStage, UniformStage, BiasStage, ScaleStage, RandomWalkStage, QuantizeStage,
+                       ClipStage, DropoutStage, OutlierStage, LowpassStage, CustomStage]
+else:
+    NoiseStage = Annotated[
+        Union[tuple(info.model for info in STAGES.values())],
+        Field(discriminator="type"),
+        WrapValidator(_dispatch),
+    ]
