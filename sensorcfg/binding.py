@@ -12,7 +12,7 @@ from __future__ import annotations
 import dataclasses
 import importlib
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Literal, cast
 
 import mujoco
 import numpy as np
@@ -144,7 +144,7 @@ class _Binder:
                 ok = False
         if ok:
             try:
-                select(self.model, cfg.element, cfg.within)
+                select(self.model, cast("str | tuple[str, ...]", cfg.element), cfg.within)
             except SuiteError as e:
                 self.report_all(here + ("element",), e)
                 ok = False
@@ -178,11 +178,12 @@ class _Binder:
             if part == "index" and index is None:
                 break
             try:
-                _, _, flat, dtype = feature_index(self.model, cfg.kind, cfg.element, cfg.within, chosen)
+                _, _, flat, dtype = feature_index(self.model, cfg.kind, cast("str | tuple[str, ...]", cfg.element),
+                                                   cfg.within, chosen)
             except SuiteError as e:
                 self.report_all(("sensors", name, part), e)
                 return None
-        element = cfg.element if isinstance(cfg.element, str) else list(cfg.element)
+        element = cfg.element if isinstance(cfg.element, str) else list(cast("tuple[str, ...]", cfg.element))
         feature = Feature(cfg.kind, element, index=index, within=cfg.within, **timing)
         return feature, flat.shape, dtype
 
@@ -215,7 +216,8 @@ class _Binder:
                             key=True)
         if len(self.problems) > before:
             return None
-        camera = Camera(cfg.element, height=height, width=width, mode=cfg.kind,
+        mode = cast('Literal["rgb", "depth", "segmentation"]', cfg.kind)  # one of IMAGE_KINDS here
+        camera = Camera(cfg.element, height=height, width=width, mode=mode,
                         scene_option=dict(cfg.camera.scene) or None, **timing)
         channels, dtype, _, _ = MODES[cfg.kind]
         return camera, (height, width, channels), dtype
@@ -271,7 +273,7 @@ def _index(value: Any) -> Any:
         return value
     if isinstance(value, tuple):
         return list(value)
-    parts = []
+    parts: list[Any] = []
     for text in value.split(","):
         text = text.strip()
         if text == "...":

@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import fnmatch
 from collections.abc import Sequence
+from typing import cast
 
 import mujoco
 
@@ -55,7 +56,7 @@ def element_names(model: mujoco.MjModel, type_name: str) -> list[str]:
 
 
 def _body_of(model: mujoco.MjModel, type_name: str, i: int) -> int | None:
-    table = {"body": None, "joint": "jnt_bodyid", "geom": "geom_bodyid", "site": "site_bodyid",
+    table = {"joint": "jnt_bodyid", "geom": "geom_bodyid", "site": "site_bodyid",
              "camera": "cam_bodyid", "light": "light_bodyid"}
     if type_name == "body":
         return i
@@ -121,7 +122,7 @@ def select(model: mujoco.MjModel, element: str | Sequence[str], within: str | No
                 if root is not None:
                     found = [i for i in found if _in_subtree(model, _body_of(model, type_name, i), root)]
                 if not found:
-                    scope = f" under body {within.partition(':')[2]!r}" if root is not None else ""
+                    scope = f" under body {cast(str, within).partition(':')[2]!r}" if root is not None else ""
                     known = [n for n in names if n][:12]
                     raise SuiteError(Problem(
                         f"{text!r} matches no {type_name}{scope} in the model; "
@@ -139,8 +140,8 @@ def select(model: mujoco.MjModel, element: str | Sequence[str], within: str | No
     if problems:
         raise SuiteError(problems)
     type_name = types.pop()
-    names = tuple(mujoco.mj_id2name(model, ELEMENT_TYPES[type_name].obj, i) or "" for i in ids)
-    return Selection(type_name, tuple(ids), names, batched)
+    chosen = tuple(mujoco.mj_id2name(model, ELEMENT_TYPES[type_name].obj, i) or "" for i in ids)
+    return Selection(type_name, tuple(ids), chosen, batched)
 
 
 def _plural(type_name: str) -> str:

@@ -239,7 +239,7 @@ def save(rec: Recording, path: Path, sidecar: dict[str, Any]) -> Path:
     side = path.with_suffix(".json")
     if side == path:
         side = path.with_name(path.name + ".json")
-    arrays = {**rec.observations, TIME_KEY: rec.time, ACTION_KEY: rec.action}
+    arrays: dict[str, Any] = {**rec.observations, TIME_KEY: rec.time, ACTION_KEY: rec.action}
     try:
         with open(path, "wb") as f:
             np.savez_compressed(f, **arrays)

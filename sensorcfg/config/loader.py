@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.util
+import os
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, cast
@@ -352,6 +353,6 @@ def load_path(path: str | Path, overrides: Sequence[str] | None = None) -> Loade
 
 
 def load_text(text: str, overrides: Sequence[str] | None = None, *, file: str = "<string>",
-              base_dir: str | Path | None = None) -> LoadedSuite:
+              base_dir: str | os.PathLike[str] | None = None) -> LoadedSuite:
     """Validate a suite given as text; `extends` and `model` are relative to `base_dir` (default: cwd)."""
     return _load(text, file, Path(base_dir) if base_dir else Path.cwd(), overrides, None)

@@ -57,10 +57,10 @@ class NoisePipeline:
     def reset(self, rng: np.random.Generator | np.random.RandomState) -> None:
         """Start an episode: per-episode draws (bias, scale, random-walk start) and cleared state."""
         if isinstance(rng, np.random.RandomState):
-            entropy = rng.randint(0, 2**32, size=4, dtype=np.uint64)
+            words = rng.randint(0, 2**32, size=4, dtype=np.uint64)
         else:
-            entropy = rng.integers(0, 2**32, size=4, dtype=np.uint64)
-        entropy = [int(e) for e in entropy]  # stage i's stream: SeedSequence's i-th child, built directly
+            words = rng.integers(0, 2**32, size=4, dtype=np.uint64)
+        entropy = [int(e) for e in words]  # stage i's stream: SeedSequence's i-th child, built directly
         seeds = (np.random.SeedSequence(entropy, spawn_key=(i,)) for i in range(len(self.names)))
         for stage in self._stages:
             if isinstance(stage, rt.Sum):

@@ -46,7 +46,8 @@ class Stage:
     """One stage at run time."""
 
     needs_rng = False
-    width = 1  # how many configured stages this one carries out (see `Sum`)
+    # how many configured stages this one carries out (see `Sum`); Uniform reuses the name for high - low
+    width: int | np.ndarray = 1
 
     def reset(self, rng: np.random.Generator | None) -> None:
         """Start an episode: per-episode draws, cleared state."""

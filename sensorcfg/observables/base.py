@@ -12,7 +12,7 @@ from __future__ import annotations
 import abc
 import numbers
 from collections.abc import Callable
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from dm_env import specs
@@ -30,7 +30,7 @@ def check_setting(attr: str, value: Any, owner: str) -> Any:
     if value is None or (callable(value) and attr != "buffer_size"):
         return value
     lowest = 0 if attr == "delay" else 1
-    ok = isinstance(value, numbers.Integral) and not isinstance(value, bool) and value >= lowest
+    ok = isinstance(value, numbers.Integral) and not isinstance(value, bool) and cast(int, value) >= lowest
     if not ok:
         what = {"update_interval": "a positive integer number of physics steps (or a callable drawing one)",
                 "delay": "a non-negative integer number of physics steps (or a callable drawing one)",

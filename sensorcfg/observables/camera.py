@@ -47,7 +47,7 @@ def _follow_mujoco_gl() -> None:
     MUJOCO_GL=egl (see _gl.py). mujoco's Renderer looks its context class up at construction, so point
     it at EGL's.
     """
-    gl_context = getattr(sys.modules.get(mujoco.Renderer.__module__), "gl_context", None)
+    gl_context: Any = getattr(sys.modules.get(mujoco.Renderer.__module__), "gl_context", None)
     current = getattr(gl_context, "GLContext", None)
     if (os.environ.get("MUJOCO_GL", "").strip().lower() == "egl" and current is not None
             and getattr(current, "__module__", "").startswith("mujoco.glfw")):
