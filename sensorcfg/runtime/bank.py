@@ -13,11 +13,11 @@ from __future__ import annotations
 
 import ctypes
 import math
-from typing import Any
+from typing import Any, Protocol, TypeGuard, cast
 
 import numpy as np
 
-from .bank_noise import BankNoise, program
+from .bank_noise import BankNoise, Program, program
 from .channels import FixedChannel
 
 __all__ = ["FeatureBank", "BankMember", "buffer_view", "read_plan"]
@@ -73,6 +73,19 @@ def buffer_view(data: Any, fields: list[str]) -> tuple[np.ndarray, dict[str, int
     return raw, {f: (a.ctypes.data - lo) // 8 for f, a in arrays.items()}
 
 
+class _FieldReader(Protocol):
+    """The sampler of a bank member: a feature reader of values `index` of one mjData `field`."""
+
+    field: str
+    index: np.ndarray
+
+    def __call__(self) -> Any: ...
+
+
+def _reader(ch: FixedChannel) -> _FieldReader:
+    return cast(_FieldReader, ch.sampler)  # `qualifies` checked it is one
+
+
 class BankMember:
     """Stands in for a channel in the Updater's layout; reads come from the bank's shared read."""
 
@@ -106,7 +119,7 @@ class FeatureBank:
     """All plain float64 mjData features of one Updater."""
 
     def __init__(self, channels: list[FixedChannel], data: Any, read_interval: int, pad: bool):
-        fields = sorted({ch.sampler.field for ch in channels})
+        fields = sorted({_reader(ch).field for ch in channels})
         view = buffer_view(data, fields)
         if view is None:
             raise ValueError("mjData fields are not in one buffer")
@@ -119,7 +132,7 @@ class FeatureBank:
         self.cols = np.cumsum([0] + widths)
         self.width = int(self.cols[-1])
         self.source = np.concatenate(
-            [offsets[ch.sampler.field] + ch.sampler.index.ravel() for ch in channels]).astype(np.intp)
+            [offsets[_reader(ch).field] + _reader(ch).index.ravel() for ch in channels]).astype(np.intp)
         period = math.lcm(read_interval, *(ch.interval for ch in channels))
         span = max(ch.delay + ch.buffer_size * ch.interval for ch in channels) + read_interval + 1
         programs = [program(ch.noise) for ch in channels]
@@ -152,8 +165,9 @@ class FeatureBank:
     @staticmethod
     def key(channels: list[FixedChannel], data: Any, read_interval: int, pad: bool) -> tuple[Any, ...]:
         """What the bank's layout and plans depend on: equal keys let a reset reuse the bank."""
-        return (id(data), read_interval, pad) + tuple(
-            (ch.sampler.field, ch.sampler.index.shape, ch.sampler.index.tobytes(), ch.interval, ch.delay,
+        head: tuple[Any, ...] = (id(data), read_interval, pad)
+        return head + tuple(
+            (_reader(ch).field, _reader(ch).index.shape, _reader(ch).index.tobytes(), ch.interval, ch.delay,
              ch.buffer_size, getattr(ch.aggregator, "name", None), ch.has_buffer_dim, id(ch.noise))
             for ch in channels)
 
@@ -161,7 +175,7 @@ class FeatureBank:
         """Take this episode's channels (same settings as the ones the bank was built for)."""
         self.channels = channels
         if self.noise is not None:
-            self.noise.programs = [program(ch.noise) for ch in channels]
+            self.noise.programs = cast("list[Program]", [program(ch.noise) for ch in channels])  # members qualify
 
     def members(self) -> list[BankMember]:
         return [BankMember(self, i, ch) for i, ch in enumerate(self.channels)]
@@ -212,8 +226,8 @@ class FeatureBank:
             plan = self._gathers[phase] = self._plan_read(phase)
         index, groups, plain, noise = plan
         gathered = self.flat.take(index, None, None, "clip")
-        if noise:
-            self.noise.apply(gathered, noise)
+        if noise:  # a noise plan: the bank has noise
+            cast(BankNoise, self.noise).apply(gathered, noise)
             if step < self.rows:  # early in an episode: windows reach before the reset sample
                 early = self._early.get(step)
                 if early is None:
@@ -231,7 +245,7 @@ class FeatureBank:
         return outputs
 
 
-def qualifies(ch: Any) -> bool:
+def qualifies(ch: Any) -> TypeGuard[FixedChannel]:
     """Whether a channel can join the bank: an uncorrupted float64 mjData feature whose noise (if any)
     the bank can apply."""
     sampler = ch.sampler
@@ -255,7 +269,8 @@ def read_plan(channels: list[FixedChannel], cols: np.ndarray, rows: int,
         k = (phase - ch.delay) // ch.interval
         steps = ch.interval * (k - ch.buffer_size + 1 + np.arange(ch.buffer_size))
         block = (steps % rows)[:, None] * width + np.arange(cols[i], cols[i + 1])
-        key = None if ch.aggregator is None else (ch.aggregator.name, ch.buffer_size)
+        key: tuple[Any, ...] | None = None if ch.aggregator is None else (
+            cast(Any, ch.aggregator).name, ch.buffer_size)  # a builtin aggregator: it has a name
         if key is not None and key[0] in ("sum", "mean") and cols[i + 1] - cols[i] == 1:
             # A buffer of one-value samples is a 1-D array to numpy (and dm_control), which sums it
             # pairwise from 8 values on; in a wider group it would be summed row by row, off in the last bits.

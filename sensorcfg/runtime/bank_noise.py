@@ -21,8 +21,10 @@ from ..noise import stages as rt
 
 __all__ = ["BankNoise", "program"]
 
+Program = tuple[tuple[str, Any], ...]  # (op, stage) pairs
 
-def program(pipeline: Any) -> tuple[tuple[str, Any], ...] | None:
+
+def program(pipeline: Any) -> Program | None:
     """The pipeline as (op, stage) pairs the bank can run, () for no noise, None when it cannot."""
     if pipeline is None:
         return ()
@@ -64,7 +66,7 @@ def _next_rows(stage: Any, count: int, width: int) -> np.ndarray:
 class BankNoise:
     """Noise fields and per-group programs for the noisy members of a bank."""
 
-    def __init__(self, channels: list[Any], programs: list[tuple[tuple[str, Any], ...]], cols: np.ndarray,
+    def __init__(self, channels: list[Any], programs: list[Program], cols: np.ndarray,
                  rows: int, chunk: int, sample_offsets: list[np.ndarray]):
         self.width = int(cols[-1])
         self.rows, self.chunk, self.cols = rows, chunk, cols
@@ -82,7 +84,7 @@ class BankNoise:
         # per group and op position: a full-width parameter vector (constants now, episode draws at reset)
         self.params: list[list[Any]] = []
         for signature, members in self.groups:
-            per_op = []
+            per_op: list[Any] = []
             for q, op in enumerate(signature):
                 if op == "quantize":
                     per_op.append(self._full(members, q, lambda s: s.step, np.nan))

@@ -14,7 +14,7 @@ import inspect
 import math
 import numbers
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any
+from typing import Any, Union, cast
 
 import numpy as np
 from dm_env import specs
@@ -23,8 +23,8 @@ from ..draws import ChoiceSteps, UniformSteps
 from ..errors import SuiteError
 from ..observables.aggregators import AGGREGATORS, preserves_bounds
 from .handle import structs_of as raw_structs
-from .bank import FeatureBank, qualifies
-from .channels import Channel, FixedChannel, RandomChannel
+from .bank import BankMember, FeatureBank, qualifies
+from .channels import FixedChannel, RandomChannel
 
 __all__ = ["Updater", "sensor_rng"]
 
@@ -32,6 +32,9 @@ DEFAULT_BUFFER_SIZE = 1
 DEFAULT_UPDATE_INTERVAL = 1
 DEFAULT_DELAY = 0
 _MAX_PLAN_PERIOD = 1 << 16
+
+_Task = Callable[[int], None]  # one sampling task of the plan, called with the step
+_Reader = Union[FixedChannel, RandomChannel, BankMember]  # what the layout holds per observable
 
 
 def sensor_rng(entropy: Sequence[int], name: str) -> np.random.Generator:
@@ -86,8 +89,9 @@ def _drawer(owner: str, attr: str, value: Any, default: int, random_state: Any) 
 
     def checked() -> int:
         drawn = draw()
-        if isinstance(drawn, numbers.Real) and float(drawn).is_integer() and drawn >= lowest:
-            return int(drawn)
+        # (typeshed's numbers.Real declares neither >= nor __int__: cast to the float it behaves as)
+        if isinstance(drawn, numbers.Real) and float(drawn).is_integer() and cast(float, drawn) >= lowest:
+            return int(cast(float, drawn))
         raise SuiteError(f"observable {owner!r}: its {attr} callable drew {drawn!r}; "
                          f"it must draw integers >= {lowest} (physics steps)")
 
@@ -96,6 +100,16 @@ def _drawer(owner: str, attr: str, value: Any, default: int, random_state: Any) 
 
 class Updater:
     """Samples, delays, buffers, aggregates and corrupts observables inside the physics loop."""
+
+    # set by `reset` (and `_build_plan`)
+    _channels: list[FixedChannel | RandomChannel]
+    _bank: FeatureBank | None
+    _reads: list[tuple[type, list[tuple[str, int, _Reader]]]]
+    _random: list[tuple[int, RandomChannel]]
+    _period: int
+    _plan: list[tuple[_Task, ...]]
+    _orders: list[tuple[int, ...]]
+    _slow: list[tuple[int, frozenset[int], int, _Task]]
 
     def __init__(self, observables: Mapping[str, Any] | Sequence[Mapping[str, Any]],
                  physics_steps_per_control_step: int = 1, strip_singleton_buffer_dim: bool = False,
@@ -108,13 +122,13 @@ class Updater:
         n = physics_steps_per_control_step
         if not isinstance(n, numbers.Integral) or isinstance(n, bool) or n < 1:
             raise SuiteError(f"physics_steps_per_control_step must be a positive integer, got {n!r}")
-        self._observables = observables
-        self._nested = nested
-        self._n = int(n)
-        self._strip = bool(strip_singleton_buffer_dim)
-        self._pad = bool(pad_with_initial_value)
-        self._step = 0
-        self._layout: list[tuple[type, list[tuple[str, Channel]]]] | None = None
+        self._observables: Any = observables
+        self._nested: bool = nested
+        self._n: int = int(n)
+        self._strip: bool = bool(strip_singleton_buffer_dim)
+        self._pad: bool = bool(pad_with_initial_value)
+        self._step: int = 0
+        self._layout: list[tuple[type, list[tuple[str, _Reader]]]] | None = None
 
     @property
     def physics_steps_per_control_step(self) -> int:
@@ -127,9 +141,9 @@ class Updater:
         dicts = list(self._observables) if self._nested else [self._observables]
         noisy = any(getattr(o, "noise", None) is not None for d in dicts for o in d.values() if o.enabled)
         entropy = _episode_entropy(random_state) if noisy else None
-        layout: list[tuple[type, list[tuple[str, Channel]]]] = []
+        layout: list[tuple[type, list[tuple[str, FixedChannel | RandomChannel]]]] = []
         for index, obs_dict in enumerate(dicts):
-            entries = []
+            entries: list[tuple[str, FixedChannel | RandomChannel]] = []
             for name, observable in obs_dict.items():
                 if observable.enabled:
                     label = f"{index}/{name}" if self._nested else str(name)
@@ -140,7 +154,7 @@ class Updater:
         positions = {id(m.channel): m for m in self._bank.members()} if self._bank else {}
         self._layout = [(kind, [(name, positions.get(id(ch), ch)) for name, ch in entries])
                         for kind, entries in layout]
-        self._reads = [(kind, [(name, m.position if id(ch) in positions else -1, m)
+        self._reads = [(kind, [(name, cast(BankMember, m).position if id(ch) in positions else -1, m)
                                for (name, ch), (_, m) in zip(entries, self._layout[i][1])])
                        for i, (kind, entries) in enumerate(layout)]
         self._step = 0
@@ -149,15 +163,15 @@ class Updater:
             if id(ch) not in positions:
                 ch.start(0)
             elif not synced and getattr(ch.sampler, "sync", None) is not None:
-                ch.sampler.sync()  # where dm_control's read would bring a dirty physics up to date
+                cast(Any, ch.sampler).sync()  # where dm_control's read would bring a dirty physics up to date
                 synced = True
         if self._bank:
             self._bank.start()
         self._build_plan()
-        kind, entries = self._reads[0]
+        first_kind, first_reads = self._reads[0]
         self._all_banked = (not self._nested and self._bank is not None
-                            and [pos for _, pos, _ in entries] == list(range(len(entries))))
-        self._dict_type, self._names = kind, [name for name, _, _ in entries]
+                            and [pos for _, pos, _ in first_reads] == list(range(len(first_reads))))
+        self._dict_type, self._names = first_kind, [name for name, _, _ in first_reads]
 
     def _make_bank(self, physics: Any) -> FeatureBank | None:
         members = [ch for ch in self._channels if qualifies(ch)]
@@ -177,7 +191,7 @@ class Updater:
         return bank
 
     def _channel(self, label: str, observable: Any, physics: Any, random_state: Any,
-                 entropy: list[int] | None) -> Channel:
+                 entropy: list[int] | None) -> FixedChannel | RandomChannel:
         try:
             sampler = observable.observation_callable(physics, random_state)
         except SuiteError as e:  # binding to the model (unknown element, camera, ...): say which observable
@@ -219,7 +233,7 @@ class Updater:
         syncing = [m.channel for m in self._bank.members() if getattr(m.channel.sampler, "sync", None)] \
             if self._bank else []
         if syncing:  # on a dirty dm_control physics, mj_forward before a step's derived reads (as its bind does)
-            rows, sync = self._bank.rows, syncing[0].sampler.sync
+            rows, sync = cast(FeatureBank, self._bank).rows, cast(Any, syncing[0].sampler).sync
             steps = sorted({t for ch in syncing for p in ch.needed_phases() for t in range(p, rows, ch.period())})
             tasks[:0] = [(rows, steps, -2, lambda step: sync())]
         self._random = [(order, ch) for order, ch in enumerate(self._channels) if isinstance(ch, RandomChannel)]
@@ -229,7 +243,7 @@ class Updater:
             self._slow = [(p, frozenset(phases), order, task) for p, phases, order, task in tasks]
             return
         self._slow = []
-        plan: list[list[tuple[int, Callable[[int], None]]]] = [[] for _ in range(period)]
+        plan: list[list[tuple[int, _Task]]] = [[] for _ in range(period)]
         for task_period, phases, order, task in tasks:
             for phase in phases:
                 for t in range(phase, period, task_period):
@@ -258,7 +272,7 @@ class Updater:
         for sample in tasks:
             sample(step)
 
-    def _merge_irregular(self, step: int, tasks: tuple[Callable[[int], None], ...]) -> Any:
+    def _merge_irregular(self, step: int, tasks: tuple[_Task, ...]) -> Any:
         """This step's tasks with the due random channels and off-plan tasks, in observable order."""
         extra = [(order, task) for period, phases, order, task in self._slow if step % period in phases]
         extra += [(order, ch.sample) for order, ch in self._random if ch.due(step)]
@@ -272,7 +286,7 @@ class Updater:
             raise RuntimeError("`reset` must be called before `get_observation`.")
         step = self._step
         if self._all_banked:  # the common case: one gather, then a dict in file order
-            return self._dict_type(zip(self._names, self._bank.read(step)))
+            return self._dict_type(zip(self._names, cast(FeatureBank, self._bank).read(step)))
         banked = self._bank.read(step) if self._bank else ()
         out = [kind((name, banked[pos] if pos >= 0 else ch.read(step)) for name, pos, ch in entries)
                for kind, entries in self._reads]
@@ -305,7 +319,7 @@ class Updater:
         return self._step
 
 
-def _spec(name: str, observable: Any, ch: Channel) -> specs.Array:
+def _spec(name: str, observable: Any, ch: _Reader) -> specs.Array:
     array_spec = observable.array_spec
     aggregator = observable.aggregator
     if aggregator is None and array_spec is not None:
