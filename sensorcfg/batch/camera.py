@@ -45,7 +45,7 @@ class BatchCameras:
         self.cameras = [_Camera(ch, obs.observation_callable(physics), nsim) for _, obs, ch in entries]
         self.batch: Any = None  # the persistent mujoco.batch.Batch to render from
 
-    def _frame(self, i: int, camera: _Camera) -> np.ndarray:
+    def _frame(self, i: int | np.integer, camera: _Camera) -> np.ndarray:
         self.batch.get_data(int(i), self.data)
         return camera.render()
 

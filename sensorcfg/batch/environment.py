@@ -50,7 +50,7 @@ from __future__ import annotations
 import os
 import warnings
 from collections.abc import Callable
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple, cast
 
 import dm_env
 import mujoco
@@ -61,6 +61,9 @@ from ..env.environment import (_BAD_STATE, ControlLoop, _suite_and_observables, 
 from ..errors import SuiteError
 from ..physics import Physics
 from .updater import BatchUpdater
+
+if TYPE_CHECKING:
+    from .camera import BatchCameras
 
 __all__ = ["BatchEnvironment", "BatchTimeStep", "sim_seed"]
 
@@ -302,8 +305,8 @@ class BatchEnvironment(ControlLoop):
                     messages.setdefault(int(i), f"MuJoCo raised: {self._batch.error(int(i))}")
             for slot, values in bound:
                 np.copyto(slot, values)
-            if last in stops:
-                cameras.sample(last, updater.t, active)
+            if last in stops:  # stops are cameras' substeps
+                cast("BatchCameras", cameras).sample(last, updater.t, active)
 
     def _bad_counts(self) -> np.ndarray:
         warning = self._batch.warning  # (nsim, mjNWARNING, (lastinfo, number))
@@ -315,8 +318,8 @@ class BatchEnvironment(ControlLoop):
         self._bad = bad
         diverged = active & (failed | warned)
         if diverged.any():
-            for i in np.flatnonzero(diverged):
-                i = int(i)
+            for at in np.flatnonzero(diverged):
+                i = int(at)
                 self.last_divergence[i] = messages.get(i) or (
                     "MuJoCo found a non-finite or huge qpos, qvel, qacc or ctrl")
             first = [int(i) for i in np.flatnonzero(diverged)[:5]]

@@ -16,12 +16,13 @@ suite reads, or with cameras one per run of substeps up to a substep at which a 
 from __future__ import annotations
 
 import math
-from typing import Any
+from collections.abc import Sequence
+from typing import Any, cast
 
 import numpy as np
 
-from ..runtime.bank import read_plan
-from ..runtime.channels import Channel, FixedChannel
+from ..runtime.bank import _reader, read_plan
+from ..runtime.channels import FixedChannel, RandomChannel
 
 __all__ = ["Layout"]
 
@@ -29,12 +30,12 @@ __all__ = ["Layout"]
 class Layout:
     """Columns, store and gather positions for `channels` (fixed-schedule ones first) of nsim simulations."""
 
-    def __init__(self, channels: list[Channel], nfixed: int, noisy: set[int], span: int,
-                 fields: dict[str, tuple[int, ...]], nsim: int, n: int, stops: set[int] = frozenset()):
+    def __init__(self, channels: Sequence[FixedChannel | RandomChannel], nfixed: int, noisy: set[int], span: int,
+                 fields: dict[str, tuple[int, ...]], nsim: int, n: int, stops: set[int] | frozenset[int] = frozenset()):
         """`span`: steps a sample of a random-schedule channel may wait to be read (0 without any);
         `stops`: substeps after which a rollout must return (cameras render there)."""
         self.channels, self.nfixed, self.nsim, self.n = channels, nfixed, nsim, n
-        self.fixed: list[FixedChannel] = channels[:nfixed]  # type: ignore[assignment]
+        self.fixed = cast("list[FixedChannel]", channels[:nfixed])
         self.cols = np.cumsum([0] + [math.prod(ch.shape) for ch in channels]).astype(np.intp)
         self.width = int(self.cols[-1])
         period = math.lcm(n, *(ch.interval for ch in self.fixed))
@@ -58,7 +59,7 @@ class Layout:
         self._tables: dict[int, Any] = {}
         self._uniform: dict[tuple[int, int], Any] = {}
 
-    def _segments(self, fields: dict[str, tuple[int, ...]], stops: set[int]) -> None:
+    def _segments(self, fields: dict[str, tuple[int, ...]], stops: set[int] | frozenset[int]) -> None:
         """Runs of substeps needing the same fields (at any phase), cut also after each stop."""
         n = self.n
         needed = np.zeros((n, self.width), bool)  # substep, column: read or kept at some phase
@@ -69,7 +70,7 @@ class Layout:
                 recent = self.from_record[q]
                 needed[self.substep[q][recent] - 1, self.col[recent]] = True
         owner = {f: np.concatenate([np.arange(self.cols[c], self.cols[c + 1]) for c, ch in enumerate(self.channels)
-                                    if ch.sampler.field == f]) for f in fields}
+                                    if _reader(ch).field == f]) for f in fields}
         per_step = [{f for f in fields if needed[k, owner[f]].any()} for k in range(n)]
         # One rollout per run of substeps between stops, recording the fields any of them needs: an extra
         # call costs more than recording every field at every substep (about 1 ms against 1 ms for the
@@ -116,7 +117,7 @@ class Layout:
                 self.record_offset[(s, f)] = r
                 view = self.flat[r:r + size].reshape(nsim, steps, *fields[f])
                 if f in self.bound[s]:  # only the span of values some channel reads is copied
-                    read = np.concatenate([ch.sampler.index.ravel() for ch in self.channels if ch.sampler.field == f])
+                    read = np.concatenate([_reader(ch).index.ravel() for ch in self.channels if _reader(ch).field == f])
                     span = slice(int(read.min()), int(read.max()) + 1)
                     bound[f] = (view.reshape(nsim, -1)[:, span], span)
                 else:
@@ -138,9 +139,9 @@ class Layout:
         self.record_stride = np.zeros((n, self.width), np.intp)
         reset = []
         for c, ch in enumerate(self.channels):
-            field = ch.sampler.field
+            field = _reader(ch).field
             size = self.sizes[field]
-            within = ch.sampler.index.ravel().astype(np.intp)
+            within = _reader(ch).index.ravel().astype(np.intp)
             cols = slice(self.cols[c], self.cols[c + 1])
             for s, (a, b, fs) in enumerate(self.segments):
                 if field in fs:
@@ -151,10 +152,10 @@ class Layout:
             reset.append(self.reset_offset[field] + np.arange(nsim)[:, None] * size + within[None, :])
         self.reset_index = np.concatenate(reset, axis=1) if reset else np.zeros((nsim, 0), np.intp)
         if self.fixed:  # where a read finds its recent samples (the reset read row: never used)
-            k = self.substep - 1
-            self.record_read = np.vstack([self.record_base[k, self.col[None, :]],
+            sub = self.substep - 1
+            self.record_read = np.vstack([self.record_base[sub, self.col[None, :]],
                                           np.zeros((1, self.col.size), np.intp)])
-            self.record_read_stride = np.vstack([self.record_stride[k, self.col[None, :]],
+            self.record_read_stride = np.vstack([self.record_stride[sub, self.col[None, :]],
                                                  np.zeros((1, self.col.size), np.intp)])
 
     def _read_plans(self, noisy: set[int]) -> None:
@@ -278,7 +279,7 @@ class Layout:
                 [base[:, q, None, :] + sims[None, :, None] * stride[:, q, None, :] for base, stride in groups])
         return reads
 
-    def _read_table(self, gp: int) -> tuple[tuple[np.ndarray, np.ndarray], list[tuple[np.ndarray, np.ndarray]]]:
+    def _read_table(self, gp: int) -> tuple[tuple[np.ndarray, np.ndarray], list[tuple[np.ndarray, ...]]]:
         """Simulation i's read positions at global step gp and phase q are `base[q] + i * stride[q]`
         (plain: (phase, width); groups: (buffer, phase, width)). Kept per gp: resets do not change it."""
         table = self._tables.get(gp)

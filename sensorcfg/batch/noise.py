@@ -16,7 +16,7 @@ from __future__ import annotations
 import copy
 import math
 from collections.abc import Callable
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -54,7 +54,7 @@ def _chunkable(stage: rt.Stage) -> bool:
     """Whether drawing `ctx.block` samples in smaller chunks gives the same numbers: a draw of one array per
     block from one stream is sequential; an outlier draws two arrays per block (hits, then jumps)."""
     if isinstance(stage, getattr(rt, "Sum", ())):
-        return all(_chunkable(part) or isinstance(part, rt.EpisodeDraw) for part in stage.parts)
+        return all(_chunkable(part) or isinstance(part, rt.EpisodeDraw) for part in cast(rt.Sum, stage).parts)
     return isinstance(stage, (rt.Gaussian, rt.Uniform, rt.RandomWalk, rt.Dropout))
 
 
@@ -78,7 +78,7 @@ class _Blocks(_Batched):
     memory stays bounded across thousands of simulations; the numbers are the same.
     """
 
-    def __init__(self, template: rt.Stage, nsim: int):
+    def __init__(self, template: rt._PerSample, nsim: int):
         super().__init__(template, nsim)
         block = template.ctx.block
         if _chunkable(template):
@@ -231,7 +231,7 @@ class _Dropout(_Blocks):
         if not self.per_value:
             lost = lost.reshape(lost.shape + (1,) * (dst.ndim - 1))
         held = self.held[sims] if self.held is not None else None
-        np.copyto(dst, held if held is not None else self.fill, where=lost)
+        np.copyto(dst, held if held is not None else cast(float, self.fill), where=lost)  # a fill without hold
         if self.held is not None:
             self.held[sims] = dst
 

@@ -21,14 +21,14 @@ from __future__ import annotations
 import math
 import numbers
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from dm_env import specs
 
 from ..draws import ChoiceSteps, UniformSteps
 from ..errors import SuiteError
-from ..runtime.bank import _REDUCERS
+from ..runtime.bank import _REDUCERS, _reader
 from ..runtime.channels import Channel, FixedChannel, RandomChannel
 from ..runtime.updater import DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, Updater, _drawer, _episode_entropy, sensor_rng
 from .layout import Layout
@@ -74,9 +74,11 @@ class BatchUpdater:
         template.reset(physics, np.random.RandomState(0))
         self._spec = template.observation_spec()
         enabled = [(name, obs) for name, obs in observables.items() if obs.enabled]
-        channels: list[Channel] = list(template._channels)
+        channels = list(template._channels)
+        ch: FixedChannel | RandomChannel
         self.names = [name for name, _ in enabled]
-        cameras = [(name, obs, ch) for (name, obs), ch in zip(enabled, channels) if hasattr(obs, "camera_id")]
+        cameras = cast("list[tuple[str, Any, FixedChannel]]",  # a drawn schedule fails `_check_camera`
+                       [(name, obs, ch) for (name, obs), ch in zip(enabled, channels) if hasattr(obs, "camera_id")])
         features = [(name, obs, ch) for (name, obs), ch in zip(enabled, channels) if not hasattr(obs, "camera_id")]
         for name, obs, ch in cameras:
             self._check_camera(name, obs, ch)
@@ -86,12 +88,13 @@ class BatchUpdater:
         fixed = [(name, obs, ch) for name, obs, ch in features if isinstance(ch, FixedChannel)]
         drawn = [(name, obs, ch) for name, obs, ch in features if isinstance(ch, RandomChannel)]
         ordered = fixed + drawn  # history columns: fixed channels first (the read plan's), then random ones
-        fields = {}
+        fields: dict[str, tuple[int, ...]] = {}
         for _, _, ch in ordered:
-            fields.setdefault(ch.sampler.field, tuple(getattr(data, ch.sampler.field).shape))
+            fields.setdefault(_reader(ch).field, tuple(getattr(data, _reader(ch).field).shape))
         self.fixed = [ch for _, _, ch in fixed]
         self.nfixed = len(fixed)
-        self.output_index = {name: i for i, (name, _, _) in enumerate(ordered + cameras)}
+        outputs = ordered + cameras  # (mypy cannot infer this sum in enumerate's context)
+        self.output_index = {name: i for i, (name, _, _) in enumerate(outputs)}
         self.cameras = None  # rendered per simulation (batch.camera); the caller sets `cameras.batch`
         if cameras:
             from .camera import BatchCameras
@@ -271,7 +274,7 @@ class BatchUpdater:
             for c in range(self.nfixed):
                 if c not in self.noise:
                     continue
-                ch = self.channels[c]
+                ch = cast(FixedChannel, self.channels[c])  # the first nfixed are
                 period = ch.period()
                 needed = np.zeros(period, bool)
                 needed[ch.needed_phases()] = True
@@ -310,7 +313,7 @@ class BatchUpdater:
             ch = self.channels[c]
             values = self.flat.take(self.layout.drawn(c, codes, self.t, self.G))  # (nsim, buffer, width)
             if ch.aggregator is not None:
-                reduced = _REDUCERS[ch.aggregator.name](np.ascontiguousarray(values.transpose(1, 0, 2)))
+                reduced = _REDUCERS[cast(Any, ch.aggregator).name](np.ascontiguousarray(values.transpose(1, 0, 2)))
                 out[c] = reduced.reshape(self.nsim, *ch.shape)
             elif ch.has_buffer_dim:
                 out[c] = values.reshape(self.nsim, ch.buffer_size, *ch.shape)

@@ -287,8 +287,8 @@ class SuiteConfig(BaseModel):
     extends: str | None = Field(
         None, description="Another suite (relative to this file) to start from; this file overrides it key by "
         "key, and `null` removes an inherited key.", examples=["base.yaml"])
-    options: OptionsConfig = Field(default_factory=OptionsConfig, description="Updater settings.",  # type: ignore[arg-type]
-                                   examples=[{"strip_singleton_buffer_dim": True}])
+    options: OptionsConfig = Field(default_factory=OptionsConfig,  # type: ignore[arg-type]
+                                   description="Updater settings.", examples=[{"strip_singleton_buffer_dim": True}])
     defaults: DefaultsConfig = Field(default_factory=DefaultsConfig,  # type: ignore[arg-type]
                                      description="Applied to every sensor that does not say otherwise.",
                                      examples=[{"buffer": 1, "interval": "4ms"}])

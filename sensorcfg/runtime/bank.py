@@ -18,7 +18,7 @@ from typing import Any, Protocol, TypeGuard, cast
 import numpy as np
 
 from .bank_noise import BankNoise, Program, program
-from .channels import FixedChannel
+from .channels import Channel, FixedChannel
 
 __all__ = ["FeatureBank", "BankMember", "buffer_view", "read_plan"]
 
@@ -82,8 +82,8 @@ class _FieldReader(Protocol):
     def __call__(self) -> Any: ...
 
 
-def _reader(ch: FixedChannel) -> _FieldReader:
-    return cast(_FieldReader, ch.sampler)  # `qualifies` checked it is one
+def _reader(ch: Channel) -> _FieldReader:
+    return cast(_FieldReader, ch.sampler)  # `qualifies` (or the batch's check) made sure it is one
 
 
 class BankMember:
