@@ -41,7 +41,7 @@ def space_from_spec(spec: specs.Array) -> spaces.Box:
 class GymEnv(gymnasium.Env):
     """A Gymnasium view of a sensorcfg `Environment`."""
 
-    metadata = {"render_modes": []}
+    metadata: dict[str, Any] = {"render_modes": []}
 
     def __init__(self, env: Environment):
         self.env = env
