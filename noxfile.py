@@ -4,6 +4,7 @@
   build a dm_control Physics, so parity tests skip in this session only).
 - `oracle-mujoco3`: MuJoCo 3.17.0 with dm_control 1.0.50 as the parity oracle; a skipped parity test is a
   failure here (SENSORCFG_REQUIRE_ORACLE=1).
+- `typecheck`: mypy (pinned) over the package; any error fails the session.
 
 pytest's exit code 5 ("no tests collected") fails the session like any other non-zero code.
 """
@@ -12,7 +13,7 @@ import os
 
 import nox
 
-nox.options.sessions = ["tests-mujoco4", "oracle-mujoco3"]
+nox.options.sessions = ["tests-mujoco4", "oracle-mujoco3", "typecheck"]
 nox.options.reuse_existing_virtualenvs = True
 nox.options.error_on_missing_interpreters = True
 
@@ -36,3 +37,9 @@ def oracle_mujoco3(session: nox.Session) -> None:
     session.install("-e", ".[test,gym,plot]", "mujoco==3.17.0", "dm-control==1.0.50")
     session.run("python", "-c", "import mujoco, dm_control; print('mujoco', mujoco.__version__)")
     _pytest(session, SENSORCFG_REQUIRE_ORACLE="1")
+
+
+@nox.session(name="typecheck")
+def typecheck(session: nox.Session) -> None:
+    session.install("-e", ".[test]", "mypy==2.4.1")
+    session.run("mypy", "sensorcfg", "--ignore-missing-imports")
