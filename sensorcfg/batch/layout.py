@@ -240,18 +240,19 @@ class Layout:
             if (phases == phases[0]).all():  # every simulation at one phase (as after a full reset)
                 cached = self._uniform_reads(gp, int(phases[0]))
             else:
-                (plain_base, plain_stride), groups = self._read_table(gp)
-                sims = np.arange(self.nsim)
-                cached = self._fused(plain_base[phases] + sims[:, None] * plain_stride[phases],
-                                     [base[:, phases, :] + sims[None, :, None] * stride[:, phases, :]
-                                      for base, stride in groups])
+                cached = self._positions(gp, phases)
             if not fresh:
                 self._cache[("read", gp)] = cached
         return cached
 
-    @staticmethod
-    def _fused(plain: np.ndarray, groups: list[np.ndarray]) -> np.ndarray:
-        return np.concatenate([plain.ravel(), *(g.ravel() for g in groups)])
+    def _positions(self, gp: int, phases: np.ndarray | slice) -> np.ndarray:
+        """Every read position at global step gp, raveled for one `take`: each simulation's phase from
+        `phases` (one per simulation), or the one phase `slice(q, q + 1)` of them all."""
+        (plain_base, plain_stride), groups = self._read_table(gp)
+        sims = np.arange(self.nsim)
+        plain = plain_base[phases] + sims[:, None] * plain_stride[phases]
+        windows = [base[:, phases, :] + sims[None, :, None] * stride[:, phases, :] for base, stride in groups]
+        return np.concatenate([plain.ravel(), *(w.ravel() for w in windows)])
 
     def read_parts(self, values: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
         """Views of one `take` over `gathers`: plain (nsim, width), and per group (buffer, nsim, width)."""
@@ -272,11 +273,7 @@ class Layout:
         if reads is None:
             if len(self._uniform) >= 2 * (self.nphase + 1):
                 self._uniform.clear()
-            (plain_base, plain_stride), groups = self._read_table(gp)
-            sims = np.arange(self.nsim)
-            reads = self._uniform[key] = self._fused(
-                plain_base[q] + sims[:, None] * plain_stride[q],
-                [base[:, q, None, :] + sims[None, :, None] * stride[:, q, None, :] for base, stride in groups])
+            reads = self._uniform[key] = self._positions(gp, slice(q, q + 1))
         return reads
 
     def _read_table(self, gp: int) -> tuple[tuple[np.ndarray, np.ndarray], list[tuple[np.ndarray, ...]]]:
