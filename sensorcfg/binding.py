@@ -174,18 +174,25 @@ class _Binder:
         if not self.selection(name, cfg):
             return None
         index = _index(cfg.index)
-        for part, chosen in (("element", None), ("index", index)):  # whose problem a failure is
-            if part == "index" and index is None:
-                break
-            try:
-                _, _, flat, dtype = feature_index(self.model, cfg.kind, cast("str | tuple[str, ...]", cfg.element),
-                                                   cfg.within, chosen)
-            except SuiteError as e:
-                self.report_all(("sensors", name, part), e)
-                return None
+        selectors = cast("str | tuple[str, ...]", cfg.element)
+        try:
+            _, _, flat, dtype = feature_index(self.model, cfg.kind, selectors, cfg.within, index)
+        except SuiteError as e:
+            self.report_all(("sensors", name, self._culprit(cfg.kind, selectors, cfg.within, index)), e)
+            return None
         element = cfg.element if isinstance(cfg.element, str) else list(cast("tuple[str, ...]", cfg.element))
         feature = Feature(cfg.kind, element, index=index, within=cfg.within, **timing)
         return feature, flat.shape, dtype
+
+    def _culprit(self, kind: str, selectors: str | tuple[str, ...], within: str | None, index: Any) -> str:
+        """Which key a failed feature read is reported on: `index`, unless the elements fail without it."""
+        if index is None:
+            return "element"
+        try:
+            feature_index(self.model, kind, selectors, within)
+        except SuiteError:
+            return "element"
+        return "index"
 
     def camera(self, name: str, cfg: SensorConfig, timing: dict[str, Any]) -> tuple[Observable, Any, Any] | None:
         here = ("sensors", name)
