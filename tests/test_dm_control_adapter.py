@@ -1,4 +1,4 @@
-"""Suites inside dm_control: dm_control's own Updater runs the bridged observables (oracle environment)."""
+"""Suites inside dm_control: dm_control's own Updater runs the adapted observables (oracle environment)."""
 
 from __future__ import annotations
 

@@ -7,7 +7,7 @@ episode's age), then one reduction per (aggregator, buffer) group.
 
 Noise runs at each sample's own step on the simulations that sample then, in place in the history
 (`batch.noise`); random intervals and delays are planned per simulation by the single-simulation
-channel itself (`batch.timeline`). Scheduling, buffers and noise are the single-simulation Updater's to
+channel itself (`batch.random_schedules`). Scheduling, buffers and noise are the single-simulation Updater's to
 the bit: the per-simulation state is its episode's age (`t`), random state, noise and random plans.
 
 Differences from the Updater: every observable must be a float64 mjData feature without a corruptor, or
@@ -33,7 +33,7 @@ from ..runtime.channels import Channel, FixedChannel, RandomChannel
 from ..runtime.updater import DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, Updater, _drawer, _episode_entropy, sensor_rng
 from .layout import Layout
 from .noise import BatchPipeline
-from .timeline import Timelines
+from .random_schedules import Timelines
 
 __all__ = ["BatchUpdater"]
 

@@ -2,7 +2,7 @@
 
 sensorcfg observables already take a dm_control Physics (they read `.model.ptr` / `.data.ptr`). What
 dm_control's Updater does not know about is a sensor's noise pipeline, which our Updater applies and seeds
-per sensor. The bridge folds that pipeline into the observation callable: on each episode (dm_control binds
+per sensor. The adapter folds that pipeline into the observation callable: on each episode (dm_control binds
 observables at every reset) the pipeline is reseeded from dm_control's random state and the sensor's name,
 and each sample is corrupted with the simulated time read from the physics.
 """

@@ -22,7 +22,7 @@ from dm_env import specs
 from ..draws import ChoiceSteps, UniformSteps
 from ..errors import SuiteError
 from ..observables.aggregators import AGGREGATORS, preserves_bounds
-from .handle import structs_of as raw_structs
+from .mujoco_structs import structs_of as raw_structs
 from .bank import BankMember, FeatureBank, qualifies
 from .channels import FixedChannel, RandomChannel
 
