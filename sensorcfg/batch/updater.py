@@ -26,11 +26,12 @@ from typing import Any, cast
 import numpy as np
 from dm_env import specs
 
-from ..draws import ChoiceSteps, UniformSteps
+from ..draws import (DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, ChoiceSteps, UniformSteps, as_draw, drawer,
+                     episode_entropy, sensor_rng)
 from ..errors import SuiteError
 from ..runtime.bank import _REDUCERS, _reader
 from ..runtime.channels import Channel, FixedChannel, RandomChannel
-from ..runtime.updater import DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, Updater, _drawer, _episode_entropy, sensor_rng
+from ..runtime.updater import Updater
 from .layout import Layout
 from .noise import BatchPipeline
 from .random_schedules import Timelines
@@ -164,10 +165,9 @@ class BatchUpdater:
 
     def _drawers(self, label: str, obs: Any) -> Any:
         def make(random_state: Any) -> tuple[Any, Any]:
-            interval = _drawer(label, "update_interval", obs.update_interval, DEFAULT_UPDATE_INTERVAL, random_state)
-            delay = _drawer(label, "delay", obs.delay, DEFAULT_DELAY, random_state)
-            as_fn = lambda v: v if callable(v) else (lambda: v)  # noqa: E731
-            return as_fn(interval), as_fn(delay)
+            interval = drawer(label, "update_interval", obs.update_interval, DEFAULT_UPDATE_INTERVAL, random_state)
+            delay = drawer(label, "delay", obs.delay, DEFAULT_DELAY, random_state)
+            return as_draw(interval), as_draw(delay)
         return make
 
     # -- episodes ---------------------------------------------------------------------------------
@@ -186,7 +186,7 @@ class BatchUpdater:
             rs = random_states[i]
             if self.started[i]:
                 self.timelines.finish(i, int(self.control_steps[i]))
-            entropy = _episode_entropy(rs) if self.noisy else None
+            entropy = episode_entropy(rs) if self.noisy else None
             for c, pipeline in self.noise.items():
                 pipeline.reset(i, sensor_rng(entropy or [], self.labels[c]))
             if self.timelines.specs:
