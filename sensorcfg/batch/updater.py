@@ -29,7 +29,8 @@ from dm_env import specs
 from ..draws import (DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, ChoiceSteps, UniformSteps, as_draw, drawer,
                      episode_entropy, sensor_rng)
 from ..errors import SuiteError
-from ..runtime.bank import _REDUCERS, _reader
+from ..observables.aggregators import AGGREGATORS, builtin
+from ..runtime.bank import _reader
 from ..runtime.channels import Channel, FixedChannel, RandomChannel
 from ..runtime.updater import Updater
 from .layout import Layout
@@ -150,9 +151,9 @@ class BatchUpdater:
             raise SuiteError(f"sensor {name!r}: {ch.dtype} features cannot be vectorised (float64 only)")
         aggregator = ch.aggregator
         if aggregator is not None and not (ch.builtin_aggregator and ch.has_buffer_dim
-                                           and getattr(aggregator, "name", None) in _REDUCERS):
+                                           and builtin(aggregator) is not None):
             raise SuiteError(f"sensor {name!r}: its aggregator cannot be vectorised across simulations: use one of "
-                             f"{', '.join(_REDUCERS)} on a buffer (a custom callable would run per simulation)")
+                             f"{', '.join(AGGREGATORS)} on a buffer (a custom callable would run per simulation)")
 
     @staticmethod
     def _check_camera(name: str, obs: Any, ch: Channel) -> None:
@@ -313,7 +314,7 @@ class BatchUpdater:
             ch = self.channels[c]
             values = self.flat.take(self.layout.drawn(c, codes, self.t, self.G))  # (nsim, buffer, width)
             if ch.aggregator is not None:
-                reduced = _REDUCERS[cast(Any, ch.aggregator).name](np.ascontiguousarray(values.transpose(1, 0, 2)))
+                reduced = AGGREGATORS[cast(Any, ch.aggregator).name].reduce(np.ascontiguousarray(values.transpose(1, 0, 2)))
                 out[c] = reduced.reshape(self.nsim, *ch.shape)
             elif ch.has_buffer_dim:
                 out[c] = values.reshape(self.nsim, ch.buffer_size, *ch.shape)

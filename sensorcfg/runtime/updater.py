@@ -19,7 +19,7 @@ from dm_env import specs
 from ..draws import (DEFAULT_BUFFER_SIZE, DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, as_draw, drawer, episode_entropy,
                      sensor_rng)
 from ..errors import SuiteError
-from ..observables.aggregators import AGGREGATORS, preserves_bounds
+from ..observables.aggregators import builtin, preserves_bounds
 from .mujoco_structs import structs_of as raw_structs
 from .bank import BankMember, FeatureBank, qualifies
 from .channels import FixedChannel, RandomChannel
@@ -148,7 +148,7 @@ class Updater:
         read_into = getattr(sampler, "read_into", None)
         aggregator = observable.aggregator
         args = (label, sampler, read_into, shape, dtype, int(buffer_size), self._strip, self._pad, self._n,
-                aggregator, any(aggregator is a for a in AGGREGATORS.values()), noise)
+                aggregator, builtin(aggregator) is not None, noise)
         if callable(interval) or callable(delay):
             return RandomChannel(*args, interval=as_draw(interval), delay=as_draw(delay))
         return FixedChannel(*args, interval=interval, delay=delay)
