@@ -1,11 +1,12 @@
-"""Noise pipelines across simulations: one stream per (simulation, sensor), vectorised per sample.
+"""Noise pipelines across simulations: one counter-based stream per (simulation, sensor), vectorised.
 
 A sensor's single-simulation `NoisePipeline` stays the authority on randomness: at simulation i's reset it
-is reset with that simulation's sensor stream (so every per-episode draw and every stage generator is
-exactly the single simulation's), and a copy of each stage is kept for simulation i. On the per-step path
-a batched stage applies to the simulations that sample at this step, all at once: per-sample random
-numbers come from per-simulation blocks drawn by simulation i's own stage copy (the single-simulation
-`draw`, `ctx.block` samples at a time), so only a refill, once per block, loops over simulations.
+is reset with that simulation's sensor stream, and what the reset decided (the episode key of the
+counter-based numbers, bias and gain draws, a random walk's start) is kept for simulation i. On the
+per-step path a batched stage applies to the simulations that sample at this step, all at once, with the
+stages' own array arithmetic (`noise.stages`). Per-sample numbers come from the stage's own `numbers`
+(block j // B of sample j, keyed by simulation i's episode key), so sample j of simulation i gets exactly
+the numbers the single simulation gives it; only a block refill, once per block, loops over simulations.
 Stateful stages (random walk, low-pass, dropout with hold) keep their state as (nsim, ...) arrays.
 
 A stage type without a batched form here (a custom callable) makes `BatchPipeline` raise before stepping.
@@ -13,7 +14,6 @@ A stage type without a batched form here (a custom callable) makes `BatchPipelin
 
 from __future__ import annotations
 
-import copy
 import math
 from collections.abc import Callable
 from typing import Any, cast
@@ -25,16 +25,19 @@ from ..noise import stages as rt
 
 __all__ = ["BatchPipeline", "BATCHED"]
 
+_BLOCK_BYTES = 8 << 20  # stored per-sample numbers per stage, across simulations, at most (when chunkable)
+
 
 class _Batched:
-    """One stage across simulations; `template` is the sensor's own stage (stateless parts are shared)."""
+    """One stage across simulations; `template` is the sensor's own stage (its parameters are shared)."""
 
-    def __init__(self, template: rt.Stage, nsim: int):
+    def __init__(self, template: Any, nsim: int, stride: int):
         self.template = template
         self.nsim = nsim
+        self.stride = stride
 
-    def load(self, i: int, stage: rt.Stage) -> None:
-        """Take simulation i's episode start from `stage`, the template just reset with i's generators."""
+    def load(self, i: int, stage: Any) -> None:
+        """Take simulation i's episode start from `stage`, the template just reset with i's stream."""
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
         raise NotImplementedError
@@ -47,91 +50,142 @@ class _Stateless(_Batched):
         self.template(src, dst, 0)
 
 
-_BLOCK_BYTES = 8 << 20  # pre-drawn random numbers per stage, across simulations, at most (when chunkable)
-
-
-def _chunkable(stage: rt.Stage) -> bool:
-    """Whether drawing `ctx.block` samples in smaller chunks gives the same numbers: a draw of one array per
-    block from one stream is sequential; an outlier draws two arrays per block (hits, then jumps)."""
-    if isinstance(stage, getattr(rt, "Sum", ())):
-        return all(_chunkable(part) or isinstance(part, rt.EpisodeDraw) for part in cast(rt.Sum, stage).parts)
+def _chunkable(stage: Any) -> bool:
+    """Whether the first samples of a block can be drawn alone (the same numbers: draws fill one array in
+    order); an outlier draws two arrays per block (hits, then jumps)."""
+    if isinstance(stage, rt.Sum):
+        return all(_chunkable(part) or isinstance(part, rt.EpisodeDraw) for part in stage.parts)
     return isinstance(stage, (rt.Gaussian, rt.Uniform, rt.RandomWalk, rt.Dropout))
 
 
-def _fork(stage: Any) -> Any:
-    """A copy of a just-reset stage that keeps drawing what it would: it shares the parameters and the
-    generators (a reset binds new ones to the template), and owns what a reset writes in place."""
-    clone = copy.copy(stage)
-    parts = getattr(stage, "parts", None)
-    if parts is not None:
-        clone.parts = [_fork(part) for part in parts]
-    value = getattr(stage, "value", None)
-    if isinstance(value, np.ndarray):
-        clone.value = value.copy()
-    return clone
-
-
 class _Blocks(_Batched):
-    """Per-sample random numbers: each simulation's own block, refilled by its own copy of the stage.
+    """Per-sample numbers of each simulation, stored a part of a block at a time.
 
-    Where the stream allows (`_chunkable`), blocks are shorter than the single simulation's so that their
-    memory stays bounded across thousands of simulations; the numbers are the same.
+    Sample j lives in block j // B; the store holds, per simulation, one `part` of `sub` samples of its
+    current block (sub = B unless that would exceed `_BLOCK_BYTES` across simulations and the stage can
+    draw the first samples of a block alone; then a part is drawn as the block's prefix up to its end).
     """
 
-    def __init__(self, template: rt._PerSample, nsim: int):
-        super().__init__(template, nsim)
-        block = template.ctx.block
+    def __init__(self, template: Any, nsim: int, stride: int):
+        super().__init__(template, nsim, stride)
+        self.block = block = template.ctx.block
+        sub = block
         if _chunkable(template):
             per_sample = 8 * max(1, math.prod(template.ctx.shape)) * nsim
-            block = max(1, min(block, _BLOCK_BYTES // per_sample))
-        self.block = block
-        self.copies: list[Any] = [None] * nsim
-        self.k = np.full(nsim, self.block, np.intp)  # next row of each block; `block` means empty
-        self.rows: np.ndarray | None = None
+            while sub > 1 and sub * per_sample > _BLOCK_BYTES:
+                sub //= 2
+        self.sub = sub
+        self.keys = np.zeros((nsim, 2), np.uint64)
+        self.part = np.full(nsim, -1, np.int64)  # the part (block * parts + q) each simulation holds
+        self.rows: np.ndarray | None = None  # (nsim, sub, *shape)
 
-    def load(self, i: int, stage: rt.Stage) -> None:
-        self.copies[i] = _fork(stage)  # its generator(s), positioned at the episode's start
-        self.k[i] = self.block
+    def load(self, i: int, stage: Any) -> None:
+        self.keys[i] = stage.streams.key
+        self.part[i] = -1
 
-    def take(self, sims: np.ndarray) -> np.ndarray:
-        """This sample's random numbers for `sims`, (m, ...) (refilling the blocks that ran out)."""
-        k = self.k[sims]
-        empty = k == self.block
-        if empty.any():
-            for i in sims[empty]:  # once per `block` samples of a simulation
-                stage = self.copies[i]
-                drawn = np.asarray(stage.draw(getattr(stage, "rng", None), self.block))
-                if self.rows is None:
-                    self.rows = np.zeros((self.nsim, *drawn.shape), drawn.dtype)
-                self.rows[i] = drawn
-            k[empty] = 0
-        rows = self.rows
-        if sims.size == self.nsim and (k == k[0]).all():  # every simulation (sims is sorted), in step: a view
-            self.k[:] = k[0] + 1
-            return rows[:, k[0]]  # type: ignore[index]
-        self.k[sims] = k + 1
-        return rows[sims, k]  # type: ignore[index]
+    def draw(self, sims: np.ndarray, parts: np.ndarray) -> np.ndarray:
+        """The rows of part `parts[m]` of simulation `sims[m]`, (m, sub, *shape)."""
+        per_block = self.block // self.sub
+        out = []
+        for i, part in zip(sims.tolist(), parts.tolist()):
+            block, q = divmod(part, per_block)
+            drawn = self.numbers(i, block, (q + 1) * self.sub)
+            out.append(drawn[q * self.sub:])
+        return np.stack(out)
+
+    def numbers(self, i: int, block: int, count: int) -> np.ndarray:
+        return cast(np.ndarray, self.template.numbers(block, self.keys[i], count))
+
+    def take(self, sims: np.ndarray, steps: np.ndarray) -> np.ndarray:
+        """This sample's rows for `sims` at their `steps`, (m, ...) (refilling the parts that ran out)."""
+        part, j = np.divmod(steps // self.stride, self.sub)
+        stale = part != self.part[sims]
+        if stale.any():
+            fresh = self.draw(sims[stale], part[stale])
+            if self.rows is None:
+                self.rows = np.zeros((self.nsim, *fresh.shape[1:]), fresh.dtype)
+            self.rows[sims[stale]] = fresh
+            self.part[sims[stale]] = part[stale]
+        rows = cast(np.ndarray, self.rows)
+        if sims.size == self.nsim and (j == j[0]).all():  # every simulation (sims is sorted), in step: a view
+            return rows[:, j[0]]
+        return rows[sims, j]
 
 
 class _Additive(_Blocks):
     """White noise, outliers, and the fused sum of additive stages: one addition per sample."""
 
+    def __init__(self, template: Any, nsim: int, stride: int):
+        super().__init__(template, nsim, stride)
+        self.values: list[np.ndarray] = []  # per bias part of a sum: each simulation's draw
+        if isinstance(template, rt.Sum):
+            self.values = [np.zeros((nsim, *p.value.shape), p.value.dtype)
+                           for p in template.parts if isinstance(p, rt.EpisodeDraw)]
+
+    def load(self, i: int, stage: Any) -> None:
+        super().load(i, stage)
+        if self.values:
+            drawn = [p.value for p in stage.parts if isinstance(p, rt.EpisodeDraw)]
+            for values, value in zip(self.values, drawn):
+                values[i] = value
+
+    def numbers(self, i: int, block: int, count: int) -> np.ndarray:
+        if self.values:
+            return cast(np.ndarray, self.template.numbers(block, self.keys[i], count, [v[i] for v in self.values]))
+        return super().numbers(i, block, count)
+
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
-        np.add(src, self.take(sims), out=dst)
+        rt.add(src, self.take(sims, steps), dst)
+
+
+class _RandomWalk(_Additive):
+    """The walk's states over every index, one part at a time per simulation (walked together)."""
+
+    def __init__(self, template: rt.RandomWalk, nsim: int, stride: int):
+        super().__init__(template, nsim, stride)
+        self.carry = np.zeros((nsim, *template.carry.shape), template.carry.dtype)
+
+    def load(self, i: int, stage: Any) -> None:
+        super().load(i, stage)
+        self.carry[i] = stage.start
+
+    def draw(self, sims: np.ndarray, parts: np.ndarray) -> np.ndarray:
+        """Walk each simulation from its held part to `parts` (every part in between, in order)."""
+        a, c = self.template.coef(self.stride)
+        held = self.part[sims]
+        if (parts < held).any():
+            raise ValueError("a batched random walk was asked for an earlier sample")
+        out = np.empty((sims.size, self.sub, *self.template.ctx.shape), self.template.ctx.work)
+        at = held + 1
+        while True:
+            moving = np.flatnonzero(at <= parts)
+            if not moving.size:
+                return out
+            z = super().draw(sims[moving], at[moving])  # (m, sub, ...)
+            carry = self.carry[sims[moving]]
+            for first in (True, False):  # the episode's first part starts at the drawn start itself
+                rows = np.flatnonzero((at[moving] == 0) == first)
+                if rows.size:
+                    c_rows = carry[rows]
+                    states = rt.walk(c_rows, np.moveaxis(z[rows], 1, 0), a, c, first)
+                    carry[rows] = c_rows
+                    out[moving[rows]] = np.moveaxis(states, 0, 1)
+            self.carry[sims[moving]] = carry
+            at[moving] += 1
 
 
 class _Episode(_Batched):
     """Bias or scale: each simulation's per-episode draw."""
 
-    def __init__(self, template: rt.EpisodeDraw, nsim: int):
-        super().__init__(template, nsim)
+    def __init__(self, template: rt.EpisodeDraw, nsim: int, stride: int):
+        super().__init__(template, nsim, stride)
         self.values = np.zeros((nsim, *template.value.shape), template.value.dtype)
 
-    def load(self, i: int, stage: rt.Stage) -> None:
-        self.values[i] = stage.value  # type: ignore[attr-defined]
+    def load(self, i: int, stage: Any) -> None:
+        self.values[i] = stage.value
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
-        self.template.op(src, self.values[sims], out=dst)  # type: ignore[attr-defined]
+        (rt.add if self.template.op is np.add else rt.multiply)(src, self.values[sims], dst)
 
 
 def _by_gap(gaps: np.ndarray) -> list[tuple[int, np.ndarray]]:
@@ -141,49 +195,17 @@ def _by_gap(gaps: np.ndarray) -> list[tuple[int, np.ndarray]]:
     return [(int(g), np.flatnonzero(gaps == g)) for g in np.unique(gaps)]
 
 
-class _RandomWalk(_Blocks):
-    def __init__(self, template: rt.RandomWalk, nsim: int):
-        super().__init__(template, nsim)
-        self.state = np.zeros((nsim, *template.state.shape), template.state.dtype)
-        self.last = np.zeros(nsim, np.int64)
-
-    def load(self, i: int, stage: rt.Stage) -> None:
-        super().load(i, stage)
-        self.state[i] = stage.state  # type: ignore[attr-defined]
-        self.last[i] = stage.last  # type: ignore[attr-defined]
-
-    def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
-        gaps = steps - self.last[sims]
-        moving = np.flatnonzero(gaps)
-        if moving.size:
-            ms = sims[moving]
-            z = self.take(ms)
-            state = self.state[ms]
-            for gap, at in _by_gap(gaps[moving]):
-                a, c = self.template.coef(gap)  # type: ignore[attr-defined]
-                zz = z[at]
-                np.multiply(zz, c, out=zz)
-                st = state[at]
-                if a is not None:
-                    np.multiply(st, a, out=st)
-                np.add(st, zz, out=st)
-                state[at] = st
-            self.state[ms] = state
-            self.last[ms] = steps[moving]
-        np.add(src, self.state[sims], out=dst)
-
-
 class _Lowpass(_Batched):
-    def __init__(self, template: rt.Lowpass, nsim: int):
-        super().__init__(template, nsim)
+    def __init__(self, template: rt.Lowpass, nsim: int, stride: int):
+        super().__init__(template, nsim, stride)
         self.state = np.zeros((nsim, *template.state.shape), template.state.dtype)
         self.fresh = np.ones(nsim, bool)
         self.last = np.zeros(nsim, np.int64)
 
-    def load(self, i: int, stage: rt.Stage) -> None:
-        self.fresh[i] = stage.fresh  # type: ignore[attr-defined]
-        self.state[i] = stage.state  # type: ignore[attr-defined]
-        self.last[i] = stage.last  # type: ignore[attr-defined]
+    def load(self, i: int, stage: Any) -> None:
+        self.fresh[i] = stage.fresh
+        self.state[i] = stage.state
+        self.last[i] = stage.last
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
         state = self.state[sims]
@@ -194,10 +216,9 @@ class _Lowpass(_Batched):
         moving = np.flatnonzero(~fresh & (gaps != 0))
         for gap, at in _by_gap(gaps[moving]):
             rows = moving[at]
-            alpha = self.template.alpha(gap)  # type: ignore[attr-defined]
-            d = np.subtract(src[rows], state[rows])
-            np.multiply(d, alpha, out=d)
-            state[rows] = np.add(state[rows], d)
+            s, d = state[rows], np.empty_like(state[rows])
+            rt.lowpass(s, src[rows], self.template.alpha(gap), d)
+            state[rows] = s
         self.state[sims] = state
         self.fresh[sims] = False
         self.last[sims] = steps
@@ -205,42 +226,41 @@ class _Lowpass(_Batched):
 
 
 class _Dropout(_Blocks):
-    def __init__(self, template: rt.Dropout, nsim: int):
-        super().__init__(template, nsim)
+    def __init__(self, template: rt.Dropout, nsim: int, stride: int):
+        super().__init__(template, nsim, stride)
         self.per_value = template.per_value
         self.fill = template.fill
         self.held = None if template.held is None else np.zeros((nsim, *template.held.shape), template.held.dtype)
         self.fresh = np.ones(nsim, bool)
 
-    def load(self, i: int, stage: rt.Stage) -> None:
+    def load(self, i: int, stage: Any) -> None:
         super().load(i, stage)
-        self.fresh[i] = stage.fresh  # type: ignore[attr-defined]
+        self.fresh[i] = stage.fresh
         if self.held is not None:
-            self.held[i] = stage.held  # type: ignore[attr-defined]
+            self.held[i] = stage.held
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
-        lost = self.take(sims)
+        lost = self.take(sims, steps)
         fresh = self.fresh[sims]
         if fresh.any():
             self.fresh[sims] = False
             if self.held is not None:  # nothing delivered yet: the first sample always is
                 lost = lost.copy()  # (it may be a view of the block)
                 lost[fresh] = False
-        if dst is not src:
-            np.copyto(dst, src)
         if not self.per_value:
             lost = lost.reshape(lost.shape + (1,) * (dst.ndim - 1))
         held = self.held[sims] if self.held is not None else None
-        np.copyto(dst, held if held is not None else cast(float, self.fill), where=lost)  # a fill without hold
+        rt.dropout(src, lost, held if held is not None else cast(float, self.fill), dst)
         if self.held is not None:
             self.held[sims] = dst
 
 
 # One row per runtime stage type (`sensorcfg.noise.stages`); a stage type missing here cannot be batched.
-BATCHED: dict[type, Callable[[Any, int], _Batched]] = {
+BATCHED: dict[type, Callable[[Any, int, int], _Batched]] = {
     rt.Gaussian: _Additive,
     rt.Uniform: _Additive,
     rt.Outlier: _Additive,
+    rt.Sum: _Additive,
     rt.EpisodeDraw: _Episode,
     rt.RandomWalk: _RandomWalk,
     rt.Lowpass: _Lowpass,
@@ -248,15 +268,14 @@ BATCHED: dict[type, Callable[[Any, int], _Batched]] = {
     rt.Clip: _Stateless,
     rt.Dropout: _Dropout,
 }
-if hasattr(rt, "Sum"):  # fused adjacent additive stages
-    BATCHED[rt.Sum] = _Additive
 
 
 class BatchPipeline:
-    """A sensor's noise pipeline for nsim simulations."""
+    """A sensor's noise pipeline for nsim simulations (`stride`: its constant interval, 1 when drawn)."""
 
     def __init__(self, pipeline: Any, nsim: int, sensor: str):
         self.pipeline = pipeline
+        self.stride = stride = pipeline.stride  # as the single-simulation Updater reset it
         if np.dtype(pipeline.dtype) != np.float64:
             raise SuiteError(f"sensor {sensor!r}: its noise cannot be vectorised across simulations: the batch runs "
                              f"noise on float64 values, the observation is {np.dtype(pipeline.dtype)}")
@@ -271,14 +290,14 @@ class BatchPipeline:
                                  "vectorised across simulations (it runs a Python callable once per sample and "
                                  "simulation); use it with the single-simulation Environment, or express it with "
                                  "built-in stages")
-            batched.append(make(stage, nsim))
+            batched.append(make(stage, nsim, stride))
         self.stages = stages
         self.batched = batched
         self.shape = tuple(pipeline.shape)
 
     def reset(self, i: int, rng: np.random.Generator) -> None:
         """Start simulation i's episode with its sensor stream `rng` (as the Updater resets a pipeline)."""
-        self.pipeline.reset(rng)
+        self.pipeline.reset(rng, self.stride)
         for stage, batched in zip(self.stages, self.batched):
             batched.load(i, stage)
 

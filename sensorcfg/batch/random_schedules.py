@@ -59,9 +59,11 @@ class Timelines:
 
     def _shadow(self, plan: _Plan, template: RandomChannel, drawers: tuple[Any, Any]) -> RandomChannel:
         step = plan.step
-        return RandomChannel(template.name, lambda: step[0] + 1, None, (), np.dtype(np.int64),
-                             template.buffer_size, False, self.pad, self.n, None, False, None,
-                             interval=drawers[0], delay=drawers[1])
+        shadow = RandomChannel(template.name, lambda: step[0] + 1, None, (), np.dtype(np.int64),
+                               template.buffer_size, False, self.pad, self.n, None, False, None,
+                               interval=drawers[0], delay=drawers[1])
+        shadow.every_sample = template.every_sample  # stateful noise: no sample is dropped
+        return shadow
 
     def start(self, i: int, random_state: np.random.RandomState) -> None:
         """Simulation i's episode starts: its channels' reset draws, in observable order, then a block."""

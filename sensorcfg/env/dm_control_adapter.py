@@ -4,7 +4,10 @@ sensorcfg observables already take a dm_control Physics (they read `.model.ptr` 
 dm_control's Updater does not know about is a sensor's noise pipeline, which our Updater applies and seeds
 per sensor. The adapter folds that pipeline into the observation callable: on each episode (dm_control binds
 observables at every reset) the pipeline is reseeded from dm_control's random state and the sensor's name,
-and each sample is corrupted with the simulated time read from the physics.
+and each sample is corrupted with the simulated time read from the physics. Noise is counter-based (a
+sample's numbers depend on its time only), so stateless stages give a sample exactly what our Updater
+gives it; stateful ones (low-pass, dropout holding, custom) see the samples dm_control takes, which skips
+samples no read can see, where our Updater feeds them every sample of the schedule.
 """
 
 from __future__ import annotations
@@ -66,7 +69,9 @@ class BridgedObservable:
         noise = self._observable.noise
         if noise is None:
             return sample
-        noise.reset(sensor_rng(episode_entropy(random_state), self._name))
+        interval = self._observable.update_interval
+        stride = int(interval) if interval and not callable(interval) else 1  # as our Updater numbers samples
+        noise.reset(sensor_rng(episode_entropy(random_state), self._name), stride)
         model, data = raw_structs(physics)
         timestep = float(model.opt.timestep)
 

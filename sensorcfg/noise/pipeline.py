@@ -28,8 +28,8 @@ _STAGE_LIST = TypeAdapter(tuple[NoiseStage, ...])
 class NoisePipeline:
     """The stages of one sensor, applied in order to each raw sample.
 
-    `reset(rng)` starts an episode: each stage gets its own generator spawned from `rng`, so adding or
-    removing a stage leaves the draws of the others unchanged. `pipeline(value, step)` returns a new array
+    `reset(rng, stride)` starts an episode: each stage draws from its own part of the sensor's counter-based
+    streams (`stages.Streams`), so adding or removing a stage leaves the draws of the others unchanged. `pipeline(value, step)` returns a new array
     of the observation's dtype (or writes into `out`); `step` counts physics steps since reset.
     """
 
@@ -44,6 +44,8 @@ class NoisePipeline:
         self._work = np.zeros(ctx.shape, ctx.work)
         lone = self._stages[0] if len(self._stages) == 1 else None
         self._lone = lone if isinstance(lone, rt._Additive) and self._direct else None
+        self.streams: rt.Streams
+        self.stride = 1
         self.reset(np.random.default_rng(0))
 
     def __repr__(self) -> str:
@@ -54,30 +56,28 @@ class NoisePipeline:
         """The runtime stages in order, adjacent additive ones fused (`sensorcfg.batch` vectorises each)."""
         return self._stages
 
-    def reset(self, rng: np.random.Generator | np.random.RandomState) -> None:
-        """Start an episode: per-episode draws (bias, scale, random-walk start) and cleared state."""
-        if isinstance(rng, np.random.RandomState):
-            words = rng.randint(0, 2**32, size=4, dtype=np.uint64)
-        else:
-            words = rng.integers(0, 2**32, size=4, dtype=np.uint64)
-        entropy = [int(e) for e in words]  # stage i's stream: SeedSequence's i-th child, built directly
-        seeds = (np.random.SeedSequence(entropy, spawn_key=(i,)) for i in range(len(self.names)))
+    @property
+    def stateful(self) -> bool:
+        """Whether some stage needs the raw value of every nominal sample (low-pass, dropout holding, a
+        custom callable): the sensor then takes every sample of its schedule."""
+        return any(stage.stateful for stage in self._stages)
+
+    def reset(self, rng: np.random.Generator | np.random.RandomState, stride: int = 1) -> None:
+        """Start an episode: per-episode draws (bias, scale, random-walk start) and cleared state.
+
+        `rng` is the sensor's stream (four words of it key the episode's counter-based numbers); `stride`
+        is the sensor's constant interval in steps (1 when drawn): sample j is taken at step `j * stride`.
+        """
+        self.streams = rt.Streams(rt.stream_key(rng))
+        self.stride = int(stride)
         for stage in self._stages:
-            if isinstance(stage, rt.Sum):
-                stage.reset_parts([_generator(next(seeds), part) for part in stage.parts])
-            else:
-                stage.reset(_generator(next(seeds), stage))
+            stage.reset(self.streams, self.stride)
 
     def __call__(self, value: np.ndarray, step: int, out: np.ndarray | None = None) -> np.ndarray:
         """The noisy version of `value` (never written to), sampled at physics step `step`."""
         lone = self._lone
         if lone is not None:  # additive noise only: one addition, inlined
-            k = lone.k
-            if k == len(lone.rows):
-                lone.refill()
-                k = 0
-            lone.k = k + 1
-            return np.add(value, lone.rows[k], out=out)
+            return np.add(value, lone.row(step), out=out)
         src = value
         if self._direct:
             dst = np.empty(self.shape, self.dtype) if out is None else out
@@ -97,10 +97,6 @@ class NoisePipeline:
             return work.astype(self.dtype)
         np.copyto(out, work, casting="unsafe")
         return out
-
-
-def _generator(seed: np.random.SeedSequence, stage: rt.Stage) -> np.random.Generator | None:
-    return np.random.Generator(np.random.PCG64(seed)) if stage.needs_rng else None
 
 
 def _fuse(stages: list[rt.Stage]) -> list[rt.Stage]:
@@ -290,4 +286,6 @@ def build_noise(stages: Sequence[NoiseStage], shape: tuple[int, ...], dtype: Any
             built.append(BUILDERS[config.type](config, r))
     if problems:
         raise SuiteError(problems)
+    for i, stage in enumerate(built):
+        stage.stream = i  # its part of the sensor's counter-based streams
     return NoisePipeline(_fuse(built), [c.type for c in configs], ctx)

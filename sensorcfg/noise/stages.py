@@ -1,10 +1,24 @@
-"""Runtime noise stages: precomputed arrays and one in-place step per sample. Numpy only.
+"""Runtime noise stages: each stage's arithmetic and random numbers, written once. Numpy only.
 
 A stage is built once per sensor from its config, with every parameter already broadcast to the
-observation's shape (`Params`). `reset(rng)` makes the per-episode draws; `stage(src, dst, step)` writes the
-noisy version of `src` into `dst` (they may be the same array; `src` is never written when it is not `dst`).
-Per-sample random numbers are drawn for many samples at once (`_BLOCK_VALUES` values per generator call),
-so a white-noise stage costs one ufunc call per sample; the stream is still fixed by the seed alone.
+observation's shape. `reset(streams, stride)` makes the per-episode draws; `stage(src, dst, step)` writes
+the noisy version of `src` into `dst` (they may be the same array; `src` is never written when it is not
+`dst`). The per-sample pipeline, the feature bank and the batch all call the same arithmetic: the array
+functions below (`add`, `multiply`, `walk`, `lowpass`, `quantize`, `clip`, `dropout`) work over any
+leading axes (one sample, samples, or simulations x samples).
+
+Truthful noise: a sample's value is a function of the seed, the sensor and the sample's time, never of
+which other samples were taken.
+
+- Random numbers are counter-based (`Streams`): sample j's numbers of a stage come from numpy's Philox
+  keyed by the sensor's episode key, with the counter (stage, block j // B, position); a block holds B
+  samples (`Context.block`, fixed by the observation's size). Skipping samples skips nothing else.
+- A sample's index is `step // stride`: `stride` is the sensor's interval when it is constant (sample j is
+  the sensor's j-th nominal sample), else 1 (the physics step).
+- A random walk's state is advanced over every index (one block at a time), whether or not its samples
+  are taken: it depends on draws only, not on the signal.
+- Stages that need the raw value of every nominal sample (`stateful`: low-pass, dropout holding the last
+  value, a custom callable with its own random state) make their sensor take every nominal sample.
 """
 
 from __future__ import annotations
@@ -17,11 +31,12 @@ import numpy as np
 
 from ..errors import Problem, SuiteError
 
-__all__ = ["Context", "Stage", "Sum", "Gaussian", "Uniform", "Outlier", "EpisodeDraw", "RandomWalk", "Lowpass",
-           "Quantize", "Clip", "Dropout", "Custom"]
+__all__ = ["Context", "Streams", "Stage", "Sum", "Gaussian", "Uniform", "Outlier", "EpisodeDraw", "RandomWalk",
+           "Lowpass", "Quantize", "Clip", "Dropout", "Custom", "add", "multiply", "walk", "lowpass", "quantize",
+           "clip", "dropout"]
 
-_BLOCK_VALUES = 1 << 14  # random values drawn per generator call (per stage), at most
-_MAX_BLOCK = 256  # samples per block, at most
+_BLOCK_VALUES = 1 << 12  # random values drawn per generator call (per stage), at most
+_MAX_BLOCK = 64  # samples per block, at most (a power of two)
 _MAX_INTERVALS = 64  # distinct sample intervals whose coefficients are cached
 
 
@@ -34,7 +49,8 @@ class Context:
         self.work = work  # the stages' arithmetic: float64, or float32 for float32 / uint8 observations
         self.timestep = timestep
         size = math.prod(shape)
-        self.block = max(1, min(_MAX_BLOCK, _BLOCK_VALUES // max(size, 1)))
+        # samples per block of counter-based numbers: a power of two (the batch may split it in halves)
+        self.block = 1 << (max(1, min(_MAX_BLOCK, _BLOCK_VALUES // max(size, 1))).bit_length() - 1)
 
     def cast(self, value: Any) -> np.ndarray:
         """A parameter as an array of the work dtype (0-d for a number): ufuncs take arrays faster than
@@ -42,14 +58,124 @@ class Context:
         return np.array(value, dtype=self.work)
 
 
+class Streams:
+    """Counter-based random numbers of one sensor's episode: Philox keyed by the sensor's episode key.
+
+    The counter is (position, purpose, block, stage): purpose 0 holds per-sample numbers (block j // B of
+    sample j), purpose 1 the per-episode draws. `at` repositions one generator (no new object per block).
+    """
+
+    __slots__ = ("key", "bitgen", "generator")
+
+    def __init__(self, key: np.ndarray):
+        self.key = np.asarray(key, np.uint64)
+        self.bitgen = np.random.Philox(key=self.key)
+        self.generator = np.random.Generator(self.bitgen)
+
+    def at(self, stage: int, block: int, purpose: int = 0, key: np.ndarray | None = None) -> np.random.Generator:
+        """The generator positioned at the start of (stage, block, purpose) (of another key when given)."""
+        state = self.bitgen.state
+        inner = state["state"]
+        inner["counter"] = np.array([0, purpose, block, stage], np.uint64)
+        if key is not None:
+            inner["key"] = np.asarray(key, np.uint64)
+        state["buffer_pos"] = 4  # the buffer is empty: the next output comes from the counter
+        state["has_uint32"] = 0
+        state["uinteger"] = 0
+        self.bitgen.state = state
+        return self.generator
+
+
+def stream_key(rng: np.random.Generator | np.random.RandomState) -> np.ndarray:
+    """A sensor's 128-bit episode key: four 32-bit words from its stream."""
+    if isinstance(rng, np.random.RandomState):
+        words = rng.randint(0, 2**32, size=4, dtype=np.uint64)
+    else:
+        words = rng.integers(0, 2**32, size=4, dtype=np.uint64)
+    return np.array([(words[0] << np.uint64(32)) | words[1], (words[2] << np.uint64(32)) | words[3]], np.uint64)
+
+
+# -- the arithmetic of each stage, over any leading axes ------------------------------------------
+
+def add(src: np.ndarray, term: Any, dst: np.ndarray) -> None:
+    """Additive noise (white noise, outliers, bias, a random walk's state): dst = src + term."""
+    np.add(src, term, out=dst)
+
+
+def multiply(src: np.ndarray, gain: Any, dst: np.ndarray) -> None:
+    """A per-episode gain: dst = src * gain."""
+    np.multiply(src, gain, out=dst)
+
+
+def quantize(src: np.ndarray, step: Any, dst: np.ndarray) -> None:
+    """Rounds to the nearest multiple of `step`."""
+    np.divide(src, step, out=dst)
+    np.rint(dst, out=dst)
+    np.multiply(dst, step, out=dst)
+
+
+def clip(src: np.ndarray, low: Any, high: Any, dst: np.ndarray) -> None:
+    """Saturation (either bound may be None)."""
+    if low is not None:
+        np.maximum(src, low, out=dst)
+        src = dst
+    if high is not None:
+        np.minimum(src, high, out=dst)
+    elif low is None and dst is not src:
+        np.copyto(dst, src)
+
+
+def walk(carry: np.ndarray, z: np.ndarray, a: Any, c: Any, first: bool) -> np.ndarray:
+    """A random walk over one block: state_j = a state_(j-1) + c z_j (Brownian: a is None), from `carry`
+    (the state before the block, updated in place to the block's last). `z` is (block, *lead) and is
+    scaled in place; with `first`, row 0 is the episode's start (`carry` itself, its z unused).
+    Returns the states (block, *lead)."""
+    np.multiply(z, c, out=z)
+    if first:
+        z[0] = 0
+    if a is None:  # b_j = b_(j-1) + c z_j: one sequential sum, the same additions in the same order
+        states = np.cumsum(np.concatenate([carry[None], z]), axis=0)[1:]
+        if first:
+            states[0] = carry
+    else:
+        states = np.empty_like(z)
+        for j in range(len(z)):
+            if not (first and j == 0):
+                np.multiply(carry, a, out=carry)
+                np.add(carry, z[j], out=carry)
+            states[j] = carry
+    carry[...] = states[-1]
+    return states
+
+
+def lowpass(state: np.ndarray, src: np.ndarray, alpha: Any, dst: np.ndarray) -> None:
+    """One step of the first-order filter: state += alpha (src - state); dst = state."""
+    np.subtract(src, state, out=dst)
+    np.multiply(dst, alpha, out=dst)
+    np.add(state, dst, out=state)
+    np.copyto(dst, state)
+
+
+def dropout(src: np.ndarray, lost: Any, replacement: Any, dst: np.ndarray) -> None:
+    """Lost values (a mask broadcasting to the values) become `replacement` (held values, 0 or NaN)."""
+    if dst is not src:
+        np.copyto(dst, src)
+    np.copyto(dst, replacement, where=lost)
+
+
+# -- stages ---------------------------------------------------------------------------------------
+
 class Stage:
     """One stage at run time."""
 
     needs_rng = False
+    # True when the stage needs the raw value of every nominal sample (its sensor then takes them all)
+    stateful = False
     # how many configured stages this one carries out (see `Sum`); Uniform reuses the name for high - low
     width: int | np.ndarray = 1
+    stream = 0  # the stage's position in its pipeline: its part of the counter
 
-    def reset(self, rng: np.random.Generator | None) -> None:
+    def reset(self, streams: Streams | None, stride: int) -> None:
         """Start an episode: per-episode draws, cleared state."""
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, step: int) -> None:
@@ -57,50 +183,72 @@ class Stage:
 
 
 class _PerSample(Stage):
-    """A stage that needs fresh random numbers for every sample, drawn `ctx.block` samples at a time."""
+    """A stage with fresh random numbers for every sample: block j // B of sample j's numbers at a time."""
 
     needs_rng = True
 
     def __init__(self, ctx: Context):
         self.ctx = ctx
-        self.rows: list[Any] = []
-        self.k = 0
-        self.rng: np.random.Generator | None = None
+        self.streams: Streams | None = None
+        self.stride = 1
+        self.block_id = -1
+        self.rows: Any = []
 
     def draw(self, rng: np.random.Generator, count: int) -> Any:
-        """Random numbers for `count` samples (an array with a leading axis of `count`, or a list)."""
+        """Random numbers for `count` samples (an array with a leading axis of `count`)."""
         raise NotImplementedError
 
-    def reset(self, rng: np.random.Generator | None) -> None:
-        self.rng = rng
+    def reset(self, streams: Streams | None, stride: int) -> None:
+        self.streams = streams
+        self.stride = stride
+        self.block_id = -1
         self.rows = []
-        self.k = 0
 
-    def refill(self) -> None:
-        block = self.draw(self.rng, self.ctx.block)  # type: ignore[arg-type]
-        if isinstance(block, np.ndarray):  # one writable view per sample (0-d views for scalar observations)
-            self.rows = list(block) if block.ndim > 1 else [block[i, ...] for i in range(len(block))]
-        else:
-            self.rows = block
-        self.k = 0
+    def numbers(self, block: int, key: np.ndarray | None = None, count: int | None = None,
+                values: list[np.ndarray] | None = None) -> np.ndarray:
+        """The per-sample numbers of one block (block, *shape), of another episode key when given, its first
+        `count` samples only when given (the same numbers: draws fill arrays in order)."""
+        rng = self.streams.at(self.stream, block, 0, key)  # type: ignore[union-attr]
+        return np.asarray(self.draw(rng, self.ctx.block if count is None else count))
+
+    def block_rows(self, block: int) -> np.ndarray:
+        """What each sample of `block` uses (block, *shape); subclasses with state override it."""
+        return self.numbers(block)
+
+    def row(self, step: int) -> Any:
+        """This sample's row (a view into the current block)."""
+        block, j = divmod(step // self.stride, self.ctx.block)
+        if block != self.block_id:
+            rows = self.block_rows(block)
+            # one writable view per sample (0-d views for scalar observations)
+            self.rows = list(rows) if rows.ndim > 1 else [rows[i, ...] for i in range(len(rows))]
+            self.block_id = block
+        return self.rows[j]
+
+    def rows_at(self, indices: np.ndarray) -> np.ndarray:
+        """The rows of samples `indices` (increasing), (len, *shape): the bank draws a chunk ahead."""
+        out = np.empty((len(indices), *self.ctx.shape), self.ctx.work)
+        blocks = indices // self.ctx.block
+        for block in np.unique(blocks).tolist():
+            at = np.flatnonzero(blocks == block)
+            if block != self.block_id:
+                self.rows = self.block_rows(block)
+                self.block_id = block
+            out[at] = np.asarray(self.rows)[indices[at] % self.ctx.block]
+        return out
 
 
 class _Additive(_PerSample):
-    """Adds a fresh array per sample (gaussian, uniform, outlier)."""
+    """Adds a fresh array per sample (gaussian, uniform, outlier, their sums, a random walk's state)."""
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, step: int) -> None:
-        k = self.k
-        if k == len(self.rows):
-            self.refill()
-            k = 0
-        self.k = k + 1
-        np.add(src, self.rows[k], out=dst)
+        add(src, self.row(step), dst)
 
 
 class Sum(_Additive):
     """Adjacent additive stages (white noise and per-episode bias) fused: one addition per sample.
 
-    Each part keeps its own generator and draws exactly what it would alone; only the order of the
+    Each part keeps its own stream and draws exactly what it would alone; only the order of the
     floating-point additions changes (x + (a + b) instead of (x + a) + b).
     """
 
@@ -109,16 +257,19 @@ class Sum(_Additive):
         self.parts = parts
         self.width = len(parts)
 
-    def reset_parts(self, rngs: list[np.random.Generator | None]) -> None:
-        for part, rng in zip(self.parts, rngs):
-            part.reset(rng)
-        self.rows = []
-        self.k = 0
-
-    def draw(self, rng: Any, count: int) -> np.ndarray:
-        total = np.zeros((count, *self.ctx.shape), self.ctx.work)
+    def reset(self, streams: Streams | None, stride: int) -> None:
         for part in self.parts:
-            total += part.value if isinstance(part, EpisodeDraw) else part.draw(part.rng, count)  # type: ignore[attr-defined]
+            part.reset(streams, stride)
+        super().reset(streams, stride)
+
+    def numbers(self, block: int, key: np.ndarray | None = None, count: int | None = None,
+                values: list[np.ndarray] | None = None) -> np.ndarray:
+        """The parts' numbers added in order; `values` replaces the episode draws of the bias parts (one
+        simulation's, in the batch)."""
+        total = np.zeros((self.ctx.block if count is None else count, *self.ctx.shape), self.ctx.work)
+        episode = iter(values if values is not None else [p.value for p in self.parts if isinstance(p, EpisodeDraw)])
+        for part in self.parts:
+            total += next(episode) if isinstance(part, EpisodeDraw) else part.numbers(block, key, count)  # type: ignore[attr-defined]
         return total
 
 
@@ -170,8 +321,9 @@ class EpisodeDraw(Stage):
         self.ctx, self.op, self.normal, self.uniform = ctx, op, normal, uniform
         self.value = np.zeros(ctx.shape, ctx.work)
 
-    def reset(self, rng: np.random.Generator | None) -> None:
-        assert rng is not None
+    def reset(self, streams: Streams | None, stride: int) -> None:
+        assert streams is not None
+        rng = streams.at(self.stream, 0, purpose=1)
         if self.uniform is not None:
             low, high = self.uniform
             draw = low + (np.subtract(high, low)) * rng.random(self.ctx.shape)
@@ -181,7 +333,7 @@ class EpisodeDraw(Stage):
         self.value[...] = draw
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, step: int) -> None:
-        self.op(src, self.value, out=dst)
+        (add if self.op is np.add else multiply)(src, self.value, dst)
 
 
 class _Timed:
@@ -203,15 +355,18 @@ class _Timed:
         return coef
 
 
-class RandomWalk(_PerSample):
-    """b <- a b + c z per sample, a = exp(-dt/tau), c = std sqrt(1 - a^2); Brownian: a = 1, c = std sqrt(dt)."""
+class RandomWalk(_Additive):
+    """b_j = a b_(j-1) + c z_j over every sample index j, a = exp(-dt/tau), c = std sqrt(1 - a^2) with dt the
+    stride's time; Brownian: a = 1, c = std sqrt(dt). The state at a sample's index is added to it."""
 
     def __init__(self, ctx: Context, std: Any, tau: Any):
         super().__init__(ctx)
         self.std, self.tau = std, tau
-        self.state = np.zeros(ctx.shape, ctx.work)
+        self.start = np.zeros(ctx.shape, ctx.work)
+        self.carry = np.zeros(ctx.shape, ctx.work)
         self.coef = _Timed(ctx, self._coefficients)
-        self.last = 0
+        self.last = 0  # the newest block whose states `carry` ends
+        self.newest = 0
 
     def _coefficients(self, dt: float) -> tuple[Any, Any]:
         if self.tau is None:
@@ -223,32 +378,35 @@ class RandomWalk(_PerSample):
     def draw(self, rng: np.random.Generator, count: int) -> np.ndarray:
         return rng.standard_normal((count, *self.ctx.shape), dtype=self.ctx.work)
 
-    def reset(self, rng: np.random.Generator | None) -> None:
-        assert rng is not None
+    def reset(self, streams: Streams | None, stride: int) -> None:
+        assert streams is not None
         if self.tau is None:
-            self.state[...] = 0
-        else:  # the stationary distribution, drawn before any per-sample block
-            self.state[...] = np.multiply(self.std, rng.standard_normal(self.ctx.shape))
-        self.last = 0
-        super().reset(rng)
+            self.start[...] = 0
+        else:  # the stationary distribution
+            self.start[...] = np.multiply(self.std, streams.at(self.stream, 0, purpose=1).standard_normal(
+                self.ctx.shape))
+        self.carry[...] = self.start
+        self.last = -1
+        self.newest = 0  # the latest step asked for (the per-sample path goes forward only)
+        super().reset(streams, stride)
 
-    def __call__(self, src: np.ndarray, dst: np.ndarray, step: int) -> None:
-        steps = step - self.last
-        if steps:
-            a, c = self.coef(steps)
-            self.last = step
-            k = self.k
-            if k == len(self.rows):
-                self.refill()
-                k = 0
-            self.k = k + 1
-            z = self.rows[k]  # used once: scaled in place
-            np.multiply(z, c, out=z)
-            state = self.state
-            if a is not None:
-                np.multiply(state, a, out=state)
-            np.add(state, z, out=state)
-        np.add(src, self.state, out=dst)
+    def block_rows(self, block: int) -> np.ndarray:
+        if block <= self.last:
+            raise ValueError(f"noise pipeline called at an earlier step (block {block} after {self.last}); "
+                             "call reset() at the start of an episode")
+        a, c = self.coef(self.stride)
+        states = np.empty(0)
+        while self.last < block:  # every index is walked, whether or not its samples are taken
+            self.last += 1
+            states = walk(self.carry, self.numbers(self.last), a, c, self.last == 0)
+        return states
+
+    def row(self, step: int) -> Any:
+        if step < self.newest:
+            raise ValueError(f"noise pipeline called at an earlier step ({step - self.newest} steps back); "
+                             "call reset() at the start of an episode")
+        self.newest = step
+        return super().row(step)
 
 
 class Lowpass(Stage):
@@ -258,6 +416,8 @@ class Lowpass(Stage):
     as it would in a real filter fed NaN: put such a dropout after the filter.
     """
 
+    stateful = True
+
     def __init__(self, ctx: Context, cutoff: Any):
         omega = np.multiply(2.0 * math.pi, cutoff)
         self.alpha = _Timed(ctx, lambda dt: ctx.cast(-np.expm1(-dt * omega)))
@@ -265,7 +425,7 @@ class Lowpass(Stage):
         self.fresh = True
         self.last = 0
 
-    def reset(self, rng: np.random.Generator | None) -> None:
+    def reset(self, streams: Streams | None, stride: int) -> None:
         self.fresh = True
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, step: int) -> None:
@@ -276,10 +436,7 @@ class Lowpass(Stage):
         else:
             steps = step - self.last
             if steps:
-                alpha = self.alpha(steps)
-                np.subtract(src, state, out=dst)
-                np.multiply(dst, alpha, out=dst)
-                np.add(state, dst, out=state)
+                lowpass(state, src, self.alpha(steps), dst)
         self.last = step
         np.copyto(dst, state)
 
@@ -289,9 +446,7 @@ class Quantize(Stage):
         self.step = ctx.cast(step)
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, step: int) -> None:
-        np.divide(src, self.step, out=dst)
-        np.rint(dst, out=dst)
-        np.multiply(dst, self.step, out=dst)
+        quantize(src, self.step, dst)
 
 
 class Clip(Stage):
@@ -300,11 +455,7 @@ class Clip(Stage):
         self.high = None if high is None else ctx.cast(high)
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, step: int) -> None:
-        if self.low is not None:
-            np.maximum(src, self.low, out=dst)
-            src = dst
-        if self.high is not None:
-            np.minimum(src, self.high, out=dst)
+        clip(src, self.low, self.high, dst)
 
 
 class Dropout(_PerSample):
@@ -315,59 +466,47 @@ class Dropout(_PerSample):
         self.p, self.mode, self.per_value = p, mode, per_value
         self.fill = {"zero": 0.0, "nan": math.nan}.get(mode)
         self.held = np.zeros(ctx.shape, ctx.work) if mode == "hold" else None
+        self.stateful = mode == "hold"  # holding needs the previous sample, whichever it was
         self.fresh = True
 
-    def draw(self, rng: np.random.Generator, count: int) -> Any:
+    def draw(self, rng: np.random.Generator, count: int) -> np.ndarray:
         if self.per_value:
             return rng.random((count, *self.ctx.shape)) < self.p
-        return (rng.random(count) < self.p).tolist()
+        return rng.random(count) < self.p
 
-    def reset(self, rng: np.random.Generator | None) -> None:
-        super().reset(rng)
+    def reset(self, streams: Streams | None, stride: int) -> None:
+        super().reset(streams, stride)
         self.fresh = True
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, step: int) -> None:
-        k = self.k
-        if k == len(self.rows):
-            self.refill()
-            k = 0
-        self.k = k + 1
-        lost = self.rows[k]
+        lost = self.row(step)
         held = self.held
         if self.fresh:  # nothing delivered yet: the first sample always is
             self.fresh = False
             if held is not None:
-                lost = False if not self.per_value else np.zeros_like(lost)
-        if not self.per_value:
-            if lost:
-                if held is not None:
-                    np.copyto(dst, held)
-                else:
-                    dst.fill(self.fill)  # type: ignore[arg-type]
-                return
-            if dst is not src:
-                np.copyto(dst, src)
-        else:
-            if dst is not src:
-                np.copyto(dst, src)
-            np.copyto(dst, held if held is not None else self.fill, where=lost)  # type: ignore[arg-type]
+                lost = np.zeros_like(lost)
+        dropout(src, lost, held if held is not None else self.fill, dst)
         if held is not None:
             np.copyto(held, dst)
 
 
 class Custom(Stage):
-    """A dm_control corruptor `f(value, random_state=...)`, given values in the observation's dtype."""
+    """A dm_control corruptor `f(value, random_state=...)`, given values in the observation's dtype.
+
+    Its random state is sequential, so its sensor takes every nominal sample (`stateful`)."""
 
     needs_rng = True
+    stateful = True
 
     def __init__(self, ctx: Context, fn: Callable[..., Any], name: str, loc: str):
         self.ctx, self.fn, self.name, self.loc = ctx, fn, name, loc
         self.convert = ctx.work != ctx.dtype
         self.random_state = np.random.RandomState(0)
 
-    def reset(self, rng: np.random.Generator | None) -> None:
-        assert rng is not None
-        self.random_state = np.random.RandomState(np.random.MT19937(rng.integers(0, 2**32, size=4)))
+    def reset(self, streams: Streams | None, stride: int) -> None:
+        assert streams is not None
+        words = streams.at(self.stream, 0, purpose=1).integers(0, 2**32, size=4)
+        self.random_state = np.random.RandomState(np.random.MT19937(words))
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, step: int) -> None:
         value = src

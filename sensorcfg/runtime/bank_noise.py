@@ -1,18 +1,20 @@
 """Noise for the feature bank: the same numbers as each sensor's own pipeline, applied in a few array ops.
 
-A noise pipeline whose stages are additive noise (gaussian, uniform, outlier, bias: pre-drawn per sample),
-a random walk (a drift that does not depend on the signal), a per-episode gain, quantisation or clipping
-can run inside the bank. Every `chunk` steps the bank draws, from each sensor's own stage generators and in
-the order the pipeline itself would draw them, the per-sample noise of that sensor's samples for the next
-chunk into "noise fields" laid out like the bank's history. A read then applies each pipeline's stages, in
-order, to the gathered values of every sensor with the same stage sequence at once. Sensors whose
-pipelines hold lowpass, dropout or custom stages stay on the per-sample path.
+A noise pipeline whose stages are additive noise (gaussian, uniform, outlier, bias), a random walk (a drift
+that does not depend on the signal), a per-episode gain, quantisation or clipping can run inside the bank.
+Every `chunk` steps the bank asks each sensor's own stages for the per-sample terms of that sensor's
+samples in the next chunk (counter-based: the same numbers the per-sample path uses for those samples)
+and writes them into "noise fields" laid out like the bank's history. A read then applies each pipeline's
+stages, in order, with the stages' own array arithmetic (`noise.stages`), to the gathered values of every
+sensor with the same stage sequence at once. Sensors whose pipelines hold lowpass, dropout or custom
+stages stay on the per-sample path.
 
 Bit-identity with the per-sample pipeline is the contract (the tests compare both paths).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -21,46 +23,61 @@ from ..noise import stages as rt
 
 __all__ = ["BankNoise", "program"]
 
-Program = tuple[tuple[str, Any], ...]  # (op, stage) pairs
+Program = tuple[tuple[str, Any], ...]  # (kind, stage) pairs
+
+# What the bank does with each runtime stage type: "term" stages add a per-sample row (white noise,
+# outliers, their sums, a random walk's state: drawn a chunk ahead into a noise field); an episode draw
+# adds or multiplies; quantize and clip are elementwise. A type missing here keeps its sensor per sample.
+_KINDS: dict[type, Callable[[Any], str]] = {
+    rt.Gaussian: lambda stage: "term",
+    rt.Uniform: lambda stage: "term",
+    rt.Outlier: lambda stage: "term",
+    rt.Sum: lambda stage: "term",
+    rt.RandomWalk: lambda stage: "term",
+    rt.EpisodeDraw: lambda stage: "add" if stage.op is np.add else "mul",
+    rt.Quantize: lambda stage: "quantize",
+    rt.Clip: lambda stage: "clip",
+}
 
 
 def program(pipeline: Any) -> Program | None:
-    """The pipeline as (op, stage) pairs the bank can run, () for no noise, None when it cannot."""
+    """The pipeline as (kind, stage) pairs the bank can run, () for no noise, None when it cannot."""
     if pipeline is None:
         return ()
     if np.dtype(pipeline.dtype) != np.float64:
         return None
     ops: list[tuple[str, Any]] = []
-    for stage in pipeline._stages:
-        if isinstance(stage, rt._Additive):
-            ops.append(("field", stage))
-        elif isinstance(stage, rt.RandomWalk):
-            ops.append(("walk", stage))
-        elif isinstance(stage, rt.EpisodeDraw) and stage.op in (np.add, np.multiply):
-            ops.append(("add" if stage.op is np.add else "mul", stage))
-        elif isinstance(stage, rt.Quantize):
-            ops.append(("quantize", stage))
-        elif isinstance(stage, rt.Clip):
-            ops.append(("clip", stage))
-        else:
+    for stage in pipeline.stages:
+        kind = _KINDS.get(type(stage))
+        if kind is None:
             return None
+        ops.append((kind(stage), stage))
     return tuple(ops)
 
 
-def _next_rows(stage: Any, count: int, width: int) -> np.ndarray:
-    """The next `count` per-sample rows of an additive stage, consumed as its pipeline would consume them
-    (the same blocks, so the same numbers): sliced from the block behind its row views."""
-    out = np.empty((count, width))
-    done = 0
-    while done < count:
-        if stage.k == len(stage.rows):  # the stage's own refill, keeping the block as one array
-            stage.rows = stage.draw(stage.rng, stage.ctx.block)
-            stage.k = 0
-        take = min(count - done, len(stage.rows) - stage.k)
-        out[done:done + take] = np.reshape(stage.rows[stage.k:stage.k + take], (take, width))
-        stage.k += take
-        done += take
-    return out
+def _term(v: np.ndarray, field: np.ndarray, positions: np.ndarray) -> None:
+    rt.add(v, field.take(positions), v)
+
+
+def _add(v: np.ndarray, values: np.ndarray, cols: np.ndarray) -> None:
+    rt.add(v, values.take(cols), v)
+
+
+def _mul(v: np.ndarray, values: np.ndarray, cols: np.ndarray) -> None:
+    rt.multiply(v, values.take(cols), v)
+
+
+def _quantize(v: np.ndarray, step: np.ndarray) -> None:
+    rt.quantize(v, step, v)
+
+
+def _clip(v: np.ndarray, low: np.ndarray, high: np.ndarray) -> None:
+    rt.clip(v, low, high, v)
+
+
+# kind -> how a read applies it to the gathered values of a group (the stage's own arithmetic)
+_APPLY: dict[str, Callable[..., None]] = {"term": _term, "add": _add, "mul": _mul, "quantize": _quantize,
+                                          "clip": _clip}
 
 
 class BankNoise:
@@ -71,35 +88,30 @@ class BankNoise:
         self.width = int(cols[-1])
         self.rows, self.chunk, self.cols = rows, chunk, cols
         self.shapes = [ch.shape for ch in channels]
+        self.strides = [ch.interval for ch in channels]  # sample j of member i is taken at step j * stride
         self.offsets = sample_offsets  # per member: its sample steps within one chunk, relative
         groups: dict[tuple[str, ...], list[int]] = {}
         for i, ops in enumerate(programs):
             if ops:
-                groups.setdefault(tuple(op for op, _ in ops), []).append(i)
+                groups.setdefault(tuple(kind for kind, _ in ops), []).append(i)
         self.programs = programs
         self.groups = [(signature, members) for signature, members in groups.items()]
-        self.nfields = max((sum(op in ("field", "walk") for op in sig) for sig, _ in self.groups), default=0)
+        self.nfields = max((sig.count("term") for sig, _ in self.groups), default=0)
         self.fields = np.zeros((self.nfields, rows, self.width))
         self.flat_fields = self.fields.reshape(self.nfields, -1)
-        # per group and op position: a full-width parameter vector (constants now, episode draws at reset)
+        # per group and op position: full-width parameter vectors (constants now, episode draws at reset)
         self.params: list[list[Any]] = []
         for signature, members in self.groups:
             per_op: list[Any] = []
-            for q, op in enumerate(signature):
-                if op == "quantize":
-                    per_op.append(self._full(members, q, lambda s: s.step, np.nan))
-                elif op == "clip":
+            for q, kind in enumerate(signature):
+                if kind == "quantize":
+                    per_op.append((self._full(members, q, lambda s: s.step, np.nan),))
+                elif kind == "clip":
                     per_op.append((self._full(members, q, lambda s: s.low, -np.inf),
                                    self._full(members, q, lambda s: s.high, np.inf)))
-                elif op in ("add", "mul"):
-                    per_op.append(np.zeros(self.width))
-                else:
-                    per_op.append(None)
+                else:  # add / mul: this episode's draws, filled at `start`; term: a noise field
+                    per_op.append((np.zeros(self.width),) if kind in ("add", "mul") else ())
             self.params.append(per_op)
-        self.noisy = np.zeros(self.width, bool)
-        for _, members in self.groups:
-            for i in members:
-                self.noisy[cols[i]:cols[i + 1]] = True
 
     def _full(self, members: list[int], q: int, get: Any, missing: float) -> np.ndarray:
         full = np.full(self.width, missing)
@@ -114,14 +126,14 @@ class BankNoise:
     def start(self) -> None:
         """After the pipelines' reset: this episode's draws, and the first chunk of noise."""
         for (signature, members), per_op in zip(self.groups, self.params):
-            for q, op in enumerate(signature):
-                if op in ("add", "mul"):
+            for q, kind in enumerate(signature):
+                if kind in ("add", "mul"):
                     for i in members:
-                        per_op[q][self.cols[i]:self.cols[i + 1]] = self.programs[i][q][1].value.ravel()
+                        per_op[q][0][self.cols[i]:self.cols[i + 1]] = self.programs[i][q][1].value.ravel()
         self.fill(0)
 
     def fill(self, step: int) -> None:
-        """Draw the noise of every noisy member's samples in steps [step, step + chunk)."""
+        """Write the per-sample terms of every noisy member's samples in steps [step, step + chunk)."""
         for i, ops in enumerate(self.programs):
             if not ops:
                 continue
@@ -130,26 +142,15 @@ class BankNoise:
                 steps = np.concatenate(([0], steps))  # the reset sample is always taken
             rows = (steps % self.rows)[:, None]
             span = np.arange(self.cols[i], self.cols[i + 1])[None, :]
-            width = span.shape[1]
-            j = 0
-            for op, stage in ops:
-                if op == "field":
-                    self.fields[j][rows, span] = _next_rows(stage, len(steps), width)
-                elif op == "walk":
-                    zero, out = np.zeros(self.shapes[i]), np.empty((len(steps), width))
-                    row = np.empty(self.shapes[i])
-                    for n, t in enumerate(steps.tolist()):
-                        stage(zero, row, t)
-                        out[n] = row.ravel()
-                    self.fields[j][rows, span] = out
-                else:
-                    continue
-                j += 1
+            indices = steps // self.strides[i]
+            terms = [stage for kind, stage in ops if kind == "term"]
+            for j, stage in enumerate(terms):
+                self.fields[j][rows, span] = stage.rows_at(indices).reshape(len(steps), -1)
 
     # -- reads ------------------------------------------------------------------------------------
 
     def plan(self, index: np.ndarray) -> list[Any]:
-        """For a gather `index` (flat history positions): per group, where its values are and their params."""
+        """For a gather `index` (flat history positions): per group, where its values are and what to do."""
         columns = index % self.width
         out = []
         for (signature, members), per_op in zip(self.groups, self.params):
@@ -160,38 +161,23 @@ class BankNoise:
             if not len(pos):
                 continue
             cols = columns[pos]
-            ops = []
-            for q, op in enumerate(signature):
-                p = per_op[q]
-                if op == "quantize":
-                    ops.append((op, p.take(cols)))
-                elif op == "clip":
-                    ops.append((op, (p[0].take(cols), p[1].take(cols))))
-                elif op in ("add", "mul"):
-                    ops.append((op, (p, cols)))
+            ops, j = [], 0
+            for kind, p in zip(signature, per_op):
+                if kind == "term":
+                    args: tuple[Any, ...] = (self.flat_fields[j], index[pos])
+                    j += 1
+                elif kind in ("add", "mul"):
+                    args = (p[0], cols)
                 else:
-                    ops.append((op, None))
-            out.append((pos, index[pos], ops))
+                    args = tuple(a.take(cols) for a in p)
+                ops.append((_APPLY[kind], args))
+            out.append((pos, ops))
         return out
 
     def apply(self, gathered: np.ndarray, plan: list[Any]) -> None:
         """Apply every group's stages, in order, to its gathered values (in place)."""
-        for pos, fidx, ops in plan:
+        for pos, ops in plan:
             v = gathered.take(pos)
-            j = 0
-            for op, p in ops:
-                if op == "field" or op == "walk":
-                    np.add(v, self.flat_fields[j].take(fidx), out=v)
-                    j += 1
-                elif op == "add":
-                    np.add(v, p[0].take(p[1]), out=v)
-                elif op == "mul":
-                    np.multiply(v, p[0].take(p[1]), out=v)
-                elif op == "quantize":
-                    np.divide(v, p, out=v)
-                    np.rint(v, out=v)
-                    np.multiply(v, p, out=v)
-                else:
-                    np.maximum(v, p[0], out=v)
-                    np.minimum(v, p[1], out=v)
+            for apply, args in ops:
+                apply(v, *args)
             gathered[pos] = v

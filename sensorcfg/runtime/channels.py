@@ -47,6 +47,8 @@ class Channel:
         self.aggregator = aggregator
         self.builtin_aggregator = builtin_aggregator
         self.noise = noise
+        # stateful noise (low-pass, dropout holding, a custom callable) sees every sample of the schedule
+        self.every_sample = noise is not None and bool(getattr(noise, "stateful", False))
         self.samples = 0
 
     def value(self, step: int) -> Any:
@@ -73,7 +75,7 @@ class FixedChannel(Channel):
         super().__init__(*args, **kwargs)
         self.interval = interval
         self.delay = delay
-        self.schedule = Schedule(interval, delay, self.buffer_size, self.read_interval)
+        self.schedule = Schedule(interval, delay, self.buffer_size, self.read_interval, self.every_sample)
         # Samples in flight (taken, not yet delivered) plus the visible window fit in `capacity` slots.
         self.capacity = c = self.schedule.capacity
         self.doubled = self.buffer_size > 1  # each sample is stored twice so every window is one contiguous slice
@@ -163,6 +165,8 @@ class RandomChannel(Channel):
         first read at the end of its read window ceil(a / n); what is delivered after it by then arrived
         in the same window, later in that order. So: per window, keep the last `buffer_size` samples.
         """
+        if self.every_sample:  # stateful noise: every planned sample is taken
+            return
         n, b = self.read_interval, self.buffer_size
         schedule = self.schedule
         order = sorted((-(-(t + d) // n), t + d, j) for j, (t, d) in enumerate(schedule))

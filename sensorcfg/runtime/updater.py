@@ -143,8 +143,8 @@ class Updater:
         else:
             shape, dtype = spec.shape, spec.dtype
         noise = getattr(observable, "noise", None)
-        if noise is not None:
-            noise.reset(sensor_rng(entropy or [], label))
+        if noise is not None:  # sample j of a constant interval is the j-th nominal sample
+            noise.reset(sensor_rng(entropy or [], label), 1 if callable(interval) else interval)
         read_into = getattr(sampler, "read_into", None)
         aggregator = observable.aggregator
         args = (label, sampler, read_into, shape, dtype, int(buffer_size), self._strip, self._pad, self._n,
