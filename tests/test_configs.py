@@ -66,7 +66,9 @@ def test_sim2real_is_proprioception_with_noise_and_latency() -> None:
     clean_q = np.array([o["arm_qpos"] for o in clean_history])
     noisy_q = np.array([o["arm_qpos"] for o in noisy_history])
     error = noisy_q - clean_q
-    assert np.abs(error).max() < 0.1  # the same motion...
+    # the same motion... (a 1-3 step latency alone moves it by up to 0.098 here; a bias of std 0.01 and
+    # a gaussian of std 0.002 add at most 5 standard deviations of each: 0.15 bounds it)
+    assert np.abs(error).max() < 0.15
     assert np.abs(error).max() > 1e-3  # ...seen through noise, a bias and a delay
     np.testing.assert_allclose(noisy_q / 0.001, np.round(noisy_q / 0.001), atol=1e-6)  # quantized to 1e-3
     forces = np.array([o["motor_force"] for o in noisy_history])
