@@ -22,6 +22,7 @@ from typing import Any, cast
 import numpy as np
 
 from ..runtime.bank import _reader, read_plan
+from ..runtime.cache import DEFAULT_BUDGET, BoundedCache
 from ..runtime.channels import FixedChannel, RandomChannel
 
 __all__ = ["Layout"]
@@ -41,7 +42,10 @@ class Layout:
         period = math.lcm(n, *(ch.interval for ch in self.fixed))
         span = max(span, n + 1, *(ch.schedule.wait + n + 1 for ch in self.fixed))
         self.rows = period * -(-span // period)  # a multiple of every period, longer than any wait
-        self.nphase = self.rows // n
+        # Reads repeat every `cycle` steps (relative to the read's own row): plans are kept per phase of it,
+        # so their size does not grow with the history's length (buffer and delay).
+        self.cycle = period
+        self.nphase = period // n
         # Columns read only from the history: noisy ones (corrupted there, at their samples) and those of
         # random-schedule channels, which keep every substep (when they sample is per simulation).
         self.history_only = np.zeros(self.width, bool)
@@ -55,9 +59,11 @@ class Layout:
         self._segments(fields, stops)
         self._store(fields)
         self._sources()
-        self._cache: dict[Any, Any] = {}
-        self._tables: dict[int, Any] = {}
-        self._uniform: dict[tuple[int, int], Any] = {}
+        # positions kept per global step: within a budget of the history's size (at least the default)
+        budget = max(DEFAULT_BUDGET, self.history.nbytes)
+        self._cache = BoundedCache(budget)
+        self._tables = BoundedCache(budget)
+        self._uniform = BoundedCache(budget)
 
     def _segments(self, fields: dict[str, tuple[int, ...]], stops: set[int] | frozenset[int]) -> None:
         """Runs of substeps needing the same fields (at any phase), cut also after each stop."""
@@ -216,7 +222,7 @@ class Layout:
         cached = self._cache.get(key)
         if cached is None:
             nsim, w, n = self.nsim, self.width, self.n
-            phases = np.unique((t % self.rows) // n)
+            phases = np.unique((t % self.cycle) // n)
             sims = np.arange(nsim)[:, None]
             source, target = [], []
             for k in range(1, n + 1):
@@ -225,8 +231,8 @@ class Layout:
                     source.append((self.record_base[k - 1, cols] + sims * self.record_stride[k - 1, cols]).ravel())
                     target.append(((gp + k - 1) * nsim * w + sims * w + cols).ravel())
             empty = np.zeros(0, np.intp)
-            cached = self._cache[key] = (np.concatenate(source) if source else empty,
-                                         np.concatenate(target) if target else empty)
+            cached = self._cache.put(key, (np.concatenate(source) if source else empty,
+                                           np.concatenate(target) if target else empty))
         return cached
 
     def gathers(self, gp: int, t: np.ndarray) -> np.ndarray:
@@ -236,13 +242,13 @@ class Layout:
         fresh = bool((t == 0).any())  # a reset read: its phase is not the one gp implies later on
         cached = None if fresh else self._cache.get(("read", gp))
         if cached is None:
-            phases = np.where(t == 0, self.nphase, (t % self.rows) // self.n)
+            phases = np.where(t == 0, self.nphase, (t % self.cycle) // self.n)
             if (phases == phases[0]).all():  # every simulation at one phase (as after a full reset)
                 cached = self._uniform_reads(gp, int(phases[0]))
             else:
                 cached = self._positions(gp, phases)
             if not fresh:
-                self._cache[("read", gp)] = cached
+                self._cache.put(("read", gp), cached)
         return cached
 
     def _positions(self, gp: int, phases: np.ndarray | slice) -> np.ndarray:
@@ -271,9 +277,7 @@ class Layout:
         key = (gp, q)
         reads = self._uniform.get(key)
         if reads is None:
-            if len(self._uniform) >= 2 * (self.nphase + 1):
-                self._uniform.clear()
-            reads = self._uniform[key] = self._positions(gp, slice(q, q + 1))
+            reads = self._uniform.put(key, self._positions(gp, slice(q, q + 1)))
         return reads
 
     def _read_table(self, gp: int) -> tuple[tuple[np.ndarray, np.ndarray], list[tuple[np.ndarray, ...]]]:
@@ -285,10 +289,10 @@ class Layout:
             base = np.where(self.from_record, self.record_read,
                             ((gp - 1 + self.delta) % self.rows) * (nsim * w) + self.col[None, :])
             stride = np.where(self.from_record, self.record_read_stride, w)
-            table = self._tables[gp] = (
+            table = self._tables.put(gp, (
                 (np.ascontiguousarray(base[:, self.plain_cols]), np.ascontiguousarray(stride[:, self.plain_cols])),
                 [tuple(np.ascontiguousarray(a[:, part].reshape(-1, *block).transpose(1, 0, 2)) for a in (base, stride))
-                 for _, part, block, _ in self.groups])
+                 for _, part, block, _ in self.groups]))
         return table
 
     def drawn(self, c: int, codes: np.ndarray, t: np.ndarray, G: int) -> np.ndarray:

@@ -18,6 +18,7 @@ from typing import Any, Protocol, TypeGuard, cast
 import numpy as np
 
 from ..observables.aggregators import AGGREGATORS, builtin
+from .cache import DEFAULT_BUDGET, BoundedCache
 from .bank_noise import BankNoise, Program, program
 from .channels import Channel, FixedChannel
 
@@ -124,8 +125,9 @@ class FeatureBank:
             for p in phases:
                 for t in range(p, self.rows, ch.period()):
                     self.snap_rows[t] = True
-        self._gathers: dict[int, tuple[np.ndarray, list[Any], list[Any], list[Any]]] = {}
-        self._early: dict[int, np.ndarray] = {}
+        # read plans per phase, and early reads' padded positions per step: kept within a byte budget
+        self._gathers = BoundedCache(max(DEFAULT_BUDGET, self.history.nbytes))
+        self._early = BoundedCache(4 << 20)
         self.noise: BankNoise | None = None
         if noisy:  # each member's sample steps within one chunk, for drawing its noise a chunk ahead
             in_chunk = [np.array(sorted(p + m for p in phases for m in range(0, self.chunk, period_c)), np.intp)
@@ -193,7 +195,8 @@ class FeatureBank:
         phase = step % self.rows
         plan = self._gathers.get(phase)
         if plan is None:
-            plan = self._gathers[phase] = self._plan_read(phase)
+            plan = self._plan_read(phase)
+            self._gathers.put(phase, plan, 3 * plan[0].nbytes)  # the index, its noise positions, the groups
         index, groups, plain, noise = plan
         gathered = self.flat.take(index, None, None, "clip")
         if noise:  # a noise plan: the bank has noise
@@ -201,7 +204,7 @@ class FeatureBank:
             if step < self.rows:  # early in an episode: windows reach before the reset sample
                 early = self._early.get(step)
                 if early is None:
-                    early = self._early[step] = np.flatnonzero(index // self.width > step)
+                    early = self._early.put(step, np.flatnonzero(index // self.width > step))
                 if len(early):
                     gathered[early] = self.pad_values.take(index[early] % self.width)
         outputs: list[Any] = [None] * len(self.channels)

@@ -79,8 +79,9 @@ class FixedChannel(Channel):
         # Samples in flight (taken, not yet delivered) plus the visible window fit in `capacity` slots.
         self.capacity = c = self.schedule.capacity
         self.doubled = self.buffer_size > 1  # each sample is stored twice so every window is one contiguous slice
-        self.ring = np.zeros(((2 * c) if self.doubled else c,) + self.shape, dtype=self.dtype)
-        self.rows = [self.ring[i:i + 1].reshape(self.shape) for i in range(len(self.ring))]  # views, also 0-d
+        # allocated at the first `start`: a channel the feature bank runs never holds samples of its own
+        self.ring = np.zeros((0,) + self.shape, dtype=self.dtype)
+        self.rows: list[np.ndarray] = []
 
     def period(self) -> int:
         return self.schedule.period
@@ -91,6 +92,10 @@ class FixedChannel(Channel):
 
     def start(self, step: int) -> None:
         """The reset sample (always taken: it also pads the buffer when asked)."""
+        if not self.rows:
+            c = self.capacity
+            self.ring = np.zeros(((2 * c) if self.doubled else c,) + self.shape, dtype=self.dtype)
+            self.rows = [self.ring[i:i + 1].reshape(self.shape) for i in range(len(self.ring))]  # views, also 0-d
         value = self.value(step)
         if self.pad:
             self.ring[...] = value
