@@ -59,9 +59,9 @@ class Timelines:
 
     def _shadow(self, plan: _Plan, template: RandomChannel, drawers: tuple[Any, Any]) -> RandomChannel:
         step = plan.step
-        shadow = RandomChannel(template.name, lambda: step[0] + 1, None, (), np.dtype(np.int64),
-                               template.buffer_size, False, self.pad, self.n, None, False, None,
-                               interval=drawers[0], delay=drawers[1])
+        spec = template.spec._replace(sampler=lambda: step[0] + 1, read_into=None, shape=(), dtype=np.dtype(np.int64),
+                                      strip=False, pad=self.pad, aggregator=None, builtin_aggregator=False, noise=None)
+        shadow = RandomChannel(spec, interval=drawers[0], delay=drawers[1])
         shadow.every_sample = template.every_sample  # stateful noise: no sample is dropped
         return shadow
 

@@ -31,8 +31,8 @@ from ..draws import (DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, ChoiceSteps, Unifor
 from ..errors import SuiteError
 from ..observables.aggregators import AGGREGATORS, builtin
 from ..runtime.bank import _reader
-from ..runtime.channels import Channel, FixedChannel, RandomChannel
-from ..runtime.updater import Updater
+from ..runtime.channels import Channel, FixedChannel, RandomChannel, make_channel
+from ..runtime.updater import observation_spec
 from .layout import Layout
 from .noise import BatchPipeline
 from .random_schedules import Timelines
@@ -67,16 +67,16 @@ class BatchUpdater:
     def __init__(self, observables: Mapping[str, Any], physics: Any, nsim: int, n: int, *,
                  strip_singleton_buffer_dim: bool = False, pad_with_initial_value: bool = False):
         """`physics`: a single-simulation physics of the model (its MjData tells field shapes; the
-        observables are bound to it once, with the single-simulation Updater, for checks and specs)."""
+        observables are bound to it once, as the single-simulation Updater binds them, for checks and specs)."""
         if not isinstance(observables, Mapping):
             raise SuiteError("BatchEnvironment needs a dict of observables (or a Suite); got "
                              f"{type(observables).__name__}")
         self.nsim, self.n, self.pad = int(nsim), int(n), bool(pad_with_initial_value)
-        template = Updater(observables, n, strip_singleton_buffer_dim, pad_with_initial_value)
-        template.reset(physics, np.random.RandomState(0))
-        self._spec = template.observation_spec()
         enabled = [(name, obs) for name, obs in observables.items() if obs.enabled]
-        channels = list(template._channels)
+        random_state = np.random.RandomState(0)  # binding only: each simulation's episode draws its own
+        channels = [make_channel(name, obs, physics, random_state, None, self.n, bool(strip_singleton_buffer_dim),
+                                 self.pad) for name, obs in enabled]
+        self._spec = {name: observation_spec(name, obs, ch) for (name, obs), ch in zip(enabled, channels)}
         ch: FixedChannel | RandomChannel
         self.names = [name for name, _ in enabled]
         cameras = cast("list[tuple[str, Any, FixedChannel]]",  # a drawn schedule fails `_check_camera`

@@ -15,40 +15,60 @@ dm_control does (the same draws, in the same order) and skips what it can prove 
 from __future__ import annotations
 
 import collections
+import dataclasses
+import numbers
 from collections.abc import Callable
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
+from ..draws import DEFAULT_BUFFER_SIZE, DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, as_draw, drawer, sensor_rng
+from ..errors import SuiteError
+from ..observables.aggregators import builtin
 from .schedule import Schedule
 
-__all__ = ["Channel", "FixedChannel", "RandomChannel"]
+__all__ = ["Channel", "ChannelSpec", "FixedChannel", "RandomChannel", "make_channel"]
 
 Sampler = Callable[[], Any]
+
+
+class ChannelSpec(NamedTuple):
+    """What a channel is, apart from its schedule: built by `make_channel`, shared by every channel type."""
+
+    name: str
+    sampler: Sampler
+    read_into: Callable[[np.ndarray], None] | None  # writes a sample into a buffer row (features)
+    shape: tuple[int, ...]
+    dtype: np.dtype
+    buffer_size: int
+    strip: bool  # strip_singleton_buffer_dim
+    pad: bool  # pad_with_initial_value
+    read_interval: int  # physics steps per control step: reads happen every `read_interval` steps
+    aggregator: Callable[[np.ndarray], Any] | None
+    builtin_aggregator: bool
+    noise: Any
 
 
 class Channel:
     """Shared parts: the sampler, the output shape and the aggregation."""
 
-    def __init__(self, name: str, sampler: Sampler, read_into: Callable[[np.ndarray], None] | None,
-                 shape: tuple[int, ...], dtype: np.dtype, buffer_size: int, strip: bool, pad: bool,
-                 read_interval: int, aggregator: Callable[[np.ndarray], Any] | None,
-                 builtin_aggregator: bool, noise: Any):
-        self.name = name
-        self.sampler = sampler
-        self.read_into = read_into if noise is None else None
-        self.shape = tuple(shape)
-        self.dtype = np.dtype(dtype)
-        self.buffer_size = buffer_size
-        self.has_buffer_dim = not (strip and buffer_size == 1)
-        self.buffered_shape = ((buffer_size,) if self.has_buffer_dim else ()) + self.shape
-        self.pad = pad
-        self.read_interval = read_interval
-        self.aggregator = aggregator
-        self.builtin_aggregator = builtin_aggregator
-        self.noise = noise
+    def __init__(self, spec: ChannelSpec):
+        self.spec = spec
+        self.name = spec.name
+        self.sampler = spec.sampler
+        self.read_into = spec.read_into if spec.noise is None else None
+        self.shape = tuple(spec.shape)
+        self.dtype = np.dtype(spec.dtype)
+        self.buffer_size = spec.buffer_size
+        self.has_buffer_dim = not (spec.strip and spec.buffer_size == 1)
+        self.buffered_shape = ((spec.buffer_size,) if self.has_buffer_dim else ()) + self.shape
+        self.pad = spec.pad
+        self.read_interval = spec.read_interval
+        self.aggregator = spec.aggregator
+        self.builtin_aggregator = spec.builtin_aggregator
+        self.noise = spec.noise
         # stateful noise (low-pass, dropout holding, a custom callable) sees every sample of the schedule
-        self.every_sample = noise is not None and bool(getattr(noise, "stateful", False))
+        self.every_sample = spec.noise is not None and bool(getattr(spec.noise, "stateful", False))
         self.samples = 0
 
     def value(self, step: int) -> Any:
@@ -71,13 +91,13 @@ class Channel:
 class FixedChannel(Channel):
     """Constant integer interval and delay: a periodic plan and a ring of samples."""
 
-    def __init__(self, *args: Any, interval: int, delay: int, **kwargs: Any):
-        super().__init__(*args, **kwargs)
+    def __init__(self, spec: ChannelSpec, *, interval: int, delay: int):
+        super().__init__(spec)
         self.interval = interval
         self.delay = delay
         self.schedule = Schedule(interval, delay, self.buffer_size, self.read_interval, self.every_sample)
         # Samples in flight (taken, not yet delivered) plus the visible window fit in `capacity` slots.
-        self.capacity = c = self.schedule.capacity
+        self.capacity = self.schedule.capacity
         self.doubled = self.buffer_size > 1  # each sample is stored twice so every window is one contiguous slice
         # allocated at the first `start`: a channel the feature bank runs never holds samples of its own
         self.ring = np.zeros((0,) + self.shape, dtype=self.dtype)
@@ -137,8 +157,8 @@ class RandomChannel(Channel):
     samples taken and every draw agree with dm_control's.
     """
 
-    def __init__(self, *args: Any, interval: Callable[[], int], delay: Callable[[], int], **kwargs: Any):
-        super().__init__(*args, **kwargs)
+    def __init__(self, spec: ChannelSpec, *, interval: Callable[[], int], delay: Callable[[], int]):
+        super().__init__(spec)
         self.draw_interval = interval
         self.draw_delay = delay
         self.schedule: list[tuple[int, int]] = []  # (timestamp, delay), increasing timestamps
@@ -237,3 +257,36 @@ class RandomChannel(Channel):
         if self.has_buffer_dim:
             return self.finish(np.stack(self.arrived))
         return self.finish(self.arrived[0])
+
+
+def make_channel(label: str, observable: Any, physics: Any, random_state: Any, entropy: list[int] | None,
+                 read_interval: int, strip: bool, pad: bool) -> FixedChannel | RandomChannel:
+    """Bind `observable` to `physics` and build its channel for an episode: the Updater's and the batch's one
+    way to turn an observable into a channel. `entropy` seeds the sensor's noise stream (`draws.sensor_rng`);
+    `random_state` is the episode's, given to the observable and to schedule callables that take it."""
+    try:
+        sampler = observable.observation_callable(physics, random_state)
+    except SuiteError as e:  # binding to the model (unknown element, camera, ...): say which observable
+        raise SuiteError([p if p.loc else dataclasses.replace(p, message=f"observable {label!r}: {p.message}")
+                          for p in e.problems]) from None
+    interval = drawer(label, "update_interval", observable.update_interval, DEFAULT_UPDATE_INTERVAL, random_state)
+    delay = drawer(label, "delay", observable.delay, DEFAULT_DELAY, random_state)
+    buffer_size = observable.buffer_size or DEFAULT_BUFFER_SIZE
+    if not isinstance(buffer_size, numbers.Integral) or isinstance(buffer_size, bool) or buffer_size < 1:
+        raise SuiteError(f"observable {label!r}: buffer_size must be a positive integer, got {buffer_size!r}")
+    spec = observable.array_spec
+    if spec is None:  # infer shape and dtype from one sample, as dm_control does
+        probe = np.asarray(sampler())
+        shape, dtype = probe.shape, probe.dtype
+    else:
+        shape, dtype = spec.shape, spec.dtype
+    noise = getattr(observable, "noise", None)
+    if noise is not None:  # sample j of a constant interval is the j-th nominal sample
+        noise.reset(sensor_rng(entropy or [], label), 1 if callable(interval) else interval)
+    aggregator = observable.aggregator
+    channel = ChannelSpec(label, sampler, getattr(sampler, "read_into", None), tuple(shape), np.dtype(dtype),
+                          int(buffer_size), strip, pad, read_interval, aggregator, builtin(aggregator) is not None,
+                          noise)
+    if callable(interval) or callable(delay):
+        return RandomChannel(channel, interval=as_draw(interval), delay=as_draw(delay))
+    return FixedChannel(channel, interval=interval, delay=delay)

@@ -7,7 +7,6 @@ Observables are duck-typed: dm_control's own observables work unchanged.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import numbers
 from collections.abc import Callable, Mapping, Sequence
@@ -16,15 +15,14 @@ from typing import Any, Union, cast
 import numpy as np
 from dm_env import specs
 
-from ..draws import (DEFAULT_BUFFER_SIZE, DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, as_draw, drawer, episode_entropy,
-                     sensor_rng)
+from ..draws import episode_entropy
 from ..errors import SuiteError
-from ..observables.aggregators import builtin, preserves_bounds
+from ..observables.aggregators import preserves_bounds
 from .mujoco_structs import structs_of as raw_structs
 from .bank import BankMember, FeatureBank, qualifies
-from .channels import FixedChannel, RandomChannel
+from .channels import FixedChannel, RandomChannel, make_channel
 
-__all__ = ["Updater"]
+__all__ = ["Updater", "observation_spec"]
 
 _MAX_PLAN_PERIOD = 1 << 16
 
@@ -81,7 +79,8 @@ class Updater:
             for name, observable in obs_dict.items():
                 if observable.enabled:
                     label = f"{index}/{name}" if self._nested else str(name)
-                    entries.append((name, self._channel(label, observable, physics, random_state, entropy)))
+                    entries.append((name, make_channel(label, observable, physics, random_state, entropy, self._n,
+                                                       self._strip, self._pad)))
             layout.append((type(obs_dict), entries))
         self._channels = [ch for _, entries in layout for _, ch in entries]
         self._bank = self._make_bank(physics)
@@ -123,35 +122,6 @@ class Updater:
             return None
         self._bank_cache = (key, bank)
         return bank
-
-    def _channel(self, label: str, observable: Any, physics: Any, random_state: Any,
-                 entropy: list[int] | None) -> FixedChannel | RandomChannel:
-        try:
-            sampler = observable.observation_callable(physics, random_state)
-        except SuiteError as e:  # binding to the model (unknown element, camera, ...): say which observable
-            raise SuiteError([p if p.loc else dataclasses.replace(p, message=f"observable {label!r}: {p.message}")
-                              for p in e.problems]) from None
-        interval = drawer(label, "update_interval", observable.update_interval, DEFAULT_UPDATE_INTERVAL, random_state)
-        delay = drawer(label, "delay", observable.delay, DEFAULT_DELAY, random_state)
-        buffer_size = observable.buffer_size or DEFAULT_BUFFER_SIZE
-        if not isinstance(buffer_size, numbers.Integral) or isinstance(buffer_size, bool) or buffer_size < 1:
-            raise SuiteError(f"observable {label!r}: buffer_size must be a positive integer, got {buffer_size!r}")
-        spec = observable.array_spec
-        if spec is None:  # infer shape and dtype from one sample, as dm_control does
-            probe = np.asarray(sampler())
-            shape, dtype = probe.shape, probe.dtype
-        else:
-            shape, dtype = spec.shape, spec.dtype
-        noise = getattr(observable, "noise", None)
-        if noise is not None:  # sample j of a constant interval is the j-th nominal sample
-            noise.reset(sensor_rng(entropy or [], label), 1 if callable(interval) else interval)
-        read_into = getattr(sampler, "read_into", None)
-        aggregator = observable.aggregator
-        args = (label, sampler, read_into, shape, dtype, int(buffer_size), self._strip, self._pad, self._n,
-                aggregator, builtin(aggregator) is not None, noise)
-        if callable(interval) or callable(delay):
-            return RandomChannel(*args, interval=as_draw(interval), delay=as_draw(delay))
-        return FixedChannel(*args, interval=interval, delay=delay)
 
     def _build_plan(self) -> None:
         """One table over the common period: which sampling tasks run at each step's phase."""
@@ -234,7 +204,7 @@ class Updater:
         dicts = list(self._observables) if self._nested else [self._observables]
         out = []
         for obs_dict, (kind, entries) in zip(dicts, self._layout):
-            out.append(kind((name, _spec(name, obs_dict[name], ch)) for name, ch in entries))
+            out.append(kind((name, observation_spec(name, obs_dict[name], ch)) for name, ch in entries))
         return type(self._observables)(out) if self._nested else out[0]
 
     def samples_taken(self) -> Any:
@@ -252,7 +222,9 @@ class Updater:
         return self._step
 
 
-def _spec(name: str, observable: Any, ch: _Reader) -> specs.Array:
+def observation_spec(name: str, observable: Any, ch: _Reader) -> specs.Array:
+    """One observable's dm_env spec: its own, with the buffer axis and the aggregator applied; bounds kept
+    where the aggregator preserves them (the Updater's and the batch's `observation_spec`)."""
     array_spec = observable.array_spec
     aggregator = observable.aggregator
     if aggregator is None and array_spec is not None:
