@@ -56,6 +56,7 @@ import dm_env
 import mujoco
 import numpy as np
 
+from ..env.episode import episode_end
 from ..env.environment import (_BAD_STATE, ControlLoop, _suite_and_observables, action_spec, episode_timing, load_model,
                                random_state_from)
 from ..errors import SuiteError
@@ -265,17 +266,15 @@ class BatchEnvironment(ControlLoop):
         reward = np.zeros(self._nsim)
         if self._reward_fn is not None:
             reward[active] = self._per_simulation("reward_fn", self._reward_fn, np.float64)[active]
-        ended = self._diverged(active, failed, messages)
-        if self._termination_fn is not None:
-            ended |= active & self._per_simulation("termination_fn", self._termination_fn, bool)
-        if self._step_limit is not None:
-            over = active & (updater.control_steps >= self._step_limit)
-            step_type[over] = _LAST
-            self._needs_reset |= over
-        if ended.any():
-            step_type[ended] = _LAST
-            discount[ended] = 0.0
-            self._needs_reset |= ended
+        diverged = self._diverged(active, failed, messages)
+        terminated = (active & self._per_simulation("termination_fn", self._termination_fn, bool)
+                      if self._termination_fn is not None else False)
+        last, ending = episode_end(diverged, terminated, updater.control_steps, self._step_limit)
+        last &= active
+        if last.any():
+            step_type[last] = _LAST
+            discount[last] = ending[last]
+            self._needs_reset |= last
         return BatchTimeStep(step_type, reward, discount, observation)
 
     def _per_simulation(self, label: str, fn: Callable[[Any], Any], dtype: Any) -> np.ndarray:

@@ -23,6 +23,7 @@ from dm_env import specs
 from ..errors import SuiteError
 from ..physics import Physics, read_model
 from ..runtime.updater import Updater
+from .episode import episode_end
 
 __all__ = ["ControlLoop", "Environment", "make_env", "load_model", "random_state_from", "steps_per_control_step"]
 
@@ -248,14 +249,11 @@ class Environment(ControlLoop, dm_env.Environment):
             self.last_divergence = divergence
             warnings.warn(f"sensorcfg: the simulation diverged at t={data.time:.4f}s ({divergence}); "
                           "the episode ends here (discount 0)", RuntimeWarning, stacklevel=2)
+        terminated = divergence is None and self._termination_fn is not None and self._termination_fn(self._physics)
+        last, discount = episode_end(divergence is not None, bool(terminated), self._steps, self._step_limit)
+        if last:
             self._needs_reset = True
-            return dm_env.termination(reward, observation)
-        if self._termination_fn is not None and self._termination_fn(self._physics):
-            self._needs_reset = True
-            return dm_env.termination(reward, observation)
-        if self._step_limit is not None and self._steps >= self._step_limit:
-            self._needs_reset = True
-            return dm_env.truncation(reward, observation)
+            return dm_env.TimeStep(dm_env.StepType.LAST, reward, float(discount), observation)
         return dm_env.transition(reward, observation)
 
     def _check_action(self, action: Any) -> np.ndarray:
