@@ -427,3 +427,14 @@ def test_kind_the_type_lacks() -> None:
 def test_runtime_error_before_reset(method: str) -> None:
     with pytest.raises(RuntimeError, match=r"`reset` must be called before"):
         getattr(sensorcfg.Updater({"x": clock_observable()}), method)()
+
+
+@pytest.mark.parametrize("observables", [[], (), {}, [{}], ({}, {})], ids=repr)
+def test_an_updater_without_observables_returns_an_empty_observation(observables) -> None:
+    # as dm_control's Updater: the structure given, with nothing in it
+    updater = sensorcfg.Updater(observables, 2)
+    updater.reset(Clock(), np.random.RandomState(0))
+    updater.prepare_for_next_control_step()
+    updater.update()
+    assert updater.get_observation() == observables
+    assert updater.observation_spec() == observables

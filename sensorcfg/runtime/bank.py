@@ -22,7 +22,7 @@ from .cache import DEFAULT_BUDGET, BoundedCache
 from .bank_noise import BankNoise, Program, program
 from .channels import Channel, FixedChannel
 
-__all__ = ["FeatureBank", "BankMember", "buffer_view", "read_plan"]
+__all__ = ["FeatureBank", "BankMember", "buffer_view", "fields_of", "read_plan"]
 
 _CHUNK_STEPS = 256  # physics steps of noise drawn at a time (rounded up to the sampling period)
 
@@ -53,6 +53,11 @@ class _FieldReader(Protocol):
     index: np.ndarray
 
     def __call__(self) -> Any: ...
+
+
+def fields_of(channels: list[FixedChannel]) -> list[str]:
+    """The mjData fields that bank members read, sorted."""
+    return sorted({_reader(ch).field for ch in channels})
 
 
 def _reader(ch: Channel) -> _FieldReader:
@@ -91,11 +96,9 @@ class BankMember:
 class FeatureBank:
     """All plain float64 mjData features of one Updater."""
 
-    def __init__(self, channels: list[FixedChannel], data: Any, read_interval: int, pad: bool):
-        fields = sorted({_reader(ch).field for ch in channels})
-        view = buffer_view(data, fields)
-        if view is None:
-            raise ValueError("mjData fields are not in one buffer")
+    def __init__(self, channels: list[FixedChannel], data: Any, read_interval: int, pad: bool,
+                 view: tuple[np.ndarray, dict[str, int]]):
+        """`view`: `buffer_view(data, fields)` of the members' fields (the caller checked it exists)."""
         self.raw, offsets = view
         self._data = data  # keeps the memory behind `raw` alive
         self.channels = channels

@@ -98,7 +98,7 @@ class BankNoise:
         self.groups = [(signature, members) for signature, members in groups.items()]
         self.nfields = max((sig.count("term") for sig, _ in self.groups), default=0)
         self.fields = np.zeros((self.nfields, rows, self.width))
-        self.flat_fields = self.fields.reshape(self.nfields, -1)
+        self.flat_fields = self.fields.reshape(self.nfields, rows * self.width)
         # per group and op position: full-width parameter vectors (constants now, episode draws at reset)
         self.params: list[list[Any]] = []
         for signature, members in self.groups:

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import math
 import numbers
-from collections.abc import Callable, Mapping, Sequence
-from typing import Any, Union, cast
+from collections.abc import Callable, Collection, Mapping, Sequence
+from typing import Any, NamedTuple, Union, cast
 
 import numpy as np
 from dm_env import specs
@@ -19,7 +19,7 @@ from ..draws import episode_entropy
 from ..errors import SuiteError
 from ..observables.aggregators import preserves_bounds
 from .mujoco_structs import structs_of as raw_structs
-from .bank import BankMember, FeatureBank, qualifies
+from .bank import BankMember, FeatureBank, buffer_view, fields_of, qualifies
 from .channels import FixedChannel, RandomChannel, make_channel
 
 __all__ = ["Updater", "observation_spec"]
@@ -29,6 +29,28 @@ _MAX_PLAN_PERIOD = 1 << 16
 _Task = Callable[[int], None]  # one sampling task of the plan, called with the step
 _Reader = Union[FixedChannel, RandomChannel, BankMember]  # what the layout holds per observable
 
+SYNC_ORDER = -2  # `PlanTask.order` of bringing a dirty dm_control physics up to date: before anything
+BANK_ORDER = -1  # of the bank's snapshots and noise draws: pure reads of the state, before any sampler
+NOT_BANKED = -1  # bank position of an observable read from its own channel
+
+
+class PlanTask(NamedTuple):
+    """One task of the periodic sampling plan: `run(step)` at the steps whose phase (step mod `period`) is
+    in `phases`; within a step, tasks run by `order` (the observables' order, dm_control's)."""
+
+    period: int
+    phases: Collection[int]  # a set when tasks check their own phase
+    order: int
+    run: _Task
+
+
+class Read(NamedTuple):
+    """Where an observation comes from: its bank position (`NOT_BANKED`: its own `reader`)."""
+
+    name: str
+    position: int
+    reader: _Reader
+
 
 class Updater:
     """Samples, delays, buffers, aggregates and corrupts observables inside the physics loop."""
@@ -36,12 +58,12 @@ class Updater:
     # set by `reset` (and `_build_plan`)
     _channels: list[FixedChannel | RandomChannel]
     _bank: FeatureBank | None
-    _reads: list[tuple[type, list[tuple[str, int, _Reader]]]]
+    _reads: list[tuple[type, list[Read]]]
     _random: list[tuple[int, RandomChannel]]
     _period: int
     _plan: list[tuple[_Task, ...]]
     _orders: list[tuple[int, ...]]
-    _slow: list[tuple[int, frozenset[int], int, _Task]]
+    _slow: list[PlanTask]
 
     def __init__(self, observables: Mapping[str, Any] | Sequence[Mapping[str, Any]],
                  physics_steps_per_control_step: int = 1, strip_singleton_buffer_dim: bool = False,
@@ -87,7 +109,7 @@ class Updater:
         positions = {id(m.channel): m for m in self._bank.members()} if self._bank else {}
         self._layout = [(kind, [(name, positions.get(id(ch), ch)) for name, ch in entries])
                         for kind, entries in layout]
-        self._reads = [(kind, [(name, cast(BankMember, m).position if id(ch) in positions else -1, m)
+        self._reads = [(kind, [Read(name, cast(BankMember, m).position if id(ch) in positions else NOT_BANKED, m)
                                for (name, ch), (_, m) in zip(entries, self._layout[i][1])])
                        for i, (kind, entries) in enumerate(layout)]
         self._step = 0
@@ -101,7 +123,7 @@ class Updater:
         if self._bank:
             self._bank.start()
         self._build_plan()
-        first_kind, first_reads = self._reads[0]
+        first_kind, first_reads = self._reads[0] if self._reads else (dict, [])  # Updater([]): no dicts at all
         self._all_banked = (not self._nested and self._bank is not None
                             and [pos for _, pos, _ in first_reads] == list(range(len(first_reads))))
         self._dict_type, self._names = first_kind, [name for name, _, _ in first_reads]
@@ -116,10 +138,10 @@ class Updater:
         if cached is not None and cached[0] == key:  # same sensors: keep the layout and its read plans
             cached[1].rebind(members)
             return cached[1]
-        try:
-            bank = FeatureBank(members, data, self._n, self._pad)
-        except ValueError:  # fields outside MjData's main buffer: read them one by one
+        view = buffer_view(data, fields_of(members))
+        if view is None:  # fields outside MjData's main buffer: read them one by one
             return None
+        bank = FeatureBank(members, data, self._n, self._pad, view)
         self._bank_cache = (key, bank)
         return bank
 
@@ -129,33 +151,38 @@ class Updater:
         # drawing from the episode's random_state), so within a step they run in dm_control's order,
         # the observables' order. The bank's snapshot is a pure read and goes first.
         banked = {id(m.channel) for m in self._bank.members()} if self._bank else set()
-        tasks = [(ch.period(), ch.needed_phases(), order, ch.sample) for order, ch in enumerate(self._channels)
+        tasks = [PlanTask(ch.period(), ch.needed_phases(), order, ch.sample) for order, ch in enumerate(self._channels)
                  if isinstance(ch, FixedChannel) and id(ch) not in banked]
-        if self._bank:  # snapshots and noise draws: pure reads of the state, before any sampler
-            tasks[:0] = [(p, phases, -1, task) for p, phases, task in self._bank.tasks()]
-        syncing = [m.channel for m in self._bank.members() if getattr(m.channel.sampler, "sync", None)] \
-            if self._bank else []
-        if syncing:  # on a dirty dm_control physics, mj_forward before a step's derived reads (as its bind does)
-            rows, sync = cast(FeatureBank, self._bank).rows, cast(Any, syncing[0].sampler).sync
-            steps = sorted({t for ch in syncing for p in ch.needed_phases() for t in range(p, rows, ch.period())})
-            tasks[:0] = [(rows, steps, -2, lambda step: sync())]
+        if self._bank:
+            tasks[:0] = [PlanTask(p, phases, BANK_ORDER, task) for p, phases, task in self._bank.tasks()]
+            tasks[:0] = self._sync_tasks(self._bank)
         self._random = [(order, ch) for order, ch in enumerate(self._channels) if isinstance(ch, RandomChannel)]
-        period = math.lcm(*(p for p, _, _, _ in tasks)) if tasks else 1
+        period = math.lcm(*(task.period for task in tasks)) if tasks else 1
         if period > _MAX_PLAN_PERIOD:  # pathological interval mixes: each task checks its own phase
             self._period, self._plan, self._orders = 1, [()], [()]
-            self._slow = [(p, frozenset(phases), order, task) for p, phases, order, task in tasks]
+            self._slow = [task._replace(phases=frozenset(task.phases)) for task in tasks]
             return
         self._slow = []
         plan: list[list[tuple[int, _Task]]] = [[] for _ in range(period)]
-        for task_period, phases, order, task in tasks:
-            for phase in phases:
-                for t in range(phase, period, task_period):
-                    plan[t].append((order, task))
+        for task in tasks:
+            for phase in task.phases:
+                for t in range(phase, period, task.period):
+                    plan[t].append((task.order, task.run))
         for entries in plan:
             entries.sort(key=lambda entry: entry[0])
         self._period = period
-        self._plan = [tuple(task for _, task in entries) for entries in plan]
+        self._plan = [tuple(run for _, run in entries) for entries in plan]
         self._orders = [tuple(order for order, _ in entries) for entries in plan]
+
+    @staticmethod
+    def _sync_tasks(bank: FeatureBank) -> list[PlanTask]:
+        """On a dirty dm_control physics, mj_forward before a step's derived reads (as its bind does)."""
+        syncing = [m.channel for m in bank.members() if getattr(m.channel.sampler, "sync", None)]
+        if not syncing:
+            return []
+        sync = cast(Any, syncing[0].sampler).sync
+        steps = sorted({t for ch in syncing for p in ch.needed_phases() for t in range(p, bank.rows, ch.period())})
+        return [PlanTask(bank.rows, steps, SYNC_ORDER, lambda step: sync())]
 
     # -- the physics loop -------------------------------------------------------------------------
 
@@ -177,7 +204,7 @@ class Updater:
 
     def _merge_irregular(self, step: int, tasks: tuple[_Task, ...]) -> Any:
         """This step's tasks with the due random channels and off-plan tasks, in observable order."""
-        extra = [(order, task) for period, phases, order, task in self._slow if step % period in phases]
+        extra = [(task.order, task.run) for task in self._slow if step % task.period in task.phases]
         extra += [(order, ch.sample) for order, ch in self._random if ch.due(step)]
         if not extra:
             return tasks
@@ -191,8 +218,8 @@ class Updater:
         if self._all_banked:  # the common case: one gather, then a dict in file order
             return self._dict_type(zip(self._names, cast(FeatureBank, self._bank).read(step)))
         banked = self._bank.read(step) if self._bank else ()
-        out = [kind((name, banked[pos] if pos >= 0 else ch.read(step)) for name, pos, ch in entries)
-               for kind, entries in self._reads]
+        out = [kind((read.name, banked[read.position] if read.position != NOT_BANKED else read.reader.read(step))
+                    for read in entries) for kind, entries in self._reads]
         return type(self._observables)(out) if self._nested else out[0]
 
     # -- specs and counters -----------------------------------------------------------------------
