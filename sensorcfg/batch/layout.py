@@ -17,15 +17,23 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any, cast
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 
-from ..runtime.bank import _reader, read_plan
+from ..runtime.bank import PlainRead, ReductionGroup, _reader, read_plan
 from ..runtime.cache import DEFAULT_BUDGET, BoundedCache
 from ..runtime.channels import FixedChannel, RandomChannel
 
-__all__ = ["Layout"]
+__all__ = ["Layout", "Segment"]
+
+
+class Segment(NamedTuple):
+    """A run of substeps `first..last` (1-based) recorded by one `rollout`, and the fields it records."""
+
+    first: int
+    last: int
+    fields: tuple[str, ...]
 
 
 class Layout:
@@ -88,7 +96,7 @@ class Layout:
                 segments[-1] = (first, k, merged | per_step[k - 1])
             else:
                 segments.append((k, k, set(per_step[k - 1])))
-        self.segments = [(a, b, tuple(f for f in fields if f in fs)) for a, b, fs in segments]
+        self.segments = [Segment(a, b, tuple(f for f in fields if f in fs)) for a, b, fs in segments]
         # A field needed only at its segment's last substep is not recorded but bound (`Batch.bind`: the
         # batch copies it out once, after the call) and copied into a one-substep record slot: a fifth of
         # the bytes when five substeps would record it.
@@ -168,8 +176,8 @@ class Layout:
         """The bank's read plan at each phase of a read (steps since reset, mod rows), as row offsets."""
         rows, n = self.rows, self.n
         self.later = np.zeros((self.nphase, n, self.width), bool)
-        self.plain: list[tuple[int, slice, tuple[int, ...]]] = []
-        self.groups: list[tuple[Any, np.ndarray, tuple[int, int], list[Any]]] = []
+        self.plain: list[PlainRead] = []  # parts are slices of a simulation's plain values
+        self.groups: list[ReductionGroup] = []  # parts are positions in a read (index arrays)
         if not self.fixed:
             return
         fixed_cols = self.cols[:self.nfixed + 1]
@@ -183,12 +191,11 @@ class Layout:
         self.col = col
         at, positions = 0, []  # the layout (which positions form which output) is the same at every phase
         for i, part, shape in plain:
-            self.plain.append((i, slice(at, at + part.stop - part.start), (self.nsim, *shape)))
+            self.plain.append(PlainRead(i, slice(at, at + part.stop - part.start), (self.nsim, *shape)))
             positions.append(np.arange(part.start, part.stop))
             at += part.stop - part.start
         self.plain_cols = np.concatenate(positions) if positions else np.zeros(0, np.intp)
-        self.groups = [(reduce, np.arange(part.start, part.stop), block, members)
-                       for reduce, part, block, members in groups]
+        self.groups = [group._replace(part=np.arange(group.part.start, group.part.stop)) for group in groups]
         # positions a read takes from its control step's records: noise-free samples of the last n steps
         recent = ((delta == 0) | (delta > rows - n)) & ~self.history_only[col][None, :]
         self.from_record = np.vstack([recent, np.zeros((1, col.size), bool)])  # never at a reset read

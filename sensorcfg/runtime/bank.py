@@ -13,7 +13,8 @@ from __future__ import annotations
 
 import ctypes
 import math
-from typing import Any, Protocol, TypeGuard, cast
+from collections.abc import Callable
+from typing import Any, NamedTuple, Protocol, TypeGuard, cast
 
 import numpy as np
 
@@ -22,7 +23,8 @@ from .cache import DEFAULT_BUDGET, BoundedCache
 from .bank_noise import BankNoise, Program, program
 from .channels import Channel, FixedChannel
 
-__all__ = ["FeatureBank", "BankMember", "buffer_view", "fields_of", "read_plan"]
+__all__ = ["FeatureBank", "BankMember", "GroupMember", "PlainRead", "ReadPlan", "ReductionGroup", "buffer_view",
+           "fields_of", "read_plan"]
 
 _CHUNK_STEPS = 256  # physics steps of noise drawn at a time (rounded up to the sampling period)
 
@@ -53,6 +55,39 @@ class _FieldReader(Protocol):
     index: np.ndarray
 
     def __call__(self) -> Any: ...
+
+
+class PlainRead(NamedTuple):
+    """A member read without reduction: `gathered[part]` reshaped to `shape`."""
+
+    member: int
+    part: Any  # a slice of the gather (an index array in the batch's layout)
+    shape: tuple[int, ...]
+
+
+class GroupMember(NamedTuple):
+    """A member of a reduction group: columns `columns` of the reduced group, reshaped to `shape`."""
+
+    member: int
+    columns: slice
+    shape: tuple[int, ...]
+
+
+class ReductionGroup(NamedTuple):
+    """Members with one aggregator and buffer size: `gathered[part]` as (buffer, group width), reduced once."""
+
+    reduce: Callable[[np.ndarray], np.ndarray]
+    part: Any  # a slice of the gather (an index array in the batch's layout)
+    block: tuple[int, int]
+    members: list[GroupMember]
+
+
+class ReadPlan(NamedTuple):
+    """One `gather` index (row * width + column of the history) and how to cut and reduce what it gathers."""
+
+    gather: np.ndarray
+    groups: list[ReductionGroup]
+    plain: list[PlainRead]
 
 
 def fields_of(channels: list[FixedChannel]) -> list[str]:
@@ -231,11 +266,10 @@ def qualifies(ch: Any) -> TypeGuard[FixedChannel]:
                                            and builtin(ch.aggregator) is not None)))
 
 
-def read_plan(channels: list[FixedChannel], cols: np.ndarray, rows: int,
-              phase: int) -> tuple[np.ndarray, list[Any], list[Any]]:
+def read_plan(channels: list[FixedChannel], cols: np.ndarray, rows: int, phase: int) -> ReadPlan:
     """For reads at steps = phase (mod rows) of a step-indexed history of `rows` rows of `cols[-1]` values,
     channel i in columns cols[i]:cols[i+1]: one flat gather index (row * width + column), and how to cut
-    and reduce it: `groups` of (reducer, part, (buffer, group width), members) and `plain` (i, part, shape).
+    and reduce it (`ReadPlan`).
 
     Shared by `FeatureBank` and the batched bank of `sensorcfg.batch`.
     """
@@ -251,21 +285,25 @@ def read_plan(channels: list[FixedChannel], cols: np.ndarray, rows: int,
             # pairwise from 8 values on; in a wider group it would be summed row by row, off in the last bits.
             key += (i,)
         blocks.setdefault(key, []).append((i, block))
-    parts, groups, plain = [], [], []
+    parts: list[np.ndarray] = []
+    groups: list[ReductionGroup] = []
+    plain: list[PlainRead] = []
     offset = 0
     for key, entries in blocks.items():
         if key is None:
             for i, block in entries:
-                plain.append((i, slice(offset, offset + block.size), channels[i].buffered_shape))
+                plain.append(PlainRead(i, slice(offset, offset + block.size), channels[i].buffered_shape))
                 parts.append(block.ravel())
                 offset += block.size
             continue
         stacked = np.concatenate([block for _, block in entries], axis=1)  # (buffer, group width)
-        members, col = [], 0
+        members: list[GroupMember] = []
+        col = 0
         for i, block in entries:
-            members.append((i, slice(col, col + block.shape[1]), channels[i].shape))
+            members.append(GroupMember(i, slice(col, col + block.shape[1]), channels[i].shape))
             col += block.shape[1]
-        groups.append((AGGREGATORS[key[0]].reduce, slice(offset, offset + stacked.size), stacked.shape, members))
+        groups.append(ReductionGroup(AGGREGATORS[key[0]].reduce, slice(offset, offset + stacked.size),
+                                     stacked.shape, members))
         parts.append(stacked.ravel())
         offset += stacked.size
-    return np.concatenate(parts).astype(np.intp), groups, plain
+    return ReadPlan(np.concatenate(parts).astype(np.intp), groups, plain)
