@@ -155,24 +155,19 @@ class FeatureBank:
         self.history = np.zeros((self.rows, self.width))
         self.flat = self.history.reshape(-1)
         self.history_rows = list(self.history)
-        self.snap_rows = [False] * self.rows
-        self.phases = []
-        for ch in channels:
-            phases = ch.needed_phases()
-            self.phases.append((ch.period(), len(phases), phases))
-            for p in phases:
-                for t in range(p, self.rows, ch.period()):
-                    self.snap_rows[t] = True
+        self.phases = [(ch.period(), len(phases), phases) for ch in channels for phases in [ch.needed_phases()]]
+        self.snap_rows = _snapshot_rows(self.phases, self.rows)
         # read plans per phase, and early reads' padded positions per step: kept within a byte budget
         self._gathers = BoundedCache(max(DEFAULT_BUDGET, self.history.nbytes))
         self._early = BoundedCache(4 << 20)
-        self.noise: BankNoise | None = None
-        if noisy:  # each member's sample steps within one chunk, for drawing its noise a chunk ahead
-            in_chunk = [np.array(sorted(p + m for p in phases for m in range(0, self.chunk, period_c)), np.intp)
-                        for period_c, _, phases in self.phases]
-            self.noise = BankNoise(channels, [ops or () for ops in programs], self.cols, self.rows, self.chunk,
-                                   in_chunk)
-            self.pad_values = np.zeros(self.width)
+        self.noise = self._noise(programs) if noisy else None
+        self.pad_values = np.zeros(self.width)
+
+    def _noise(self, programs: list[Program | None]) -> BankNoise:
+        """The members' noise, drawn a chunk ahead: each member's sample steps within one chunk."""
+        in_chunk = [np.array(sorted(p + m for p in phases for m in range(0, self.chunk, period)), np.intp)
+                    for period, _, phases in self.phases]
+        return BankNoise(self.channels, [ops or () for ops in programs], self.cols, self.rows, self.chunk, in_chunk)
 
     @staticmethod
     def key(channels: list[FixedChannel], data: Any, read_interval: int, pad: bool) -> tuple[Any, ...]:
@@ -254,6 +249,16 @@ class FeatureBank:
                 # numpy reductions of scalar samples give numpy scalars (dm_control's type), not 0-d arrays
                 outputs[i] = reduced[sub].reshape(shape) if shape else reduced[sub][0]
         return outputs
+
+
+def _snapshot_rows(phases: list[tuple[int, int, list[int]]], rows: int) -> list[bool]:
+    """Per history row (a step mod rows): whether some member samples then ((period, count, phases) each)."""
+    snap = [False] * rows
+    for period, _, needed in phases:
+        for p in needed:
+            for t in range(p, rows, period):
+                snap[t] = True
+    return snap
 
 
 def qualifies(ch: Any) -> TypeGuard[FixedChannel]:

@@ -206,14 +206,7 @@ class RandomChannel(Channel):
             m = k + 1
             while m < count and order[m][0] == window:
                 m += 1
-            keep_from = max(k, m - b)  # the rest have b or more scheduled samples after them
-            drop.extend(order[i][2] for i in range(k, keep_from))
-            flight = in_flight.get(window)
-            if flight:
-                for i in range(keep_from, m):
-                    arrival = order[i][1]
-                    if m - i - 1 + sum(1 for a in flight if a > arrival) >= b:
-                        drop.append(order[i][2])
+            drop.extend(_window_drops(order[k:m], b, in_flight.get(window, [])))
             k = m
         if drop:
             dropped = set(drop)
@@ -257,6 +250,18 @@ class RandomChannel(Channel):
         if self.has_buffer_dim:
             return self.finish(np.stack(self.arrived))
         return self.finish(self.arrived[0])
+
+
+def _window_drops(window: list[tuple[int, int, int]], b: int, flight: list[int]) -> list[int]:
+    """The scheduled samples of one read window ((window, arrival, index) in delivery order) that `b` or
+    more samples delivered after them push out before the window's read (`flight`: arrivals in flight)."""
+    keep_from = max(0, len(window) - b)  # the rest have b or more scheduled samples after them
+    drop = [index for _, _, index in window[:keep_from]]
+    for i in range(keep_from, len(window)) if flight else ():
+        arrival = window[i][1]
+        if len(window) - i - 1 + sum(1 for a in flight if a > arrival) >= b:
+            drop.append(window[i][2])
+    return drop
 
 
 def make_channel(label: str, observable: Any, physics: Any, random_state: Any, entropy: list[int] | None,

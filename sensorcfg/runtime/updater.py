@@ -52,6 +52,18 @@ class Read(NamedTuple):
     reader: _Reader
 
 
+def _table(tasks: list[PlanTask], period: int) -> list[list[tuple[int, _Task]]]:
+    """Per step of the period: (order, run) of every task due then, sorted by order."""
+    plan: list[list[tuple[int, _Task]]] = [[] for _ in range(period)]
+    for task in tasks:
+        for phase in task.phases:
+            for t in range(phase, period, task.period):
+                plan[t].append((task.order, task.run))
+    for entries in plan:
+        entries.sort(key=lambda entry: entry[0])
+    return plan
+
+
 class Updater:
     """Samples, delays, buffers, aggregates and corrupts observables inside the physics loop."""
 
@@ -92,41 +104,45 @@ class Updater:
 
     def reset(self, physics: Any, random_state: Any) -> None:
         """Bind every enabled observable, take the reset samples, and precompute the sampling plan."""
+        layout = self._bind(physics, random_state)
+        self._channels = [ch for _, entries in layout for _, ch in entries]
+        self._bank = self._make_bank(physics)
+        members = {id(m.channel): m for m in self._bank.members()} if self._bank else {}
+        self._layout = [(kind, [(name, members.get(id(ch), ch)) for name, ch in entries]) for kind, entries in layout]
+        self._reads = [(kind, [Read(name, m.position if isinstance(m, BankMember) else NOT_BANKED, m)
+                               for name, m in entries]) for kind, entries in self._layout]
+        self._step = 0
+        self._start(members)
+        self._build_plan()
+        first_kind, first_reads = self._reads[0] if self._reads else (dict, [])  # Updater([]): no dicts at all
+        self._all_banked = (not self._nested and self._bank is not None
+                            and [read.position for read in first_reads] == list(range(len(first_reads))))
+        self._dict_type, self._names = first_kind, [read.name for read in first_reads]
+
+    def _bind(self, physics: Any, random_state: Any) -> list[tuple[type, list[tuple[str, FixedChannel | RandomChannel]]]]:
+        """Per observables dict: its type and (name, channel) of each enabled observable, in order."""
         dicts = list(self._observables) if self._nested else [self._observables]
         noisy = any(getattr(o, "noise", None) is not None for d in dicts for o in d.values() if o.enabled)
         entropy = episode_entropy(random_state) if noisy else None
-        layout: list[tuple[type, list[tuple[str, FixedChannel | RandomChannel]]]] = []
+        layout = []
         for index, obs_dict in enumerate(dicts):
-            entries: list[tuple[str, FixedChannel | RandomChannel]] = []
-            for name, observable in obs_dict.items():
-                if observable.enabled:
-                    label = f"{index}/{name}" if self._nested else str(name)
-                    entries.append((name, make_channel(label, observable, physics, random_state, entropy, self._n,
-                                                       self._strip, self._pad)))
+            entries = [(name, make_channel(f"{index}/{name}" if self._nested else str(name), observable, physics,
+                                           random_state, entropy, self._n, self._strip, self._pad))
+                       for name, observable in obs_dict.items() if observable.enabled]
             layout.append((type(obs_dict), entries))
-        self._channels = [ch for _, entries in layout for _, ch in entries]
-        self._bank = self._make_bank(physics)
-        positions = {id(m.channel): m for m in self._bank.members()} if self._bank else {}
-        self._layout = [(kind, [(name, positions.get(id(ch), ch)) for name, ch in entries])
-                        for kind, entries in layout]
-        self._reads = [(kind, [Read(name, cast(BankMember, m).position if id(ch) in positions else NOT_BANKED, m)
-                               for (name, ch), (_, m) in zip(entries, self._layout[i][1])])
-                       for i, (kind, entries) in enumerate(layout)]
-        self._step = 0
+        return layout
+
+    def _start(self, members: Mapping[int, BankMember]) -> None:
+        """The reset samples, in dm_control's order: per observable, its delay draw then its sample."""
         synced = False
-        for ch in self._channels:  # dm_control's order: per observable, its delay draw then its sample
-            if id(ch) not in positions:
+        for ch in self._channels:
+            if id(ch) not in members:
                 ch.start(0)
             elif not synced and getattr(ch.sampler, "sync", None) is not None:
                 cast(Any, ch.sampler).sync()  # where dm_control's read would bring a dirty physics up to date
                 synced = True
         if self._bank:
             self._bank.start()
-        self._build_plan()
-        first_kind, first_reads = self._reads[0] if self._reads else (dict, [])  # Updater([]): no dicts at all
-        self._all_banked = (not self._nested and self._bank is not None
-                            and [pos for _, pos, _ in first_reads] == list(range(len(first_reads))))
-        self._dict_type, self._names = first_kind, [name for name, _, _ in first_reads]
 
     def _make_bank(self, physics: Any) -> FeatureBank | None:
         members = [ch for ch in self._channels if qualifies(ch)]
@@ -147,15 +163,7 @@ class Updater:
 
     def _build_plan(self) -> None:
         """One table over the common period: which sampling tasks run at each step's phase."""
-        # Tasks carry the position of their observable: samplers may have side effects (a corruptor
-        # drawing from the episode's random_state), so within a step they run in dm_control's order,
-        # the observables' order. The bank's snapshot is a pure read and goes first.
-        banked = {id(m.channel) for m in self._bank.members()} if self._bank else set()
-        tasks = [PlanTask(ch.period(), ch.needed_phases(), order, ch.sample) for order, ch in enumerate(self._channels)
-                 if isinstance(ch, FixedChannel) and id(ch) not in banked]
-        if self._bank:
-            tasks[:0] = [PlanTask(p, phases, BANK_ORDER, task) for p, phases, task in self._bank.tasks()]
-            tasks[:0] = self._sync_tasks(self._bank)
+        tasks = self._tasks()
         self._random = [(order, ch) for order, ch in enumerate(self._channels) if isinstance(ch, RandomChannel)]
         period = math.lcm(*(task.period for task in tasks)) if tasks else 1
         if period > _MAX_PLAN_PERIOD:  # pathological interval mixes: each task checks its own phase
@@ -163,16 +171,22 @@ class Updater:
             self._slow = [task._replace(phases=frozenset(task.phases)) for task in tasks]
             return
         self._slow = []
-        plan: list[list[tuple[int, _Task]]] = [[] for _ in range(period)]
-        for task in tasks:
-            for phase in task.phases:
-                for t in range(phase, period, task.period):
-                    plan[t].append((task.order, task.run))
-        for entries in plan:
-            entries.sort(key=lambda entry: entry[0])
+        plan = _table(tasks, period)
         self._period = period
         self._plan = [tuple(run for _, run in entries) for entries in plan]
         self._orders = [tuple(order for order, _ in entries) for entries in plan]
+
+    def _tasks(self) -> list[PlanTask]:
+        """Every periodic task. Tasks carry the position of their observable: samplers may have side effects
+        (a corruptor drawing from the episode's random_state), so within a step they run in dm_control's
+        order, the observables' order. The bank's snapshots and noise are pure reads and go first."""
+        bank = self._bank
+        banked = {id(m.channel) for m in bank.members()} if bank else set()
+        tasks = [PlanTask(ch.period(), ch.needed_phases(), order, ch.sample) for order, ch in enumerate(self._channels)
+                 if isinstance(ch, FixedChannel) and id(ch) not in banked]
+        if bank:
+            tasks[:0] = [*self._sync_tasks(bank), *(PlanTask(p, phases, BANK_ORDER, run) for p, phases, run in bank.tasks())]
+        return tasks
 
     @staticmethod
     def _sync_tasks(bank: FeatureBank) -> list[PlanTask]:
