@@ -87,6 +87,16 @@ def _batch_module() -> Any:
     return batch
 
 
+def _check_arguments(nsim: Any, nthread: Any, reward_fn: Any, termination_fn: Any) -> None:
+    for label, fn in (("reward_fn", reward_fn), ("termination_fn", termination_fn)):
+        if fn is not None and not callable(fn):
+            raise SuiteError(f"{label} must be a callable taking the mujoco.batch.Batch, got {fn!r}")
+    if not isinstance(nsim, (int, np.integer)) or isinstance(nsim, bool) or nsim < 1:
+        raise SuiteError(f"nsim must be a positive integer (simulations), got {nsim!r}")
+    if nthread is not None and (not isinstance(nthread, (int, np.integer)) or nthread < 0):
+        raise SuiteError(f"nthread must be a non-negative integer (0: every CPU), got {nthread!r}")
+
+
 def sim_seed(seed: int | np.random.SeedSequence | None, i: int) -> np.random.SeedSequence:
     """Simulation i's seed in a batch seeded with `seed`: the SeedSequence child with spawn key i.
 
@@ -123,14 +133,8 @@ class BatchEnvironment(ControlLoop):
                  seed: int | np.random.SeedSequence | None = None, reward_fn: BatchRewardFn | None = None,
                  termination_fn: BatchTerminationFn | None = None):
         batch_module = _batch_module()
-        for label, fn in (("reward_fn", reward_fn), ("termination_fn", termination_fn)):
-            if fn is not None and not callable(fn):
-                raise SuiteError(f"{label} must be a callable taking the mujoco.batch.Batch, got {fn!r}")
+        _check_arguments(nsim, nthread, reward_fn, termination_fn)
         self._reward_fn, self._termination_fn = reward_fn, termination_fn
-        if not isinstance(nsim, (int, np.integer)) or isinstance(nsim, bool) or nsim < 1:
-            raise SuiteError(f"nsim must be a positive integer (simulations), got {nsim!r}")
-        if nthread is not None and (not isinstance(nthread, (int, np.integer)) or nthread < 0):
-            raise SuiteError(f"nthread must be a non-negative integer (0: every CPU), got {nthread!r}")
         self._model = load_model(model)
         self._nsim = int(nsim)
         self._batch_shape = (self._nsim,)
@@ -151,11 +155,7 @@ class BatchEnvironment(ControlLoop):
         self._simulation_error = batch_module.SimulationError
         # one rollout per segment of the control step, each recording only the fields its substeps need;
         # those needed only after its last substep are bound instead, and copied into their record slots
-        layout = self._updater.layout
-        self._segments = [(last - first + 1, last, list(out), out,
-                           [(slot, self._batch.bind(f).reshape(self._nsim, -1)[:, span])
-                            for f, (slot, span) in bound.items()])
-                          for (first, last, _), out, bound in zip(layout.segments, layout.record_out, layout.bound_out)]
+        self._segments = self._rollout_segments()
         # Reset samples come from each reset simulation's own MjData (get_data, then mj_forward unless the
         # batch is persistent), not from bound derived fields (only those read after a segment are bound).
         self._scratch = mujoco.MjData(self._model)
@@ -166,6 +166,13 @@ class BatchEnvironment(ControlLoop):
         self.last_divergence: list[str | None] = [None] * self._nsim
         self._action_spec = action_spec(self._model, (self._nsim,))
         self._observation_spec = self._updater.observation_spec()
+
+    def _rollout_segments(self) -> list[tuple[int, int, list[str], dict[str, np.ndarray], list[Any]]]:
+        """Per segment: (substeps, last substep, fields recorded, where, (slot, bound view) per bound field)."""
+        layout = self._updater.layout
+        return [(segment.last - segment.first + 1, segment.last, list(out), out,
+                 [(slot, self._batch.bind(f).reshape(self._nsim, -1)[:, span]) for f, (slot, span) in bound.items()])
+                for segment, out, bound in zip(layout.segments, layout.record_out, layout.bound_out)]
 
     # -- properties -------------------------------------------------------------------------------
 

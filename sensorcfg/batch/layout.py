@@ -76,16 +76,7 @@ class Layout:
     def _segments(self, fields: dict[str, tuple[int, ...]], stops: set[int] | frozenset[int]) -> None:
         """Runs of substeps needing the same fields (at any phase), cut also after each stop."""
         n = self.n
-        needed = np.zeros((n, self.width), bool)  # substep, column: read or kept at some phase
-        needed[:] = self.always
-        needed |= self.later.any(axis=0)
-        if self.fixed:
-            for q in range(self.nphase):
-                recent = self.from_record[q]
-                needed[self.substep[q][recent] - 1, self.col[recent]] = True
-        owner = {f: np.concatenate([np.arange(self.cols[c], self.cols[c + 1]) for c, ch in enumerate(self.channels)
-                                    if _reader(ch).field == f]) for f in fields}
-        per_step = [{f for f in fields if needed[k, owner[f]].any()} for k in range(n)]
+        per_step = self._fields_per_substep(fields)
         # One rollout per run of substeps between stops, recording the fields any of them needs: an extra
         # call costs more than recording every field at every substep (about 1 ms against 1 ms for the
         # humanoid suite at 512 simulations, MuJoCo 4.0), so runs are cut only where a camera renders.
@@ -102,6 +93,19 @@ class Layout:
         # the bytes when five substeps would record it.
         self.bound = [tuple(f for f in fs if b > a and all(f not in per_step[k - 1] for k in range(a, b)))
                       for a, b, fs in self.segments]
+
+    def _fields_per_substep(self, fields: dict[str, tuple[int, ...]]) -> list[set[str]]:
+        """Per substep, the fields some read takes or the history keeps (at any phase)."""
+        needed = np.zeros((self.n, self.width), bool)  # substep, column
+        needed[:] = self.always
+        needed |= self.later.any(axis=0)
+        if self.fixed:
+            for q in range(self.nphase):
+                recent = self.from_record[q]
+                needed[self.substep[q][recent] - 1, self.col[recent]] = True
+        owner = {f: np.concatenate([np.arange(self.cols[c], self.cols[c + 1]) for c, ch in enumerate(self.channels)
+                                    if _reader(ch).field == f]) for f in fields}
+        return [{f for f in fields if needed[k, owner[f]].any()} for k in range(self.n)]
 
     def _steps(self, s: int, field: str) -> int:
         """Substeps of segment s whose values of `field` the store holds (1 for a bound field)."""

@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 import numbers
 from collections.abc import Mapping
-from typing import Any, cast
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 from dm_env import specs
@@ -55,6 +55,37 @@ def _bound(label: str, attr: str, value: Any, default: int) -> int:
                      "{choice: [...]}")
 
 
+class _Entry(NamedTuple):
+    """An enabled observable of the batch, with its (single-simulation) channel."""
+
+    name: str
+    observable: Any
+    channel: FixedChannel | RandomChannel
+
+
+def _fields(physics: Any, channels: list[FixedChannel | RandomChannel]) -> dict[str, tuple[int, ...]]:
+    """The mjData fields the channels read, in order of first use, with their shapes."""
+    data = physics.data if not hasattr(physics.data, "ptr") else physics.data.ptr
+    fields: dict[str, tuple[int, ...]] = {}
+    for ch in channels:
+        fields.setdefault(_reader(ch).field, tuple(getattr(data, _reader(ch).field).shape))
+    return fields
+
+
+def _random_span(entry: _Entry, n: int) -> int:
+    """How long a sample of a drawn schedule may wait to be read, at most (its largest interval and delay)."""
+    interval = _bound(entry.name, "update_interval", entry.observable.update_interval, DEFAULT_UPDATE_INTERVAL)
+    delay = _bound(entry.name, "delay", entry.observable.delay, DEFAULT_DELAY)
+    return delay + (entry.channel.buffer_size + 1) * interval + 2 * n + 1
+
+
+def _camera_stops(ch: FixedChannel, n: int) -> set[int]:
+    """The substeps (1..n) after which the camera may render: a rollout returns there."""
+    needed = set(ch.needed_phases())
+    period = ch.period()
+    return {k for k in range(1, n + 1) for t in range(0, math.lcm(period, n), n) if (t + k) % period in needed}
+
+
 class BatchUpdater:
     """Samples, delays, buffers, aggregates and corrupts observables of nsim simulations of one model.
 
@@ -72,60 +103,29 @@ class BatchUpdater:
             raise SuiteError("BatchEnvironment needs a dict of observables (or a Suite); got "
                              f"{type(observables).__name__}")
         self.nsim, self.n, self.pad = int(nsim), int(n), bool(pad_with_initial_value)
-        enabled = [(name, obs) for name, obs in observables.items() if obs.enabled]
-        random_state = np.random.RandomState(0)  # binding only: each simulation's episode draws its own
-        channels = [make_channel(name, obs, physics, random_state, None, self.n, bool(strip_singleton_buffer_dim),
-                                 self.pad) for name, obs in enabled]
-        self._spec = {name: observation_spec(name, obs, ch) for (name, obs), ch in zip(enabled, channels)}
-        ch: FixedChannel | RandomChannel
-        self.names = [name for name, _ in enabled]
-        cameras = cast("list[tuple[str, Any, FixedChannel]]",  # a drawn schedule fails `_check_camera`
-                       [(name, obs, ch) for (name, obs), ch in zip(enabled, channels) if hasattr(obs, "camera_id")])
-        features = [(name, obs, ch) for (name, obs), ch in zip(enabled, channels) if not hasattr(obs, "camera_id")]
-        for name, obs, ch in cameras:
-            self._check_camera(name, obs, ch)
-        for name, obs, ch in features:
-            self._check(name, obs, ch)
-        data = physics.data if not hasattr(physics.data, "ptr") else physics.data.ptr
-        fixed = [(name, obs, ch) for name, obs, ch in features if isinstance(ch, FixedChannel)]
-        drawn = [(name, obs, ch) for name, obs, ch in features if isinstance(ch, RandomChannel)]
+        entries = self._bind(observables, physics, bool(strip_singleton_buffer_dim))
+        self.names = [entry.name for entry in entries]
+        self._spec = {e.name: observation_spec(e.name, e.observable, e.channel) for e in entries}
+        cameras, fixed, drawn = self._arrange(entries)
         ordered = fixed + drawn  # history columns: fixed channels first (the read plan's), then random ones
-        fields: dict[str, tuple[int, ...]] = {}
-        for _, _, ch in ordered:
-            fields.setdefault(_reader(ch).field, tuple(getattr(data, _reader(ch).field).shape))
-        self.fixed = [ch for _, _, ch in fixed]
+        self.fixed = [cast(FixedChannel, e.channel) for e in fixed]
         self.nfixed = len(fixed)
-        outputs = ordered + cameras  # (mypy cannot infer this sum in enumerate's context)
-        self.output_index = {name: i for i, (name, _, _) in enumerate(outputs)}
-        self.cameras = None  # rendered per simulation (batch.camera); the caller sets `cameras.batch`
-        if cameras:
-            from .camera import BatchCameras
-
-            model = physics.model if not hasattr(physics.model, "ptr") else physics.model.ptr
-            self.cameras = BatchCameras([(self.output_index[name], obs, ch) for name, obs, ch in cameras],
-                                        model, self.nsim, self.n, self.pad)
-        self.labels = [name for name, _, _ in ordered]
-        self.channels = [ch for _, _, ch in ordered]
-        self.noise = {i: BatchPipeline(ch.noise, self.nsim, name)
-                      for i, (name, _, ch) in enumerate(ordered) if ch.noise is not None}
+        self.output_index = {e.name: i for i, e in enumerate(ordered + cameras)}
+        self.cameras = self._cameras(cameras, physics)  # the caller sets `cameras.batch`
+        self.labels = [e.name for e in ordered]
+        self.channels = [e.channel for e in ordered]
+        self.noise = {i: BatchPipeline(e.channel.noise, self.nsim, e.name)
+                      for i, e in enumerate(ordered) if e.channel.noise is not None}
         self.noisy = bool(self.noise)
-        span = 0  # how long a random-schedule sample may wait to be read, at most
-        for name, obs, ch in drawn:
-            interval = _bound(name, "update_interval", obs.update_interval, DEFAULT_UPDATE_INTERVAL)
-            delay = _bound(name, "delay", obs.delay, DEFAULT_DELAY)
-            span = max(span, delay + (ch.buffer_size + 1) * interval + 2 * n + 1)
-        stops = set()  # substeps after which some camera may render: a rollout returns there
-        for _, _, ch in cameras:
-            needed = set(ch.needed_phases())
-            period = ch.period()
-            stops |= {k for k in range(1, n + 1) for t in range(0, math.lcm(period, n), n)
-                      if (t + k) % period in needed}
+        fields = _fields(physics, self.channels)
+        span = max((_random_span(e, n) for e in drawn), default=0)  # how long a drawn sample may wait
+        stops = set().union(*(_camera_stops(cast(FixedChannel, e.channel), n) for e in cameras))
         layout = self.layout = Layout(self.channels, self.nfixed, set(self.noise), span, fields, self.nsim, self.n,
                                       stops)
         self.reset_values = layout.reset_values
         self.history, self.flat, self.cols, self.rows = layout.history, layout.flat, layout.cols, layout.rows
-        self.timelines = Timelines(
-            [(name, ch, self._drawers(name, obs)) for name, obs, ch in drawn], self.nsim, self.n, self.pad)
+        self.timelines = Timelines([(e.name, cast(RandomChannel, e.channel), self._drawers(e.name, e.observable))
+                                    for e in drawn], self.nsim, self.n, self.pad)
         self.G = 0  # global physics steps
         self.t = np.zeros(self.nsim, np.int64)  # physics steps since each simulation's reset
         self.control_steps = np.zeros(self.nsim, np.int64)
@@ -133,6 +133,34 @@ class BatchUpdater:
         self._noise_plans: dict[int, list[list[tuple[int, np.ndarray]]]] = {}
 
     # -- construction -----------------------------------------------------------------------------
+
+    def _bind(self, observables: Mapping[str, Any], physics: Any, strip: bool) -> list[_Entry]:
+        """Each enabled observable bound to `physics` with its channel, as the single-simulation Updater
+        binds them (`make_channel`); each simulation's episode later draws its own schedules and noise."""
+        random_state = np.random.RandomState(0)
+        return [_Entry(name, obs, make_channel(name, obs, physics, random_state, None, self.n, strip, self.pad))
+                for name, obs in observables.items() if obs.enabled]
+
+    def _arrange(self, entries: list[_Entry]) -> tuple[list[_Entry], list[_Entry], list[_Entry]]:
+        """Cameras, fixed-schedule features and drawn-schedule features, each checked for the batch."""
+        cameras = [e for e in entries if hasattr(e.observable, "camera_id")]
+        features = [e for e in entries if not hasattr(e.observable, "camera_id")]
+        for entry in cameras:
+            self._check_camera(*entry)
+        for entry in features:
+            self._check(*entry)
+        return (cameras, [e for e in features if isinstance(e.channel, FixedChannel)],
+                [e for e in features if isinstance(e.channel, RandomChannel)])
+
+    def _cameras(self, cameras: list[_Entry], physics: Any) -> Any:
+        """The cameras, rendered per simulation (`batch.camera`), or None."""
+        if not cameras:
+            return None
+        from .camera import BatchCameras
+
+        model = physics.model if not hasattr(physics.model, "ptr") else physics.model.ptr
+        return BatchCameras([(self.output_index[e.name], e.observable, cast(FixedChannel, e.channel)) for e in cameras],
+                            model, self.nsim, self.n, self.pad)
 
     @staticmethod
     def _check(name: str, obs: Any, ch: Channel) -> None:
