@@ -36,11 +36,11 @@ class _Camera:
 class BatchCameras:
     """The camera observables of a batch (`entries`: (position, observable, channel) each)."""
 
-    def __init__(self, entries: list[tuple[int, Any, FixedChannel]], model: mujoco.MjModel, nsim: int, n: int,
+    def __init__(self, entries: list[tuple[int, Any, FixedChannel]], model: mujoco.MjModel, nsim: int, substeps: int,
                  pad: bool):
         self.data = mujoco.MjData(model)  # each simulation's MjData is copied here to render it
         physics = Physics(model, self.data)
-        self.nsim, self.n, self.pad = nsim, n, pad
+        self.nsim, self.substeps, self.pad = nsim, substeps, pad
         self.positions = [position for position, _, _ in entries]
         self.cameras = [_Camera(ch, obs.observation_callable(physics), nsim) for _, obs, ch in entries]
         self.batch: Any = None  # the persistent mujoco.batch.Batch to render from
@@ -49,12 +49,12 @@ class BatchCameras:
         self.batch.get_data(int(i), self.data)
         return camera.render()
 
-    def substeps(self, t: np.ndarray, active: np.ndarray) -> list[int]:
-        """The substeps (1..n) of this control step after which some camera samples some simulation."""
+    def render_substeps(self, t: np.ndarray, active: np.ndarray) -> list[int]:
+        """The substeps (1..substeps) of this control step after which some camera samples some simulation."""
         out = set()
         for camera in self.cameras:
             period = camera.needed.size
-            for k in range(1, self.n + 1):
+            for k in range(1, self.substeps + 1):
                 if k not in out and (camera.needed[(t + k) % period] & active).any():
                     out.add(k)
         return sorted(out)

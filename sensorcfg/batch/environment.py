@@ -139,13 +139,13 @@ class BatchEnvironment(ControlLoop):
         self._nsim = int(nsim)
         self._batch_shape = (self._nsim,)
         observables, options = _suite_and_observables(suite, self._model)
-        self._n, self._control_timestep, self._step_limit = episode_timing(
+        self._substeps, self._control_timestep, self._step_limit = episode_timing(
             self._model, physics_steps_per_control_step, control_timestep, time_limit,
             options.get("physics_steps_per_control_step"))
         physics = Physics(self._model)
         mujoco.mj_forward(self._model, physics.data)
         flags = {k: bool(options[k]) for k in ("strip_singleton_buffer_dim", "pad_with_initial_value") if k in options}
-        self._updater = BatchUpdater(observables, physics, self._nsim, self._n, **flags)
+        self._updater = BatchUpdater(observables, physics, self._nsim, self._substeps, **flags)
         cameras = self._updater.cameras
         # cameras render a simulation's whole MjData after its step: one MjData per simulation
         self._batch = batch_module.Batch(self._model, self._nsim, 0 if nthread is None else int(nthread),
@@ -300,7 +300,7 @@ class BatchEnvironment(ControlLoop):
         into the updater's store; cameras render after the substeps at which they sample."""
         updater = self._updater
         cameras = updater.cameras
-        stops = set() if cameras is None else set(cameras.substeps(updater.t, active))
+        stops = set() if cameras is None else set(cameras.render_substeps(updater.t, active))
         control = actions[:, None, :]
         for length, last, fields, out, bound in self._segments:
             try:

@@ -40,20 +40,20 @@ class Layout:
     """Columns, store and gather positions for `channels` (fixed-schedule ones first) of nsim simulations."""
 
     def __init__(self, channels: Sequence[FixedChannel | RandomChannel], nfixed: int, noisy: set[int], span: int,
-                 fields: dict[str, tuple[int, ...]], nsim: int, n: int, stops: set[int] | frozenset[int] = frozenset()):
+                 fields: dict[str, tuple[int, ...]], nsim: int, substeps: int, stops: set[int] | frozenset[int] = frozenset()):
         """`span`: steps a sample of a random-schedule channel may wait to be read (0 without any);
         `stops`: substeps after which a rollout must return (cameras render there)."""
-        self.channels, self.nfixed, self.nsim, self.n = channels, nfixed, nsim, n
+        self.channels, self.nfixed, self.nsim, self.substeps = channels, nfixed, nsim, substeps
         self.fixed = cast("list[FixedChannel]", channels[:nfixed])
         self.cols = np.cumsum([0] + [math.prod(ch.shape) for ch in channels]).astype(np.intp)
         self.width = int(self.cols[-1])
-        period = math.lcm(n, *(ch.interval for ch in self.fixed))
-        span = max(span, n + 1, *(ch.schedule.wait + n + 1 for ch in self.fixed))
+        period = math.lcm(substeps, *(ch.interval for ch in self.fixed))
+        span = max(span, substeps + 1, *(ch.schedule.wait + substeps + 1 for ch in self.fixed))
         self.rows = period * -(-span // period)  # a multiple of every period, longer than any wait
         # Reads repeat every `cycle` steps (relative to the read's own row): plans are kept per phase of it,
         # so their size does not grow with the history's length (buffer and delay).
         self.cycle = period
-        self.nphase = period // n
+        self.nphase = period // substeps
         # Columns read only from the history: noisy ones (corrupted there, at their samples) and those of
         # random-schedule channels, which keep every substep (when they sample is per simulation).
         self.history_only = np.zeros(self.width, bool)
@@ -75,13 +75,13 @@ class Layout:
 
     def _segments(self, fields: dict[str, tuple[int, ...]], stops: set[int] | frozenset[int]) -> None:
         """Runs of substeps needing the same fields (at any phase), cut also after each stop."""
-        n = self.n
+        substeps = self.substeps
         per_step = self._fields_per_substep(fields)
         # One rollout per run of substeps between stops, recording the fields any of them needs: an extra
         # call costs more than recording every field at every substep (about 1 ms against 1 ms for the
         # humanoid suite at 512 simulations, MuJoCo 4.0), so runs are cut only where a camera renders.
         segments: list[tuple[int, int, set[str]]] = []  # (first, last substep, fields), 1-based
-        for k in range(1, n + 1):
+        for k in range(1, substeps + 1):
             if segments and k - 1 not in stops:
                 first, _, merged = segments[-1]
                 segments[-1] = (first, k, merged | per_step[k - 1])
@@ -96,7 +96,7 @@ class Layout:
 
     def _fields_per_substep(self, fields: dict[str, tuple[int, ...]]) -> list[set[str]]:
         """Per substep, the fields some read takes or the history keeps (at any phase)."""
-        needed = np.zeros((self.n, self.width), bool)  # substep, column
+        needed = np.zeros((self.substeps, self.width), bool)  # substep, column
         needed[:] = self.always
         needed |= self.later.any(axis=0)
         if self.fixed:
@@ -105,7 +105,7 @@ class Layout:
                 needed[self.substep[q][recent] - 1, self.col[recent]] = True
         owner = {f: np.concatenate([np.arange(self.cols[c], self.cols[c + 1]) for c, ch in enumerate(self.channels)
                                     if _reader(ch).field == f]) for f in fields}
-        return [{f for f in fields if needed[k, owner[f]].any()} for k in range(self.n)]
+        return [{f for f in fields if needed[k, owner[f]].any()} for k in range(self.substeps)]
 
     def _steps(self, s: int, field: str) -> int:
         """Substeps of segment s whose values of `field` the store holds (1 for a bound field)."""
@@ -149,12 +149,12 @@ class Layout:
             z += nsim * self.sizes[f]
 
     def _sources(self) -> None:
-        """Column j of simulation i at substep k (1..n) is at `record_base[k - 1, j] + i *
+        """Column j of simulation i at substep k (1..substeps) is at `record_base[k - 1, j] + i *
         record_stride[k - 1, j]` of the store when its segment records it; its reset value at
         `reset_index[i, j]`."""
-        nsim, n = self.nsim, self.n
-        self.record_base = np.zeros((n, self.width), np.intp)
-        self.record_stride = np.zeros((n, self.width), np.intp)
+        nsim, substeps = self.nsim, self.substeps
+        self.record_base = np.zeros((substeps, self.width), np.intp)
+        self.record_stride = np.zeros((substeps, self.width), np.intp)
         reset = []
         for c, ch in enumerate(self.channels):
             field = _reader(ch).field
@@ -178,8 +178,8 @@ class Layout:
 
     def _read_plans(self, noisy: set[int]) -> None:
         """The bank's read plan at each phase of a read (steps since reset, mod rows), as row offsets."""
-        rows, n = self.rows, self.n
-        self.later = np.zeros((self.nphase, n, self.width), bool)
+        rows, substeps = self.rows, self.substeps
+        self.later = np.zeros((self.nphase, substeps, self.width), bool)
         self.plain: list[PlainRead] = []  # parts are slices of a simulation's plain values
         self.groups: list[ReductionGroup] = []  # parts are positions in a read (index arrays)
         if not self.fixed:
@@ -187,9 +187,9 @@ class Layout:
         fixed_cols = self.cols[:self.nfixed + 1]
         deltas = []
         for q in range(self.nphase):
-            index, groups, plain = read_plan(self.fixed, fixed_cols, rows, q * n)
+            index, groups, plain = read_plan(self.fixed, fixed_cols, rows, q * substeps)
             row, col = np.divmod(index, int(fixed_cols[-1]))
-            deltas.append((row - q * n) % rows)
+            deltas.append((row - q * substeps) % rows)
         delta = np.stack(deltas)  # (phase, read width): row offset from the read's own row
         self.delta = np.vstack([delta, delta[:1]])  # + the reset read: phase 0's, all from the history
         self.col = col
@@ -200,10 +200,10 @@ class Layout:
             at += part.stop - part.start
         self.plain_cols = np.concatenate(positions) if positions else np.zeros(0, np.intp)
         self.groups = [group._replace(part=np.arange(group.part.start, group.part.stop)) for group in groups]
-        # positions a read takes from its control step's records: noise-free samples of the last n steps
-        recent = ((delta == 0) | (delta > rows - n)) & ~self.history_only[col][None, :]
+        # positions a read takes from its control step's records: noise-free samples of the last substeps steps
+        recent = ((delta == 0) | (delta > rows - substeps)) & ~self.history_only[col][None, :]
         self.from_record = np.vstack([recent, np.zeros((1, col.size), bool)])  # never at a reset read
-        self.substep = np.where(recent, np.where(delta == 0, n, delta - (rows - n)), n)  # of a recent sample
+        self.substep = np.where(recent, np.where(delta == 0, substeps, delta - (rows - substeps)), substeps)  # of a recent sample
         # Per phase and substep, the columns the history keeps: a noisy channel's samples (the steps its
         # single-simulation plan samples at); a noise-free channel's samples that a later read takes from
         # there: sample s = t + k is read at R < s + b i + d, so later ones need k + b i + d - 1 >= 2n.
@@ -211,11 +211,11 @@ class Layout:
             schedule, i = ch.schedule, ch.interval
             sampled = set(schedule.needed_phases())
             for q in range(self.nphase):
-                for k in range(1, n + 1):
+                for k in range(1, substeps + 1):
                     if c in noisy:
-                        keep = (q * n + k) % schedule.period in sampled
+                        keep = (q * substeps + k) % schedule.period in sampled
                     else:
-                        keep = (q * n + k) % i == 0 and schedule.last_read((q * n + k) // i) >= q * n + 2 * n
+                        keep = (q * substeps + k) % i == 0 and schedule.last_read((q * substeps + k) // i) >= q * substeps + 2 * substeps
                     if keep:
                         self.later[q, k - 1, self.cols[c]:self.cols[c + 1]] = True
 
@@ -232,11 +232,11 @@ class Layout:
         key = ("snapshot", gp)
         cached = self._cache.get(key)
         if cached is None:
-            nsim, w, n = self.nsim, self.width, self.n
-            phases = np.unique((t % self.cycle) // n)
+            nsim, w, substeps = self.nsim, self.width, self.substeps
+            phases = np.unique((t % self.cycle) // substeps)
             sims = np.arange(nsim)[:, None]
             source, target = [], []
-            for k in range(1, n + 1):
+            for k in range(1, substeps + 1):
                 cols = np.flatnonzero(self.always | self.later[phases, k - 1].any(axis=0))
                 if cols.size:
                     source.append((self.record_base[k - 1, cols] + sims * self.record_stride[k - 1, cols]).ravel())
@@ -253,7 +253,7 @@ class Layout:
         fresh = bool((t == 0).any())  # a reset read: its phase is not the one gp implies later on
         cached = None if fresh else self._cache.get(("read", gp))
         if cached is None:
-            phases = np.where(t == 0, self.nphase, (t % self.cycle) // self.n)
+            phases = np.where(t == 0, self.nphase, (t % self.cycle) // self.substeps)
             if (phases == phases[0]).all():  # every simulation at one phase (as after a full reset)
                 cached = self._uniform_reads(gp, int(phases[0]))
             else:

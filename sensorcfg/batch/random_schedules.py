@@ -45,12 +45,12 @@ class Timelines:
     """The random-schedule channels of a batch: per simulation, sample times and read windows."""
 
     def __init__(self, specs: Sequence[tuple[str, RandomChannel, Callable[[Any], tuple[Any, Any]]]], nsim: int,
-                 n: int, pad: bool, block: int = BLOCK):
+                 substeps: int, pad: bool, block: int = BLOCK):
         """`specs`: (label, template channel, make_drawers(random_state) -> (interval, delay) callables)."""
         self.specs = list(specs)
-        self.nsim, self.n, self.pad, self.block = nsim, n, pad, block
+        self.nsim, self.substeps, self.pad, self.block = nsim, substeps, pad, block
         nc = len(self.specs)
-        self.taken = np.zeros((nsim, block, nc, n), bool)  # [sim, block step, channel, substep]
+        self.taken = np.zeros((nsim, block, nc, substeps), bool)  # [sim, block step, channel, substep]
         self.windows = [np.zeros((nsim, block, ch.buffer_size), np.int64) for _, ch, _ in self.specs]
         self.cursor = np.full(nsim, block, np.intp)  # block position of each simulation's next control step
         self.last = [np.zeros((nsim, ch.buffer_size), np.int64) for _, ch, _ in self.specs]  # the latest reads
@@ -89,10 +89,10 @@ class Timelines:
 
     def _advance(self, plan: _Plan, c: int, i: int | None, j: int) -> None:
         """Control step c of the episode: plan, sample, read, as the Updater does (recorded when i is given)."""
-        n, t = self.n, c * self.n
+        substeps, t = self.substeps, c * self.substeps
         for ch in plan.channels:
             ch.plan(t)
-        for k in range(1, n + 1):
+        for k in range(1, substeps + 1):
             plan.step[0] = t + k
             for ci, ch in enumerate(plan.channels):
                 if ch.due(t + k):
@@ -100,7 +100,7 @@ class Timelines:
                     if i is not None:
                         self.taken[i, j, ci, k - 1] = True
         for ci, ch in enumerate(plan.channels):
-            window = ch.read(t + n)
+            window = ch.read(t + substeps)
             if i is not None:
                 self.windows[ci][i, j] = window
 
@@ -121,7 +121,7 @@ class Timelines:
             self._refill(int(i), int(control_steps[i]))
 
     def taken_now(self) -> np.ndarray:
-        """Which channels sample at each substep of this control step, (nsim, channels, n) (valid for the
+        """Which channels sample at each substep of this control step, (nsim, channels, substeps) (valid for the
         simulations that `ensure` prepared)."""
         j = np.minimum(self.cursor, self.block - 1)
         return self.taken[np.arange(self.nsim), j]

@@ -72,18 +72,18 @@ def _fields(physics: Any, channels: list[FixedChannel | RandomChannel]) -> dict[
     return fields
 
 
-def _random_span(entry: _Entry, n: int) -> int:
+def _random_span(entry: _Entry, substeps: int) -> int:
     """How long a sample of a drawn schedule may wait to be read, at most (its largest interval and delay)."""
     interval = _bound(entry.name, "update_interval", entry.observable.update_interval, DEFAULT_UPDATE_INTERVAL)
     delay = _bound(entry.name, "delay", entry.observable.delay, DEFAULT_DELAY)
-    return delay + (entry.channel.buffer_size + 1) * interval + 2 * n + 1
+    return delay + (entry.channel.buffer_size + 1) * interval + 2 * substeps + 1
 
 
-def _camera_stops(ch: FixedChannel, n: int) -> set[int]:
-    """The substeps (1..n) after which the camera may render: a rollout returns there."""
+def _camera_stops(ch: FixedChannel, substeps: int) -> set[int]:
+    """The substeps (1..substeps) after which the camera may render: a rollout returns there."""
     needed = set(ch.needed_phases())
     period = ch.period()
-    return {k for k in range(1, n + 1) for t in range(0, math.lcm(period, n), n) if (t + k) % period in needed}
+    return {k for k in range(1, substeps + 1) for t in range(0, math.lcm(period, substeps), substeps) if (t + k) % period in needed}
 
 
 class BatchUpdater:
@@ -95,14 +95,14 @@ class BatchUpdater:
     `get_observation()`.
     """
 
-    def __init__(self, observables: Mapping[str, Any], physics: Any, nsim: int, n: int, *,
+    def __init__(self, observables: Mapping[str, Any], physics: Any, nsim: int, substeps: int, *,
                  strip_singleton_buffer_dim: bool = False, pad_with_initial_value: bool = False):
         """`physics`: a single-simulation physics of the model (its MjData tells field shapes; the
         observables are bound to it once, as the single-simulation Updater binds them, for checks and specs)."""
         if not isinstance(observables, Mapping):
             raise SuiteError("BatchEnvironment needs a dict of observables (or a Suite); got "
                              f"{type(observables).__name__}")
-        self.nsim, self.n, self.pad = int(nsim), int(n), bool(pad_with_initial_value)
+        self.nsim, self.substeps, self.pad = int(nsim), int(substeps), bool(pad_with_initial_value)
         entries = self._bind(observables, physics, bool(strip_singleton_buffer_dim))
         self.names = [entry.name for entry in entries]
         self._spec = {e.name: observation_spec(e.name, e.observable, e.channel) for e in entries}
@@ -118,14 +118,14 @@ class BatchUpdater:
                       for i, e in enumerate(ordered) if e.channel.noise is not None}
         self.noisy = bool(self.noise)
         fields = _fields(physics, self.channels)
-        span = max((_random_span(e, n) for e in drawn), default=0)  # how long a drawn sample may wait
-        stops = set().union(*(_camera_stops(cast(FixedChannel, e.channel), n) for e in cameras))
-        layout = self.layout = Layout(self.channels, self.nfixed, set(self.noise), span, fields, self.nsim, self.n,
+        span = max((_random_span(e, substeps) for e in drawn), default=0)  # how long a drawn sample may wait
+        stops = set().union(*(_camera_stops(cast(FixedChannel, e.channel), substeps) for e in cameras))
+        layout = self.layout = Layout(self.channels, self.nfixed, set(self.noise), span, fields, self.nsim, self.substeps,
                                       stops)
         self.reset_values = layout.reset_values
         self.history, self.flat, self.cols, self.rows = layout.history, layout.flat, layout.cols, layout.rows
         self.timelines = Timelines([(e.name, cast(RandomChannel, e.channel), self._drawers(e.name, e.observable))
-                                    for e in drawn], self.nsim, self.n, self.pad)
+                                    for e in drawn], self.nsim, self.substeps, self.pad)
         self.G = 0  # global physics steps
         self.t = np.zeros(self.nsim, np.int64)  # physics steps since each simulation's reset
         self.control_steps = np.zeros(self.nsim, np.int64)
@@ -138,7 +138,7 @@ class BatchUpdater:
         """Each enabled observable bound to `physics` with its channel, as the single-simulation Updater
         binds them (`make_channel`); each simulation's episode later draws its own schedules and noise."""
         random_state = np.random.RandomState(0)
-        return [_Entry(name, obs, make_channel(name, obs, physics, random_state, None, self.n, strip, self.pad))
+        return [_Entry(name, obs, make_channel(name, obs, physics, random_state, None, self.substeps, strip, self.pad))
                 for name, obs in observables.items() if obs.enabled]
 
     def _arrange(self, entries: list[_Entry]) -> tuple[list[_Entry], list[_Entry], list[_Entry]]:
@@ -160,7 +160,7 @@ class BatchUpdater:
 
         model = physics.model if not hasattr(physics.model, "ptr") else physics.model.ptr
         return BatchCameras([(self.output_index[e.name], e.observable, cast(FixedChannel, e.channel)) for e in cameras],
-                            model, self.nsim, self.n, self.pad)
+                            model, self.nsim, self.substeps, self.pad)
 
     @staticmethod
     def _check(name: str, obs: Any, ch: Channel) -> None:
@@ -247,15 +247,15 @@ class BatchUpdater:
             self.timelines.ensure(np.flatnonzero(active), self.control_steps)
 
     def update(self, active: np.ndarray) -> None:
-        """After a control step's rollout (into `record_out`): store, sample and corrupt its n steps."""
-        n, gp = self.n, self.G % self.rows
+        """After a control step's rollout (into `record_out`): store, sample and corrupt its substeps steps."""
+        substeps, gp = self.substeps, self.G % self.rows
         source, target = self.layout.snapshot(gp, self.t)
         self.flat.put(target, self.flat.take(source), "clip")
         everyone = bool(active.all())
         plan = self._plan(gp)
         if self.timelines.specs:
             taken = self.timelines.taken_now()
-        for k in range(1, n + 1):
+        for k in range(1, substeps + 1):
             row = self.history[gp + k - 1]
             for c, sims in plan[k - 1]:
                 if not everyone:
@@ -269,12 +269,12 @@ class BatchUpdater:
                 sims = np.flatnonzero(mask)
                 if sims.size:
                     self._corrupt(row, c, sims, self.t[sims] + k)
-        self.G += n
+        self.G += substeps
         if everyone:
-            self.t += n
+            self.t += substeps
             self.control_steps += 1
         else:
-            self.t[active] += n
+            self.t[active] += substeps
             self.control_steps[active] += 1
         if self.timelines.specs:
             self.timelines.advance(np.flatnonzero(active))
@@ -299,7 +299,7 @@ class BatchUpdater:
         plan = self._noise_plans.get(gp)
         if plan is None:
             local = self.t % self.rows
-            plan = [[] for _ in range(self.n)]
+            plan = [[] for _ in range(self.substeps)]
             for c in range(self.nfixed):
                 if c not in self.noise:
                     continue
@@ -307,7 +307,7 @@ class BatchUpdater:
                 period = ch.period()
                 needed = np.zeros(period, bool)
                 needed[ch.needed_phases()] = True
-                for k in range(1, self.n + 1):
+                for k in range(1, self.substeps + 1):
                     sims = np.flatnonzero(needed[(local + k) % period])
                     if sims.size:
                         plan[k - 1].append((c, sims))

@@ -70,7 +70,7 @@ def clear_draws(observables: dict[str, Any]) -> None:
                 value.values.clear()
 
 
-def timings(observables: dict[str, Any], physics_steps: int, steps_per_control: int) -> dict[str, Timing]:
+def timings(observables: dict[str, Any], physics_steps: int, substeps: int) -> dict[str, Timing]:
     """Sample and delivery steps of every enabled observable over `physics_steps` steps after reset."""
     out: dict[str, Timing] = {}
     drawn = {}
@@ -83,13 +83,13 @@ def timings(observables: dict[str, Any], physics_steps: int, steps_per_control: 
             continue
         sampled = np.arange(0, physics_steps + 1, int(interval))  # delivery may fall after the run
         out[name] = Timing(sampled, sampled + int(delay),
-                           _visible(sampled, int(interval), int(delay), steps_per_control, obs.buffer_size or 1))
+                           _visible(sampled, int(interval), int(delay), substeps, obs.buffer_size or 1))
     if drawn:
-        out.update(_replay(drawn, physics_steps, steps_per_control))
+        out.update(_replay(drawn, physics_steps, substeps))
     return {name: out[name] for name in observables if name in out}
 
 
-def _replay(observables: dict[str, Any], physics_steps: int, n: int) -> dict[str, Timing]:
+def _replay(observables: dict[str, Any], physics_steps: int, substeps: int) -> dict[str, Timing]:
     from ..observables import Generic
     from ..runtime.updater import Updater
 
@@ -101,12 +101,12 @@ def _replay(observables: dict[str, Any], physics_steps: int, n: int) -> dict[str
         shadow = Generic(lambda _physics: np.float64(clock[0] + 1), buffer_size=obs.buffer_size, **schedule)
         shadow.enabled = True
         shadows[name] = shadow
-    updater = Updater(shadows, n)
+    updater = Updater(shadows, substeps)
     updater.reset(None, None)
     seen: dict[str, dict[int, int]] = {name: {} for name in shadows}  # tag -> delivery step
     _collect(updater.get_observation(), seen, 0)
     for step in range(1, physics_steps + 1):
-        if (step - 1) % n == 0:
+        if (step - 1) % substeps == 0:
             updater.prepare_for_next_control_step()
         clock[0] = step
         try:
@@ -118,12 +118,12 @@ def _replay(observables: dict[str, Any], physics_steps: int, n: int) -> dict[str
                          np.ones(len(tags), bool)) for name, tags in seen.items()}
 
 
-def _visible(sampled: np.ndarray, interval: int, delay: int, n: int, buffer: int) -> np.ndarray:
+def _visible(sampled: np.ndarray, interval: int, delay: int, substeps: int, buffer: int) -> np.ndarray:
     """Whether sample k (taken at k * interval) is still among the newest `buffer` at its first read
     (dm_control's semantics in closed form: `runtime.schedule`)."""
     from ..runtime.schedule import Schedule
 
-    return Schedule(interval, delay, buffer, n).visible(sampled // interval)
+    return Schedule(interval, delay, buffer, substeps).visible(sampled // interval)
 
 
 def _collect(observation: dict[str, np.ndarray], seen: dict[str, dict[int, int]], step: int) -> None:

@@ -131,21 +131,21 @@ class BankMember:
 class FeatureBank:
     """All plain float64 mjData features of one Updater."""
 
-    def __init__(self, channels: list[FixedChannel], data: Any, read_interval: int, pad: bool,
+    def __init__(self, channels: list[FixedChannel], data: Any, substeps: int, pad: bool,
                  view: tuple[np.ndarray, dict[str, int]]):
         """`view`: `buffer_view(data, fields)` of the members' fields (the caller checked it exists)."""
         self.raw, offsets = view
         self._data = data  # keeps the memory behind `raw` alive
         self.channels = channels
-        self.n = read_interval
+        self.substeps = substeps
         self.pad = pad
         widths = [int(np.prod(ch.shape, dtype=int)) for ch in channels]
         self.cols = np.cumsum([0] + widths)
         self.width = int(self.cols[-1])
         self.source = np.concatenate(
             [offsets[_reader(ch).field] + _reader(ch).index.ravel() for ch in channels]).astype(np.intp)
-        period = math.lcm(read_interval, *(ch.interval for ch in channels))
-        span = max(ch.schedule.wait for ch in channels) + read_interval + 1
+        period = math.lcm(substeps, *(ch.interval for ch in channels))
+        span = max(ch.schedule.wait for ch in channels) + substeps + 1
         programs = [program(ch.noise) for ch in channels]
         noisy = any(programs)
         # Noise is drawn a chunk ahead; the history then also holds a chunk (rows: a multiple of the chunk).
@@ -170,9 +170,9 @@ class FeatureBank:
         return BankNoise(self.channels, [ops or () for ops in programs], self.cols, self.rows, self.chunk, in_chunk)
 
     @staticmethod
-    def key(channels: list[FixedChannel], data: Any, read_interval: int, pad: bool) -> tuple[Any, ...]:
+    def key(channels: list[FixedChannel], data: Any, substeps: int, pad: bool) -> tuple[Any, ...]:
         """What the bank's layout and plans depend on: equal keys let a reset reuse the bank."""
-        head: tuple[Any, ...] = (id(data), read_interval, pad)
+        head: tuple[Any, ...] = (id(data), substeps, pad)
         return head + tuple(
             (_reader(ch).field, _reader(ch).index.shape, _reader(ch).index.tobytes(), ch.interval, ch.delay,
              ch.buffer_size, getattr(ch.aggregator, "name", None), ch.has_buffer_dim, id(ch.noise))

@@ -3,7 +3,7 @@
 Semantics are dm_control's: samples are taken at steps `0, i1, i1+i2, ...`, each is delivered `delay`
 steps later, a read at step R returns the last `buffer_size` delivered samples in order of delivery
 (ties in order of sampling), padded with zeros, or with the first sample when `pad_with_initial_value`.
-Reads happen every `read_interval` steps (once per control step). A sample that is pushed out of the
+Reads happen every `substeps` steps (once per control step). A sample that is pushed out of the
 buffer before any read can see it is never taken.
 
 `FixedChannel` handles constant integer interval and delay: which steps must sample is periodic, so it
@@ -43,7 +43,7 @@ class ChannelSpec(NamedTuple):
     buffer_size: int
     strip: bool  # strip_singleton_buffer_dim
     pad: bool  # pad_with_initial_value
-    read_interval: int  # physics steps per control step: reads happen every `read_interval` steps
+    substeps: int  # physics steps per control step: reads happen every `substeps` steps
     aggregator: Callable[[np.ndarray], Any] | None
     builtin_aggregator: bool
     noise: Any
@@ -63,7 +63,7 @@ class Channel:
         self.has_buffer_dim = not (spec.strip and spec.buffer_size == 1)
         self.buffered_shape = ((spec.buffer_size,) if self.has_buffer_dim else ()) + self.shape
         self.pad = spec.pad
-        self.read_interval = spec.read_interval
+        self.substeps = spec.substeps
         self.aggregator = spec.aggregator
         self.builtin_aggregator = spec.builtin_aggregator
         self.noise = spec.noise
@@ -95,7 +95,7 @@ class FixedChannel(Channel):
         super().__init__(spec)
         self.interval = interval
         self.delay = delay
-        self.schedule = Schedule(interval, delay, self.buffer_size, self.read_interval, self.every_sample)
+        self.schedule = Schedule(interval, delay, self.buffer_size, self.substeps, self.every_sample)
         # Samples in flight (taken, not yet delivered) plus the visible window fit in `capacity` slots.
         self.capacity = self.schedule.capacity
         self.doubled = self.buffer_size > 1  # each sample is stored twice so every window is one contiguous slice
@@ -176,7 +176,7 @@ class RandomChannel(Channel):
         """Extend the schedule two control steps ahead, then drop the samples no read can see."""
         schedule = self.schedule
         last = schedule[-1][0] if schedule else step
-        horizon = step + 2 * self.read_interval
+        horizon = step + 2 * self.substeps
         while last < horizon:
             last += self.draw_interval()  # interval first, then delay, as dm_control draws them
             schedule.append((last, self.draw_delay()))
@@ -187,17 +187,17 @@ class RandomChannel(Channel):
 
         Delivery order is arrival order, ties going to the earlier insertion: samples already in flight
         come before scheduled ones, and scheduled ones in timestamp order. A sample arriving at `a` is
-        first read at the end of its read window ceil(a / n); what is delivered after it by then arrived
+        first read at the end of its read window ceil(a / substeps); what is delivered after it by then arrived
         in the same window, later in that order. So: per window, keep the last `buffer_size` samples.
         """
         if self.every_sample:  # stateful noise: every planned sample is taken
             return
-        n, b = self.read_interval, self.buffer_size
+        substeps, b = self.substeps, self.buffer_size
         schedule = self.schedule
-        order = sorted((-(-(t + d) // n), t + d, j) for j, (t, d) in enumerate(schedule))
+        order = sorted((-(-(t + d) // substeps), t + d, j) for j, (t, d) in enumerate(schedule))
         in_flight: dict[int, list[int]] = {}
         for a, _, _ in self.pending:
-            in_flight.setdefault(-(-a // n), []).append(a)
+            in_flight.setdefault(-(-a // substeps), []).append(a)
         drop: list[int] = []
         count = len(order)
         k = 0
@@ -238,12 +238,12 @@ class RandomChannel(Channel):
 
     def _deliver(self, step: int) -> None:
         pending = self.pending
-        n = 0
-        while n < len(pending) and pending[n][0] <= step:
-            self.arrived.append(pending[n][2])
-            n += 1
-        if n:
-            del pending[:n]
+        count = 0
+        while count < len(pending) and pending[count][0] <= step:
+            self.arrived.append(pending[count][2])
+            count += 1
+        if count:
+            del pending[:count]
 
     def read(self, step: int) -> Any:
         self._deliver(step)
@@ -265,7 +265,7 @@ def _window_drops(window: list[tuple[int, int, int]], b: int, flight: list[int])
 
 
 def make_channel(label: str, observable: Any, physics: Any, random_state: Any, entropy: list[int] | None,
-                 read_interval: int, strip: bool, pad: bool) -> FixedChannel | RandomChannel:
+                 substeps: int, strip: bool, pad: bool) -> FixedChannel | RandomChannel:
     """Bind `observable` to `physics` and build its channel for an episode: the Updater's and the batch's one
     way to turn an observable into a channel. `entropy` seeds the sensor's noise stream (`draws.sensor_rng`);
     `random_state` is the episode's, given to the observable and to schedule callables that take it."""
@@ -290,7 +290,7 @@ def make_channel(label: str, observable: Any, physics: Any, random_state: Any, e
         noise.reset(sensor_rng(entropy or [], label), 1 if callable(interval) else interval)
     aggregator = observable.aggregator
     channel = ChannelSpec(label, sampler, getattr(sampler, "read_into", None), tuple(shape), np.dtype(dtype),
-                          int(buffer_size), strip, pad, read_interval, aggregator, builtin(aggregator) is not None,
+                          int(buffer_size), strip, pad, substeps, aggregator, builtin(aggregator) is not None,
                           noise)
     if callable(interval) or callable(delay):
         return RandomChannel(channel, interval=as_draw(interval), delay=as_draw(delay))

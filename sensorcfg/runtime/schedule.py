@@ -1,6 +1,7 @@
 """The arithmetic of a fixed schedule, in one place: which samples exist, which a read sees, where they live.
 
-A fixed schedule is (interval i, delay d, buffer b, read interval n), all in physics steps since reset.
+A fixed schedule is (interval i, delay d, buffer b, substeps n: physics steps per control step, so reads
+happen every n steps), all in physics steps since reset.
 dm_control's semantics in closed form:
 
 - sample k is taken at step `k * i` (sample 0 is the reset sample) and delivered at `k * i + d`;
@@ -33,13 +34,13 @@ class Schedule(NamedTuple):
     interval: int
     delay: int
     buffer: int
-    read_interval: int
+    substeps: int
     every_sample: bool = False  # stateful noise: every sample of the nominal schedule is taken
 
     @property
     def period(self) -> int:
         """Steps after which the pattern of taken samples and read windows repeats."""
-        return math.lcm(self.interval, self.read_interval)
+        return math.lcm(self.interval, self.substeps)
 
     @property
     def capacity(self) -> int:
@@ -65,12 +66,12 @@ class Schedule(NamedTuple):
 
     def first_read(self, sample: Any) -> Any:
         """The step of the first read at or after sample `sample`'s delivery."""
-        n = self.read_interval
+        n = self.substeps  # reads happen at multiples of n
         return -(-(sample * self.interval + self.delay) // n) * n
 
     def last_read(self, sample: Any) -> Any:
         """The step of the last read whose window holds sample `sample` (reads at multiples of n)."""
-        n = self.read_interval
+        n = self.substeps  # reads happen at multiples of n
         return (sample * self.interval + self.wait - 1) // n * n
 
     def visible(self, sample: Any) -> Any:

@@ -85,12 +85,12 @@ class Updater:
         if not valid:
             raise SuiteError("`observables` must be a dict, or a list or tuple of dicts, of observables; "
                              f"got {type(observables).__name__}")
-        n = physics_steps_per_control_step
-        if not isinstance(n, numbers.Integral) or isinstance(n, bool) or n < 1:
-            raise SuiteError(f"physics_steps_per_control_step must be a positive integer, got {n!r}")
+        substeps = physics_steps_per_control_step
+        if not isinstance(substeps, numbers.Integral) or isinstance(substeps, bool) or substeps < 1:
+            raise SuiteError(f"physics_steps_per_control_step must be a positive integer, got {substeps!r}")
         self._observables: Any = observables
         self._nested: bool = nested
-        self._n: int = int(n)
+        self._substeps: int = int(substeps)
         self._strip: bool = bool(strip_singleton_buffer_dim)
         self._pad: bool = bool(pad_with_initial_value)
         self._step: int = 0
@@ -98,7 +98,7 @@ class Updater:
 
     @property
     def physics_steps_per_control_step(self) -> int:
-        return self._n
+        return self._substeps
 
     # -- reset ------------------------------------------------------------------------------------
 
@@ -127,7 +127,7 @@ class Updater:
         layout = []
         for index, obs_dict in enumerate(dicts):
             entries = [(name, make_channel(f"{index}/{name}" if self._nested else str(name), observable, physics,
-                                           random_state, entropy, self._n, self._strip, self._pad))
+                                           random_state, entropy, self._substeps, self._strip, self._pad))
                        for name, observable in obs_dict.items() if observable.enabled]
             layout.append((type(obs_dict), entries))
         return layout
@@ -149,7 +149,7 @@ class Updater:
         if not members:
             return None
         data = raw_structs(physics)[1]
-        key = FeatureBank.key(members, data, self._n, self._pad)
+        key = FeatureBank.key(members, data, self._substeps, self._pad)
         cached = getattr(self, "_bank_cache", None)
         if cached is not None and cached[0] == key:  # same sensors: keep the layout and its read plans
             cached[1].rebind(members)
@@ -157,7 +157,7 @@ class Updater:
         view = buffer_view(data, fields_of(members))
         if view is None:  # fields outside MjData's main buffer: read them one by one
             return None
-        bank = FeatureBank(members, data, self._n, self._pad, view)
+        bank = FeatureBank(members, data, self._substeps, self._pad, view)
         self._bank_cache = (key, bank)
         return bank
 
