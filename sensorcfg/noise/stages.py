@@ -65,24 +65,24 @@ class Streams:
     sample j), purpose 1 the per-episode draws. `at` repositions one generator (no new object per block).
     """
 
-    __slots__ = ("key", "bitgen", "generator")
+    __slots__ = ("key", "bitgen", "generator", "_state", "_counter")
 
     def __init__(self, key: np.ndarray):
         self.key = np.asarray(key, np.uint64)
         self.bitgen = np.random.Philox(key=self.key)
         self.generator = np.random.Generator(self.bitgen)
+        self._counter = np.zeros(4, np.uint64)
+        # a whole state, set at once (faster than reading the state back and editing it)
+        self._state = {"bit_generator": "Philox", "state": {"counter": self._counter, "key": self.key},
+                       "buffer": np.zeros(4, np.uint64), "buffer_pos": 4, "has_uint32": 0, "uinteger": 0}
 
     def at(self, stage: int, block: int, purpose: int = 0, key: np.ndarray | None = None) -> np.random.Generator:
-        """The generator positioned at the start of (stage, block, purpose) (of another key when given)."""
-        state = self.bitgen.state
-        inner = state["state"]
-        inner["counter"] = np.array([0, purpose, block, stage], np.uint64)
-        if key is not None:
-            inner["key"] = np.asarray(key, np.uint64)
-        state["buffer_pos"] = 4  # the buffer is empty: the next output comes from the counter
-        state["has_uint32"] = 0
-        state["uinteger"] = 0
-        self.bitgen.state = state
+        """The generator positioned at the start of (stage, block, purpose) (of another key when given);
+        `buffer_pos` 4: no buffered output, the next comes from the counter."""
+        counter = self._counter
+        counter[0], counter[1], counter[2], counter[3] = 0, purpose, block, stage
+        self._state["state"]["key"] = self.key if key is None else key  # type: ignore[index]
+        self.bitgen.state = self._state
         return self.generator
 
 
@@ -226,16 +226,18 @@ class _PerSample(Stage):
         return self.rows[j]
 
     def rows_at(self, indices: np.ndarray) -> np.ndarray:
-        """The rows of samples `indices` (increasing), (len, *shape): the bank draws a chunk ahead."""
-        out = np.empty((len(indices), *self.ctx.shape), self.ctx.work)
-        blocks = indices // self.ctx.block
-        for block in np.unique(blocks).tolist():
-            at = np.flatnonzero(blocks == block)
+        """The rows of samples `indices` (increasing), (len, *shape): the bank draws a chunk ahead. Every
+        block from the first to the last index is made, in order (a random walk needs them all)."""
+        size = self.ctx.block
+        first, last = int(indices[0]) // size, int(indices[-1]) // size
+        blocks = []
+        for block in range(first, last + 1):
             if block != self.block_id:
                 self.rows = self.block_rows(block)
                 self.block_id = block
-            out[at] = np.asarray(self.rows)[indices[at] % self.ctx.block]
-        return out
+            blocks.append(np.asarray(self.rows))
+        stacked = blocks[0] if len(blocks) == 1 else np.concatenate(blocks)
+        return stacked[indices - first * size]
 
 
 class _Additive(_PerSample):
