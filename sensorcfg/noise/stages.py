@@ -73,15 +73,15 @@ class Streams:
         self.generator = np.random.Generator(self.bitgen)
         self._counter = np.zeros(4, np.uint64)
         # a whole state, set at once (faster than reading the state back and editing it)
-        self._state = {"bit_generator": "Philox", "state": {"counter": self._counter, "key": self.key},
-                       "buffer": np.zeros(4, np.uint64), "buffer_pos": 4, "has_uint32": 0, "uinteger": 0}
+        self._state: Any = {"bit_generator": "Philox", "state": {"counter": self._counter, "key": self.key},
+                            "buffer": np.zeros(4, np.uint64), "buffer_pos": 4, "has_uint32": 0, "uinteger": 0}
 
     def at(self, stage: int, block: int, purpose: int = 0, key: np.ndarray | None = None) -> np.random.Generator:
         """The generator positioned at the start of (stage, block, purpose) (of another key when given);
         `buffer_pos` 4: no buffered output, the next comes from the counter."""
         counter = self._counter
         counter[0], counter[1], counter[2], counter[3] = 0, purpose, block, stage
-        self._state["state"]["key"] = self.key if key is None else key  # type: ignore[index]
+        self._state["state"]["key"] = self.key if key is None else key
         self.bitgen.state = self._state
         return self.generator
 
