@@ -9,13 +9,12 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
-
 __all__ = ["episode_end"]
 
 
 def episode_end(diverged: Any, terminated: Any, control_steps: Any, step_limit: int | None) -> tuple[Any, Any]:
-    """(last, discount): whether this step ends the episode, and its discount."""
-    terminal = np.logical_or(diverged, terminated)
-    last = terminal if step_limit is None else np.logical_or(terminal, np.greater_equal(control_steps, step_limit))
-    return last, np.where(terminal, 0.0, 1.0)
+    """(last, discount): whether this step ends the episode, and its discount (bools and numbers for
+    scalars, arrays for arrays: plain operators, no numpy call on the single environment's path)."""
+    terminal = diverged | terminated
+    last = terminal if step_limit is None else terminal | (control_steps >= step_limit)
+    return last, 1.0 - terminal

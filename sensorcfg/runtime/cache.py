@@ -27,30 +27,23 @@ def nbytes(value: Any) -> int:
     return 64
 
 
-class BoundedCache:
-    """A dict that stops taking entries once they hold `budget` bytes (`clear` starts over)."""
-
-    __slots__ = ("entries", "budget", "used")
+class BoundedCache(dict):  # type: ignore[type-arg]
+    """A dict (its `get` is the fast path of a read) that stops taking entries once they hold `budget`
+    bytes; `put` adds within the budget, `clear` starts over."""
 
     def __init__(self, budget: int = DEFAULT_BUDGET):
-        self.entries: dict[Hashable, Any] = {}
+        super().__init__()
         self.budget = budget
         self.used = 0
-
-    def get(self, key: Hashable) -> Any:
-        return self.entries.get(key)
 
     def put(self, key: Hashable, value: Any, size: int | None = None) -> Any:
         """Keep `value` if it fits the budget (`size` bytes: its arrays' when not given); returns it."""
         size = nbytes(value) if size is None else size
         if self.used + size <= self.budget:
-            self.entries[key] = value
+            self[key] = value
             self.used += size
         return value
 
     def clear(self) -> None:
-        self.entries.clear()
+        super().clear()
         self.used = 0
-
-    def __len__(self) -> int:
-        return len(self.entries)
