@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -268,22 +268,29 @@ class Sum(_Additive):
                 values: list[np.ndarray] | None = None) -> np.ndarray:
         """The parts' numbers added in order; `values` replaces the episode draws of the bias parts (one
         simulation's, in the batch)."""
-        total = np.zeros((self.ctx.block if count is None else count, *self.ctx.shape), self.ctx.work)
+        total: np.ndarray | None = None
         episode = iter(values if values is not None else [p.value for p in self.parts if isinstance(p, EpisodeDraw)])
         for part in self.parts:
-            total += next(episode) if isinstance(part, EpisodeDraw) else part.numbers(block, key, count)  # type: ignore[attr-defined]
-        return total
+            term = next(episode) if isinstance(part, EpisodeDraw) else part.numbers(block, key, count)  # type: ignore[attr-defined]
+            if total is None:  # the first part's numbers (a fresh array), or zeros plus the first episode draw
+                total = term if term.ndim > len(self.ctx.shape) else np.zeros(
+                    (self.ctx.block if count is None else count, *self.ctx.shape), self.ctx.work) + term
+            else:
+                total += term
+        return cast(np.ndarray, total)
 
 
 class Gaussian(_Additive):
     def __init__(self, ctx: Context, mean: Any, std: Any):
         super().__init__(ctx)
         self.mean, self.std = ctx.cast(mean), ctx.cast(std)
+        self.centred = not np.any(self.mean)
 
     def draw(self, rng: np.random.Generator, count: int) -> np.ndarray:
         z = rng.standard_normal((count, *self.ctx.shape), dtype=self.ctx.work)
         z *= self.std
-        z += self.mean
+        if not self.centred:
+            z += self.mean
         return z
 
 
