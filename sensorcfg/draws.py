@@ -5,8 +5,8 @@
   dm_control passes) or a `Generator`.
 - `takes_random_state`: which schedule callables are given the episode's random state (dm_control's rule).
 - `drawer`: an interval or delay setting as an int or a validated zero-argument draw.
-- `episode_entropy` / `sensor_rng`: each sensor's own noise stream per episode, derived from the episode's
-  random state and the sensor's name.
+- `episode_entropy` / `sensor_key`: each sensor's own noise streams per episode, keyed by a hash of the
+  episode's random state and the sensor's name.
 
 The Updater, the batch and the dm_control adapter all call these; none restates them.
 """
@@ -25,7 +25,7 @@ import numpy as np
 
 from .errors import SuiteError
 
-__all__ = ["UniformSteps", "ChoiceSteps", "takes_random_state", "drawer", "episode_entropy", "sensor_rng",
+__all__ = ["UniformSteps", "ChoiceSteps", "takes_random_state", "drawer", "episode_entropy", "sensor_key",
            "as_draw", "DEFAULT_UPDATE_INTERVAL", "DEFAULT_DELAY", "DEFAULT_BUFFER_SIZE"]
 
 DEFAULT_BUFFER_SIZE = 1
@@ -73,18 +73,17 @@ class ChoiceSteps:
         return self.values[int(random_state.choice(len(self.values), p=self.p))]
 
 
-def sensor_rng(entropy: Sequence[int], name: str) -> np.random.Generator:
-    """A sensor's own random stream: the episode's entropy and a stable hash of the sensor's name.
-
-    Adding, removing or reordering other sensors leaves this stream unchanged.
-    """
-    key = int.from_bytes(hashlib.blake2b(name.encode(), digest_size=8).digest(), "little")
-    return np.random.Generator(np.random.PCG64(np.random.SeedSequence(list(entropy), spawn_key=(key,))))
+def sensor_key(entropy: Sequence[int], name: str) -> np.ndarray:
+    """A sensor's own episode key (two 64-bit words, the key of its counter-based noise streams): a hash of
+    the episode's entropy and the sensor's name. Adding, removing or reordering other sensors leaves it
+    unchanged."""
+    digest = hashlib.blake2b(np.asarray(list(entropy), np.uint64).tobytes() + name.encode(), digest_size=16).digest()
+    return np.frombuffer(digest, np.uint64).copy()
 
 
 def episode_entropy(random_state: Any) -> list[int]:
     """Four words drawn from the episode's random state (numpy's global one for None), seeding every
-    sensor's noise stream of the episode (`sensor_rng`)."""
+    sensor's noise streams of the episode (`sensor_key`)."""
     if isinstance(random_state, np.random.Generator):
         return [int(x) for x in random_state.integers(0, 2**32, size=4, dtype=np.uint64)]
     if random_state is None:

@@ -10,7 +10,7 @@ its child with spawn key i (`sim_seed(seed, i)`, the same as `SeedSequence(seed)
 full entropy seeds that simulation's episode random state (MT19937, as `Environment` does with a
 SeedSequence). Streams therefore depend on the simulation's index only: growing or shrinking `nsim`
 leaves the other simulations' streams unchanged. Each sensor's noise then has its own stream per episode
-(`sensor_rng(episode entropy, sensor name)`), as in the single simulation.
+(`sensor_key(episode entropy, sensor name)`), as in the single simulation.
 
 Episodes (auto-reset, as dm_env and Gymnasium's next-step mode): a simulation whose last step ended its
 episode (time limit: truncation, discount 1; divergence: termination, discount 0) is reset by the next

@@ -295,9 +295,9 @@ class BatchPipeline:
         self.batched = batched
         self.shape = tuple(pipeline.shape)
 
-    def reset(self, i: int, rng: np.random.Generator) -> None:
-        """Start simulation i's episode with its sensor stream `rng` (as the Updater resets a pipeline)."""
-        self.pipeline.reset(rng, self.stride)
+    def reset(self, i: int, key: np.ndarray) -> None:
+        """Start simulation i's episode with its sensor key (as the Updater resets a pipeline)."""
+        self.pipeline.reset(key, self.stride)
         for stage, batched in zip(self.stages, self.batched):
             batched.load(i, stage)
 

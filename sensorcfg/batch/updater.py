@@ -27,7 +27,7 @@ import numpy as np
 from dm_env import specs
 
 from ..draws import (DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, ChoiceSteps, UniformSteps, as_draw, drawer,
-                     episode_entropy, sensor_rng)
+                     episode_entropy, sensor_key)
 from ..errors import SuiteError
 from ..observables.aggregators import AGGREGATORS, builtin
 from ..runtime.bank import _reader
@@ -217,7 +217,7 @@ class BatchUpdater:
                 self.timelines.finish(i, int(self.control_steps[i]))
             entropy = episode_entropy(rs) if self.noisy else None
             for c, pipeline in self.noise.items():
-                pipeline.reset(i, sensor_rng(entropy or [], self.labels[c]))
+                pipeline.reset(i, sensor_key(entropy or [], self.labels[c]))
             if self.timelines.specs:
                 self.timelines.start(i, rs)
         self.started[ids] = True

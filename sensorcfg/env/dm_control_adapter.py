@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from ..physics import raw_structs
-from ..draws import episode_entropy, sensor_rng, takes_random_state
+from ..draws import episode_entropy, sensor_key, takes_random_state
 
 __all__ = ["dm_control_observables", "BridgedObservable"]
 
@@ -71,7 +71,7 @@ class BridgedObservable:
             return sample
         interval = self._observable.update_interval
         stride = int(interval) if interval and not callable(interval) else 1  # as our Updater numbers samples
-        noise.reset(sensor_rng(episode_entropy(random_state), self._name), stride)
+        noise.reset(sensor_key(episode_entropy(random_state), self._name), stride)
         model, data = raw_structs(physics)
         timestep = float(model.opt.timestep)
 

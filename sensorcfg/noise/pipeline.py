@@ -62,13 +62,18 @@ class NoisePipeline:
         custom callable): the sensor then takes every sample of its schedule."""
         return any(stage.stateful for stage in self._stages)
 
-    def reset(self, rng: np.random.Generator | np.random.RandomState, stride: int = 1) -> None:
+    def reset(self, key: np.ndarray | np.random.Generator | np.random.RandomState, stride: int = 1) -> None:
         """Start an episode: per-episode draws (bias, scale, random-walk start) and cleared state.
 
-        `rng` is the sensor's stream (four words of it key the episode's counter-based numbers); `stride`
-        is the sensor's constant interval in steps (1 when drawn): sample j is taken at step `j * stride`.
+        `key` is the sensor's episode key (`draws.sensor_key`: two 64-bit words), or a random stream whose
+        next four words make one; `stride` is the sensor's constant interval in steps (1 when drawn):
+        sample j is taken at step `j * stride`.
         """
-        self.streams = rt.Streams(rt.stream_key(rng))
+        key = key if isinstance(key, np.ndarray) else rt.stream_key(key)
+        if hasattr(self, "streams"):
+            self.streams.rekey(key)
+        else:
+            self.streams = rt.Streams(key)
         self.stride = int(stride)
         for stage in self._stages:
             stage.reset(self.streams, self.stride)

@@ -76,6 +76,11 @@ class Streams:
         self._state: Any = {"bit_generator": "Philox", "state": {"counter": self._counter, "key": self.key},
                             "buffer": np.zeros(4, np.uint64), "buffer_pos": 4, "has_uint32": 0, "uinteger": 0}
 
+    def rekey(self, key: np.ndarray) -> None:
+        """A new episode's key (the generator is kept)."""
+        self.key = np.asarray(key, np.uint64)
+        self._state["state"]["key"] = self.key
+
     def at(self, stage: int, block: int, purpose: int = 0, key: np.ndarray | None = None) -> np.random.Generator:
         """The generator positioned at the start of (stage, block, purpose) (of another key when given);
         `buffer_pos` 4: no buffered output, the next comes from the counter."""

@@ -22,7 +22,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from ..draws import DEFAULT_BUFFER_SIZE, DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, as_draw, drawer, sensor_rng
+from ..draws import DEFAULT_BUFFER_SIZE, DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, as_draw, drawer, sensor_key
 from ..errors import SuiteError
 from ..observables.aggregators import builtin
 from .schedule import Schedule
@@ -267,7 +267,7 @@ def _window_drops(window: list[tuple[int, int, int]], b: int, flight: list[int])
 def make_channel(label: str, observable: Any, physics: Any, random_state: Any, entropy: list[int] | None,
                  substeps: int, strip: bool, pad: bool) -> FixedChannel | RandomChannel:
     """Bind `observable` to `physics` and build its channel for an episode: the Updater's and the batch's one
-    way to turn an observable into a channel. `entropy` seeds the sensor's noise stream (`draws.sensor_rng`);
+    way to turn an observable into a channel. `entropy` keys the sensor's noise streams (`draws.sensor_key`);
     `random_state` is the episode's, given to the observable and to schedule callables that take it."""
     try:
         sampler = observable.observation_callable(physics, random_state)
@@ -287,7 +287,7 @@ def make_channel(label: str, observable: Any, physics: Any, random_state: Any, e
         shape, dtype = spec.shape, spec.dtype
     noise = getattr(observable, "noise", None)
     if noise is not None:  # sample j of a constant interval is the j-th nominal sample
-        noise.reset(sensor_rng(entropy or [], label), 1 if callable(interval) else interval)
+        noise.reset(sensor_key(entropy or [], label), 1 if callable(interval) else interval)
     aggregator = observable.aggregator
     channel = ChannelSpec(label, sampler, getattr(sampler, "read_into", None), tuple(shape), np.dtype(dtype),
                           int(buffer_size), strip, pad, substeps, aggregator, builtin(aggregator) is not None,
