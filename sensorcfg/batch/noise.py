@@ -96,8 +96,16 @@ class _Blocks(_Batched):
     def numbers(self, i: int, block: int, count: int) -> np.ndarray:
         return cast(np.ndarray, self.template.numbers(block, self.keys[i], count))
 
+    def first_rows(self, sims: np.ndarray) -> np.ndarray:
+        """The reset samples' rows (sample 0), drawn alone where the stream allows: a reset does not draw
+        the rest of the first block (the first step does, when it needs it)."""
+        count = 1 if _chunkable(self.template) else self.block
+        return np.stack([self.numbers(i, 0, count)[0] for i in sims.tolist()])
+
     def take(self, sims: np.ndarray, steps: np.ndarray) -> np.ndarray:
         """This sample's rows for `sims` at their `steps`, (m, ...) (refilling the parts that ran out)."""
+        if not steps.any():  # reset samples
+            return self.first_rows(sims)
         part, j = np.divmod(steps // self.stride, self.sub)
         stale = part != self.part[sims]
         if stale.any():
@@ -148,6 +156,10 @@ class _RandomWalk(_Additive):
     def load(self, i: int, stage: Any) -> None:
         super().load(i, stage)
         self.carry[i] = stage.start
+
+    def first_rows(self, sims: np.ndarray) -> np.ndarray:
+        """The walk at sample 0 is its start: nothing to draw."""
+        return self.carry[sims]
 
     def draw(self, sims: np.ndarray, parts: np.ndarray) -> np.ndarray:
         """Walk each simulation from its held part to `parts` (every part in between, in order)."""
