@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from test_batch import NOISE
 
 import sensorcfg
 from sensorcfg import assets
@@ -29,22 +30,7 @@ def salt(value, random_state):
     return value + random_state.normal(0.0, 0.01, value.shape)
 
 
-CATALOG = [
-    {"type": "gaussian", "std": 0.1},
-    {"type": "uniform", "low": -0.1, "high": 0.2},
-    {"type": "bias", "std": 0.5},
-    {"type": "scale", "low": 0.9, "high": 1.1},
-    {"type": "random_walk", "std": 0.3, "correlation_time": "20ms"},
-    {"type": "random_walk", "std": 0.3},
-    {"type": "quantize", "step": 0.01},
-    {"type": "clip", "min": -0.5, "max": 0.5},
-    {"type": "dropout", "p": 0.3, "mode": "hold"},
-    {"type": "dropout", "p": 0.3, "mode": "zero", "per": "value"},
-    {"type": "dropout", "p": 0.2, "mode": "nan"},
-    {"type": "outlier", "p": 0.2, "scale": 3.0},
-    {"type": "lowpass", "cutoff": "30Hz"},
-    {"type": "custom", "callable": salt},
-]
+CATALOG = [*NOISE, {"type": "custom", "callable": salt}]  # every stage type (the batch tests' list, and custom)
 
 
 def run(stages: list, interval: int, delay: int, buffer: int, aggregator: str | None, n: int, seed: int,
