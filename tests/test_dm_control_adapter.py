@@ -103,3 +103,43 @@ def test_schedule_callables_get_the_random_state_by_one_rule(oracle):
         updater.prepare_for_next_control_step()
         assert seen["optional"] and all(rs is None for rs in seen["optional"]), runner
         assert seen["required"] and all(rs is random_state for rs in seen["required"]), runner
+
+
+def test_noise_under_dm_control_is_our_updaters_noise(oracle):
+    # one episode entropy shared by the suite (drawn as our Updater draws it) and counter-based numbers:
+    # stateless stages and random walks give each sample what our Updater gives it, bit for bit
+    noise = ("[{type: bias, std: 0.1}, {type: gaussian, std: 0.05}, {type: outlier, p: 0.2, scale: 1}, "
+             "{type: random_walk, std: 0.1, correlation_time: 50ms}, {type: quantize, step: 0.01}, "
+             "{type: dropout, p: 0.2, mode: zero, per: value}, {type: clip, min: -3, max: 3}]")
+    suite = sensorcfg.loads(f"""
+version: 1
+model: package://sensorcfg/assets/robot.xml
+options: {{control_interval: 10ms}}
+sensors:
+  gyro: {{kind: sensordata, element: "sensor:imu_gyro", interval: 4ms, buffer: 3, aggregator: mean, noise: {noise}}}
+  arm: {{kind: qpos, element: ["joint:shoulder", "joint:elbow"], delay: 2ms, buffer: 2, noise: {noise}}}
+  clean: {{kind: qvel, element: "joint:elbow"}}
+  hand: {{kind: xpos, element: "site:hand_site", interval: 6ms, delay: 4ms, noise: {noise}}}
+""")
+    physics = dm_physics(oracle)
+    n = suite.updater_kwargs(physics.model.ptr)["physics_steps_per_control_step"]
+
+    def noisy(observables):
+        return observables
+
+    theirs = run_dm_control(oracle, physics, noisy(sensorcfg.dm_control_observables(suite, physics)), n, seed=3)
+    ours = sensorcfg.Updater(noisy(suite.build(physics.model.ptr)), n)
+    physics.reset()
+    physics.data.qvel[:] = 0.3
+    ours.reset(physics, np.random.RandomState(3))
+    mine = [ours.get_observation()]
+    for _ in range(60):
+        ours.prepare_for_next_control_step()
+        for _ in range(n):
+            physics.step()
+            ours.update()
+        mine.append(ours.get_observation())
+    assert any(not np.array_equal(a, b) for a, b in zip(theirs[5].values(), theirs[6].values()))
+    for step, (a, c) in enumerate(zip(theirs, mine)):
+        for name in a:
+            np.testing.assert_array_equal(a[name], c[name], err_msg=f"{name} at control step {step}")

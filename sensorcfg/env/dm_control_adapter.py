@@ -4,9 +4,10 @@ sensorcfg observables already take a dm_control Physics (they read `.model.ptr` 
 dm_control's Updater does not know about is a sensor's noise pipeline, which our Updater applies and seeds
 per sensor. The adapter folds that pipeline into the observation callable: on each episode (dm_control binds
 observables at every reset) the pipeline is reseeded from dm_control's random state and the sensor's name,
-and each sample is corrupted with the simulated time read from the physics. Noise is counter-based (a
-sample's numbers depend on its time only), so stateless stages give a sample exactly what our Updater
-gives it; stateful ones (low-pass, dropout holding, custom) see the samples dm_control takes, which skips
+and each sample is corrupted with the simulated time read from the physics. The suite's observables share
+one episode entropy, drawn as our Updater draws it, and noise is counter-based (a sample's numbers depend
+on its time only), so stateless stages and random walks give a sample exactly what our Updater gives it;
+stateful ones (low-pass, dropout holding, custom) see the samples dm_control takes, which skips
 samples no read can see, where our Updater feeds them every sample of the schedule.
 """
 
@@ -23,13 +24,31 @@ from ..draws import episode_entropy, sensor_key, takes_random_state
 __all__ = ["dm_control_observables", "BridgedObservable"]
 
 
+class _EpisodeEntropy:
+    """The episode entropy a suite's adapted observables share, drawn as our Updater draws it: once per
+    episode from the episode's random state, before anything else draws from it. dm_control binds every
+    enabled observable at reset, in order, before drawing any delay: the first enabled noisy one draws."""
+
+    def __init__(self) -> None:
+        self.members: list[BridgedObservable] = []
+        self.value: list[int] = []
+
+    def get(self, member: BridgedObservable, random_state: Any) -> list[int]:
+        first = next((m for m in self.members if m.enabled and m._observable.noise is not None), member)
+        if first is member:
+            self.value = episode_entropy(random_state)
+        return self.value
+
+
 class BridgedObservable:
     """Delegates to a sensorcfg observable; applies its noise inside `observation_callable`."""
 
-    def __init__(self, name: str, observable: Any):
+    def __init__(self, name: str, observable: Any, entropy: _EpisodeEntropy | None = None):
         self._name = name
         self._observable = observable
         self._random_state: Any = None
+        self._entropy = entropy if entropy is not None else _EpisodeEntropy()
+        self._entropy.members.append(self)
 
     def _schedule(self, value: Any) -> Any:
         """dm_control passes its random state only to its own Variations; a callable that requires one gets
@@ -71,7 +90,7 @@ class BridgedObservable:
             return sample
         interval = self._observable.update_interval
         stride = int(interval) if interval and not callable(interval) else 1  # as our Updater numbers samples
-        noise.reset(sensor_key(episode_entropy(random_state), self._name), stride)
+        noise.reset(sensor_key(self._entropy.get(self, random_state), self._name), stride)
         model, data = raw_structs(physics)
         timestep = float(model.opt.timestep)
 
@@ -98,4 +117,5 @@ def dm_control_observables(suite: Any, physics: Any) -> dict[str, Any]:
 
         suite = load(suite)
     model, _ = raw_structs(physics)
-    return {name: BridgedObservable(name, obs) for name, obs in suite.build(model).items()}
+    entropy = _EpisodeEntropy()
+    return {name: BridgedObservable(name, obs, entropy) for name, obs in suite.build(model).items()}
