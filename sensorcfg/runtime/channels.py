@@ -150,7 +150,7 @@ class FixedChannel(Channel):
 class RandomChannel(Channel):
     """Interval and/or delay drawn per sample: dm_control's planning and dropping, to the sample.
 
-    Planning extends the schedule to two control steps ahead, drawing (interval, delay) pairs in
+    Planning extends the plan (`planned`) to two control steps ahead, drawing (interval, delay) pairs in
     dm_control's order; it then drops every scheduled sample that is provably pushed out of the buffer
     before its first read. Dropping is exactly dm_control's (and so is its side effect: when the last
     scheduled sample is dropped, the next plan continues from the last one kept), so sample times,
@@ -161,7 +161,7 @@ class RandomChannel(Channel):
         super().__init__(spec)
         self.draw_interval = interval
         self.draw_delay = delay
-        self.schedule: list[tuple[int, int]] = []  # (timestamp, delay), increasing timestamps
+        self.planned: list[tuple[int, int]] = []  # (timestamp, delay), increasing timestamps
         self.pending: list[tuple[int, int, np.ndarray]] = []  # (arrival, timestamp, value), delivery order
         self.arrived: collections.deque[np.ndarray] = collections.deque(maxlen=self.buffer_size)
 
@@ -173,13 +173,13 @@ class RandomChannel(Channel):
         self._insert(step, delay, value)
 
     def plan(self, step: int) -> None:
-        """Extend the schedule two control steps ahead, then drop the samples no read can see."""
-        schedule = self.schedule
-        last = schedule[-1][0] if schedule else step
+        """Extend the plan two control steps ahead, then drop the samples no read can see."""
+        planned = self.planned
+        last = planned[-1][0] if planned else step
         horizon = step + 2 * self.substeps
         while last < horizon:
             last += self.draw_interval()  # interval first, then delay, as dm_control draws them
-            schedule.append((last, self.draw_delay()))
+            planned.append((last, self.draw_delay()))
         self._drop_unobserved()
 
     def _drop_unobserved(self) -> None:
@@ -193,8 +193,8 @@ class RandomChannel(Channel):
         if self.every_sample:  # stateful noise: every planned sample is taken
             return
         substeps, b = self.substeps, self.buffer_size
-        schedule = self.schedule
-        order = sorted((-(-(t + d) // substeps), t + d, j) for j, (t, d) in enumerate(schedule))
+        planned = self.planned
+        order = sorted((-(-(t + d) // substeps), t + d, j) for j, (t, d) in enumerate(planned))
         in_flight: dict[int, list[int]] = {}
         for a, _, _ in self.pending:
             in_flight.setdefault(-(-a // substeps), []).append(a)
@@ -210,14 +210,14 @@ class RandomChannel(Channel):
             k = m
         if drop:
             dropped = set(drop)
-            self.schedule = [entry for j, entry in enumerate(schedule) if j not in dropped]
+            self.planned = [entry for j, entry in enumerate(planned) if j not in dropped]
 
     def due(self, step: int) -> bool:
-        return bool(self.schedule) and self.schedule[0][0] == step
+        return bool(self.planned) and self.planned[0][0] == step
 
     def sample(self, step: int) -> None:
         """Take the sample scheduled at `step` (the caller checked `due`)."""
-        _, delay = self.schedule.pop(0)
+        _, delay = self.planned.pop(0)
         self._insert(step, delay, np.array(self.value(step), dtype=self.dtype))
 
     def maybe_sample(self, step: int) -> None:
