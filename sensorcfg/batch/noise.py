@@ -21,6 +21,7 @@ from typing import Any, cast
 import numpy as np
 
 from ..errors import SuiteError
+from ..noise import arithmetic as ar
 from ..noise import stages as rt
 
 __all__ = ["BatchPipeline", "BATCHED"]
@@ -143,7 +144,7 @@ class _Additive(_Blocks):
         return super().numbers(i, block, count)
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
-        rt.add(src, self.take(sims, steps), dst)
+        ar.add(src, self.take(sims, steps), dst)
 
 
 class _RandomWalk(_Additive):
@@ -179,7 +180,7 @@ class _RandomWalk(_Additive):
                 rows = np.flatnonzero((at[moving] == 0) == first)
                 if rows.size:
                     c_rows = carry[rows]
-                    states = rt.walk(c_rows, np.moveaxis(z[rows], 1, 0), a, c, first)
+                    states = ar.walk(c_rows, np.moveaxis(z[rows], 1, 0), a, c, first)
                     carry[rows] = c_rows
                     out[moving[rows]] = np.moveaxis(states, 0, 1)
             self.carry[sims[moving]] = carry
@@ -197,7 +198,7 @@ class _Episode(_Batched):
         self.values[i] = stage.value
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
-        (rt.add if self.template.op is np.add else rt.multiply)(src, self.values[sims], dst)
+        (ar.add if self.template.op is np.add else ar.multiply)(src, self.values[sims], dst)
 
 
 def _by_gap(gaps: np.ndarray) -> list[tuple[int, np.ndarray]]:
@@ -229,7 +230,7 @@ class _Lowpass(_Batched):
         for gap, at in _by_gap(gaps[moving]):
             rows = moving[at]
             s, d = state[rows], np.empty_like(state[rows])
-            rt.lowpass(s, src[rows], self.template.alpha(gap), d)
+            ar.lowpass(s, src[rows], self.template.alpha(gap), d)
             state[rows] = s
         self.state[sims] = state
         self.fresh[sims] = False
@@ -262,7 +263,7 @@ class _Dropout(_Blocks):
         if not self.per_value:
             lost = lost.reshape(lost.shape + (1,) * (dst.ndim - 1))
         held = self.held[sims] if self.held is not None else None
-        rt.dropout(src, lost, held if held is not None else cast(float, self.fill), dst)
+        ar.dropout(src, lost, held if held is not None else cast(float, self.fill), dst)
         if self.held is not None:
             self.held[sims] = dst
 

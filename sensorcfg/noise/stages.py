@@ -4,13 +4,13 @@ A stage is built once per sensor from its config, with every parameter already b
 observation's shape. `reset(streams, stride)` makes the per-episode draws; `stage(src, dst, step)` writes
 the noisy version of `src` into `dst` (they may be the same array; `src` is never written when it is not
 `dst`). The per-sample pipeline, the feature bank and the batch all call the same arithmetic: the array
-functions below (`add`, `multiply`, `walk`, `lowpass`, `quantize`, `clip`, `dropout`) work over any
-leading axes (one sample, samples, or simulations x samples).
+functions of `noise.arithmetic` (`add`, `multiply`, `walk`, `lowpass`, `quantize`, `clip`, `dropout`), over
+any leading axes (one sample, samples, or simulations x samples), and the same numbers (`noise.streams`).
 
 Truthful noise: a sample's value is a function of the seed, the sensor and the sample's time, never of
 which other samples were taken.
 
-- Random numbers are counter-based (`Streams`): sample j's numbers of a stage come from numpy's Philox
+- Random numbers are counter-based (`noise.streams.Streams`): sample j's numbers of a stage come from numpy's Philox
   keyed by the sensor's episode key, with the counter (stage, block j // B, position); a block holds B
   samples (`Context.block`, fixed by the observation's size). Skipping samples skips nothing else.
 - A sample's index is `step // stride`: `stride` is the sensor's interval when it is constant (sample j is
@@ -30,10 +30,11 @@ from typing import Any, cast
 import numpy as np
 
 from ..errors import Problem, SuiteError
+from .arithmetic import add, clip, dropout, lowpass, multiply, quantize, walk
+from .streams import Streams, stream_key
 
 __all__ = ["Context", "Streams", "Stage", "Sum", "Gaussian", "Uniform", "Outlier", "EpisodeDraw", "RandomWalk",
-           "Lowpass", "Quantize", "Clip", "Dropout", "Custom", "add", "multiply", "walk", "lowpass", "quantize",
-           "clip", "dropout"]
+           "Lowpass", "Quantize", "Clip", "Dropout", "Custom", "stream_key"]
 
 _BLOCK_VALUES = 1 << 12  # random values drawn per generator call (per stage), at most
 _MAX_BLOCK = 64  # samples per block, at most (a power of two)
@@ -56,116 +57,6 @@ class Context:
         """A parameter as an array of the work dtype (0-d for a number): ufuncs take arrays faster than
         Python floats, which they convert on every call."""
         return np.array(value, dtype=self.work)
-
-
-class Streams:
-    """Counter-based random numbers of one sensor's episode: Philox keyed by the sensor's episode key.
-
-    The counter is (position, purpose, block, stage): purpose 0 holds per-sample numbers (block j // B of
-    sample j), purpose 1 the per-episode draws. `at` repositions one generator (no new object per block).
-    """
-
-    __slots__ = ("key", "bitgen", "generator", "_state", "_counter")
-
-    def __init__(self, key: np.ndarray):
-        self.key = np.asarray(key, np.uint64)
-        self.bitgen = np.random.Philox(key=self.key)
-        self.generator = np.random.Generator(self.bitgen)
-        self._counter = np.zeros(4, np.uint64)
-        # a whole state, set at once (faster than reading the state back and editing it)
-        self._state: Any = {"bit_generator": "Philox", "state": {"counter": self._counter, "key": self.key},
-                            "buffer": np.zeros(4, np.uint64), "buffer_pos": 4, "has_uint32": 0, "uinteger": 0}
-
-    def rekey(self, key: np.ndarray) -> None:
-        """A new episode's key (the generator is kept)."""
-        self.key = np.asarray(key, np.uint64)
-        self._state["state"]["key"] = self.key
-
-    def at(self, stage: int, block: int, purpose: int = 0, key: np.ndarray | None = None) -> np.random.Generator:
-        """The generator positioned at the start of (stage, block, purpose) (of another key when given);
-        `buffer_pos` 4: no buffered output, the next comes from the counter."""
-        counter = self._counter
-        counter[0], counter[1], counter[2], counter[3] = 0, purpose, block, stage
-        self._state["state"]["key"] = self.key if key is None else key
-        self.bitgen.state = self._state
-        return self.generator
-
-
-def stream_key(rng: np.random.Generator | np.random.RandomState) -> np.ndarray:
-    """A sensor's 128-bit episode key: four 32-bit words from its stream."""
-    if isinstance(rng, np.random.RandomState):
-        words = rng.randint(0, 2**32, size=4, dtype=np.uint64)
-    else:
-        words = rng.integers(0, 2**32, size=4, dtype=np.uint64)
-    return np.array([(words[0] << np.uint64(32)) | words[1], (words[2] << np.uint64(32)) | words[3]], np.uint64)
-
-
-# -- the arithmetic of each stage, over any leading axes ------------------------------------------
-
-def add(src: np.ndarray, term: Any, dst: np.ndarray) -> None:
-    """Additive noise (white noise, outliers, bias, a random walk's state): dst = src + term."""
-    np.add(src, term, out=dst)
-
-
-def multiply(src: np.ndarray, gain: Any, dst: np.ndarray) -> None:
-    """A per-episode gain: dst = src * gain."""
-    np.multiply(src, gain, out=dst)
-
-
-def quantize(src: np.ndarray, step: Any, dst: np.ndarray) -> None:
-    """Rounds to the nearest multiple of `step`."""
-    np.divide(src, step, out=dst)
-    np.rint(dst, out=dst)
-    np.multiply(dst, step, out=dst)
-
-
-def clip(src: np.ndarray, low: Any, high: Any, dst: np.ndarray) -> None:
-    """Saturation (either bound may be None)."""
-    if low is not None:
-        np.maximum(src, low, out=dst)
-        src = dst
-    if high is not None:
-        np.minimum(src, high, out=dst)
-    elif low is None and dst is not src:
-        np.copyto(dst, src)
-
-
-def walk(carry: np.ndarray, z: np.ndarray, a: Any, c: Any, first: bool) -> np.ndarray:
-    """A random walk over one block: state_j = a state_(j-1) + c z_j (Brownian: a is None), from `carry`
-    (the state before the block, updated in place to the block's last). `z` is (block, *lead) and is
-    scaled in place; with `first`, row 0 is the episode's start (`carry` itself, its z unused).
-    Returns the states (block, *lead)."""
-    np.multiply(z, c, out=z)
-    if first:
-        z[0] = 0
-    if a is None:  # b_j = b_(j-1) + c z_j: one sequential sum, the same additions in the same order
-        states = np.cumsum(np.concatenate([carry[None], z]), axis=0)[1:]
-        if first:
-            states[0] = carry
-    else:
-        states = np.empty_like(z)
-        for j in range(len(z)):
-            if not (first and j == 0):
-                np.multiply(carry, a, out=carry)
-                np.add(carry, z[j], out=carry)
-            states[j] = carry
-    carry[...] = states[-1]
-    return states
-
-
-def lowpass(state: np.ndarray, src: np.ndarray, alpha: Any, dst: np.ndarray) -> None:
-    """One step of the first-order filter: state += alpha (src - state); dst = state."""
-    np.subtract(src, state, out=dst)
-    np.multiply(dst, alpha, out=dst)
-    np.add(state, dst, out=state)
-    np.copyto(dst, state)
-
-
-def dropout(src: np.ndarray, lost: Any, replacement: Any, dst: np.ndarray) -> None:
-    """Lost values (a mask broadcasting to the values) become `replacement` (held values, 0 or NaN)."""
-    if dst is not src:
-        np.copyto(dst, src)
-    np.copyto(dst, replacement, where=lost)
 
 
 # -- stages ---------------------------------------------------------------------------------------

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from ..noise import arithmetic as ar
 from ..noise import stages as rt
 
 __all__ = ["BankNoise", "program"]
@@ -56,23 +57,23 @@ def program(pipeline: Any) -> Program | None:
 
 
 def _term(v: np.ndarray, field: np.ndarray, positions: np.ndarray) -> None:
-    rt.add(v, field.take(positions), v)
+    ar.add(v, field.take(positions), v)
 
 
 def _add(v: np.ndarray, values: np.ndarray, cols: np.ndarray) -> None:
-    rt.add(v, values.take(cols), v)
+    ar.add(v, values.take(cols), v)
 
 
 def _mul(v: np.ndarray, values: np.ndarray, cols: np.ndarray) -> None:
-    rt.multiply(v, values.take(cols), v)
+    ar.multiply(v, values.take(cols), v)
 
 
 def _quantize(v: np.ndarray, step: np.ndarray) -> None:
-    rt.quantize(v, step, v)
+    ar.quantize(v, step, v)
 
 
 def _clip(v: np.ndarray, low: np.ndarray, high: np.ndarray) -> None:
-    rt.clip(v, low, high, v)
+    ar.clip(v, low, high, v)
 
 
 # kind -> how a read applies it to the gathered values of a group (the stage's own arithmetic)

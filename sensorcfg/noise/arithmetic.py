@@ -1,0 +1,80 @@
+"""Each noise stage's arithmetic, written once: array functions over any leading axes. Numpy only.
+
+The per-sample pipeline (`stages`) calls them on one sample, the feature bank (`runtime.bank_noise`) on
+the gathered values of many sensors, the batch (`batch.noise`) on (simulations, ...) arrays; elementwise,
+so every path gives the same bits.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+__all__ = ["add", "multiply", "quantize", "clip", "walk", "lowpass", "dropout"]
+
+
+def add(src: np.ndarray, term: Any, dst: np.ndarray) -> None:
+    """Additive noise (white noise, outliers, bias, a random walk's state): dst = src + term."""
+    np.add(src, term, out=dst)
+
+
+def multiply(src: np.ndarray, gain: Any, dst: np.ndarray) -> None:
+    """A per-episode gain: dst = src * gain."""
+    np.multiply(src, gain, out=dst)
+
+
+def quantize(src: np.ndarray, step: Any, dst: np.ndarray) -> None:
+    """Rounds to the nearest multiple of `step`."""
+    np.divide(src, step, out=dst)
+    np.rint(dst, out=dst)
+    np.multiply(dst, step, out=dst)
+
+
+def clip(src: np.ndarray, low: Any, high: Any, dst: np.ndarray) -> None:
+    """Saturation (either bound may be None)."""
+    if low is not None:
+        np.maximum(src, low, out=dst)
+        src = dst
+    if high is not None:
+        np.minimum(src, high, out=dst)
+    elif low is None and dst is not src:
+        np.copyto(dst, src)
+
+
+def walk(carry: np.ndarray, z: np.ndarray, a: Any, c: Any, first: bool) -> np.ndarray:
+    """A random walk over one block: state_j = a state_(j-1) + c z_j (Brownian: a is None), from `carry`
+    (the state before the block, updated in place to the block's last). `z` is (block, *lead) and is
+    scaled in place; with `first`, row 0 is the episode's start (`carry` itself, its z unused).
+    Returns the states (block, *lead)."""
+    np.multiply(z, c, out=z)
+    if first:
+        z[0] = 0
+    if a is None:  # b_j = b_(j-1) + c z_j: one sequential sum, the same additions in the same order
+        states = np.cumsum(np.concatenate([carry[None], z]), axis=0)[1:]
+        if first:
+            states[0] = carry
+    else:
+        states = np.empty_like(z)
+        for j in range(len(z)):
+            if not (first and j == 0):
+                np.multiply(carry, a, out=carry)
+                np.add(carry, z[j], out=carry)
+            states[j] = carry
+    carry[...] = states[-1]
+    return states
+
+
+def lowpass(state: np.ndarray, src: np.ndarray, alpha: Any, dst: np.ndarray) -> None:
+    """One step of the first-order filter: state += alpha (src - state); dst = state."""
+    np.subtract(src, state, out=dst)
+    np.multiply(dst, alpha, out=dst)
+    np.add(state, dst, out=state)
+    np.copyto(dst, state)
+
+
+def dropout(src: np.ndarray, lost: Any, replacement: Any, dst: np.ndarray) -> None:
+    """Lost values (a mask broadcasting to the values) become `replacement` (held values, 0 or NaN)."""
+    if dst is not src:
+        np.copyto(dst, src)
+    np.copyto(dst, replacement, where=lost)
