@@ -36,7 +36,7 @@ from .streams import Streams, stream_key
 __all__ = ["Context", "Streams", "Stage", "Sum", "Gaussian", "Uniform", "Outlier", "EpisodeDraw", "RandomWalk",
            "Lowpass", "Quantize", "Clip", "Dropout", "Custom", "stream_key"]
 
-_BLOCK_VALUES = 1 << 12  # random values drawn per generator call (per stage), at most
+_BLOCK_VALUES = 1 << 10  # random values drawn per generator call (per stage), at most
 _MAX_BLOCK = 64  # samples per block, at most (a power of two)
 _MAX_INTERVALS = 64  # distinct sample intervals whose coefficients are cached
 
