@@ -87,6 +87,17 @@ def _batch_module() -> Any:
     return batch
 
 
+class _Rollout(NamedTuple):
+    """A segment's `rollout` call: its substeps, the last one, the fields it records and where, and per field
+    bound instead of recorded, (its record slot, the batch's bound view)."""
+
+    length: int
+    last: int
+    fields: list[str]
+    out: dict[str, np.ndarray]
+    bound: list[tuple[np.ndarray, np.ndarray]]
+
+
 def _check_arguments(nsim: Any, nthread: Any, reward_fn: Any, termination_fn: Any) -> None:
     for label, fn in (("reward_fn", reward_fn), ("termination_fn", termination_fn)):
         if fn is not None and not callable(fn):
@@ -167,11 +178,12 @@ class BatchEnvironment(ControlLoop):
         self._action_spec = action_spec(self._model, (self._nsim,))
         self._observation_spec = self._updater.observation_spec()
 
-    def _rollout_segments(self) -> list[tuple[int, int, list[str], dict[str, np.ndarray], list[Any]]]:
-        """Per segment: (substeps, last substep, fields recorded, where, (slot, bound view) per bound field)."""
+    def _rollout_segments(self) -> list[_Rollout]:
+        """One `rollout` call per segment of the control step (`Layout.segments`)."""
         layout = self._updater.layout
-        return [(segment.last - segment.first + 1, segment.last, list(out), out,
-                 [(slot, self._batch.bind(f).reshape(self._nsim, -1)[:, span]) for f, (slot, span) in bound.items()])
+        return [_Rollout(segment.last - segment.first + 1, segment.last, list(out), out,
+                         [(slot, self._batch.bind(f).reshape(self._nsim, -1)[:, span])
+                          for f, (slot, span) in bound.items()])
                 for segment, out, bound in zip(layout.segments, layout.record_out, layout.bound_out)]
 
     # -- properties -------------------------------------------------------------------------------
