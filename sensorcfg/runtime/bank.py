@@ -19,13 +19,14 @@ from typing import Any, NamedTuple, Protocol, TypeGuard, cast
 import numpy as np
 
 from ..observables.aggregators import AGGREGATORS, builtin
-from .cache import DEFAULT_BUDGET, BoundedCache
+from .cache import BoundedCache
 from .bank_noise import BankNoise, Program, program
 from .channels import Channel, FixedChannel
 
 __all__ = ["FeatureBank", "BankMember", "GroupMember", "PlainRead", "ReadPlan", "ReductionGroup", "buffer_view",
            "fields_of", "read_plan"]
 
+_PLANS_BUDGET = 4 << 20  # bytes of read plans kept, at least (4 x the history's size when that is more)
 _CHUNK_STEPS = 256  # physics steps of noise drawn at a time (rounded up to the sampling period)
 
 
@@ -158,8 +159,8 @@ class FeatureBank:
         self.phases = [(ch.period(), len(phases), phases) for ch in channels for phases in [ch.needed_phases()]]
         self.snap_rows = _snapshot_rows(self.phases, self.rows)
         # read plans per phase, and early reads' padded positions per step: kept within a byte budget
-        self._gathers = BoundedCache(max(DEFAULT_BUDGET, self.history.nbytes))
-        self._early = BoundedCache(4 << 20)
+        self._gathers = BoundedCache(max(_PLANS_BUDGET, 4 * self.history.nbytes))
+        self._early = BoundedCache(_PLANS_BUDGET // 4)
         self.noise = self._noise(programs) if noisy else None
         self.pad_values = np.zeros(self.width)
 
