@@ -19,7 +19,10 @@ def dm_physics(oracle):
 
 
 def run_dm_control(oracle, physics, observables, n, seed, steps=60):
-    updater = oracle.updater.Updater(observables, n)
+    return run_updater(oracle.updater.Updater(observables, n), physics, n, seed, steps)
+
+
+def run_updater(updater, physics, n, seed, steps=60):
     physics.reset()
     physics.data.qvel[:] = 0.3
     updater.reset(physics, np.random.RandomState(seed))
@@ -124,21 +127,8 @@ sensors:
     physics = dm_physics(oracle)
     n = suite.updater_kwargs(physics.model.ptr)["physics_steps_per_control_step"]
 
-    def noisy(observables):
-        return observables
-
-    theirs = run_dm_control(oracle, physics, noisy(sensorcfg.dm_control_observables(suite, physics)), n, seed=3)
-    ours = sensorcfg.Updater(noisy(suite.build(physics.model.ptr)), n)
-    physics.reset()
-    physics.data.qvel[:] = 0.3
-    ours.reset(physics, np.random.RandomState(3))
-    mine = [ours.get_observation()]
-    for _ in range(60):
-        ours.prepare_for_next_control_step()
-        for _ in range(n):
-            physics.step()
-            ours.update()
-        mine.append(ours.get_observation())
+    theirs = run_dm_control(oracle, physics, sensorcfg.dm_control_observables(suite, physics), n, seed=3)
+    mine = run_updater(sensorcfg.Updater(suite.build(physics.model.ptr), n), physics, n, seed=3)
     assert any(not np.array_equal(a, b) for a, b in zip(theirs[5].values(), theirs[6].values()))
     for step, (a, c) in enumerate(zip(theirs, mine)):
         for name in a:
