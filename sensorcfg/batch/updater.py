@@ -27,7 +27,7 @@ import numpy as np
 from dm_env import specs
 
 from ..draws import ChoiceSteps, UniformSteps
-from ..errors import SuiteError
+from ..errors import ArgumentError, SuiteError
 from ..runtime.bank import _REDUCERS, _reader
 from ..runtime.channels import Channel, FixedChannel, RandomChannel
 from ..runtime.updater import DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, Updater, _drawer, _episode_entropy, sensor_rng
@@ -67,8 +67,8 @@ class BatchUpdater:
         """`physics`: a single-simulation physics of the model (its MjData tells field shapes; the
         observables are bound to it once, with the single-simulation Updater, for checks and specs)."""
         if not isinstance(observables, Mapping):
-            raise SuiteError("BatchEnvironment needs a dict of observables (or a Suite); got "
-                             f"{type(observables).__name__}")
+            raise ArgumentError("BatchEnvironment needs a dict of observables (or a Suite); got "
+                                f"{type(observables).__name__}")
         self.nsim, self.n, self.pad = int(nsim), int(n), bool(pad_with_initial_value)
         template = Updater(observables, n, strip_singleton_buffer_dim, pad_with_initial_value)
         template.reset(physics, np.random.RandomState(0))

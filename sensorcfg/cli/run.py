@@ -120,14 +120,14 @@ class _Built:
 def control_steps(suite: Any, model: Any, settings: Settings) -> int:
     """Physics steps per control step: --substeps, --control-timestep, else the suite's control_interval."""
     from ..env.environment import steps_per_control_step
-    from ..errors import SuiteError
+    from ..errors import ArgumentError
 
     if settings.substeps is None and settings.control_timestep is None:
         return int(suite.updater_kwargs(model)["physics_steps_per_control_step"])
     try:
         return steps_per_control_step(model, settings.substeps, settings.control_timestep)
-    except SuiteError as e:
-        raise UsageError(f"--control-timestep: {e.problems[0].message}") from None
+    except ArgumentError as e:
+        raise UsageError(f"--control-timestep: {e}") from None
 
 
 def make_env(suite: Any, model_file: str, settings: Settings, *, record_timing: bool) -> tuple[Any, dict[str, Any]]:

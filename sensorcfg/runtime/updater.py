@@ -20,7 +20,7 @@ import numpy as np
 from dm_env import specs
 
 from ..draws import ChoiceSteps, UniformSteps
-from ..errors import SuiteError
+from ..errors import ArgumentError, SuiteError
 from ..observables.aggregators import AGGREGATORS, preserves_bounds
 from .handle import structs_of as raw_structs
 from .bank import BankMember, FeatureBank, qualifies
@@ -117,11 +117,11 @@ class Updater:
         nested = isinstance(observables, (list, tuple))
         valid = all(isinstance(o, Mapping) for o in observables) if nested else isinstance(observables, Mapping)
         if not valid:
-            raise SuiteError("`observables` must be a dict, or a list or tuple of dicts, of observables; "
-                             f"got {type(observables).__name__}")
+            raise ArgumentError("`observables` must be a dict, or a list or tuple of dicts, of observables; "
+                                f"got {type(observables).__name__}")
         n = physics_steps_per_control_step
         if not isinstance(n, numbers.Integral) or isinstance(n, bool) or n < 1:
-            raise SuiteError(f"physics_steps_per_control_step must be a positive integer, got {n!r}")
+            raise ArgumentError(f"physics_steps_per_control_step must be a positive integer, got {n!r}")
         self._observables: Any = observables
         self._nested: bool = nested
         self._n: int = int(n)
