@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .config import LoadedSuite, OptionsConfig, SensorConfig, SuiteConfig, load_path, load_text, to_steps
-from .errors import Problem, SuiteError
+from .errors import ArgumentError, Problem, SuiteError
 
 if TYPE_CHECKING:
     import mujoco
@@ -131,16 +131,23 @@ class Suite:
                 "pad_with_initial_value": options.pad_with_initial_value}
 
 
-def load(path: str | os.PathLike[str], overrides: Sequence[str] | None = None) -> Suite:
+def load(path: str | os.PathLike[str], overrides: Sequence[str] | None = None, *,
+         extends_root: str | os.PathLike[str] | None = None) -> Suite:
     """Read and validate the suite at `path` (no model needed); raises SuiteError listing every problem.
 
     `overrides` are `dotted.key=value` strings applied after `extends`, each value parsed as YAML:
-    `["sensors.wrist_cam.interval=10", "defaults.buffer=2"]`.
+    `["sensors.wrist_cam.interval=10", "defaults.buffer=2"]`. `extends` may name files in the suite's
+    folder and below; `extends_root` widens that to another folder tree ('/' allows any file).
     """
-    return Suite(load_path(Path(path), overrides))
+    return Suite(load_path(Path(path), overrides, extends_root=extends_root))
 
 
 def loads(text: str, overrides: Sequence[str] | None = None, *, file: str = "<string>",
-          base_dir: str | os.PathLike[str] | None = None) -> Suite:
-    """Like `load`, for YAML text; `extends` and `model` paths are relative to `base_dir` (default: cwd)."""
-    return Suite(load_text(text, overrides, file=file, base_dir=base_dir))
+          base_dir: str | os.PathLike[str] | None = None,
+          extends_root: str | os.PathLike[str] | None = None) -> Suite:
+    """Like `load`, for YAML text; `extends` and `model` paths are relative to `base_dir` (default: cwd),
+    and `extends` may name files below `extends_root` (default: `base_dir`)."""
+    if not isinstance(text, str):
+        raise ArgumentError(f"loads takes the suite's YAML text as a str; got {type(text).__name__} "
+                            "(use sensorcfg.load for a path)")
+    return Suite(load_text(text, overrides, file=file, base_dir=base_dir, extends_root=extends_root))

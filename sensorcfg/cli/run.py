@@ -20,7 +20,7 @@ import numpy as np
 
 from .._version import __version__
 from .common import (EXIT_INVALID, EXIT_OK, HelpFormatter, UsageError, add_suite_args, importable_cwd, load_model,
-                     load_suite, model_path, positive_float, positive_int, require_matplotlib, writable)
+                     load_suite, model_path, positive_float, positive_int, require_matplotlib, seed, writable)
 from .describe import SensorRow, describe, naive_samples
 from .report import Progress, table
 
@@ -79,7 +79,8 @@ def add_run_args(p: argparse.ArgumentParser, steps: int, random_actions: bool = 
                        help="physics steps per control step (default: the suite's options.control_interval, else 1)")
     group.add_argument("--control-timestep", type=positive_float, metavar="T",
                        help="seconds per control step, a whole number of physics steps")
-    p.add_argument("--seed", type=int, default=0, metavar="S", help="seed of the episode and the actions (default 0)")
+    p.add_argument("--seed", type=seed, default=0, metavar="S",
+                   help="seed of the episode and the actions, 0 to 2**32-1 (default 0)")
     if random_actions:
         p.add_argument("--zero-actions", dest="random_actions", action="store_false",
                        help="zero controls (default: uniform random controls within each actuator's ctrlrange)")
@@ -294,5 +295,5 @@ def command(args: argparse.Namespace) -> int:
     if args.plot:
         require_matplotlib()
     out, plot = writable(args.out), writable(args.plot)
-    suite = load_suite(args.suite, args.overrides)
+    suite = load_suite(args.suite, args.overrides, args.extends_root)
     return execute(suite, model_path(suite, args.model), settings_from(args), out, plot, args.overrides)

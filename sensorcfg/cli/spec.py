@@ -95,7 +95,7 @@ REPORTERS: dict[str, Callable[[Spec], str]] = {
 
 
 def command(args: argparse.Namespace) -> int:
-    suite = load_suite(args.suite, args.overrides)
+    suite = load_suite(args.suite, args.overrides, args.extends_root)
     spec = build_spec(suite, model_path(suite, args.model))
     print(REPORTERS[args.format](spec))
     return EXIT_OK
