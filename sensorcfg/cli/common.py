@@ -123,6 +123,8 @@ def _stat(path: str) -> os.stat_result | None:
         return None
     except OSError as e:
         raise UsageError(f"{printable(path)}: {os_reason(e)}") from None
+    except ValueError:
+        raise UsageError(f"{printable(path)}: the path holds a NUL character") from None
 
 
 def writable(path: str | None) -> Path | None:

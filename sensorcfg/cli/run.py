@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from .._version import __version__
+from ..errors import printable
 from .common import (EXIT_INVALID, EXIT_OK, HelpFormatter, UsageError, add_suite_args, importable_cwd, load_model,
                      load_suite, model_path, positive_float, positive_int, require_matplotlib, seed, writable)
 from .describe import SensorRow, describe, naive_samples
@@ -269,8 +270,8 @@ def execute(suite: Any, model_file: str, settings: Settings, out: Path | None, p
                    "wall_seconds": rec.wall_seconds, "diverged": rec.diverged}
         side = save(rec, out, sidecar)
         count = len(rec.observations)
-        print(f"\nwrote {out} ({count} observation{'s' if count != 1 else ''} x {rec.steps_done + 1} steps) "
-              f"and {side}")
+        print(f"\nwrote {printable(str(out))} ({count} observation{'s' if count != 1 else ''} x "
+              f"{rec.steps_done + 1} steps) and {printable(str(side))}")
     if plot is not None and not rows:
         print(f"no plot: the suite has no enabled observations to draw ({plot} not written)")
     elif plot is not None:
@@ -278,8 +279,8 @@ def execute(suite: Any, model_file: str, settings: Settings, out: Path | None, p
         from .plot import plot_run
 
         times = timing.timings(observables, rec.steps_done * n, n)
-        plot_run(plot, rec, rows, times, dt, title=title or f"{suite.file} on {Path(model_file).name}")
-        print(f"wrote {plot}")
+        plot_run(plot, rec, rows, times, dt, title=title or printable(f"{suite.file} on {Path(model_file).name}"))
+        print(f"wrote {printable(str(plot))}")
     if rec.diverged:
         print(f"sensorcfg: error: the simulation diverged after {rec.steps_done} control steps ({rec.diverged}); "
               "the run stopped there, and what it recorded is kept", file=sys.stderr)

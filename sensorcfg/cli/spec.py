@@ -11,6 +11,7 @@ import json
 from collections.abc import Callable
 from typing import Any
 
+from ..errors import printable
 from .common import EXIT_OK, HelpFormatter, add_suite_args, importable_cwd, load_model, load_suite, model_path
 from .describe import SensorRow, describe
 from .report import table
@@ -74,7 +75,7 @@ def build_spec(suite: Any, model_file: str, control_steps: int | None = None) ->
 def format_spec(spec: Spec) -> str:
     dt = spec.timestep
     n = spec.control_steps
-    head = (f"{spec.suite.file} on {spec.model_file}\n"
+    head = (f"{printable(spec.suite.file)} on {printable(spec.model_file)}\n"
             f"physics step {dt * 1e3:g} ms; control step {n} physics step{'s' if n != 1 else ''} "
             f"({n * dt * 1e3:g} ms, {1 / (n * dt):.4g} Hz)\n")
     header = ["name", "kind", "elems", "shape", "dtype", "interval", "Hz", "delay", "ms", "buffer", "aggregator",

@@ -96,6 +96,8 @@ def collect(paths: Sequence[str]) -> Found:
         except OSError as e:
             reason = "no such file or directory" if e.errno == errno.ENOENT else os_reason(e)
             raise UsageError(f"{printable(text)}: {reason}") from None
+        except ValueError:
+            raise UsageError(f"{printable(text)}: the path holds a NUL character") from None
         if stat.S_ISDIR(info.st_mode):
             before = len(found.files) + len(found.errors)
             if found.once(info):

@@ -24,8 +24,13 @@ from .source import Doc, Path_, Pos, compose
 __all__ = ["with_parents", "merge", "SUITE_KEYS"]
 
 SUITE_KEYS = tuple(SuiteConfig.model_fields)
+_PATH_QUOTE = 160  # characters of an `extends` path a message quotes
 _ROOT_HINT = ("allow more with --extends-root DIR on the command line, or extends_root=DIR in Python "
               "(extends_root='/' allows any file)")
+
+
+def _shown(target: Any) -> str:
+    return quote(target, _PATH_QUOTE)
 
 
 def _fail(at: Pos, message: str) -> SuiteError:
@@ -35,18 +40,18 @@ def _fail(at: Pos, message: str) -> SuiteError:
 def _parent_path(target: Any, at: Pos, base_dir: Path, chain: tuple[Path, ...], root: Path | None) -> Path:
     """The file `extends: target` names, once it is known to be allowed."""
     if not isinstance(target, str) or not target.strip():
-        raise _fail(at, f"extends takes a path to another suite, relative to this file; got {quote(target)}")
+        raise _fail(at, f"extends takes a path to another suite, relative to this file; got {_shown(target)}")
     if len(chain) >= MAX_EXTENDS:
         raise _fail(at, f"extends chains more than {MAX_EXTENDS} files; merge some of them")
     try:
         path = resolve(base_dir / target)
     except Unreadable as e:
-        raise _fail(at, f"cannot read {quote(target)}: {e}") from None
+        raise _fail(at, f"cannot read {_shown(target)}: {e}") from None
     if path in chain:
         cycle = " -> ".join(display(p) for p in chain + (path,))
         raise _fail(at, f"extends makes a cycle: {cycle}; remove one of these extends")
     if root is not None and not inside(path, root):
-        raise _fail(at, f"{quote(target)} is outside the folder of the suite being loaded ({display(root)}), "
+        raise _fail(at, f"{_shown(target)} is outside the folder of the suite being loaded ({root}), "
                         f"where extends may reach; {_ROOT_HINT}")
     return path
 
@@ -64,15 +69,15 @@ def with_parents(doc: Doc, base_dir: Path, chain: tuple[Path, ...], root: Path |
     try:
         text = read_text(path)
     except Unreadable as e:
-        raise _fail(at, f"cannot read {quote(target)} (resolved to {path}): {e}; extends paths are relative to "
-                        "the file that names them") from None
+        raise _fail(at, f"cannot read {_shown(target)} (resolved to {path}): {e}; extends paths are relative "
+                        "to the file that names them") from None
     parent = compose(text, display(path))
     if parent.value is not None and not isinstance(parent.value, dict):
-        raise _fail(at, f"{quote(target)} is not a suite (its top level is not a mapping)")
+        raise _fail(at, f"{_shown(target)} is not a suite (its top level is not a mapping)")
     unknown = [k for k in parent.value or {} if k not in SUITE_KEYS]
     if unknown:
-        raise _fail(at, f"{quote(target)} is not a suite: {len(unknown)} of its top-level keys are not suite keys "
-                        f"({', '.join(SUITE_KEYS)}); check it with 'sensorcfg validate' on that file")
+        raise _fail(at, f"{_shown(target)} is not a suite: {len(unknown)} of its top-level keys are not suite "
+                        f"keys ({', '.join(SUITE_KEYS)}); check it with 'sensorcfg validate' on that file")
     parent = with_parents(parent, path.parent, chain + (path,), root)
     return merge(parent, doc)
 

@@ -15,7 +15,7 @@ import stat
 from pathlib import Path
 
 from ..errors import quote
-from .limits import MAX_FILE_BYTES
+from . import limits
 
 __all__ = ["Unreadable", "display", "read_text", "resolve", "resolve_model_path", "inside", "PACKAGE_SCHEME"]
 
@@ -23,6 +23,9 @@ PACKAGE_SCHEME = "package://"
 
 _TYPES = ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISCHR, "a character device"),
           (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
+
+
+_NUL = "the path holds a NUL character"
 
 
 class Unreadable(Exception):
@@ -45,6 +48,8 @@ def resolve(path: Path) -> Path:
         raise Unreadable("a symlink loop") from None
     except OSError as e:
         raise Unreadable(_reason(e)) from None
+    except ValueError:
+        raise Unreadable(_NUL) from None
 
 
 def _not_regular(mode: int) -> str | None:
@@ -53,8 +58,10 @@ def _not_regular(mode: int) -> str | None:
     return next((what for test, what in _TYPES if test(mode)), "not a regular file")
 
 
-def read_text(path: Path, limit: int = MAX_FILE_BYTES) -> str:
-    """The UTF-8 text of the regular file at `path`, at most `limit` bytes; anything else is `Unreadable`."""
+def read_text(path: Path, limit: int | None = None) -> str:
+    """The UTF-8 text of the regular file at `path`, at most `limit` bytes (default `MAX_FILE_BYTES`);
+    anything else is `Unreadable`."""
+    limit = limits.MAX_FILE_BYTES if limit is None else limit
     try:
         what = _not_regular(os.stat(path).st_mode)  # before opening: opening a FIFO or a device may block
         if what:
@@ -62,6 +69,8 @@ def read_text(path: Path, limit: int = MAX_FILE_BYTES) -> str:
         fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
     except OSError as e:
         raise Unreadable(_reason(e)) from None
+    except ValueError:  # a NUL character in the path
+        raise Unreadable(_NUL) from None
     try:
         info = os.fstat(fd)
         what = _not_regular(info.st_mode)  # it may have been replaced between the two looks

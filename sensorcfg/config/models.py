@@ -200,7 +200,8 @@ _SHARED: dict[str, dict[str, Any]] = {
     "delay": dict(description="Time from sampling to delivery: integer physics steps or a duration; "
                   "{uniform: [lo, hi]} or {choice: [...], p: [...]} draw it per sample. Default 0.",
                   examples=[0, "4ms", {"uniform": [1, 3]}]),
-    "buffer": dict(ge=1, le=MAX_BUFFER, strict=True, description="How many of the latest delivered samples an observation "
+    "buffer": dict(ge=1, le=MAX_BUFFER, strict=True,
+                   description="How many of the latest delivered samples an observation "
                    "holds (a leading axis). Default 1.", examples=[1, 4]),
     "aggregator": dict(description="Reduces the buffer axis: " + ", ".join(aggregator_names()) + ".",
                        examples=["mean"]),

@@ -8,6 +8,7 @@ reported and changes nothing.
 
 from __future__ import annotations
 
+import dataclasses
 import re
 from typing import Any
 
@@ -53,7 +54,7 @@ def apply_override(doc: Doc, text: str) -> list[Problem]:
     except SuiteError as e:
         return e.problems
     if value.problems:  # a disallowed tag or a duplicate key: say so rather than apply what is left
-        return value.problems
+        return [dataclasses.replace(p, loc=dotted(path) + (f".{p.loc}" if p.loc else "")) for p in value.problems]
     found = _parent(doc, path, label)
     if isinstance(found, list):
         return found

@@ -18,7 +18,8 @@ from typing import Any
 import yaml
 
 from ..errors import Problem, SuiteError, printable, quote
-from .limits import MAX_DEPTH, MAX_INT_DIGITS, MAX_NODES
+from . import limits
+from .limits import MAX_NODES
 
 __all__ = ["Doc", "Pos", "Path_", "compose", "dotted", "MAX_NODES"]
 
@@ -108,12 +109,12 @@ class _BoundedLoader(yaml.SafeLoader):
     def compose_node(self, parent: yaml.Node | None, index: Any) -> yaml.Node | None:  # type: ignore[override]
         mark = self.peek_event().start_mark
         self.nodes += 1
-        if self.nodes > MAX_NODES:
-            raise _TooLarge(problem=f"the file holds more than {MAX_NODES:,} values; a suite is far smaller",
+        if self.nodes > limits.MAX_NODES:
+            raise _TooLarge(problem=f"the file holds more than {limits.MAX_NODES:,} values; a suite is far smaller",
                             problem_mark=mark)
         self.depth += 1
-        if self.depth > MAX_DEPTH:
-            raise _TooLarge(problem=f"values nest more than {MAX_DEPTH} levels deep; a suite needs about 6",
+        if self.depth > limits.MAX_DEPTH:
+            raise _TooLarge(problem=f"values nest more than {limits.MAX_DEPTH} levels deep; a suite needs about 6",
                             problem_mark=mark)
         try:
             return super().compose_node(parent, index)
@@ -177,17 +178,17 @@ class _Builder:
     def build(self, node: yaml.Node, path: Path_) -> Any:
         self.doc.values[path] = self.pos(node)
         self.count += 1
-        if self.count > MAX_NODES:
-            if self.count == MAX_NODES + 1:
+        if self.count > limits.MAX_NODES:
+            if self.count == limits.MAX_NODES + 1:
                 self.problems.append(self.pos(node).problem(
-                    f"the file expands to more than {MAX_NODES} values (through aliases); write it out plainly",
+                    f"the file expands to more than {limits.MAX_NODES} values (through aliases); write it out plainly",
                     dotted(path)))
             return None
-        if len(path) > MAX_DEPTH:  # aliases inside aliases nest deeper than the text does
+        if len(path) > limits.MAX_DEPTH:  # aliases inside aliases nest deeper than the text does
             if not self.too_deep:
                 self.too_deep = True
                 self.problems.append(self.pos(node).problem(
-                    f"values nest more than {MAX_DEPTH} levels deep (through aliases); a suite needs about 6"))
+                    f"values nest more than {limits.MAX_DEPTH} levels deep (through aliases); a suite needs about 6"))
             return None
         if isinstance(node, yaml.CollectionNode):
             if id(node) in self.open:
@@ -207,10 +208,10 @@ class _Builder:
     def scalar(self, node: yaml.Node, path: Path_) -> Any:
         """A scalar's value by its (safe) tag, or None and a problem when its text does not fit the tag."""
         tag = node.tag.replace("tag:yaml.org,2002:", "!!")
-        if node.tag == _INT and len(str(node.value).lstrip("+-").replace("_", "")) > MAX_INT_DIGITS:
+        if node.tag == _INT and len(str(node.value).lstrip("+-").replace("_", "")) > limits.MAX_INT_DIGITS:
             digits = len(str(node.value))
             self.problems.append(self.pos(node).problem(
-                f"an integer of {digits} digits is too large (at most {MAX_INT_DIGITS}); no setting needs more",
+                f"an integer of {digits} digits is too large (at most {limits.MAX_INT_DIGITS}); no setting needs more",
                 dotted(path)))
             return None
         try:
