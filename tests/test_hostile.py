@@ -20,6 +20,8 @@ from pathlib import Path
 import pytest
 
 import sensorcfg
+import sensorcfg.assets
+import sensorcfg.errors
 from sensorcfg import ArgumentError, SensorcfgError, SuiteError, UnsupportedError
 from sensorcfg.cli import main
 from sensorcfg.config import limits, parse_text

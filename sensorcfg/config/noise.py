@@ -32,7 +32,7 @@ PerValue = Union[float, tuple[float, ...]]  # what a validated numeric parameter
 
 # -- numbers, per-value lists and quantities with units -----------------------------------------------
 
-_QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([^\d\s.+-][^\s]*)?\s*$")
+_QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([^\d\s.+-][^\s]*)?\s*$", re.ASCII)
 
 
 def parse_quantity(value: Any, units: Mapping[str, float], what: str) -> float:

@@ -21,9 +21,12 @@ DURATION_UNITS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-
 # unit -> hertz per unit
 RATE_UNITS: dict[str, float] = {"Hz": 1.0, "kHz": 1e3}
 
-_NUMBER = r"(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?"
-_TEXT = re.compile(rf"\A\s*({_NUMBER})\s*([a-zA-Zµ]+)\s*\Z")
-TIME_PATTERN = rf"^\s*{_NUMBER}\s*(?:{'|'.join(DURATION_UNITS)}|{'|'.join(RATE_UNITS)})\s*$"
+# ASCII digits and spaces only, so the schema's pattern (ECMAScript) and this parser agree, and '٤ms' or a
+# line separator is not read as a time.
+_NUMBER = r"(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?"
+_SP = r"[ \t]*"
+_TEXT = re.compile(rf"\A{_SP}({_NUMBER}){_SP}([a-zA-Zµ]+){_SP}\Z")
+TIME_PATTERN = rf"^{_SP}{_NUMBER}{_SP}(?:{'|'.join(DURATION_UNITS)}|{'|'.join(RATE_UNITS)}){_SP}$"
 
 _RELATIVE_TOLERANCE = 1e-9
 
