@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
+import re
 from collections.abc import Iterable, Sequence
 from typing import Any
 
@@ -30,6 +31,13 @@ QUOTE_LIMIT = 40  # characters of an input value a message quotes (then '...')
 MESSAGE_LIMIT = 600  # characters of one printed message (a safety net: messages are written far shorter)
 
 _ESCAPES = {"\n": "\\n", "\r": "\\r", "\t": "\\t"}
+# A quoted run longer than this in a message is cut when printed: a safety net for messages that quote an
+# input value without `quote` (a value from an extended file is not printed back whole).
+_LONG_QUOTED = re.compile(r"'((?:[^'\\\n]|\\.){80})(?:[^'\\\n]|\\.)+'")
+
+
+def _shorten_quoted(message: str) -> str:
+    return _LONG_QUOTED.sub(r"'\1'...", message)
 
 
 def printable(text: str, limit: int | None = None) -> str:
@@ -80,11 +88,11 @@ class Problem:
     def format(self, severity: str = "error") -> str:
         """One line, `file:line:col: error: loc: message`, with input escaped (it cannot print two lines)."""
         loc = f"{printable(self.loc, 200)}: " if self.loc else ""
-        return f"{self.where()}: {severity}: {loc}{printable(self.message, MESSAGE_LIMIT)}"
+        return f"{self.where()}: {severity}: {loc}{printable(_shorten_quoted(self.message), MESSAGE_LIMIT)}"
 
     def as_dict(self) -> dict[str, object]:
         """The fields as the JSON reporter prints them, escaped as `format` escapes them."""
-        return {"message": printable(self.message, MESSAGE_LIMIT), "loc": printable(self.loc, 200),
+        return {"message": printable(_shorten_quoted(self.message), MESSAGE_LIMIT), "loc": printable(self.loc, 200),
                 "file": None if self.file is None else printable(self.file), "line": self.line, "col": self.col}
 
 

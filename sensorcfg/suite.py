@@ -107,12 +107,19 @@ class Suite:
     def check(self, model: ModelLike = None, *, import_callables: bool = False) -> list[Problem]:
         """Every problem of the suite against `model` (empty when it builds); never raises for a mistake.
 
-        `generic` callables are not imported unless `import_callables` is true.
+        `generic` callables are not imported unless `import_callables` is true. `options` are checked too
+        (a control interval must be a whole number of the model's physics steps).
         """
         try:
-            return self._bind(model, import_callables)[1]
+            mjmodel = self._mjmodel(model)
+            problems = self._bind(mjmodel, import_callables)[1]
         except SuiteError as e:
             return list(e.problems)
+        try:
+            self.updater_kwargs(mjmodel)
+        except SuiteError as e:
+            problems = list(e.problems) + problems
+        return problems
 
     def updater_kwargs(self, model: ModelLike = None) -> dict[str, Any]:
         """Keyword arguments for `sensorcfg.Updater` from `options` (time converted with the model)."""
