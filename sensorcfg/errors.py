@@ -31,13 +31,20 @@ QUOTE_LIMIT = 40  # characters of an input value a message quotes (then '...')
 MESSAGE_LIMIT = 600  # characters of one printed message (a safety net: messages are written far shorter)
 
 _ESCAPES = {"\n": "\\n", "\r": "\\r", "\t": "\\t"}
-# A quoted run longer than this in a message is cut when printed: a safety net for messages that quote an
-# input value without `quote` (a value from an extended file is not printed back whole).
-_LONG_QUOTED = re.compile(r"'((?:[^'\\\n]|\\.){80})(?:[^'\\\n]|\\.)+'")
+# A quoted literal ('...', as repr writes it) longer than this in a message is cut when printed: a safety net
+# for messages that quote an input value without `quote`, so a value from an extended file is never
+# printed back whole. Literals are read left to right; an apostrophe inside a word starts none.
+_QUOTED = re.compile(r"(?<!\w)'((?:[^'\\\n]|\\.)*)'")  # linear: a literal cannot pass a quote
+_QUOTED_LIMIT = 80
+
+
+def _cut(match: re.Match[str]) -> str:
+    inner = match.group(1)
+    return match.group(0) if len(inner) <= _QUOTED_LIMIT else f"'{inner[:_QUOTED_LIMIT]}'..."
 
 
 def _shorten_quoted(message: str) -> str:
-    return _LONG_QUOTED.sub(r"'\1'...", message)
+    return _QUOTED.sub(_cut, message) if len(message) > _QUOTED_LIMIT else message
 
 
 def printable(text: str, limit: int | None = None) -> str:

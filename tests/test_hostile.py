@@ -447,3 +447,19 @@ def test_odd_suites_raise_only_suite_errors(text: str, tmp_path: Path) -> None:
         assert e.problems and all(p.format().isprintable() for p in e.problems)
         return
     assert isinstance(suite.check(str(sensorcfg.assets.path("robot.xml"))), list)
+
+
+# -- size: many keys cost time in proportion ------------------------------------------------------------
+
+def test_too_many_sensors_is_one_problem() -> None:
+    text = "sensors:\n" + "".join(f"  s{i}: {{kind: qpos, element: 'joint:elbow'}}\n" for i in range(1001))
+    assert problems_of(text) == ["<string>:2:3: error: sensors: at most 1000 sensors in a suite; got 1001"]
+
+
+def test_extends_that_deletes_many_keys_takes_linear_time(tmp_path: Path) -> None:
+    n = 20_000  # was quadratic: four minutes; now seconds (the timeout fails a regression)
+    scene = "defaults:\n  camera:\n    scene:\n"
+    (tmp_path / "base.yaml").write_text("sensors: {}\n" + scene + "".join(f"      k{i}: true\n" for i in range(n)))
+    (tmp_path / "top.yaml").write_text("extends: base.yaml\n" + scene + "".join(f"      k{i}: null\n" for i in range(n)))
+    proc = cli("validate", "top.yaml", cwd=tmp_path, timeout=90)
+    assert proc.returncode == 0, proc.stdout

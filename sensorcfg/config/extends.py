@@ -12,6 +12,7 @@ without quoting any of its contents.
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Any, cast
 
@@ -83,35 +84,58 @@ def with_parents(doc: Doc, base_dir: Path, chain: tuple[Path, ...], root: Path |
 
 
 def merge(parent: Doc, child: Doc) -> Doc:
-    """Child over parent: mappings merge key by key, anything else replaces, `null` deletes the key."""
+    """Child over parent: mappings merge key by key, anything else replaces, `null` deletes the key.
+
+    Positions follow the values: a replaced or deleted subtree takes its positions from the child (or
+    loses them), in one pass over each table whatever the number of keys the child changes.
+    """
     out = Doc(parent.value, dict(parent.values), dict(parent.keys), parent.problems + child.problems)
     if child.value is None:
         return out
-    out.value = _merge_into(out, parent.value, child, child.value, ())
+    plan = _Plan()
+    out.value = _merge_into(parent.value, child.value, (), plan)
+    gone, replaced = plan.deleted | plan.replaced, plan.replaced
+    out.values = {p: pos for p, pos in parent.values.items() if not _within(p, gone, inclusive=True)}
+    out.values.update((p, pos) for p, pos in child.values.items() if _within(p, replaced, inclusive=True))
+    out.keys = {p: pos for p, pos in parent.keys.items()
+                if not _within(p, plan.deleted, inclusive=True) and not _within(p, replaced, inclusive=False)}
+    out.keys.update((p, pos) for p, pos in child.keys.items() if _within(p, replaced, inclusive=False))
+    out.keys.update((p, child.keys[p]) for p in plan.written)
+    for path in plan.mappings:
+        if path in child.values and path not in out.values:
+            out.values[path] = child.values[path]
     return out
 
 
-def _merge_into(out: Doc, old: Any, child: Doc, new: Any, path: Path_) -> Any:
+@dataclasses.dataclass
+class _Plan:
+    """What a merge did, by path: subtrees the child deleted or replaced, keys it wrote, mappings merged."""
+
+    deleted: set[Path_] = dataclasses.field(default_factory=set)
+    replaced: set[Path_] = dataclasses.field(default_factory=set)
+    written: list[Path_] = dataclasses.field(default_factory=list)
+    mappings: list[Path_] = dataclasses.field(default_factory=list)
+
+
+def _within(path: Path_, roots: set[Path_], *, inclusive: bool) -> bool:
+    """Whether `path` lies below one of `roots` (or is one, when `inclusive`)."""
+    if not roots:
+        return False
+    return any(path[:k] in roots for k in range(len(path) + inclusive))
+
+
+def _merge_into(old: Any, new: Any, path: Path_, plan: _Plan) -> Any:
     if isinstance(old, dict) and isinstance(new, dict):
         merged = dict(old)
         for key, value in new.items():
             sub = path + (key,)
             if value is None:
                 merged.pop(key, None)
-                out.drop(sub)
-                out.values.pop(sub, None)
-                out.keys.pop(sub, None)
+                plan.deleted.add(sub)
                 continue
-            merged[key] = _merge_into(out, old.get(key), child, value, sub)
-            out.keys[sub] = child.keys[sub]
-        if path in child.values and path not in out.values:
-            out.values[path] = child.values[path]
+            merged[key] = _merge_into(old.get(key), value, sub, plan)
+            plan.written.append(sub)
+        plan.mappings.append(path)
         return merged
-    out.drop(path)
-    for table, source in ((out.values, child.values), (out.keys, child.keys)):
-        n = len(path)
-        for p, pos in source.items():
-            if p[:n] == path and (len(p) > n or table is out.values):
-                table[p] = pos
+    plan.replaced.add(path)
     return new
-

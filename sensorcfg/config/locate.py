@@ -40,6 +40,7 @@ _FORMS = {
 
 # key -> what its upper bound means (limits.py holds the numbers)
 _AT_MOST = {"buffer": "a buffer keeps at most {:,} samples (the latest delivered ones)"}
+_ITEMS = {"sensors": "sensors in a suite"}
 
 # key -> what to write when it is missing
 _MISSING = {
@@ -167,6 +168,9 @@ def _message(error: ErrorDetails, path: Path_, root: type[BaseModel], value: Any
     if kind == "string_pattern_mismatch":
         form = _FORMS.get(str(name), f"expected text matching {ctx.get('pattern')!r}")
         return f"{form}; got {quote(given)}"
+    if kind == "too_long":
+        count = len(given) if isinstance(given, (dict, list)) else ctx.get("actual_length")
+        return f"at most {ctx.get('max_length')} {_ITEMS.get(str(name), 'entries')}; got {count}"
     if kind == "less_than_equal" and str(name) in _AT_MOST:
         return f"{_AT_MOST[str(name)].format(next(iter(ctx.values()), '?'))}; got {quote(given)}"
     if kind in ("greater_than_equal", "greater_than", "less_than_equal", "less_than"):

@@ -16,7 +16,7 @@ from pydantic import (BaseModel, ConfigDict, Field, PlainSerializer, PlainValida
 from .noise import NoiseStage
 from .tables import GENERIC_KIND, IMAGE_KINDS, aggregator_names
 from ..errors import quote
-from .limits import MAX_BUFFER, MAX_SCHEDULE_STEPS
+from .limits import MAX_BUFFER, MAX_SCHEDULE_STEPS, MAX_SENSORS
 from .units import TIME_PATTERN, parse_time
 
 __all__ = ["CameraConfig", "ChoiceDraw", "DefaultsConfig", "OptionsConfig", "SensorConfig", "SuiteConfig",
@@ -298,5 +298,5 @@ class SuiteConfig(BaseModel):
                                      description="Applied to every sensor that does not say otherwise.",
                                      examples=[{"buffer": 1, "interval": "4ms"}])
     sensors: dict[SensorName, SensorConfig] = Field(
-        description="The observations, by name, in the order they are returned.",
+        max_length=MAX_SENSORS, description="The observations, by name, in the order they are returned.",
         examples=[{"joint_pos": {"kind": "qpos", "element": "joint:*"}}])
