@@ -5,11 +5,10 @@ Every mistake in a suite file, an override, or the arguments of an observable bu
 all of them at once, so a user fixes a file in one pass rather than one error per run. Mistakes that are
 not about a suite have their own types under the same base, `SensorcfgError`:
 
-| error | raised for |
-| --- | --- |
-| `SuiteError` | a suite (file, override, or an observable's configuration) or its model has problems |
-| `ArgumentError` | a Python call got a value it cannot use: an action of the wrong shape, simulation ids out of range, a callback returning the wrong shape |
-| `UnsupportedError` | the installed MuJoCo cannot do what was asked (a `BatchEnvironment` on MuJoCo 3) |
+- `SuiteError`: a suite (file, override, or an observable's configuration) or its model has problems;
+- `ArgumentError`: a Python call got a value it cannot use (an action of the wrong shape, simulation ids
+  out of range, a callback returning the wrong shape);
+- `UnsupportedError`: the installed MuJoCo cannot do what was asked (a `BatchEnvironment` on MuJoCo 3).
 
 Text that came from input (names, values, file names) is printed through `printable`, so a newline or an
 ANSI escape in a sensor name cannot forge a line of output, and quoted through `quote`, which shortens it.

@@ -100,7 +100,8 @@ def from_schema(node: dict[str, Any], depth: int = 0, prefer: int = 1) -> st.Sea
         props = node.get("properties", {})
         required = set(node.get("required", ()))
         optional = {k: from_schema(v, depth + 1, prefer) for k, v in props.items() if k not in required}
-        fixed = st.fixed_dictionaries({k: from_schema(props[k], depth + 1, prefer) for k in required}, optional=optional)
+        needed = {k: from_schema(props[k], depth + 1, prefer) for k in required}
+        fixed = st.fixed_dictionaries(needed, optional=optional)
         if node.get("patternProperties"):
             [(pattern, value)] = node["patternProperties"].items()
             names = st.from_regex(pattern, fullmatch=True).map(lambda s: s[:16])

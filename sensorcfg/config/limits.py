@@ -7,8 +7,8 @@ Each is reported as the problem it is, at the line that passes it. docs/cli.md l
 
 from __future__ import annotations
 
-__all__ = ["MAX_FILE_BYTES", "MAX_DEPTH", "MAX_NODES", "MAX_INT_DIGITS", "MAX_SENSORS", "MAX_BUFFER", "MAX_SCHEDULE_STEPS",
-           "MAX_EXTENDS", "MAX_OVERRIDE_BYTES"]
+__all__ = ["MAX_FILE_BYTES", "MAX_DEPTH", "MAX_NODES", "MAX_INT_DIGITS", "MAX_SENSORS", "MAX_BUFFER",
+           "MAX_SCHEDULE_STEPS", "MAX_EXTENDS", "MAX_OVERRIDE_BYTES"]
 
 MAX_FILE_BYTES = 1 << 20  # one suite file (1 MiB)
 MAX_OVERRIDE_BYTES = 64 << 10  # one --set KEY=VALUE
