@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .config import LoadedSuite, OptionsConfig, SensorConfig, SuiteConfig, load_path, load_text, to_steps
-from .errors import ArgumentError, Problem, SuiteError
+from .errors import ArgumentError, Problem, SuiteError, quote
 
 if TYPE_CHECKING:
     import mujoco
@@ -70,7 +70,10 @@ class Suite:
         if model is not None and not isinstance(model, (str, os.PathLike)):
             from .physics import raw_structs
 
-            return raw_structs(model)[0]
+            try:
+                return raw_structs(model)[0]
+            except TypeError as e:
+                raise ArgumentError(f"model: {e}; or pass an MjModel or a path") from None
         if model is None:
             if self.model is None:
                 message = "no model to check against: pass one, or name it in the suite with 'model: path/to/robot.xml'"
@@ -84,7 +87,7 @@ class Suite:
 
             return read_model(path)
         except (ValueError, OSError) as e:
-            message = f"cannot load the model {str(path)!r}: {str(e).strip()}"
+            message = f"cannot load the model {quote(str(path), 160)}: {str(e).strip()}"
             raise SuiteError(pos.problem(message, "model") if pos else Problem(message, file=str(path))) from None
 
     def _bind(self, model: ModelLike, import_callables: bool) -> tuple[dict[str, Observable], list[Problem]]:
@@ -146,7 +149,9 @@ def load(path: str | os.PathLike[str], overrides: Sequence[str] | None = None, *
     `["sensors.wrist_cam.interval=10", "defaults.buffer=2"]`. `extends` may name files in the suite's
     folder and below; `extends_root` widens that to another folder tree ('/' allows any file).
     """
-    return Suite(load_path(Path(path), overrides, extends_root=extends_root))
+    if not isinstance(path, (str, os.PathLike)):
+        raise ArgumentError(f"load takes a path to a suite file; got {type(path).__name__} (use loads for text)")
+    return Suite(load_path(Path(path), _overrides(overrides), extends_root=extends_root))
 
 
 def loads(text: str, overrides: Sequence[str] | None = None, *, file: str = "<string>",
@@ -157,4 +162,13 @@ def loads(text: str, overrides: Sequence[str] | None = None, *, file: str = "<st
     if not isinstance(text, str):
         raise ArgumentError(f"loads takes the suite's YAML text as a str; got {type(text).__name__} "
                             "(use sensorcfg.load for a path)")
-    return Suite(load_text(text, overrides, file=file, base_dir=base_dir, extends_root=extends_root))
+    return Suite(load_text(text, _overrides(overrides), file=file, base_dir=base_dir, extends_root=extends_root))
+
+
+def _overrides(overrides: Sequence[str] | None) -> list[str] | None:
+    if overrides is None:
+        return None
+    if isinstance(overrides, str) or not all(isinstance(o, str) for o in overrides):
+        raise ArgumentError("overrides is a list of 'dotted.key=value' strings, for example "
+                            f"['defaults.buffer=2']; got {quote(overrides)}")
+    return list(overrides)

@@ -464,3 +464,24 @@ def test_extends_that_deletes_many_keys_takes_linear_time(tmp_path: Path) -> Non
     (tmp_path / "top.yaml").write_text("extends: base.yaml\n" + scene + deletions)
     proc = cli("validate", "top.yaml", cwd=tmp_path, timeout=90)
     assert proc.returncode == 0, proc.stdout
+
+
+def test_wrong_arguments_to_the_python_api_are_argument_errors(tmp_path: Path) -> None:
+    with pytest.raises(ArgumentError, match="load takes a path to a suite file; got int"):
+        sensorcfg.load(3)  # type: ignore[arg-type]
+    with pytest.raises(ArgumentError, match=r"overrides is a list of 'dotted.key=value' strings, .*; got 'a=b'"):
+        sensorcfg.loads(OK, overrides="a=b")  # type: ignore[arg-type]
+    with pytest.raises(ArgumentError, match="base_dir '/x\\\\x00' cannot be resolved: the path holds a NUL"):
+        sensorcfg.loads(OK, base_dir="/x\0")
+    with pytest.raises(ArgumentError, match="model: expected a sensorcfg.Physics"):
+        sensorcfg.loads(OK).check(3)
+
+
+def test_a_model_that_is_not_a_regular_file_is_a_problem_before_mujoco_opens_it(tmp_path: Path) -> None:
+    os.mkfifo(tmp_path / "robot.xml")  # MuJoCo would block on it forever
+    suite = sensorcfg.loads("model: robot.xml\nsensors: {}\n", base_dir=tmp_path, file="s.yaml")
+    assert [p.format() for p in suite.check()] == [
+        f"s.yaml:1:8: error: model: cannot load the model '{tmp_path.resolve()}/robot.xml': it is a FIFO (named "
+        "pipe), not a regular file"]
+    assert [p.message for p in suite.check("/dev/zero")] == [
+        "cannot load the model '/dev/zero': it is a character device, not a regular file"]

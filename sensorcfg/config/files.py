@@ -17,7 +17,7 @@ from pathlib import Path
 from ..errors import quote
 from . import limits
 
-__all__ = ["Unreadable", "display", "read_text", "resolve", "resolve_model_path", "inside", "PACKAGE_SCHEME"]
+__all__ = ["Unreadable", "irregular", "display", "read_text", "resolve", "resolve_model_path", "inside", "PACKAGE_SCHEME"]
 
 PACKAGE_SCHEME = "package://"
 
@@ -56,6 +56,17 @@ def _not_regular(mode: int) -> str | None:
     if stat.S_ISREG(mode):
         return None
     return next((what for test, what in _TYPES if test(mode)), "not a regular file")
+
+
+def irregular(path: str | os.PathLike[str]) -> str | None:
+    """Why `path` must not be opened ('it is a FIFO (named pipe), not a regular file'), or None when it is a
+    regular file or cannot be looked at (the reader will say why), so that a reader such as MuJoCo's is
+    never handed something that blocks or never ends."""
+    try:
+        what = _not_regular(os.stat(path).st_mode)
+    except (OSError, ValueError):
+        return None
+    return f"it is {what}, not a regular file" if what else None
 
 
 def read_text(path: Path, limit: int | None = None) -> str:

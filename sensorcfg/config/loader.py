@@ -189,7 +189,7 @@ def parse_text(text: str, overrides: Sequence[str] | None = None, *, file: str =
     try:
         root = _root(extends_root, resolve(base))
     except Unreadable as e:
-        return LoadResult(None, (Problem(f"base_dir cannot be resolved: {e}", file=file),))
+        raise ArgumentError(f"base_dir {quote(str(base_dir))} cannot be resolved: {e}") from None
     return _parse(text, file, base, overrides, None, root)
 
 
