@@ -485,3 +485,12 @@ def test_a_model_that_is_not_a_regular_file_is_a_problem_before_mujoco_opens_it(
         "pipe), not a regular file"]
     assert [p.message for p in suite.check("/dev/zero")] == [
         "cannot load the model '/dev/zero': it is a character device, not a regular file"]
+
+
+def test_a_yaml_error_in_an_extended_file_says_where_but_quotes_nothing(tmp_path: Path) -> None:
+    (tmp_path / "secret.txt").write_text(f"a: 1\nb: *{SECRET}\n")
+    with pytest.raises(SuiteError) as info:
+        sensorcfg.load(_extends(tmp_path, "secret.txt"))
+    assert [p.message for p in info.value.problems] == [
+        "'secret.txt' is not a suite: it is not valid YAML (line 2, column 4); check it with 'sensorcfg validate' "
+        "on that file"]

@@ -38,7 +38,8 @@ class Spec:
         self.timestep = float(model.opt.timestep)
 
     def as_dict(self) -> dict[str, Any]:
-        return {"suite": self.suite.file, "model": self.model_file, "physics_timestep": self.timestep,
+        return {"suite": printable(self.suite.file), "model": printable(self.model_file),
+                "physics_timestep": self.timestep,
                 "physics_steps_per_control_step": self.control_steps,
                 "sensors": [r.as_dict() for r in self.rows], "disabled": self.disabled}
 

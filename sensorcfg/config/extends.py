@@ -72,7 +72,12 @@ def with_parents(doc: Doc, base_dir: Path, chain: tuple[Path, ...], root: Path |
     except Unreadable as e:
         raise _fail(at, f"cannot read {_shown(target)} (resolved to {path}): {e}; extends paths are relative "
                         "to the file that names them") from None
-    parent = compose(text, display(path))
+    try:
+        parent = compose(text, display(path))
+    except SuiteError as e:  # PyYAML's message may quote the file (an alias name): say only where
+        place = e.problems[0]
+        raise _fail(at, f"{_shown(target)} is not a suite: it is not valid YAML (line {place.line}, column "
+                        f"{place.col}); check it with 'sensorcfg validate' on that file") from None
     if parent.value is not None and not isinstance(parent.value, dict):
         raise _fail(at, f"{_shown(target)} is not a suite (its top level is not a mapping)")
     unknown = [k for k in parent.value or {} if k not in SUITE_KEYS]
