@@ -199,7 +199,9 @@ def report_text(results: Sequence[FileResult]) -> str:
     files = f"{s['files']} suite{'s' if s['files'] != 1 else ''}"
     no_model = s["without_model"]
     scope = f" ({no_model} without a model: syntax and schema only)" if no_model else ""
-    if s["problems"]:
+    if not results:
+        lines.append("no suite could be read")
+    elif s["problems"]:
         lines.append(f"{s['problems']} problem{'s' if s['problems'] != 1 else ''} in {s['invalid_files']} of "
                      f"{files}{scope}")
     else:
