@@ -164,22 +164,35 @@ def hostile_texts(draw: Any) -> str:
     return text
 
 
-def _validate_cli(text: str) -> None:
+OVERRIDE_KEYS = st.one_of(
+    st.sampled_from(["sensors.a", "sensors.a.interval", "defaults.buffer", "defaults.noise.0.std", "options",
+                     "sensors.a.noise.-1", "extends", "model", "sensors", "sensors.a.noise.\u0661.std", ""]),
+    st.text(max_size=12))
+OVERRIDES = st.lists(st.builds(lambda key, value: f"{key}={value}", OVERRIDE_KEYS, st.one_of(
+    st.sampled_from(["null", "!!python/name:os.system", "{kind: qpos}", "[", "1e999s", "*a", "!!int x", "4ms"]),
+    st.text(max_size=16))), max_size=2)
+
+
+def _validate_cli(text: str, overrides: list[str]) -> None:
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "suite.yaml"
         path.write_text(text, encoding="utf-8", errors="surrogatepass")
-        out = io.StringIO()
-        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(io.StringIO()):
-            code = main(["validate", str(path), "--model", ROBOT, "--format", "json"])
+        out, err = io.StringIO(), io.StringIO()
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            sets = [arg for o in overrides for arg in ("--set", o)]
+            code = main(["validate", str(path), "--model", ROBOT, "--format", "json", *sets])
+    if code == 2:  # a malformed --set is a usage error: one line, nothing on stdout
+        assert out.getvalue() == "" and "error: argument --set" in err.getvalue()
+        return
     report = json.loads(out.getvalue())
     assert code in (0, 1) and report["valid"] == (code == 0)
     assert all(p["message"].isprintable() and p["file"].isprintable() for p in report["problems"])
 
 
-@given(hostile_texts())
-def test_any_text_raises_only_sensorcfg_errors(text: str) -> None:
+@given(hostile_texts(), OVERRIDES)
+def test_any_text_raises_only_sensorcfg_errors(text: str, overrides: list[str]) -> None:
     try:
-        suite = sensorcfg.loads(text, base_dir=tempfile.gettempdir())
+        suite = sensorcfg.loads(text, overrides, base_dir=tempfile.gettempdir())
     except SuiteError as e:
         event("load problem")
         assert e.problems and all(p.format().isprintable() for p in e.problems)
@@ -187,8 +200,8 @@ def test_any_text_raises_only_sensorcfg_errors(text: str) -> None:
         event("loaded")
         problems = suite.check(ROBOT)
         assert all(isinstance(p, sensorcfg.Problem) for p in problems)
-    if "\udc80" not in text:
-        _validate_cli(text)
+    if not any("\ud800" <= c <= "\udfff" for c in text + "".join(overrides)):  # not encodable: not a file
+        _validate_cli(text, overrides)
 
 
 # -- valid suites run ---------------------------------------------------------------------------------
