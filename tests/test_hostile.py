@@ -150,6 +150,8 @@ def test_node_count_and_file_size_limits(monkeypatch: pytest.MonkeyPatch, tmp_pa
                  "is more than 1,000,000, the most a schedule may take", id="interval-draw"),
     pytest.param("interval", "'1e999s'", "3:53: error: sensors.s.interval: '1e999s' is not a finite number; use a "
                  "time like '4ms', '0.02s', '500us', '50Hz'", id="interval-1e999s"),
+    pytest.param("noise", "[{type: quantize, step: 5.0e-324}]", "3:74: error: sensors.s.noise.0.step: a quantisation "
+                 "step must be >= 1e-100, got 5e-324", id="quantize-subnormal"),  # found by test_fuzz: read inf
 ])
 def test_schedule_sizes_are_problems_at_their_line(key: str, value: str, expected: str) -> None:
     text = f"model: {ROBOT}\nsensors:\n  s: {{kind: qpos, element: 'joint:elbow', {key}: {value}}}\n"

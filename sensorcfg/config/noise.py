@@ -134,7 +134,7 @@ else:
     Real = _per_value("the value")
     Std = _per_value("a standard deviation", ge=0)
     Probability = _per_value("a probability", ge=0, le=1)
-    Step = _per_value("a quantisation step", gt=0)
+    Step = _per_value("a quantisation step", ge=1e-100)  # smaller: value / step overflows to inf
     Duration = _per_value("a correlation time", gt=0, units=DURATION_UNITS, quantity="duration")
     Frequency = _per_value("a cutoff frequency", gt=0, units=RATE_UNITS, quantity="frequency")
 
