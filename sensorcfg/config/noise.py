@@ -84,7 +84,7 @@ class _Bound:
             raise ValueError(f"expected a number, got {quote(value)}")
         if not math.isfinite(x):
             raise ValueError(f"expected a finite number, got {quote(value)}")
-        for bound, ok, op in ((self.ge, lambda b: x >= b, ">="), (self.gt, lambda b: x > b, ">"),
+        for bound, ok, op in ((self.gt, lambda b: x > b, ">"), (self.ge, lambda b: x >= b, ">="),
                               (self.le, lambda b: x <= b, "<=")):
             if bound is not None and not ok(bound):
                 raise ValueError(f"{self.meaning} must be {op} {bound:g}, got {quote(value)}")
@@ -134,7 +134,7 @@ else:
     Real = _per_value("the value")
     Std = _per_value("a standard deviation", ge=0)
     Probability = _per_value("a probability", ge=0, le=1)
-    Step = _per_value("a quantisation step", ge=1e-100)  # smaller: value / step overflows to inf
+    Step = _per_value("a quantisation step", gt=0, ge=1e-100)  # smaller: value / step overflows to inf
     Duration = _per_value("a correlation time", gt=0, units=DURATION_UNITS, quantity="duration")
     Frequency = _per_value("a cutoff frequency", gt=0, units=RATE_UNITS, quantity="frequency")
 
