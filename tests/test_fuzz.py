@@ -4,7 +4,7 @@ Two properties:
 - whatever the text, `loads`, `Suite.check` and `sensorcfg validate` raise nothing but sensorcfg's own
   errors (`SuiteError` for the suite's mistakes), and validate prints a report with exit status 0 or 1;
 - a suite that validates (imports included) builds, runs 20 control steps, and every observation matches
-  its spec (shape, dtype and bounds: `spec.validate`).
+  its spec (shape, dtype and bounds: `spec.validate`) and is finite (unless its noise drops readings to NaN).
 
 Suites are drawn from `schemas/sensor-suite.schema.json` (every key, enum, pattern, bound and example it
 states), with hostile values mixed in for the first property, and with each sensor's kind and element
@@ -244,7 +244,10 @@ def test_a_suite_that_validates_runs_and_matches_its_spec(config: dict[str, Any]
     spec = env.observation_spec()
     zero = np.zeros(env.action_spec().shape)
     observations = [env.reset().observation] + [env.step(zero).observation for _ in range(20)]
+    nan_allowed = {name for name, s in suite.sensors.items() if any(getattr(n, "mode", "") == "nan" for n in s.noise)}
     for observation in observations:
         assert observation.keys() == spec.keys()
         for name, value in observation.items():
             spec[name].validate(value)
+            if name not in nan_allowed:  # a reading is a number: inf or nan would be silently wrong
+                assert np.isfinite(value).all(), (name, value)
