@@ -38,7 +38,7 @@ import sensorcfg.errors
 from sensorcfg import SuiteError
 from sensorcfg.cli import main
 
-settings.register_profile("ci", max_examples=50, deadline=None, derandomize=True, print_blob=True,
+settings.register_profile("ci", max_examples=50, deadline=None, derandomize=True, database=None, print_blob=True,
                           suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 settings.register_profile("long", max_examples=2000, deadline=None, print_blob=True,
                           suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
