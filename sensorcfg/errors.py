@@ -34,7 +34,7 @@ _ESCAPES = {"\n": "\\n", "\r": "\\r", "\t": "\\t"}
 # for messages that quote an input value without `quote`, so a value from an extended file is never
 # printed back whole. Literals are read left to right; an apostrophe inside a word starts none.
 _QUOTED = re.compile(r"(?<!\w)'((?:[^'\\\n]|\\.)*)'")  # linear: a literal cannot pass a quote
-_QUOTED_LIMIT = 80
+_QUOTED_LIMIT = 200  # paths are quoted whole; a value pasted from a file is not
 
 
 def _cut(match: re.Match[str]) -> str:

@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .config import LoadedSuite, OptionsConfig, SensorConfig, SuiteConfig, load_path, load_text, to_steps
+from .config.limits import MAX_OBSERVATION_BYTES
 from .errors import ArgumentError, Problem, SuiteError, quote
 
 if TYPE_CHECKING:
@@ -93,7 +94,30 @@ class Suite:
     def _bind(self, model: ModelLike, import_callables: bool) -> tuple[dict[str, Observable], list[Problem]]:
         from .binding import bind
 
-        return bind(self._loaded, self._mjmodel(model), import_callables=import_callables)
+        observables, problems = bind(self._loaded, self._mjmodel(model), import_callables=import_callables)
+        return observables, problems + self._too_large(observables)
+
+    def _too_large(self, observables: Mapping[str, Observable]) -> list[Problem]:
+        """An observation that would hold more than `MAX_OBSERVATION_BYTES` (a deep buffer of large camera
+        images) is a problem at its buffer, not an allocation that fails (or swaps) when the suite runs."""
+        import numpy as np
+
+        problems = []
+        for name, observable in observables.items():
+            spec = observable.array_spec
+            if spec is None:
+                continue
+            sample = int(np.prod(spec.shape)) * np.dtype(spec.dtype).itemsize
+            buffer = observable.buffer_size or 1
+            if buffer * sample > MAX_OBSERVATION_BYTES:
+                path = ("sensors", name, "buffer")
+                shape = "x".join(map(str, spec.shape))
+                message = (f"{buffer} samples of {sample:,} bytes ({shape} {np.dtype(spec.dtype)}) make "
+                           f"{buffer * sample / 2**30:.1f} GiB; an observation may hold at most "
+                           f"{MAX_OBSERVATION_BYTES / 2**30:g} GiB: use a smaller buffer or image")
+                pos = self._loaded.doc.pos(path)
+                problems.append(pos.problem(message, ".".join(path)) if pos else Problem(message, ".".join(path)))
+        return problems
 
     def build(self, model: ModelLike = None, *, import_callables: bool = True) -> dict[str, Observable]:
         """The observables of every sensor, in file order, with their `enabled` flags set.

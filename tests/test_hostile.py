@@ -173,6 +173,17 @@ def test_check_returns_problems_for_times_that_are_too_long(key: str, value: str
         suite.build()
 
 
+def test_an_observation_too_large_to_hold_is_a_problem_at_its_buffer() -> None:
+    text = (f"model: {ROBOT}\nsensors:\n  cam: {{kind: rgb, element: 'camera:wrist', buffer: 10000, "
+            "camera: {width: 640, height: 480}}\n")
+    suite = sensorcfg.loads(text, file="s.yaml")
+    assert [p.format() for p in suite.check()] == [
+        "s.yaml:3:53: error: sensors.cam.buffer: 10000 samples of 921,600 bytes (480x640x3 uint8) make 8.6 GiB; an "
+        "observation may hold at most 1 GiB: use a smaller buffer or image"]
+    with pytest.raises(SuiteError, match="make 8.6 GiB"):
+        suite.build()
+
+
 def test_control_interval_past_the_limit_is_a_problem() -> None:
     suite = sensorcfg.loads(f"model: {ROBOT}\noptions: {{control_interval: '1e99s'}}\nsensors: {{}}\n")
     with pytest.raises(SuiteError, match=r"options.control_interval: 1e99s is 5e\+101 physics steps"):
