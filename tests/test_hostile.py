@@ -507,3 +507,20 @@ def test_a_yaml_error_in_an_extended_file_says_where_but_quotes_nothing(tmp_path
     assert [p.message for p in info.value.problems] == [
         "'secret.txt' is not a suite: it is not valid YAML (line 2, column 4); check it with 'sensorcfg validate' "
         "on that file"]
+
+
+def test_validate_a_folder_nested_deeper_than_the_recursion_limit(tmp_path: Path,
+                                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    deep = tmp_path / "top"
+    path = deep
+    os.mkdir(path)
+    for _ in range(1200):  # deeper than Python's recursion limit, shorter than PATH_MAX
+        path = path / "d"
+        os.mkdir(path)
+    (path / "s.yaml").write_text(OK)
+    (deep / "a.yaml").write_text(OK)
+    (deep / "z.yaml").write_text(OK)
+    code, out, _ = run_main(capsys, "validate", str(deep), "--format", "json")
+    assert code == 0
+    names = [f["path"][len(str(deep)) + 1:] for f in json.loads(out)["files"]]
+    assert names == ["a.yaml", "d/" * 1200 + "s.yaml", "z.yaml"]  # path order, as before

@@ -109,32 +109,38 @@ def collect(paths: Sequence[str]) -> Found:
     return found
 
 
-def _walk(folder: Path, found: Found) -> None:
-    """Suite files below `folder`, depth first in name order; a folder reached twice (a symlink loop, or
-    two links to one folder) is walked once."""
-    try:
-        entries = sorted(os.scandir(folder), key=lambda e: e.name)
-    except OSError as e:
-        found.error(folder, f"cannot read this folder: {os_reason(e)}")
-        return
-    for entry in entries:
-        if entry.name.startswith("."):
-            continue
-        path = folder / entry.name
+def _walk(root: Path, found: Found) -> None:
+    """Suite files below `root`, depth first in name order (a loop, not recursion: folders may nest
+    thousands deep); a folder reached twice (a symlink loop, or two links to one folder) is walked once."""
+    first = len(found.files)
+    stack = [root]
+    while stack:
+        folder = stack.pop()
         try:
-            is_dir = entry.is_dir()
-            info = os.stat(path) if is_dir or path.suffix in SUFFIXES else None
-        except OSError as e:  # a broken symlink, or one in a loop: a suite name is worth reporting
-            if path.suffix in SUFFIXES:
-                found.error(path, f"cannot read this file: {os_reason(e)}")
+            entries = sorted(os.scandir(folder), key=lambda e: e.name)
+        except OSError as e:
+            found.error(folder, f"cannot read this folder: {os_reason(e)}")
             continue
-        if info is None or not found.once(info):
-            continue
-        if is_dir:
-            _walk(path, found)
-        else:
-            found.files.append(path)
-
+        below = []
+        for entry in entries:
+            if entry.name.startswith("."):
+                continue
+            path = folder / entry.name
+            try:
+                is_dir = entry.is_dir()
+                info = os.stat(path) if is_dir or path.suffix in SUFFIXES else None
+            except OSError as e:  # a broken symlink, or one in a loop: a suite name is worth reporting
+                if path.suffix in SUFFIXES:
+                    found.error(path, f"cannot read this file: {os_reason(e)}")
+                continue
+            if info is None or not found.once(info):
+                continue
+            if is_dir:
+                below.append(path)
+            else:
+                found.files.append(path)
+        stack.extend(reversed(below))
+    found.files[first:] = sorted(found.files[first:])  # path order: a folder's files and subfolders by name
 
 def check_file(path: Path, model: tuple[str, Any] | None, overrides: Sequence[str], import_callables: bool,
                models: dict[str, Any] | None = None, extends_root: str | None = None) -> FileResult:
