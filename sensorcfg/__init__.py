@@ -6,7 +6,7 @@ _choose_gl_backend()
 
 from ._version import __version__  # noqa: E402
 from .env import Environment, dm_control_observables, make_env  # noqa: E402
-from .errors import Problem, SuiteError  # noqa: E402
+from .errors import ArgumentError, Problem, SensorcfgError, SuiteError, UnsupportedError  # noqa: E402
 from .observables import AGGREGATORS, Camera, Feature, Generic, Observable  # noqa: E402
 from .physics import Physics  # noqa: E402
 from .runtime.updater import Updater  # noqa: E402
@@ -23,6 +23,7 @@ def __getattr__(name: str) -> object:
 
 __all__ = [
     "AGGREGATORS",
+    "ArgumentError",
     "BatchEnvironment",
     "Camera",
     "Environment",
@@ -31,8 +32,10 @@ __all__ = [
     "Observable",
     "Physics",
     "Problem",
+    "SensorcfgError",
     "Suite",
     "SuiteError",
+    "UnsupportedError",
     "Updater",
     "__version__",
     "dm_control_observables",

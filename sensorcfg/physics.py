@@ -45,8 +45,14 @@ class Physics:
 
 
 def read_model(path: str | os.PathLike[str]) -> mujoco.MjModel:
-    """The MjModel in a file: MJCF XML, or a compiled MJB by its suffix. MuJoCo's ValueError on failure."""
+    """The MjModel in a file: MJCF XML, or a compiled MJB by its suffix. MuJoCo's ValueError on failure, and
+    a ValueError before MuJoCo opens anything that is not a regular file (a FIFO would block it forever)."""
+    from .config.files import irregular
+
     path = os.fspath(path)
+    why = irregular(path)
+    if why:
+        raise ValueError(why)
     if path.lower().endswith(".mjb"):
         return mujoco.MjModel.from_binary_path(path)
     return mujoco.MjModel.from_xml_path(path)

@@ -14,7 +14,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .config import LoadedSuite, OptionsConfig, SensorConfig, SuiteConfig, load_path, load_text, to_steps
-from .errors import Problem, SuiteError
+from .config.limits import MAX_OBSERVATION_BYTES
+from .errors import ArgumentError, Problem, SuiteError, quote
 
 if TYPE_CHECKING:
     import mujoco
@@ -70,7 +71,10 @@ class Suite:
         if model is not None and not isinstance(model, (str, os.PathLike)):
             from .physics import raw_structs
 
-            return raw_structs(model)[0]
+            try:
+                return raw_structs(model)[0]
+            except TypeError as e:
+                raise ArgumentError(f"model: {e}; or pass an MjModel or a path") from None
         if model is None:
             if self.model is None:
                 message = "no model to check against: pass one, or name it in the suite with 'model: path/to/robot.xml'"
@@ -84,13 +88,36 @@ class Suite:
 
             return read_model(path)
         except (ValueError, OSError) as e:
-            message = f"cannot load the model {str(path)!r}: {str(e).strip()}"
+            message = f"cannot load the model {quote(str(path), 160)}: {str(e).strip()}"
             raise SuiteError(pos.problem(message, "model") if pos else Problem(message, file=str(path))) from None
 
     def _bind(self, model: ModelLike, import_callables: bool) -> tuple[dict[str, Observable], list[Problem]]:
         from .binding import bind
 
-        return bind(self._loaded, self._mjmodel(model), import_callables=import_callables)
+        observables, problems = bind(self._loaded, self._mjmodel(model), import_callables=import_callables)
+        return observables, problems + self._too_large(observables)
+
+    def _too_large(self, observables: Mapping[str, Observable]) -> list[Problem]:
+        """An observation that would hold more than `MAX_OBSERVATION_BYTES` (a deep buffer of large camera
+        images) is a problem at its buffer, not an allocation that fails (or swaps) when the suite runs."""
+        import numpy as np
+
+        problems = []
+        for name, observable in observables.items():
+            spec = observable.array_spec
+            if spec is None:
+                continue
+            sample = int(np.prod(spec.shape)) * np.dtype(spec.dtype).itemsize
+            buffer = observable.buffer_size or 1
+            if buffer * sample > MAX_OBSERVATION_BYTES:
+                path = ("sensors", name, "buffer")
+                shape = "x".join(map(str, spec.shape))
+                message = (f"{buffer} samples of {sample:,} bytes ({shape} {np.dtype(spec.dtype)}) make "
+                           f"{buffer * sample / 2**30:.1f} GiB; an observation may hold at most "
+                           f"{MAX_OBSERVATION_BYTES / 2**30:g} GiB: use a smaller buffer or image")
+                pos = self._loaded.doc.pos(path)
+                problems.append(pos.problem(message, ".".join(path)) if pos else Problem(message, ".".join(path)))
+        return problems
 
     def build(self, model: ModelLike = None, *, import_callables: bool = True) -> dict[str, Observable]:
         """The observables of every sensor, in file order, with their `enabled` flags set.
@@ -107,12 +134,19 @@ class Suite:
     def check(self, model: ModelLike = None, *, import_callables: bool = False) -> list[Problem]:
         """Every problem of the suite against `model` (empty when it builds); never raises for a mistake.
 
-        `generic` callables are not imported unless `import_callables` is true.
+        `generic` callables are not imported unless `import_callables` is true. `options` are checked too
+        (a control interval must be a whole number of the model's physics steps).
         """
         try:
-            return self._bind(model, import_callables)[1]
+            mjmodel = self._mjmodel(model)
+            problems = self._bind(mjmodel, import_callables)[1]
         except SuiteError as e:
             return list(e.problems)
+        try:
+            self.updater_kwargs(mjmodel)
+        except SuiteError as e:
+            problems = list(e.problems) + problems
+        return problems
 
     def updater_kwargs(self, model: ModelLike = None) -> dict[str, Any]:
         """Keyword arguments for `sensorcfg.Updater` from `options` (time converted with the model)."""
@@ -131,16 +165,34 @@ class Suite:
                 "pad_with_initial_value": options.pad_with_initial_value}
 
 
-def load(path: str | os.PathLike[str], overrides: Sequence[str] | None = None) -> Suite:
+def load(path: str | os.PathLike[str], overrides: Sequence[str] | None = None, *,
+         extends_root: str | os.PathLike[str] | None = None) -> Suite:
     """Read and validate the suite at `path` (no model needed); raises SuiteError listing every problem.
 
     `overrides` are `dotted.key=value` strings applied after `extends`, each value parsed as YAML:
-    `["sensors.wrist_cam.interval=10", "defaults.buffer=2"]`.
+    `["sensors.wrist_cam.interval=10", "defaults.buffer=2"]`. `extends` may name files in the suite's
+    folder and below; `extends_root` widens that to another folder tree ('/' allows any file).
     """
-    return Suite(load_path(Path(path), overrides))
+    if not isinstance(path, (str, os.PathLike)):
+        raise ArgumentError(f"load takes a path to a suite file; got {type(path).__name__} (use loads for text)")
+    return Suite(load_path(Path(path), _overrides(overrides), extends_root=extends_root))
 
 
 def loads(text: str, overrides: Sequence[str] | None = None, *, file: str = "<string>",
-          base_dir: str | os.PathLike[str] | None = None) -> Suite:
-    """Like `load`, for YAML text; `extends` and `model` paths are relative to `base_dir` (default: cwd)."""
-    return Suite(load_text(text, overrides, file=file, base_dir=base_dir))
+          base_dir: str | os.PathLike[str] | None = None,
+          extends_root: str | os.PathLike[str] | None = None) -> Suite:
+    """Like `load`, for YAML text; `extends` and `model` paths are relative to `base_dir` (default: cwd),
+    and `extends` may name files below `extends_root` (default: `base_dir`)."""
+    if not isinstance(text, str):
+        raise ArgumentError(f"loads takes the suite's YAML text as a str; got {type(text).__name__} "
+                            "(use sensorcfg.load for a path)")
+    return Suite(load_text(text, _overrides(overrides), file=file, base_dir=base_dir, extends_root=extends_root))
+
+
+def _overrides(overrides: Sequence[str] | None) -> list[str] | None:
+    if overrides is None:
+        return None
+    if isinstance(overrides, str) or not all(isinstance(o, str) for o in overrides):
+        raise ArgumentError("overrides is a list of 'dotted.key=value' strings, for example "
+                            f"['defaults.buffer=2']; got {quote(overrides)}")
+    return list(overrides)

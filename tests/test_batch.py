@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import sensorcfg
-from sensorcfg import SuiteError, assets
+from sensorcfg import ArgumentError, SuiteError, UnsupportedError, assets
 from sensorcfg.batch import BatchEnvironment, sim_seed
 from sensorcfg.draws import ChoiceSteps, UniformSteps
 from sensorcfg.noise import build_noise
@@ -300,7 +300,7 @@ def test_bad_actions_raise_before_stepping(actions, message):
     env = BatchEnvironment(ROBOT, random_suite(0), 4, seed=0)
     env.reset()
     time = env.batch.bind("time").copy()
-    with pytest.raises(SuiteError, match=message):
+    with pytest.raises(ArgumentError, match=message):
         env.step(actions)
     np.testing.assert_array_equal(env.batch.bind("time"), time)
 
@@ -314,7 +314,7 @@ def test_bad_actions_raise_before_stepping(actions, message):
 ])
 def test_bad_ids_raise(ids, message):
     env = BatchEnvironment(ROBOT, random_suite(0), 4, seed=0)
-    with pytest.raises(SuiteError, match=message):
+    with pytest.raises(ArgumentError, match=message):
         env.reset(ids)
 
 
@@ -343,7 +343,7 @@ def test_unvectorisable_suites_raise_before_stepping():
     generic["time"].enabled = True
     with pytest.raises(SuiteError, match=r"sensor 'time' \(a Generic\) cannot run in a BatchEnvironment"):
         BatchEnvironment(ROBOT, generic, 2)
-    with pytest.raises(SuiteError, match=r"nsim must be a positive integer"):
+    with pytest.raises(ArgumentError, match=r"nsim must be a positive integer"):
         BatchEnvironment(ROBOT, _one(), 0)
 
 
@@ -362,7 +362,7 @@ def test_specs_have_a_leading_simulation_axis():
 
 @pytest.mark.skipif(MUJOCO4, reason="checks the error on MuJoCo 3; this is MuJoCo 4")
 def test_mujoco3_says_it_needs_mujoco4():
-    with pytest.raises(SuiteError, match=r"BatchEnvironment needs MuJoCo 4 \(its mujoco.batch module\); this is "
+    with pytest.raises(UnsupportedError, match=r"BatchEnvironment needs MuJoCo 4 \(its mujoco.batch module\); this is "
                                          r"mujoco 3\.[0-9.]+: pip install 'mujoco>=4'"):
         BatchEnvironment(ROBOT, _one(), 2)
 
@@ -422,9 +422,9 @@ def test_gymnasium_vector_env_reports_terminations_and_rewards():
 def test_a_reward_fn_of_the_wrong_shape_is_named(fn, message):
     env = BatchEnvironment(ROBOT, _one(), 2, reward_fn=fn)
     env.reset()
-    with pytest.raises(SuiteError, match=message):
+    with pytest.raises(ArgumentError, match=message):
         env.step(np.zeros((2, 3)))
-    with pytest.raises(SuiteError, match="termination_fn must be a callable"):
+    with pytest.raises(ArgumentError, match="termination_fn must be a callable"):
         BatchEnvironment(ROBOT, _one(), 2, termination_fn=3)
 
 

@@ -11,7 +11,7 @@ import pytest
 from dm_env import test_utils
 
 import sensorcfg
-from sensorcfg import assets
+from sensorcfg import ArgumentError, assets
 
 ROBOT = str(assets.path("robot.xml"))
 
@@ -117,12 +117,12 @@ def test_action_spec_from_ctrlrange_and_bad_action_shape():
     np.testing.assert_array_equal(spec.minimum, [-1, -1, 0])
     np.testing.assert_array_equal(spec.maximum, [1, 1, 0.04])
     env.reset()
-    with pytest.raises(sensorcfg.SuiteError, match=r"action must have shape \(3,\)"):
+    with pytest.raises(ArgumentError, match=r"action must have shape \(3,\)"):
         env.step(np.zeros(2))
 
 
 def test_control_timestep_must_be_whole_steps():
-    with pytest.raises(sensorcfg.SuiteError, match=r"not a whole number of 0.002s physics steps; use 0.006s or 0.008s"):
+    with pytest.raises(ArgumentError, match=r"not a whole number of 0.002s physics steps; use 0.006s or 0.008s"):
         sensorcfg.Environment(ROBOT, proprio(), control_timestep=0.007)
     env = sensorcfg.Environment(ROBOT, proprio(), control_timestep=0.01)
     assert env.physics_steps_per_control_step == 5

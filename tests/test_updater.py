@@ -18,6 +18,7 @@ from conftest import MODELS
 from dm_env import specs
 
 import sensorcfg
+from sensorcfg import ArgumentError
 
 OFFSET = 100
 
@@ -398,13 +399,13 @@ def test_bad_draws_fail_before_the_first_step(settings: dict[str, Any], message:
 
 @pytest.mark.parametrize("n", [0, -1, 2.5, True, "2"])
 def test_bad_physics_steps_per_control_step(n: Any) -> None:
-    with pytest.raises(sensorcfg.SuiteError, match=rf"physics_steps_per_control_step must be a positive integer, "
+    with pytest.raises(ArgumentError, match=rf"physics_steps_per_control_step must be a positive integer, "
                                                    rf"got {n!r}"):
         sensorcfg.Updater({}, n)
 
 
 def test_bad_structure() -> None:
-    with pytest.raises(sensorcfg.SuiteError, match="must be a dict, or a list or tuple of dicts"):
+    with pytest.raises(ArgumentError, match="must be a dict, or a list or tuple of dicts"):
         sensorcfg.Updater([clock_observable()])
 
 

@@ -59,7 +59,7 @@ import numpy as np
 from ..env.episode import episode_end
 from ..env.environment import (_BAD_STATE, ControlLoop, _suite_and_observables, action_spec, episode_timing, load_model,
                                random_state_from)
-from ..errors import SuiteError
+from ..errors import ArgumentError, SuiteError, UnsupportedError
 from ..physics import Physics
 from .updater import BatchUpdater
 
@@ -81,9 +81,9 @@ def _batch_module() -> Any:
             raise ImportError
         from mujoco import batch
     except (ImportError, ValueError):
-        raise SuiteError(f"BatchEnvironment needs MuJoCo 4 (its mujoco.batch module); this is mujoco "
-                         f"{mujoco.__version__}: pip install 'mujoco>=4', or use sensorcfg.Environment per "
-                         "simulation") from None
+        raise UnsupportedError(f"BatchEnvironment needs MuJoCo 4 (its mujoco.batch module); this is mujoco "
+                               f"{mujoco.__version__}: pip install 'mujoco>=4', or use sensorcfg.Environment per "
+                               "simulation") from None
     return batch
 
 
@@ -101,11 +101,11 @@ class _Rollout(NamedTuple):
 def _check_arguments(nsim: Any, nthread: Any, reward_fn: Any, termination_fn: Any) -> None:
     for label, fn in (("reward_fn", reward_fn), ("termination_fn", termination_fn)):
         if fn is not None and not callable(fn):
-            raise SuiteError(f"{label} must be a callable taking the mujoco.batch.Batch, got {fn!r}")
+            raise ArgumentError(f"{label} must be a callable taking the mujoco.batch.Batch, got {fn!r}")
     if not isinstance(nsim, (int, np.integer)) or isinstance(nsim, bool) or nsim < 1:
-        raise SuiteError(f"nsim must be a positive integer (simulations), got {nsim!r}")
+        raise ArgumentError(f"nsim must be a positive integer (simulations), got {nsim!r}")
     if nthread is not None and (not isinstance(nthread, (int, np.integer)) or nthread < 0):
-        raise SuiteError(f"nthread must be a non-negative integer (0: every CPU), got {nthread!r}")
+        raise ArgumentError(f"nthread must be a non-negative integer (0: every CPU), got {nthread!r}")
 
 
 def sim_seed(seed: int | np.random.SeedSequence | None, i: int) -> np.random.SeedSequence:
@@ -222,16 +222,17 @@ class BatchEnvironment(ControlLoop):
         arr = np.asarray(ids)
         if arr.dtype == bool:
             if arr.shape != (self._nsim,):
-                raise SuiteError(f"a boolean mask of simulations must have shape ({self._nsim},), got {arr.shape}")
+                raise ArgumentError(f"a boolean mask of simulations must have shape ({self._nsim},), got {arr.shape}")
             return np.flatnonzero(arr)
         if arr.ndim == 0:
             arr = arr.reshape(1)
         if arr.ndim != 1 or (arr.size and not np.issubdtype(arr.dtype, np.integer)):
-            raise SuiteError(f"ids must be simulation indices (a 1-D array of integers) or a boolean mask, got {ids!r}")
+            raise ArgumentError(f"ids must be simulation indices (a 1-D array of integers) or a boolean mask, "
+                                f"got {ids!r}")
         bad = arr[(arr < 0) | (arr >= self._nsim)]
         if bad.size:
-            raise SuiteError(f"simulation id {int(bad[0])} is out of range: the batch has {self._nsim} simulations "
-                             f"(ids 0 to {self._nsim - 1})")
+            raise ArgumentError(f"simulation id {int(bad[0])} is out of range: the batch has {self._nsim} simulations "
+                                f"(ids 0 to {self._nsim - 1})")
         return np.unique(arr.astype(np.intp))
 
     def _reset_sims(self, ids: np.ndarray) -> None:
@@ -301,10 +302,10 @@ class BatchEnvironment(ControlLoop):
         try:
             values = np.asarray(fn(self._batch), dtype=dtype)
         except (TypeError, ValueError) as e:
-            raise SuiteError(f"{label} must return {self._nsim} numbers (one per simulation): {e}") from None
+            raise ArgumentError(f"{label} must return {self._nsim} numbers (one per simulation): {e}") from None
         if values.shape != (self._nsim,):
-            raise SuiteError(f"{label} returned shape {values.shape}; it must return one value per simulation, "
-                             f"shape ({self._nsim},)")
+            raise ArgumentError(f"{label} returned shape {values.shape}; it must return one value per simulation, "
+                                f"shape ({self._nsim},)")
         return values
 
     def _rollout(self, actions: np.ndarray, active: np.ndarray, failed: np.ndarray, messages: dict[int, str]) -> None:
@@ -351,10 +352,10 @@ class BatchEnvironment(ControlLoop):
         try:
             arr = np.asarray(actions, dtype=np.float64)
         except (TypeError, ValueError):
-            raise SuiteError(f"actions must be a ({self._nsim}, {self._model.nu}) array of numbers") from None
+            raise ArgumentError(f"actions must be a ({self._nsim}, {self._model.nu}) array of numbers") from None
         if arr.shape != (self._nsim, self._model.nu):
-            raise SuiteError(f"actions must have shape ({self._nsim}, {self._model.nu}) (one control per simulation "
-                             f"and actuator), got {arr.shape}")
+            raise ArgumentError(f"actions must have shape ({self._nsim}, {self._model.nu}) (one control per simulation "
+                                f"and actuator), got {arr.shape}")
         return arr
 
     def close(self) -> None:

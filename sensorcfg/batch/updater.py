@@ -28,7 +28,7 @@ from dm_env import specs
 
 from ..draws import (DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, ChoiceSteps, UniformSteps, as_draw, drawer,
                      episode_entropy, sensor_key)
-from ..errors import SuiteError
+from ..errors import ArgumentError, SuiteError
 from ..observables.aggregators import AGGREGATORS, builtin
 from ..runtime.bank import _reader
 from ..runtime.channels import Channel, FixedChannel, RandomChannel, make_channel
@@ -100,7 +100,7 @@ class BatchUpdater:
         """`physics`: a single-simulation physics of the model (its MjData tells field shapes; the
         observables are bound to it once, as the single-simulation Updater binds them, for checks and specs)."""
         if not isinstance(observables, Mapping):
-            raise SuiteError("BatchEnvironment needs a dict of observables (or a Suite); got "
+            raise ArgumentError("BatchEnvironment needs a dict of observables (or a Suite); got "
                              f"{type(observables).__name__}")
         self.nsim, self.substeps, self.pad = int(nsim), int(substeps), bool(pad_with_initial_value)
         entries = self._bind(observables, physics, bool(strip_singleton_buffer_dim))

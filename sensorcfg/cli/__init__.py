@@ -14,7 +14,7 @@ import sys
 from collections.abc import Sequence
 
 from .._version import __version__
-from ..errors import SuiteError
+from ..errors import MESSAGE_LIMIT, SensorcfgError, SuiteError, printable
 from . import demo, run, schema, spec, validate
 from .common import EXIT_CODES_HELP, EXIT_INVALID, EXIT_USAGE, HelpFormatter, UsageError, user_code_failure
 
@@ -70,8 +70,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_USAGE
     except SuiteError as e:
         for problem in e.problems:  # one without a place is about the command, not a file
-            print(problem.format() if problem.file else f"sensorcfg: error: {problem.message}", file=sys.stderr)
+            print(problem.format() if problem.file else f"sensorcfg: error: {printable(problem.message)}",
+                  file=sys.stderr)
         return EXIT_INVALID
+    except SensorcfgError as e:  # ArgumentError, UnsupportedError: about the command, not a suite
+        print(f"sensorcfg: error: {printable(str(e), MESSAGE_LIMIT)}", file=sys.stderr)
+        return EXIT_USAGE
     except KeyboardInterrupt:
         print("sensorcfg: interrupted", file=sys.stderr)
         return 130

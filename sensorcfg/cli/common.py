@@ -8,16 +8,20 @@ or let `SuiteError` through (exit 1: the suite or the model is wrong), and `main
 from __future__ import annotations
 
 import argparse
+import errno
+import os
+import stat
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from ..errors import Problem, SuiteError
+from ..errors import Problem, SensorcfgError, SuiteError, printable, quote
 
 __all__ = ["EXIT_OK", "EXIT_INVALID", "EXIT_USAGE", "EXIT_CODES_HELP", "HelpFormatter", "UsageError", "override",
            "positive_int", "positive_float", "writable", "require_matplotlib", "importable_cwd", "add_suite_args",
-           "existing_file", "load_model", "load_suite", "model_path", "user_code_failure"]
+           "existing_file", "load_model", "load_suite", "model_path", "user_code_failure", "user_code_problem",
+           "add_common_suite_args", "os_reason", "seed"]
 
 EXIT_OK, EXIT_INVALID, EXIT_USAGE = 0, 1, 2
 
@@ -37,7 +41,7 @@ class HelpFormatter(argparse.RawDescriptionHelpFormatter):
         return argparse.HelpFormatter._fill_text(self, text, width, indent)
 
 
-class UsageError(Exception):
+class UsageError(SensorcfgError):
     """A mistake in how the command was called, or a file that cannot be read or written: exit 2."""
 
 
@@ -46,26 +50,42 @@ def override(text: str) -> str:
     key, sep, _ = text.partition("=")
     if not sep or not key.strip():
         raise argparse.ArgumentTypeError(
-            f"expected KEY=VALUE (for example sensors.cam.interval=10ms or defaults.buffer=2), got {text!r}")
+            f"expected KEY=VALUE (for example sensors.cam.interval=10ms or defaults.buffer=2), got {quote(text)}")
     return text
 
 
 def add_suite_args(parser: argparse.ArgumentParser, *, suite_optional: bool = False) -> None:
-    """SUITE, --model and --set, shared by spec, run and demo."""
+    """SUITE, --model, --set and --extends-root, shared by spec, run and demo."""
     if suite_optional:
         parser.add_argument("suite", nargs="?", metavar="SUITE", help="suite file (default: the bundled demo suite)")
     else:
         parser.add_argument("suite", metavar="SUITE", help="suite file (YAML)")
     parser.add_argument("--model", metavar="MODEL", help="MJCF/MJB model (default: the suite's 'model:')")
+    add_common_suite_args(parser)
+
+
+def add_common_suite_args(parser: argparse.ArgumentParser, *, every: bool = False) -> None:
+    """--set and --extends-root, shared by every command that loads suites."""
+    which = "in every suite before checking" if every else "a suite key"
     parser.add_argument("--set", dest="overrides", action="append", default=[], type=override,
-                        metavar="KEY=VALUE", help="override a suite key (repeatable), e.g. defaults.buffer=2")
+                        metavar="KEY=VALUE", help=f"override {which} (repeatable), e.g. defaults.buffer=2")
+    parser.add_argument("--extends-root", metavar="DIR", help="let 'extends' name files below DIR (default: only "
+                        "files in the suite's own folder and below; '/' allows any file)")
+
+
+def seed(text: str) -> int:
+    """argparse type for --seed: what numpy's RandomState accepts, 0 to 2**32 - 1."""
+    value = int(text) if text.strip().isascii() and text.strip().lstrip("+").isdigit() else -1
+    if not 0 <= value < 2**32:
+        raise argparse.ArgumentTypeError(f"expected a seed from 0 to {2**32 - 1}, got {printable(text, 40)!r}")
+    return value
 
 
 def positive_int(text: str) -> int:
     try:
         value = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {quote(text)}") from None
     if value < 1:
         raise argparse.ArgumentTypeError(f"expected a positive integer, got {value}")
     return value
@@ -75,9 +95,9 @@ def positive_float(text: str) -> float:
     try:
         value = float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected seconds, e.g. 0.02, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected seconds, e.g. 0.02, got {quote(text)}") from None
     if not value > 0 or value == float("inf"):
-        raise argparse.ArgumentTypeError(f"expected a positive number of seconds, got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected a positive number of seconds, got {quote(text)}")
     return value
 
 
@@ -89,14 +109,34 @@ def require_matplotlib() -> None:
                          "    pip install 'sensorcfg[plot]'\n(or pip install matplotlib)") from None
 
 
+def os_reason(e: OSError) -> str:
+    """An OSError as one line without the path (the caller names the path)."""
+    return {errno.ENAMETOOLONG: "the file name is too long", errno.ELOOP: "a symlink loop"}.get(
+        e.errno or 0, e.strerror or type(e).__name__)
+
+
+def _stat(path: str) -> os.stat_result | None:
+    """The file's status, None when it does not exist; any other failure is a usage error."""
+    try:
+        return os.stat(path)
+    except FileNotFoundError:
+        return None
+    except OSError as e:
+        raise UsageError(f"{printable(path)}: {os_reason(e)}") from None
+    except ValueError:
+        raise UsageError(f"{printable(path)}: the path holds a NUL character") from None
+
+
 def writable(path: str | None) -> Path | None:
     if path is None:
         return None
     p = Path(path)
-    if p.is_dir():
-        raise UsageError(f"{path}: is a directory; give a file name")
-    if not p.parent.is_dir():
-        raise UsageError(f"{path}: the folder {str(p.parent)!r} does not exist")
+    info = _stat(path)
+    if info is not None and stat.S_ISDIR(info.st_mode):
+        raise UsageError(f"{printable(path)}: is a directory; give a file name")
+    parent = _stat(str(p.parent))
+    if parent is None or not stat.S_ISDIR(parent.st_mode):
+        raise UsageError(f"{printable(path)}: the folder {printable(repr(str(p.parent)))} does not exist")
     return p
 
 
@@ -108,12 +148,14 @@ def importable_cwd() -> None:
 
 
 def existing_file(path: str, what: str) -> Path:
-    p = Path(path)
-    if not p.exists():
-        raise UsageError(f"{path}: no such {what}")
-    if p.is_dir():
-        raise UsageError(f"{path}: is a directory, expected a {what}")
-    return p
+    info = _stat(path)
+    if info is None:
+        raise UsageError(f"{printable(path)}: no such {what}")
+    if stat.S_ISDIR(info.st_mode):
+        raise UsageError(f"{printable(path)}: is a directory, expected a {what}")
+    if not stat.S_ISREG(info.st_mode):
+        raise UsageError(f"{printable(path)}: is not a regular file, expected a {what}")
+    return Path(path)
 
 
 def load_model(path: str) -> Any:
@@ -126,12 +168,16 @@ def load_model(path: str) -> Any:
         raise SuiteError(Problem(f"MuJoCo cannot load this model: {str(e).strip()}", file=str(path))) from None
 
 
-def load_suite(path: str, overrides: Sequence[str] = ()) -> Any:
+def load_suite(path: str, overrides: Sequence[str] = (), extends_root: str | None = None) -> Any:
     """The validated suite at `path` (SuiteError for its problems, UsageError when it cannot be read)."""
-    from ..suite import load
+    from ..config import parse_path
+    from ..suite import Suite
 
     existing_file(path, "suite file")
-    return load(path, list(overrides) or None)
+    result = parse_path(path, list(overrides) or None, extends_root=extends_root)
+    if result.unreadable is not None:
+        raise UsageError(f"{printable(path)}: cannot read this suite: {result.unreadable}")
+    return Suite(result.unwrap())
 
 
 def model_path(suite: Any, model: str | None) -> str:
@@ -140,7 +186,7 @@ def model_path(suite: Any, model: str | None) -> str:
         existing_file(model, "model file")
         return model
     if suite.model is None:
-        raise UsageError(f"{suite.file}: the suite names no model; pass --model MODEL.xml or add "
+        raise UsageError(f"{printable(suite.file)}: the suite names no model; pass --model MODEL.xml or add "
                          "'model: path/to/robot.xml' to the suite")
     if not Path(suite.model).is_file():
         pos = suite._loaded.doc.pos(("model",))
@@ -154,12 +200,10 @@ def model_path(suite: Any, model: str | None) -> str:
 _LIBRARIES = ("numpy", "mujoco", "dm_env")
 
 
-def user_code_failure(exc: BaseException) -> list[str] | None:
-    """`path:line: error: ...` lines when `exc` was raised in the user's code called by sensorcfg, else None.
-
-    A generic sensor or a custom noise stage is the user's code: its bug deserves its own file and line,
-    not a traceback through sensorcfg. An exception raised in sensorcfg itself is a sensorcfg bug: None.
-    """
+def _user_frames(exc: BaseException) -> list[Any] | None:
+    """The frames of the user's code (a generic sensor, a custom noise stage) that sensorcfg called and that
+    raised `exc`, outermost first; None when `exc` was raised in sensorcfg itself or in a library (a
+    sensorcfg bug, whose traceback is for us)."""
     import sysconfig
     import traceback
 
@@ -182,7 +226,30 @@ def user_code_failure(exc: BaseException) -> list[str] | None:
     user = [f for f in frames[called[0]:] if not ours(f.filename) and not library(f.filename)]
     if not user or ours(frames[-1].filename):
         return None
-    lines = [f"{f.filename}:{f.lineno}: note: in {f.name}: {(f.line or '').strip()}" for f in user[:-1]]
+    return user
+
+
+def user_code_failure(exc: BaseException) -> list[str] | None:
+    """`path:line: error: ...` lines when `exc` was raised in the user's code called by sensorcfg, else None.
+
+    A generic sensor or a custom noise stage is the user's code: its bug deserves its own file and line,
+    not a traceback through sensorcfg. An exception raised in sensorcfg itself is a sensorcfg bug: None.
+    """
+    user = _user_frames(exc)
+    if user is None:
+        return None
+    lines = [f"{printable(f.filename)}:{f.lineno}: note: in {f.name}: {printable((f.line or '').strip())}"
+             for f in user[:-1]]
     last = user[-1]
-    lines.append(f"{last.filename}:{last.lineno}: error: in {last.name}: {type(exc).__name__}: {exc}")
+    lines.append(f"{printable(last.filename)}:{last.lineno}: error: in {last.name}: {type(exc).__name__}: "
+                 f"{printable(str(exc), 300)}")
     return lines
+
+
+def user_code_problem(exc: BaseException) -> Problem | None:
+    """The user's code that raised `exc` as a problem at its file and line (see `user_code_failure`)."""
+    user = _user_frames(exc)
+    if user is None:
+        return None
+    last = user[-1]
+    return Problem(f"in {last.name}: {type(exc).__name__}: {exc}", file=last.filename, line=last.lineno)

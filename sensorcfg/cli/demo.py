@@ -59,7 +59,7 @@ def command(args: argparse.Namespace) -> int:
             print("note: matplotlib is not installed, so there will be no plot; "
                   "pip install 'sensorcfg[plot]' to get one\n")
             plot = None
-    suite = load_suite(suite_file, args.overrides)
+    suite = load_suite(suite_file, args.overrides, args.extends_root)
     model_file = model_path(suite, args.model)
     settings = settings_from(args)
     spec = build_spec(suite, model_file, control_steps=control_steps(suite, load_model(model_file), settings))

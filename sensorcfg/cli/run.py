@@ -19,8 +19,9 @@ from typing import Any
 import numpy as np
 
 from .._version import __version__
+from ..errors import printable
 from .common import (EXIT_INVALID, EXIT_OK, HelpFormatter, UsageError, add_suite_args, importable_cwd, load_model,
-                     load_suite, model_path, positive_float, positive_int, require_matplotlib, writable)
+                     load_suite, model_path, positive_float, positive_int, require_matplotlib, seed, writable)
 from .describe import SensorRow, describe, naive_samples
 from .report import Progress, table
 
@@ -79,7 +80,8 @@ def add_run_args(p: argparse.ArgumentParser, steps: int, random_actions: bool = 
                        help="physics steps per control step (default: the suite's options.control_interval, else 1)")
     group.add_argument("--control-timestep", type=positive_float, metavar="T",
                        help="seconds per control step, a whole number of physics steps")
-    p.add_argument("--seed", type=int, default=0, metavar="S", help="seed of the episode and the actions (default 0)")
+    p.add_argument("--seed", type=seed, default=0, metavar="S",
+                   help="seed of the episode and the actions, 0 to 2**32-1 (default 0)")
     if random_actions:
         p.add_argument("--zero-actions", dest="random_actions", action="store_false",
                        help="zero controls (default: uniform random controls within each actuator's ctrlrange)")
@@ -120,14 +122,14 @@ class _Built:
 def control_steps(suite: Any, model: Any, settings: Settings) -> int:
     """Physics steps per control step: --substeps, --control-timestep, else the suite's control_interval."""
     from ..env.environment import steps_per_control_step
-    from ..errors import SuiteError
+    from ..errors import ArgumentError
 
     if settings.substeps is None and settings.control_timestep is None:
         return int(suite.updater_kwargs(model)["physics_steps_per_control_step"])
     try:
         return steps_per_control_step(model, settings.substeps, settings.control_timestep)
-    except SuiteError as e:
-        raise UsageError(f"--control-timestep: {e.problems[0].message}") from None
+    except ArgumentError as e:
+        raise UsageError(f"--control-timestep: {e}") from None
 
 
 def make_env(suite: Any, model_file: str, settings: Settings, *, record_timing: bool) -> tuple[Any, dict[str, Any]]:
@@ -268,8 +270,8 @@ def execute(suite: Any, model_file: str, settings: Settings, out: Path | None, p
                    "wall_seconds": rec.wall_seconds, "diverged": rec.diverged}
         side = save(rec, out, sidecar)
         count = len(rec.observations)
-        print(f"\nwrote {out} ({count} observation{'s' if count != 1 else ''} x {rec.steps_done + 1} steps) "
-              f"and {side}")
+        print(f"\nwrote {printable(str(out))} ({count} observation{'s' if count != 1 else ''} x "
+              f"{rec.steps_done + 1} steps) and {printable(str(side))}")
     if plot is not None and not rows:
         print(f"no plot: the suite has no enabled observations to draw ({plot} not written)")
     elif plot is not None:
@@ -277,8 +279,8 @@ def execute(suite: Any, model_file: str, settings: Settings, out: Path | None, p
         from .plot import plot_run
 
         times = timing.timings(observables, rec.steps_done * n, n)
-        plot_run(plot, rec, rows, times, dt, title=title or f"{suite.file} on {Path(model_file).name}")
-        print(f"wrote {plot}")
+        plot_run(plot, rec, rows, times, dt, title=title or printable(f"{suite.file} on {Path(model_file).name}"))
+        print(f"wrote {printable(str(plot))}")
     if rec.diverged:
         print(f"sensorcfg: error: the simulation diverged after {rec.steps_done} control steps ({rec.diverged}); "
               "the run stopped there, and what it recorded is kept", file=sys.stderr)
@@ -294,5 +296,5 @@ def command(args: argparse.Namespace) -> int:
     if args.plot:
         require_matplotlib()
     out, plot = writable(args.out), writable(args.plot)
-    suite = load_suite(args.suite, args.overrides)
+    suite = load_suite(args.suite, args.overrides, args.extends_root)
     return execute(suite, model_path(suite, args.model), settings_from(args), out, plot, args.overrides)

@@ -11,6 +11,7 @@ import json
 from collections.abc import Callable
 from typing import Any
 
+from ..errors import printable
 from .common import EXIT_OK, HelpFormatter, add_suite_args, importable_cwd, load_model, load_suite, model_path
 from .describe import SensorRow, describe
 from .report import table
@@ -37,7 +38,8 @@ class Spec:
         self.timestep = float(model.opt.timestep)
 
     def as_dict(self) -> dict[str, Any]:
-        return {"suite": self.suite.file, "model": self.model_file, "physics_timestep": self.timestep,
+        return {"suite": printable(self.suite.file), "model": printable(self.model_file),
+                "physics_timestep": self.timestep,
                 "physics_steps_per_control_step": self.control_steps,
                 "sensors": [r.as_dict() for r in self.rows], "disabled": self.disabled}
 
@@ -74,7 +76,7 @@ def build_spec(suite: Any, model_file: str, control_steps: int | None = None) ->
 def format_spec(spec: Spec) -> str:
     dt = spec.timestep
     n = spec.control_steps
-    head = (f"{spec.suite.file} on {spec.model_file}\n"
+    head = (f"{printable(spec.suite.file)} on {printable(spec.model_file)}\n"
             f"physics step {dt * 1e3:g} ms; control step {n} physics step{'s' if n != 1 else ''} "
             f"({n * dt * 1e3:g} ms, {1 / (n * dt):.4g} Hz)\n")
     header = ["name", "kind", "elems", "shape", "dtype", "interval", "Hz", "delay", "ms", "buffer", "aggregator",
@@ -95,7 +97,7 @@ REPORTERS: dict[str, Callable[[Spec], str]] = {
 
 
 def command(args: argparse.Namespace) -> int:
-    suite = load_suite(args.suite, args.overrides)
+    suite = load_suite(args.suite, args.overrides, args.extends_root)
     spec = build_spec(suite, model_path(suite, args.model))
     print(REPORTERS[args.format](spec))
     return EXIT_OK

@@ -9,16 +9,20 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import errno
 import json
-from collections.abc import Callable, Iterator, Sequence
+import os
+import stat
+import sys
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
-from ..errors import Problem, SuiteError
-from .common import (EXIT_INVALID, EXIT_OK, HelpFormatter, UsageError, existing_file, importable_cwd, load_model,
-                     override)
+from ..errors import Problem, SuiteError, printable, quote
+from .common import (EXIT_INVALID, EXIT_OK, EXIT_USAGE, HelpFormatter, UsageError, add_common_suite_args,
+                     existing_file, importable_cwd, load_model, os_reason, user_code_problem)
 
-__all__ = ["add_parser", "FileResult", "REPORTERS", "collect", "check_file"]
+__all__ = ["add_parser", "FileResult", "Found", "REPORTERS", "collect", "check_file", "check_isolated"]
 
 SUFFIXES = (".yaml", ".yml")
 
@@ -38,17 +42,18 @@ class FileResult:
     model: str | None  # the model it was checked against, None when checked without one
     problems: list[Problem]
     loaded: bool = True  # False when syntax or schema problems stopped it before the model
+    error: str | None = None  # an I/O error: the path could not be read (reported on its own line, exit 2)
 
     @property
     def valid(self) -> bool:
-        return not self.problems
+        return not self.problems and self.error is None
 
 
 def add_parser(sub: Any, epilog: str) -> None:
     p = sub.add_parser("validate", help="check suites: syntax, schema and (with a model) elements, kinds, units",
                        description="Check sensor suites. Files are checked as given; directories are searched "
-                       "recursively for *.yaml and *.yml (hidden folders skipped).",
-                       epilog=EXAMPLES + "\n\n" + epilog, formatter_class=HelpFormatter)
+                       "recursively for *.yaml and *.yml (hidden folders skipped; each file once, whatever "
+                       "the symlinks).", epilog=EXAMPLES + "\n\n" + epilog, formatter_class=HelpFormatter)
     p.add_argument("paths", nargs="+", metavar="PATH", help="suite files or directories")
     p.add_argument("--model", metavar="MODEL", help="check every suite against this MJCF/MJB model "
                    "(default: each suite's own 'model:')")
@@ -56,59 +61,106 @@ def add_parser(sub: Any, epilog: str) -> None:
     p.add_argument("--import", dest="import_callables", action="store_true",
                    help="import 'generic' and 'custom' callables too (a generic one with noise is called once, "
                    "to learn its shape)")
-    p.add_argument("--set", dest="overrides", action="append", default=[], type=override, metavar="KEY=VALUE",
-                   help="override a key in every suite before checking (repeatable)")
+    add_common_suite_args(p, every=True)
     p.set_defaults(handler=command)
 
 
-def collect(paths: Sequence[str]) -> list[Path]:
-    """The suite files named by `paths`, directories expanded (sorted), each file once."""
-    found: list[Path] = []
+@dataclasses.dataclass
+class Found:
+    """The suite files named by the arguments (each once), and the paths that could not be read."""
+
+    files: list[Path] = dataclasses.field(default_factory=list)
+    errors: list[FileResult] = dataclasses.field(default_factory=list)
+    seen: set[tuple[int, int]] = dataclasses.field(default_factory=set)  # (device, inode) of files and folders
+
+    def once(self, info: os.stat_result) -> bool:
+        key = (info.st_dev, info.st_ino)
+        if key in self.seen:
+            return False
+        self.seen.add(key)
+        return True
+
+    def error(self, path: Path | str, message: str) -> None:
+        self.errors.append(FileResult(str(path), None, [], loaded=False, error=message))
+
+
+def collect(paths: Sequence[str]) -> Found:
+    """The suite files named by `paths`, directories expanded (sorted), each file once. A path named on
+    the command line that does not exist is a usage error; a folder or file below it that cannot be read
+    is listed in `errors` and the rest is still checked."""
+    found = Found()
     for text in paths:
         path = Path(text)
-        if path.is_dir():
-            files = sorted(_walk(path))
-            if not files:
-                raise UsageError(f"{text}: no *.yaml or *.yml files in this directory")
-            found.extend(files)
-        elif path.exists():
-            found.append(path)
-        else:
-            raise UsageError(f"{text}: no such file or directory")
-    return list(dict.fromkeys(found))
+        try:
+            info = os.stat(path)
+        except OSError as e:
+            reason = "no such file or directory" if e.errno == errno.ENOENT else os_reason(e)
+            raise UsageError(f"{printable(text)}: {reason}") from None
+        except ValueError:
+            raise UsageError(f"{printable(text)}: the path holds a NUL character") from None
+        if stat.S_ISDIR(info.st_mode):
+            before = len(found.files) + len(found.errors)
+            if found.once(info):
+                _walk(path, found)
+            if len(found.files) + len(found.errors) == before:
+                raise UsageError(f"{printable(text)}: no *.yaml or *.yml files in this directory")
+        elif found.once(info):
+            found.files.append(path)
+    return found
 
 
-def _walk(root: Path) -> Iterator[Path]:
-    for path in root.iterdir():
-        if path.name.startswith("."):
+def _walk(root: Path, found: Found) -> None:
+    """Suite files below `root`, depth first in name order (a loop, not recursion: folders may nest
+    thousands deep); a folder reached twice (a symlink loop, or two links to one folder) is walked once."""
+    first = len(found.files)
+    stack = [root]
+    while stack:
+        folder = stack.pop()
+        try:
+            entries = sorted(os.scandir(folder), key=lambda e: e.name)
+        except OSError as e:
+            found.error(folder, f"cannot read this folder: {os_reason(e)}")
             continue
-        if path.is_dir():
-            yield from _walk(path)
-        elif path.suffix in SUFFIXES:
-            yield path
-
+        below = []
+        for entry in entries:
+            if entry.name.startswith("."):
+                continue
+            path = folder / entry.name
+            try:
+                is_dir = entry.is_dir()
+                info = os.stat(path) if is_dir or path.suffix in SUFFIXES else None
+            except OSError as e:  # a broken symlink, or one in a loop: a suite name is worth reporting
+                if path.suffix in SUFFIXES:
+                    found.error(path, f"cannot read this file: {os_reason(e)}")
+                continue
+            if info is None or not found.once(info):
+                continue
+            if is_dir:
+                below.append(path)
+            else:
+                found.files.append(path)
+        stack.extend(reversed(below))
+    found.files[first:] = sorted(found.files[first:])  # path order: a folder's files and subfolders by name
 
 def check_file(path: Path, model: tuple[str, Any] | None, overrides: Sequence[str], import_callables: bool,
-               models: dict[str, Any] | None = None) -> FileResult:
+               models: dict[str, Any] | None = None, extends_root: str | None = None) -> FileResult:
     """One suite's problems. `model` is (name, MjModel) from --model, or None for the suite's own `model:`;
     `models` caches the suites' own models by path so a folder of suites for one robot loads it once.
     Sensors that pass the schema are checked against the model even when others do not."""
-    from ..suite import Suite, load
+    from ..config import parse_path
+    from ..suite import Suite
 
-    try:
-        suite = load(path, list(overrides) or None)
-        problems: list[Any] = []
-    except SuiteError as e:
-        partial = getattr(e, "_partial", None)
-        if partial is None or (model is None and partial.model is None):
-            return FileResult(str(path), None, list(e.problems), loaded=False)
-        suite, problems = Suite(partial), list(e.problems)
+    result = parse_path(path, list(overrides) or None, extends_root=extends_root)
+    if result.unreadable is not None:
+        return FileResult(str(path), None, [], loaded=False, error=f"cannot read this suite: {result.unreadable}")
+    problems = list(result.problems)
+    if result.suite is None or (model is None and result.suite.model is None):
+        return FileResult(str(path), None, problems, loaded=result.suite is not None and not problems)
+    suite = Suite(result.suite)
     if model is not None:
         name, target = model
-    elif suite.model is None:
-        return FileResult(str(path), None, problems, loaded=not problems)
     else:
-        name = target = suite.model
+        name = target = cast(str, suite.model)  # checked above
         if models is not None:
             if target not in models:
                 try:
@@ -124,9 +176,21 @@ def check_file(path: Path, model: tuple[str, Any] | None, overrides: Sequence[st
     return FileResult(str(path), name, problems)
 
 
+def check_isolated(path: Path, *args: Any) -> FileResult:
+    """`check_file`, with a failure of user code (a generic sensor or custom noise called with --import) or
+    of sensorcfg itself reported as that file's problem, so one file cannot stop the others' report."""
+    try:
+        return check_file(path, *args)
+    except Exception as e:  # noqa: BLE001 - each file is independent; the failure is reported, not lost
+        problem = user_code_problem(e) or Problem(
+            f"sensorcfg failed on this file ({type(e).__name__}: {quote(str(e), 200)}); this is a bug in sensorcfg: "
+            "please report it with the file", file=str(path))
+        return FileResult(str(path), None, [problem], loaded=False)
+
+
 # -- reporters ------------------------------------------------------------------------------------------
 
-def _summary(results: Sequence[FileResult]) -> dict[str, int]:
+def _summary(results: Sequence[FileResult]) -> dict[str, int]:  # suites read (I/O errors are listed apart)
     return {"files": len(results), "invalid_files": sum(not r.valid for r in results),
             "problems": sum(len(r.problems) for r in results),
             "checked_with_model": sum(r.model is not None for r in results),
@@ -134,12 +198,16 @@ def _summary(results: Sequence[FileResult]) -> dict[str, int]:
 
 
 def report_text(results: Sequence[FileResult]) -> str:
+    """One line per problem and a summary on stdout; I/O errors go to stderr, from `command`."""
+    results = [r for r in results if r.error is None]
     lines = [p.format() for r in results for p in r.problems]
     s = _summary(results)
     files = f"{s['files']} suite{'s' if s['files'] != 1 else ''}"
     no_model = s["without_model"]
     scope = f" ({no_model} without a model: syntax and schema only)" if no_model else ""
-    if s["problems"]:
+    if not results:
+        lines.append("no suite could be read")
+    elif s["problems"]:
         lines.append(f"{s['problems']} problem{'s' if s['problems'] != 1 else ''} in {s['invalid_files']} of "
                      f"{files}{scope}")
     else:
@@ -148,10 +216,12 @@ def report_text(results: Sequence[FileResult]) -> str:
 
 
 def report_json(results: Sequence[FileResult]) -> str:
-    problems = [{"severity": "error", **p.as_dict()} for r in results for p in r.problems]
-    out = {"valid": all(r.valid for r in results), "summary": _summary(results), "problems": problems,
-           "files": [{"path": r.path, "valid": r.valid, "model": r.model, "problems": len(r.problems)}
-                     for r in results]}
+    read = [r for r in results if r.error is None]
+    problems = [{"severity": "error", **p.as_dict()} for r in read for p in r.problems]
+    out = {"valid": all(r.valid for r in results), "summary": _summary(read), "problems": problems,
+           "files": [{"path": printable(r.path), "valid": r.valid, "model": r.model and printable(r.model),
+                      "problems": len(r.problems)} for r in read],
+           "errors": [{"path": printable(r.path), "message": printable(r.error or "")} for r in results if r.error]}
     return json.dumps(out, indent=2)
 
 
@@ -159,11 +229,18 @@ REPORTERS: dict[str, Callable[[Sequence[FileResult]], str]] = {"text": report_te
 
 
 def command(args: argparse.Namespace) -> int:
-    files = collect(args.paths)
+    found = collect(args.paths)
     model = (args.model, load_model(str(existing_file(args.model, "model file")))) if args.model else None
     if args.import_callables:
         importable_cwd()
     models: dict[str, Any] = {}
-    results = [check_file(f, model, args.overrides, args.import_callables, models) for f in files]
+    results = [check_isolated(f, model, args.overrides, args.import_callables, models, args.extends_root)
+               for f in found.files]
+    results += found.errors
     print(REPORTERS[args.format](results))
+    errors = [r for r in results if r.error]
+    for r in errors:
+        print(f"sensorcfg: error: {printable(r.path)}: {printable(r.error or '')}", file=sys.stderr)
+    if errors:
+        return EXIT_USAGE
     return EXIT_OK if all(r.valid for r in results) else EXIT_INVALID

@@ -10,14 +10,14 @@ import json
 from pathlib import Path
 from typing import Any
 
-from .loader import LoadedSuite, load_path, load_text, resolve_model_path
+from .loader import LoadedSuite, LoadResult, load_path, load_text, parse_path, parse_text, resolve_model_path
 from .models import (CameraConfig, ChoiceDraw, DefaultsConfig, OptionsConfig, SensorConfig, SuiteConfig,
                      UniformDraw)
 from .units import to_steps
 
-__all__ = ["CameraConfig", "ChoiceDraw", "DefaultsConfig", "LoadedSuite", "OptionsConfig", "SensorConfig",
-           "SuiteConfig", "UniformDraw", "json_schema", "load_path", "load_text", "resolve_model_path",
-           "schema_text", "to_steps", "write_schema"]
+__all__ = ["CameraConfig", "ChoiceDraw", "DefaultsConfig", "LoadResult", "LoadedSuite", "OptionsConfig",
+           "SensorConfig", "SuiteConfig", "UniformDraw", "json_schema", "load_path", "load_text", "parse_path",
+           "parse_text", "resolve_model_path", "schema_text", "to_steps", "write_schema"]
 
 # Files that `extends` another give partial sensors (only the keys they change), so the editor schema
 # requires no key of a suite or a sensor; `sensorcfg validate` checks that the merged suite is complete.

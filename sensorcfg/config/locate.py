@@ -16,7 +16,7 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 from pydantic_core import ErrorDetails
 
-from ..errors import Problem, did_you_mean
+from ..errors import Problem, did_you_mean, quote
 from .source import Doc, Path_, dotted
 
 __all__ = ["problems_from", "normalize", "model_at", "problem_at"]
@@ -37,6 +37,10 @@ _FORMS = {
     "[key]": "a sensor name starts with a letter or '_' and holds letters, digits, '_', '-' or '/' "
              "(no dots or spaces: names appear in dotted paths)",
 }
+
+# key -> what its upper bound means (limits.py holds the numbers)
+_AT_MOST = {"buffer": "a buffer keeps at most {:,} samples (the latest delivered ones)"}
+_ITEMS = {"sensors": "sensors in a suite"}
 
 # key -> what to write when it is missing
 _MISSING = {
@@ -148,26 +152,31 @@ def _message(error: ErrorDetails, path: Path_, root: type[BaseModel], value: Any
     given = error.get("input")
     name = path[-1] if path else ""
     if kind == "missing":
-        return f"missing required key {name!r}{_MISSING.get(str(name), '')}"
+        return f"missing required key {quote(name)}{_MISSING.get(str(name), '')}"
     if kind == "extra_forbidden":
         model = model_at(root, path[:-1], value)
         fields = list(model.model_fields) if model else []
         allowed = f"; allowed keys: {', '.join(fields)}" if fields else ""
-        return f"unknown key {name!r}{did_you_mean(str(name), fields)}{allowed}"
+        return f"unknown key {quote(name)}{did_you_mean(str(name), fields)}{allowed}"
     if kind == "value_error":
         return str(ctx.get("error", error["msg"]))
     if kind == "literal_error":
         choices = re.findall(r"'([^']*)'", str(ctx.get("expected", ""))) or re.findall(r"\d+", str(ctx.get("expected")))
         label = {"aggregator": "aggregator", "version": "version"}.get(str(name), "value")
-        return (f"unknown {label} {given!r}{did_you_mean(str(given), choices)}; "
+        return (f"unknown {label} {quote(given)}{did_you_mean(str(given), choices)}; "
                 f"use one of: {', '.join(choices)}")
     if kind == "string_pattern_mismatch":
         form = _FORMS.get(str(name), f"expected text matching {ctx.get('pattern')!r}")
-        return f"{form}; got {given!r}"
+        return f"{form}; got {quote(given)}"
+    if kind == "too_long":
+        count = len(given) if isinstance(given, (dict, list)) else ctx.get("actual_length")
+        return f"at most {ctx.get('max_length')} {_ITEMS.get(str(name), 'entries')}; got {count}"
+    if kind == "less_than_equal" and str(name) in _AT_MOST:
+        return f"{_AT_MOST[str(name)].format(next(iter(ctx.values()), '?'))}; got {quote(given)}"
     if kind in ("greater_than_equal", "greater_than", "less_than_equal", "less_than"):
         op = {"greater_than_equal": ">=", "greater_than": ">", "less_than_equal": "<=", "less_than": "<"}[kind]
         bound = next(iter(ctx.values()), "?")
-        return f"expected a value {op} {bound}; got {given!r}"
+        return f"expected a value {op} {bound}; got {quote(given)}"
     if kind in _EXPECTED:
         return f"expected {_EXPECTED[kind]}; got {describe(given)}"
     if str(error["msg"]).startswith("Input should"):
@@ -182,7 +191,7 @@ def describe(value: Any) -> str:
     if isinstance(value, list):
         return "a list"
     if isinstance(value, str):
-        return f"the text {value!r}"
+        return f"the text {quote(value)}"
     if value is None:
         return "null (an empty value)"
     return repr(value)
@@ -199,7 +208,7 @@ def problems_from(error: ValidationError, doc: Doc, root: type[BaseModel], prefi
     for e in error.errors(include_url=False):
         path, is_key = normalize(tuple(e["loc"]), value)
         if is_key:
-            message = f"{_FORMS['[key]']}; got {path[-1]!r}" if path else e["msg"]
+            message = f"{_FORMS['[key]']}; got {quote(path[-1])}" if path else e["msg"]
             out.append(problem_at(doc, prefix + path, message, key=True))
             continue
         message = _message(e, path, root, value)

@@ -15,6 +15,8 @@ from pydantic import (BaseModel, ConfigDict, Field, PlainSerializer, PlainValida
 
 from .noise import NoiseStage
 from .tables import GENERIC_KIND, IMAGE_KINDS, aggregator_names
+from ..errors import quote
+from .limits import MAX_BUFFER, MAX_SCHEDULE_STEPS, MAX_SENSORS
 from .units import TIME_PATTERN, parse_time
 
 __all__ = ["CameraConfig", "ChoiceDraw", "DefaultsConfig", "OptionsConfig", "SensorConfig", "SuiteConfig",
@@ -51,10 +53,12 @@ def _fixed(value: Any, *, rates: bool, minimum: int) -> int | str:
     what = "a rate like '50Hz', " if rates else ""
     if isinstance(value, bool) or not isinstance(value, (int, str)):
         raise ValueError(f"expected integer physics steps, {what}a duration like '4ms', or "
-                         f"{{uniform: [lo, hi]}} / {{choice: [...], p: [...]}}; got {value!r}")
+                         f"{{uniform: [lo, hi]}} / {{choice: [...], p: [...]}}; got {quote(value)}")
     if isinstance(value, int):
         if value < minimum:
             raise ValueError(f"expected at least {minimum} physics step{'s' if minimum != 1 else ''}; got {value}")
+        if value > MAX_SCHEDULE_STEPS:
+            raise ValueError(f"{value} physics steps is more than {MAX_SCHEDULE_STEPS:,}, the most a schedule may take")
         return value
     parse_time(value, rates=rates)
     return value.strip()
@@ -70,7 +74,7 @@ def _schedule(value: Any, *, rates: bool, minimum: int) -> int | str | UniformDr
     if keys == {"uniform"}:
         bounds = value["uniform"]
         if not isinstance(bounds, list) or len(bounds) != 2:
-            raise ValueError(f"uniform takes two bounds, [lo, hi] (inclusive); got {bounds!r}")
+            raise ValueError(f"uniform takes two bounds, [lo, hi] (inclusive); got {quote(bounds)}")
         low, high = (_fixed(b, rates=False, minimum=minimum) for b in bounds)
         if isinstance(low, int) and isinstance(high, int) and low > high:
             raise ValueError(f"uniform bounds must satisfy lo <= hi; got [{low}, {high}]: swap them")
@@ -78,12 +82,12 @@ def _schedule(value: Any, *, rates: bool, minimum: int) -> int | str | UniformDr
     if keys in ({"choice"}, {"choice", "p"}):
         values, p = value["choice"], value.get("p")
         if not isinstance(values, list) or not values:
-            raise ValueError(f"choice takes a non-empty list of values; got {values!r}")
+            raise ValueError(f"choice takes a non-empty list of values; got {quote(values)}")
         fixed = tuple(_fixed(v, rates=False, minimum=minimum) for v in values)
         if p is not None:
             if (not isinstance(p, list) or len(p) != len(values)
                     or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and x >= 0 for x in p)):
-                raise ValueError(f"p takes one non-negative probability per choice ({len(values)}); got {p!r}")
+                raise ValueError(f"p takes one non-negative probability per choice ({len(values)}); got {quote(p)}")
             if abs(sum(p) - 1.0) > 1e-6:
                 raise ValueError(f"the probabilities p must sum to 1; they sum to {sum(p):g}")
             p = tuple(float(x) for x in p)
@@ -94,7 +98,7 @@ def _schedule(value: Any, *, rates: bool, minimum: int) -> int | str | UniformDr
 
 def _time_schema(rates: bool, minimum: int) -> dict[str, Any]:
     pattern = TIME_PATTERN if rates else TIME_PATTERN.replace("|Hz|kHz", "")
-    fixed = [{"type": "integer", "minimum": minimum, "description": "physics steps"},
+    fixed = [{"type": "integer", "minimum": minimum, "maximum": MAX_SCHEDULE_STEPS, "description": "physics steps"},
              {"type": "string", "pattern": pattern,
               "description": "a duration (s, ms, us)" + (" or a rate (Hz, kHz)" if rates else "")}]
     duration = [fixed[0], {"type": "string", "pattern": TIME_PATTERN.replace("|Hz|kHz", "")}]
@@ -134,7 +138,7 @@ ControlInterval = Annotated[int | str, PlainValidator(lambda v: _fixed(v, rates=
 def _selector(value: Any) -> str:
     if not isinstance(value, str) or not _SELECTOR.match(value.strip()):
         raise ValueError(f"an element is written 'type:name' (for example 'joint:elbow', 'site:finger_*'); "
-                         f"got {value!r}")
+                         f"got {quote(value)}")
     return value.strip()
 
 
@@ -154,7 +158,7 @@ def _index(value: Any) -> int | tuple[int, ...] | str:
     if isinstance(value, str) and all(_INDEX_PART.match(part) for part in value.split(",")):
         return value.strip()
     raise ValueError("index takes an integer, a list of integers, or numpy-style slices such as '0:3' or "
-                     f"':, 2'; got {value!r}")
+                     f"':, 2'; got {quote(value)}")
 
 
 def _dump_listlike(value: Any) -> Any:
@@ -196,7 +200,8 @@ _SHARED: dict[str, dict[str, Any]] = {
     "delay": dict(description="Time from sampling to delivery: integer physics steps or a duration; "
                   "{uniform: [lo, hi]} or {choice: [...], p: [...]} draw it per sample. Default 0.",
                   examples=[0, "4ms", {"uniform": [1, 3]}]),
-    "buffer": dict(ge=1, strict=True, description="How many of the latest delivered samples an observation "
+    "buffer": dict(ge=1, le=MAX_BUFFER, strict=True,
+                   description="How many of the latest delivered samples an observation "
                    "holds (a leading axis). Default 1.", examples=[1, 4]),
     "aggregator": dict(description="Reduces the buffer axis: " + ", ".join(aggregator_names()) + ".",
                        examples=["mean"]),
@@ -293,5 +298,5 @@ class SuiteConfig(BaseModel):
                                      description="Applied to every sensor that does not say otherwise.",
                                      examples=[{"buffer": 1, "interval": "4ms"}])
     sensors: dict[SensorName, SensorConfig] = Field(
-        description="The observations, by name, in the order they are returned.",
+        max_length=MAX_SENSORS, description="The observations, by name, in the order they are returned.",
         examples=[{"joint_pos": {"kind": "qpos", "element": "joint:*"}}])

@@ -22,7 +22,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, WrapValidato
 from pydantic.json_schema import SkipJsonSchema
 from pydantic_core import InitErrorDetails, PydanticCustomError
 
-from ..errors import did_you_mean
+from ..errors import did_you_mean, quote
 from .units import DURATION_UNITS, RATE_UNITS
 
 __all__ = ["NoiseStage", "STAGES", "StageInfo", "IMAGE_STAGES", "parse_quantity"]
@@ -32,7 +32,7 @@ PerValue = Union[float, tuple[float, ...]]  # what a validated numeric parameter
 
 # -- numbers, per-value lists and quantities with units -----------------------------------------------
 
-_QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([^\d\s.+-][^\s]*)?\s*$")
+_QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([^\d\s.+-][^\s]*)?\s*$", re.ASCII)
 
 
 def parse_quantity(value: Any, units: Mapping[str, float], what: str) -> float:
@@ -54,10 +54,10 @@ def parse_quantity(value: Any, units: Mapping[str, float], what: str) -> float:
             lowered = {u.lower(): u for u in units}
             hint = (f" (did you mean {lowered[unit.lower()]!r}?)" if unit.lower() in lowered
                     else did_you_mean(unit, units))
-            raise ValueError(f"unknown unit {unit!r} in {value!r}{hint}; "
+            raise ValueError(f"unknown unit {quote(unit)} in {quote(value)}{hint}; "
                              f"a {what} takes {', '.join(units)}")
     raise ValueError(f"expected a {what} such as {_EXAMPLE[what]!r} or a number "
-                     f"({_SI[what]}), got {value!r}")
+                     f"({_SI[what]}), got {quote(value)}")
 
 
 _EXAMPLE = {"duration": "50ms", "frequency": "20Hz"}
@@ -81,13 +81,13 @@ class _Bound:
         elif isinstance(value, numbers.Real) and not isinstance(value, bool):
             x = float(value)
         else:
-            raise ValueError(f"expected a number, got {value!r}")
+            raise ValueError(f"expected a number, got {quote(value)}")
         if not math.isfinite(x):
-            raise ValueError(f"expected a finite number, got {value!r}")
-        for bound, ok, op in ((self.ge, lambda b: x >= b, ">="), (self.gt, lambda b: x > b, ">"),
+            raise ValueError(f"expected a finite number, got {quote(value)}")
+        for bound, ok, op in ((self.gt, lambda b: x > b, ">"), (self.ge, lambda b: x >= b, ">="),
                               (self.le, lambda b: x <= b, "<=")):
             if bound is not None and not ok(bound):
-                raise ValueError(f"{self.meaning} must be {op} {bound:g}, got {value!r}")
+                raise ValueError(f"{self.meaning} must be {op} {bound:g}, got {quote(value)}")
         return x
 
     def __call__(self, value: Any, handler: Any, info: Any) -> PerValue:
@@ -134,7 +134,7 @@ else:
     Real = _per_value("the value")
     Std = _per_value("a standard deviation", ge=0)
     Probability = _per_value("a probability", ge=0, le=1)
-    Step = _per_value("a quantisation step", gt=0)
+    Step = _per_value("a quantisation step", gt=0, ge=1e-100)  # smaller: value / step overflows to inf
     Duration = _per_value("a correlation time", gt=0, units=DURATION_UNITS, quantity="duration")
     Frequency = _per_value("a cutoff frequency", gt=0, units=RATE_UNITS, quantity="frequency")
 
@@ -352,7 +352,7 @@ def _check_callable(value: Any, handler: Any, info: Any) -> Any:
     if isinstance(value, str) and _CALLABLE.match(value):
         return value
     raise PydanticCustomError("noise_callable", "expected 'module:function' (e.g. 'mypkg.noise:corrupt'), got "
-                              f"{value!r}")
+                              f"{quote(value)}")
 
 
 class CustomStage(BaseModel):
@@ -407,14 +407,14 @@ def _dispatch(value: Any, handler: Any, info: Any) -> Any:
         return handler(value)
     if not isinstance(value, Mapping):
         raise PydanticCustomError("noise_stage", f"a noise stage is a mapping with a `type` (one of "
-                                  f"{', '.join(STAGES)}), got {value!r}")
+                                  f"{', '.join(STAGES)}), got {quote(value)}")
     if "type" not in value:
         raise PydanticCustomError("noise_stage", f"a noise stage needs a `type`: one of {', '.join(STAGES)}")
     kind = value["type"]
     row = STAGES.get(kind) if isinstance(kind, str) else None
     if row is None:
         hint = did_you_mean(kind, STAGES) if isinstance(kind, str) else ""
-        raise _at("type", "noise_type", f"unknown noise stage type {kind!r}{hint}; stage types are "
+        raise _at("type", "noise_type", f"unknown noise stage type {quote(kind)}{hint}; stage types are "
                   f"{', '.join(STAGES)}", kind)
     return row.model.model_validate(value, context=info.context)
 

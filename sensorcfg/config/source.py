@@ -2,8 +2,11 @@
 
 Validating a bare dict loses positions, so suites are read with PyYAML's `compose` and turned into plain
 Python values here, recording for every dotted path the file, line and column of its key and its value.
-Only the tags `yaml.safe_load` understands are accepted: a `!!python/...` tag is a problem, never code.
-Duplicate keys (which PyYAML silently lets the last one win) are problems too. No mujoco, no pydantic.
+Only the tags `yaml.safe_load` understands are accepted: a `!!python/...` tag is a problem, never code,
+and a standard tag whose text does not fit it (`!!int abc`) is a problem at its node. Duplicate keys (which
+PyYAML silently lets the last one win) are problems too. Reading is bounded (`limits`): nesting depth,
+values (aliases expanded) and integer digits, so no file can recurse, hang or exhaust memory here. No
+mujoco, no pydantic.
 """
 
 from __future__ import annotations
@@ -14,15 +17,18 @@ from typing import Any
 
 import yaml
 
-from ..errors import Problem, SuiteError
+from ..errors import Problem, SuiteError, printable, quote
+from . import limits
+from .limits import MAX_NODES
 
-__all__ = ["Doc", "Pos", "Path_", "compose", "dotted"]
+__all__ = ["Doc", "Pos", "Path_", "compose", "dotted", "MAX_NODES"]
 
 Path_ = tuple[str | int, ...]
 
 _MERGE = "tag:yaml.org,2002:merge"
 _MAP = "tag:yaml.org,2002:map"
 _SEQ = "tag:yaml.org,2002:seq"
+_INT = "tag:yaml.org,2002:int"
 _SAFE_SCALARS = frozenset(t for t in yaml.SafeLoader.yaml_constructors if t and t not in (_MAP, _SEQ))
 
 
@@ -87,23 +93,63 @@ def _pos(mark: yaml.Mark, file: str, line_offset: int = 0, col_offset: int = 0) 
     return Pos(file, mark.line + 1 + line_offset, col)
 
 
+class _TooLarge(yaml.MarkedYAMLError):
+    """Raised while composing: the text nests too deep or holds too many values."""
+
+
+class _BoundedLoader(yaml.SafeLoader):
+    """PyYAML's safe composer, stopped at `MAX_DEPTH` nested collections and `MAX_NODES` nodes (its
+    composer recurses once per level, so a deeply nested file would otherwise raise RecursionError)."""
+
+    def __init__(self, stream: str):
+        super().__init__(stream)
+        self.depth = 0
+        self.nodes = 0
+
+    def compose_node(self, parent: yaml.Node | None, index: Any) -> yaml.Node | None:  # type: ignore[override]
+        mark = self.peek_event().start_mark
+        self.nodes += 1
+        if self.nodes > limits.MAX_NODES:
+            raise _TooLarge(problem=f"the file holds more than {limits.MAX_NODES:,} values; a suite is far smaller",
+                            problem_mark=mark)
+        self.depth += 1
+        if self.depth > limits.MAX_DEPTH:
+            raise _TooLarge(problem=f"values nest more than {limits.MAX_DEPTH} levels deep; a suite needs about 6",
+                            problem_mark=mark)
+        try:
+            return super().compose_node(parent, index)
+        finally:
+            self.depth -= 1
+
+
+def _compose_node(text: str) -> yaml.Node | None:
+    loader = _BoundedLoader(text)
+    try:
+        return loader.get_single_node()
+    finally:
+        loader.dispose()
+
+
 def compose(text: str, file: str, *, col_offset: int = 0) -> Doc:
-    """Parse one YAML document into a `Doc`; raises SuiteError for invalid YAML.
+    """Parse one YAML document into a `Doc`; raises SuiteError for invalid YAML or a text past the limits.
 
     Disallowed tags and duplicate keys do not stop the walk: they are listed in `Doc.problems` (the node
     is left out) so that the rest of the file is still checked. `col_offset` shifts columns of the first
     line (an override's value starts after `key=`).
     """
     try:
-        node = yaml.compose(text, Loader=yaml.SafeLoader)
+        node = _compose_node(text)
+    except _TooLarge as e:
+        pos = _pos(e.problem_mark, file, col_offset=col_offset) if e.problem_mark else Pos(file, 1, 1)
+        raise SuiteError(pos.problem(str(e.problem))) from None
     except yaml.MarkedYAMLError as e:
         mark = e.problem_mark or e.context_mark
         problem = str(e.problem or e.context).removeprefix("but ")
         what = problem + (f" ({e.context})" if e.problem and e.context else "")
         pos = _pos(mark, file, col_offset=col_offset) if mark else Pos(file, 1, 1)
-        raise SuiteError(pos.problem(f"invalid YAML: {what}")) from None
+        raise SuiteError(pos.problem(f"invalid YAML: {printable(what, 200)}")) from None
     except yaml.YAMLError as e:  # pragma: no cover - PyYAML raises marked errors for text input
-        raise SuiteError(Problem(f"invalid YAML: {e}", file=file)) from None
+        raise SuiteError(Problem(f"invalid YAML: {printable(str(e), 200)}", file=file)) from None
     doc = Doc(None)
     if node is None:
         return doc
@@ -111,11 +157,6 @@ def compose(text: str, file: str, *, col_offset: int = 0) -> Doc:
     doc.value = builder.build(node, ())
     doc.problems.extend(builder.problems)
     return doc
-
-
-# Aliases expand into copies (each copy has its own path and positions), so a few nested aliases could
-# expand into billions of values; a suite is far smaller than this.
-MAX_NODES = 100_000
 
 
 class _Builder:
@@ -129,6 +170,7 @@ class _Builder:
         self.constructor = yaml.SafeLoader("")  # constructs single safe scalars
         self.open: set[int] = set()  # ids of the collections being built (an alias to one is a cycle)
         self.count = 0
+        self.too_deep = False
 
     def pos(self, node: yaml.Node) -> Pos:
         return _pos(node.start_mark, self.file, col_offset=self.col_offset)
@@ -136,11 +178,17 @@ class _Builder:
     def build(self, node: yaml.Node, path: Path_) -> Any:
         self.doc.values[path] = self.pos(node)
         self.count += 1
-        if self.count > MAX_NODES:
-            if self.count == MAX_NODES + 1:
+        if self.count > limits.MAX_NODES:
+            if self.count == limits.MAX_NODES + 1:
                 self.problems.append(self.pos(node).problem(
-                    f"the file expands to more than {MAX_NODES} values (through aliases); write it out plainly",
+                    f"the file expands to more than {limits.MAX_NODES} values (through aliases); write it out plainly",
                     dotted(path)))
+            return None
+        if len(path) > limits.MAX_DEPTH:  # aliases inside aliases nest deeper than the text does
+            if not self.too_deep:
+                self.too_deep = True
+                self.problems.append(self.pos(node).problem(
+                    f"values nest more than {limits.MAX_DEPTH} levels deep (through aliases); a suite needs about 6"))
             return None
         if isinstance(node, yaml.CollectionNode):
             if id(node) in self.open:
@@ -155,7 +203,23 @@ class _Builder:
                 self.open.discard(id(node))
         if node.tag not in _SAFE_SCALARS:
             return self.bad_tag(node, path)
-        return self.constructor.construct_object(node, deep=True)
+        return self.scalar(node, path)
+
+    def scalar(self, node: yaml.Node, path: Path_) -> Any:
+        """A scalar's value by its (safe) tag, or None and a problem when its text does not fit the tag."""
+        tag = node.tag.replace("tag:yaml.org,2002:", "!!")
+        if node.tag == _INT and len(str(node.value).lstrip("+-").replace("_", "")) > limits.MAX_INT_DIGITS:
+            digits = len(str(node.value))
+            self.problems.append(self.pos(node).problem(
+                f"an integer of {digits} digits is too large (at most {limits.MAX_INT_DIGITS}); no setting needs more",
+                dotted(path)))
+            return None
+        try:
+            return self.constructor.construct_object(node, deep=True)
+        except (yaml.YAMLError, ValueError, TypeError, KeyError, AttributeError, OverflowError):
+            self.problems.append(self.pos(node).problem(
+                f"{quote(str(node.value))} is not a valid {tag}; fix it, or quote it to make it text", dotted(path)))
+            return None
 
     def collection(self, node: yaml.CollectionNode, path: Path_) -> Any:
         if isinstance(node, yaml.MappingNode):
@@ -167,7 +231,7 @@ class _Builder:
     def bad_tag(self, node: yaml.Node, path: Path_) -> None:
         tag = node.tag.replace("tag:yaml.org,2002:", "!!")
         self.problems.append(self.pos(node).problem(
-            f"the tag {tag!r} is not allowed: suites hold plain YAML values only (no Python objects); "
+            f"the tag {quote(tag)} is not allowed: suites hold plain YAML values only (no Python objects); "
             "remove the tag", dotted(path)))
         return None
 
@@ -201,14 +265,16 @@ class _Builder:
                 self.problems.append(key_pos.problem("a key must be a plain name, not a list or mapping",
                                                      dotted(path)))
                 continue
-            key = self.constructor.construct_object(key_node)
+            key = self.scalar(key_node, path)
+            if key is None and key_node.tag != "tag:yaml.org,2002:null":
+                continue  # its problem is reported
             if not isinstance(key, str):
                 self.problems.append(key_pos.problem(
-                    f"the key {key!r} must be a name (a string); quote it if it really is one", dotted(path)))
+                    f"the key {quote(key)} must be a name (a string); quote it if it really is one", dotted(path)))
                 continue
             if key in first:
                 self.problems.append(key_pos.problem(
-                    f"duplicate key {key!r} (first written at line {first[key].line}); "
+                    f"duplicate key {quote(key)} (first written at line {first[key].line}); "
                     "a key may appear once per mapping: merge the two", dotted(path + (key,))))
                 continue
             first[key] = key_pos

@@ -9,6 +9,10 @@ from __future__ import annotations
 
 import math
 import re
+import warnings
+
+from ..errors import quote
+from .limits import MAX_SCHEDULE_STEPS
 
 __all__ = ["DURATION_UNITS", "RATE_UNITS", "parse_time", "to_steps", "format_seconds", "TIME_PATTERN"]
 
@@ -17,9 +21,12 @@ DURATION_UNITS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-
 # unit -> hertz per unit
 RATE_UNITS: dict[str, float] = {"Hz": 1.0, "kHz": 1e3}
 
-_NUMBER = r"(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?"
-_TEXT = re.compile(rf"\A\s*({_NUMBER})\s*([a-zA-Zµ]+)\s*\Z")
-TIME_PATTERN = rf"^\s*{_NUMBER}\s*(?:{'|'.join(DURATION_UNITS)}|{'|'.join(RATE_UNITS)})\s*$"
+# ASCII digits and spaces only, so the schema's pattern (ECMAScript) and this parser agree, and '٤ms' or a
+# line separator is not read as a time.
+_NUMBER = r"(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?"
+_SP = r"[ \t]*"
+_TEXT = re.compile(rf"\A{_SP}({_NUMBER}){_SP}([a-zA-Zµ]+){_SP}\Z")
+TIME_PATTERN = rf"^{_SP}{_NUMBER}{_SP}(?:{'|'.join(DURATION_UNITS)}|{'|'.join(RATE_UNITS)}){_SP}$"
 
 _RELATIVE_TOLERANCE = 1e-9
 
@@ -30,8 +37,10 @@ def parse_time(text: str, *, rates: bool) -> tuple[float, str, str]:
     units = list(DURATION_UNITS) + (list(RATE_UNITS) if rates else [])
     examples = "'4ms', '0.02s', '500us'" + (", '50Hz'" if rates else "")
     if not match:
-        raise ValueError(f"expected physics steps (an integer) or a time like {examples}; got {text!r}")
+        raise ValueError(f"expected physics steps (an integer) or a time like {examples}; got {quote(text)}")
     number, unit = float(match.group(1)), match.group(2)
+    if not math.isfinite(number):
+        raise ValueError(f"{quote(text)} is not a finite number; use a time like {examples}")
     if unit not in units:
         hint = ""
         lowered = {u.lower(): u for u in units}
@@ -39,10 +48,10 @@ def parse_time(text: str, *, rates: bool) -> tuple[float, str, str]:
             hint = f" (did you mean {lowered[unit.lower()]!r}?)"
         elif unit in RATE_UNITS:
             hint = " (a delay is a duration, not a rate)"
-        raise ValueError(f"unknown time unit {unit!r} in {text!r}{hint}; use one of {', '.join(units)}")
+        raise ValueError(f"unknown time unit {quote(unit)} in {quote(text)}{hint}; use one of {', '.join(units)}")
     kind = "rate" if unit in RATE_UNITS else "duration"
     if kind == "rate" and number <= 0:
-        raise ValueError(f"a rate must be positive; got {text!r}")
+        raise ValueError(f"a rate must be positive; got {quote(text)}")
     return number, unit, kind
 
 
@@ -60,15 +69,24 @@ def format_seconds(seconds: float) -> str:
     raise AssertionError("unreachable")
 
 
-def to_steps(value: int | str, timestep: float, *, minimum: int) -> int:
-    """Physics steps for an integer, a duration or a rate; ValueError names the nearest valid values."""
+def to_steps(value: int | str, timestep: float, *, minimum: int, maximum: int = MAX_SCHEDULE_STEPS) -> int:
+    """Physics steps for an integer, a duration or a rate; ValueError names the nearest valid values, or
+    the bound when the value is more than `maximum` steps."""
     if isinstance(value, int):
+        if value > maximum:
+            raise ValueError(f"{value} physics steps is more than {maximum:,}, the most a schedule may take")
         return value
     number, unit, kind = parse_time(value, rates=True)
-    if kind == "rate":
-        exact = 1.0 / (number * RATE_UNITS[unit] * timestep)
-    else:
-        exact = number * DURATION_UNITS[unit] / timestep
+    with warnings.catch_warnings():  # a rate of 1e-300Hz overflows to inf, which is reported below
+        warnings.simplefilter("ignore", RuntimeWarning)
+        if kind == "rate":
+            exact = 1.0 / (number * RATE_UNITS[unit] * timestep) if number * RATE_UNITS[unit] * timestep else math.inf
+        else:
+            exact = number * DURATION_UNITS[unit] / timestep
+    if not exact <= maximum:
+        spelled = f"{exact:.3g}" if math.isfinite(exact) else "infinitely many"
+        raise ValueError(f"{value} is {spelled} physics steps of {format_seconds(timestep)}; a schedule may take at "
+                         f"most {maximum:,} steps")
     nearest = round(exact)
     if math.isclose(exact, nearest, rel_tol=_RELATIVE_TOLERANCE, abs_tol=1e-9) and nearest >= minimum:
         return int(nearest)

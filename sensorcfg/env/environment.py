@@ -20,7 +20,7 @@ import mujoco
 import numpy as np
 from dm_env import specs
 
-from ..errors import SuiteError
+from ..errors import ArgumentError, SuiteError
 from ..physics import Physics, read_model
 from ..runtime.updater import Updater
 from .episode import episode_end
@@ -65,16 +65,16 @@ def steps_per_control_step(model: mujoco.MjModel, steps: int | None, control_tim
         n = round(ratio)
         if n < 1 or not math.isclose(ratio, n, rel_tol=1e-9, abs_tol=1e-9):
             lo, hi = max(1, math.floor(ratio)), max(1, math.ceil(ratio))
-            raise SuiteError(f"control_timestep {control_timestep}s is not a whole number of {dt}s physics steps; "
-                             f"use {lo * dt:g}s or {hi * dt:g}s")
+            raise ArgumentError(f"control_timestep {control_timestep}s is not a whole number of {dt}s physics steps; "
+                                f"use {lo * dt:g}s or {hi * dt:g}s")
         if steps is not None and steps != n:
-            raise SuiteError(f"physics_steps_per_control_step={steps} disagrees with control_timestep="
-                             f"{control_timestep}s ({n} steps of {dt}s); give one of them")
+            raise ArgumentError(f"physics_steps_per_control_step={steps} disagrees with control_timestep="
+                                f"{control_timestep}s ({n} steps of {dt}s); give one of them")
         return n
     if steps is None:
         return 1
     if not isinstance(steps, int) or isinstance(steps, bool) or steps < 1:
-        raise SuiteError(f"physics_steps_per_control_step must be a positive integer, got {steps!r}")
+        raise ArgumentError(f"physics_steps_per_control_step must be a positive integer, got {steps!r}")
     return steps
 
 
@@ -90,7 +90,7 @@ def episode_timing(model: mujoco.MjModel, steps: int | None, control_timestep: f
     n = steps_per_control_step(model, steps, control_timestep)
     dt = n * float(model.opt.timestep)
     if time_limit is not None and not time_limit > 0:
-        raise SuiteError(f"time_limit must be positive seconds, got {time_limit!r}")
+        raise ArgumentError(f"time_limit must be positive seconds, got {time_limit!r}")
     return n, dt, None if time_limit is None else max(1, round(time_limit / dt))
 
 
@@ -259,8 +259,8 @@ class Environment(ControlLoop, dm_env.Environment):
     def _check_action(self, action: Any) -> np.ndarray:
         action = np.asarray(action, dtype=np.float64)
         if action.shape != (self._model.nu,):
-            raise SuiteError(f"action must have shape ({self._model.nu},) (one control per actuator), "
-                             f"got {action.shape}")
+            raise ArgumentError(f"action must have shape ({self._model.nu},) (one control per actuator), "
+                                f"got {action.shape}")
         return action
 
     def _warnings(self) -> int:

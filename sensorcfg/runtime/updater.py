@@ -16,7 +16,7 @@ import numpy as np
 from dm_env import specs
 
 from ..draws import episode_entropy
-from ..errors import SuiteError
+from ..errors import ArgumentError, SuiteError
 from ..observables.aggregators import preserves_bounds
 from .mujoco_structs import structs_of as raw_structs
 from .bank import BankMember, FeatureBank, buffer_view, fields_of, qualifies
@@ -83,11 +83,11 @@ class Updater:
         nested = isinstance(observables, (list, tuple))
         valid = all(isinstance(o, Mapping) for o in observables) if nested else isinstance(observables, Mapping)
         if not valid:
-            raise SuiteError("`observables` must be a dict, or a list or tuple of dicts, of observables; "
+            raise ArgumentError("`observables` must be a dict, or a list or tuple of dicts, of observables; "
                              f"got {type(observables).__name__}")
         substeps = physics_steps_per_control_step
         if not isinstance(substeps, numbers.Integral) or isinstance(substeps, bool) or substeps < 1:
-            raise SuiteError(f"physics_steps_per_control_step must be a positive integer, got {substeps!r}")
+            raise ArgumentError(f"physics_steps_per_control_step must be a positive integer, got {substeps!r}")
         self._observables: Any = observables
         self._nested: bool = nested
         self._substeps: int = int(substeps)

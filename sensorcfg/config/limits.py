@@ -1,0 +1,22 @@
+"""How large a suite may be: every bound on input in one table, so reading any file ends quickly.
+
+A suite is a few kilobytes written by hand; these limits are far above any real one and far below what
+would make `validate` (a pre-commit hook, run in CI on files from pull requests) hang or exhaust memory.
+Each is reported as the problem it is, at the line that passes it. docs/cli.md lists them.
+"""
+
+from __future__ import annotations
+
+__all__ = ["MAX_FILE_BYTES", "MAX_DEPTH", "MAX_NODES", "MAX_INT_DIGITS", "MAX_SENSORS", "MAX_BUFFER", "MAX_OBSERVATION_BYTES",
+           "MAX_SCHEDULE_STEPS", "MAX_EXTENDS", "MAX_OVERRIDE_BYTES"]
+
+MAX_FILE_BYTES = 1 << 20  # one suite file (1 MiB)
+MAX_OVERRIDE_BYTES = 64 << 10  # one --set KEY=VALUE
+MAX_DEPTH = 64  # nested mappings and lists (a suite needs about 6)
+MAX_NODES = 100_000  # values in a file, aliases expanded
+MAX_INT_DIGITS = 30  # digits of an integer (int64 has 19)
+MAX_SENSORS = 1_000  # sensors in one suite
+MAX_BUFFER = 10_000  # samples a sensor's buffer keeps
+MAX_OBSERVATION_BYTES = 1 << 30  # one observation: buffer x one sample (a camera's frames), 1 GiB
+MAX_SCHEDULE_STEPS = 1_000_000  # physics steps of an interval, a delay or a control step
+MAX_EXTENDS = 32  # files in one chain of `extends`
