@@ -24,12 +24,17 @@ from ..errors import SuiteError
 from ..physics import Physics, read_model
 from ..runtime.updater import Updater
 
-__all__ = ["ControlLoop", "Environment", "make_env", "load_model", "random_state_from", "steps_per_control_step"]
+__all__ = ["NOT_COPYABLE", "ControlLoop", "Environment", "make_env", "load_model", "random_state_from", "steps_per_control_step"]
 
 _BAD_STATE = np.array([int(getattr(mujoco.mjtWarning, f"mjWARN_BAD{w}")) for w in ("QPOS", "QVEL", "QACC", "CTRL")])
 RewardFn = Callable[[Physics], float]
 TerminationFn = Callable[[Physics], bool]
 InitializeFn = Callable[[Physics, np.random.RandomState], None]
+# copy.copy, copy.deepcopy and pickle: sensors hold their own physics' MjData (and GL renderers), so a copy
+# would read the original's physics; say so instead of returning one.
+NOT_COPYABLE = ("a {0} cannot be copied or pickled: its sensors are bound to its own MjData and renderers, so a "
+                "copy would read the original's physics; build another {0} from the same model and suite (and "
+                "copy the state with mujoco.mj_copyData(new.physics.data, model, old.physics.data) if needed)")
 
 
 def random_state_from(seed: int | np.random.SeedSequence | np.random.RandomState | None) -> np.random.RandomState:
@@ -222,6 +227,7 @@ class Environment(ControlLoop, dm_env.Environment):
         mujoco.mj_forward(model, data)
 
     def reset(self) -> dm_env.TimeStep:
+        self._needs_reset = True  # until this reset completes (an `initialize_episode` may raise)
         self._reset_physics(self._random_state)
         self._updater.reset(self._physics, self._random_state)
         self._steps = 0
@@ -231,10 +237,21 @@ class Environment(ControlLoop, dm_env.Environment):
         return dm_env.restart(self._updater.get_observation())
 
     def step(self, action: Any) -> dm_env.TimeStep:
+        """One control step. An exception raised during it (by a generic sensor, custom noise, `reward_fn` or
+        `termination_fn`) propagates and ends the episode: the physics and the sensors' buffers are left
+        mid-step, so the next `step` starts a new episode (returns FIRST), as after a LAST step."""
         if self._needs_reset:
             return self.reset()
+        ctrl = self._check_action(action)  # a bad action changes nothing
+        try:
+            return self._step(ctrl)
+        except BaseException:
+            self._needs_reset = True
+            raise
+
+    def _step(self, ctrl: np.ndarray) -> dm_env.TimeStep:
         data = self._physics.data
-        data.ctrl[:] = self._check_action(action)
+        data.ctrl[:] = ctrl
         updater, model = self._updater, self._model
         updater.prepare_for_next_control_step()
         for _ in range(self._n):
@@ -247,7 +264,7 @@ class Environment(ControlLoop, dm_env.Environment):
         if divergence is not None:
             self.last_divergence = divergence
             warnings.warn(f"sensorcfg: the simulation diverged at t={data.time:.4f}s ({divergence}); "
-                          "the episode ends here (discount 0)", RuntimeWarning, stacklevel=2)
+                          "the episode ends here (discount 0)", RuntimeWarning, stacklevel=3)
             self._needs_reset = True
             return dm_env.termination(reward, observation)
         if self._termination_fn is not None and self._termination_fn(self._physics):
@@ -280,6 +297,15 @@ class Environment(ControlLoop, dm_env.Environment):
 
     def close(self) -> None:
         pass
+
+    def __reduce_ex__(self, protocol: Any) -> Any:
+        raise TypeError(NOT_COPYABLE.format(type(self).__name__))
+
+    def __copy__(self) -> Any:
+        raise TypeError(NOT_COPYABLE.format(type(self).__name__))
+
+    def __deepcopy__(self, memo: Any) -> Any:
+        raise TypeError(NOT_COPYABLE.format(type(self).__name__))
 
 
 def make_env(suite_path: str | os.PathLike, model: mujoco.MjModel | str | os.PathLike | None = None,
