@@ -47,6 +47,7 @@ class _Binder:
     suite: LoadedSuite
     model: mujoco.MjModel
     import_callables: bool
+    call_callables: bool  # building (not checking): a generic sensor with noise is called once for its shape
     problems: list[Problem] = dataclasses.field(default_factory=list)
 
     # -- where a key came from, and problems there --------------------------------------------
@@ -231,13 +232,17 @@ class _Binder:
 
     def generic(self, name: str, cfg: SensorConfig, timing: dict[str, Any]) -> tuple[Observable, Any, Any] | None:
         assert cfg.callable is not None
+        path = ("sensors", name, "callable")
+        pos = self.suite.doc.pos(path)
+        loc = ".".join(path)
+        origin = pos.problem("", loc) if pos else Problem("", loc, self.suite.file)
         if not self.import_callables:
-            return Generic(_not_imported(cfg.callable), **timing), None, None
-        fn = self.import_callable(cfg.callable, ("sensors", name, "callable"))
+            return Generic(_not_imported(cfg.callable), origin=origin, **timing), None, None
+        fn = self.import_callable(cfg.callable, path)
         if fn is None:
             return None
         shape = dtype = None
-        if cfg.noise:  # the noise needs the value's shape: read it from one call on a fresh state
+        if cfg.noise and self.call_callables:  # the noise needs the value's shape: one call on a fresh state
             physics = Physics(self.model)
             mujoco.mj_forward(physics.model, physics.data)
             try:
@@ -247,7 +252,7 @@ class _Binder:
                             f"{type(e).__name__}: {e}")
                 return None
             shape, dtype = probe.shape, probe.dtype
-        return Generic(fn, **timing), shape, dtype
+        return Generic(fn, origin=origin, **timing), shape, dtype
 
     def import_callable(self, text: str, path: Path_) -> Callable[..., Any] | None:
         module_name, _, attr = text.partition(":")
@@ -292,10 +297,13 @@ def _index(value: Any) -> Any:
     return parts[0] if len(parts) == 1 else tuple(parts)
 
 
-def bind(suite: LoadedSuite, model: mujoco.MjModel, *, import_callables: bool) -> tuple[
+def bind(suite: LoadedSuite, model: mujoco.MjModel, *, import_callables: bool, call_callables: bool = True) -> tuple[
         dict[str, Observable], list[Problem]]:
-    """Observables for every sensor of `suite` (file order) and every problem found on the way."""
-    binder = _Binder(suite, model, import_callables)
+    """Observables for every sensor of `suite` (file order) and every problem found on the way.
+
+    With `call_callables` false (checking), no user callable is called: a generic sensor's noise, which
+    needs the shape of its value, is then built (and its shape-dependent mistakes found) only by a build."""
+    binder = _Binder(suite, model, import_callables, call_callables)
     observables: dict[str, Observable] = {}
     for name, cfg in suite.sensors.items():
         try:

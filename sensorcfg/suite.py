@@ -87,10 +87,12 @@ class Suite:
             message = f"cannot load the model {str(path)!r}: {str(e).strip()}"
             raise SuiteError(pos.problem(message, "model") if pos else Problem(message, file=str(path))) from None
 
-    def _bind(self, model: ModelLike, import_callables: bool) -> tuple[dict[str, Observable], list[Problem]]:
+    def _bind(self, model: ModelLike, import_callables: bool, call_callables: bool = True) -> tuple[
+            dict[str, Observable], list[Problem]]:
         from .binding import bind
 
-        return bind(self._loaded, self._mjmodel(model), import_callables=import_callables)
+        return bind(self._loaded, self._mjmodel(model), import_callables=import_callables,
+                    call_callables=call_callables)
 
     def build(self, model: ModelLike = None, *, import_callables: bool = True) -> dict[str, Observable]:
         """The observables of every sensor, in file order, with their `enabled` flags set.
@@ -107,10 +109,10 @@ class Suite:
     def check(self, model: ModelLike = None, *, import_callables: bool = False) -> list[Problem]:
         """Every problem of the suite against `model` (empty when it builds); never raises for a mistake.
 
-        `generic` callables are not imported unless `import_callables` is true.
+        `generic` and `custom` callables are not imported unless `import_callables` is true, and never called.
         """
         try:
-            return self._bind(model, import_callables)[1]
+            return self._bind(model, import_callables, call_callables=False)[1]
         except SuiteError as e:
             return list(e.problems)
 

@@ -54,8 +54,7 @@ def add_parser(sub: Any, epilog: str) -> None:
                    "(default: each suite's own 'model:')")
     p.add_argument("--format", choices=sorted(REPORTERS), default="text", help="output format (default: text)")
     p.add_argument("--import", dest="import_callables", action="store_true",
-                   help="import 'generic' and 'custom' callables too (a generic one with noise is called once, "
-                   "to learn its shape)")
+                   help="import 'generic' and 'custom' callables too (imported, never called)")
     p.add_argument("--set", dest="overrides", action="append", default=[], type=override, metavar="KEY=VALUE",
                    help="override a key in every suite before checking (repeatable)")
     p.set_defaults(handler=command)

@@ -22,6 +22,7 @@ from dm_env import specs
 from ..draws import ChoiceSteps, UniformSteps
 from ..errors import SuiteError
 from ..observables.aggregators import AGGREGATORS, preserves_bounds
+from ..noise.bounds import noisy_bounds
 from .handle import structs_of as raw_structs
 from .bank import BankMember, FeatureBank, qualifies
 from .channels import FixedChannel, RandomChannel
@@ -322,11 +323,13 @@ class Updater:
 def _spec(name: str, observable: Any, ch: _Reader) -> specs.Array:
     array_spec = observable.array_spec
     aggregator = observable.aggregator
-    if aggregator is None and array_spec is not None:
+    noise = getattr(observable, "noise", None)
+    if aggregator is None and array_spec is not None and noise is None:
         return array_spec.replace(name=name, shape=ch.buffered_shape)
     bounds = None
     if isinstance(array_spec, specs.BoundedArray):
         bounds = (array_spec.minimum, array_spec.maximum)
+    bounds = noisy_bounds(noise, bounds)  # the bounds every noisy sample keeps (sensorcfg.noise.bounds)
     shape, dtype = ch.buffered_shape, ch.dtype
     if aggregator is not None:
         aggregated = np.asarray(aggregator(np.zeros(ch.buffered_shape, dtype=ch.dtype)))
