@@ -9,6 +9,8 @@ from __future__ import annotations
 import atexit
 import os
 import sys
+import threading
+import warnings
 import weakref
 from collections.abc import Callable, Mapping
 from typing import Any, Literal
@@ -17,6 +19,7 @@ import mujoco
 import numpy as np
 from dm_env import specs
 
+from .. import _gl
 from ..errors import SuiteError, did_you_mean
 from ..physics import raw_structs
 from .base import Observable
@@ -35,8 +38,11 @@ SCENE_FLAGS: dict[str, int] = {
     name[len("mjVIS_"):].lower(): int(getattr(mujoco.mjtVisFlag, name))
     for name in mujoco.mjtVisFlag.__members__ if name != "mjVIS_NUMVISFLAG"}
 
-_RENDERERS: weakref.WeakKeyDictionary[mujoco.MjModel, dict[tuple[int, int], mujoco.Renderer]] = (
+# per model: (width, height, thread) -> renderer. A renderer is used by one thread at a time, its own; no GL
+# context stays current after a frame, so one made in a thread that has ended is reused or closed from any.
+_RENDERERS: weakref.WeakKeyDictionary[mujoco.MjModel, dict[tuple[int, int, int], mujoco.Renderer]] = (
     weakref.WeakKeyDictionary())
+_LOCK = threading.Lock()  # guards the pools and context creation (EGL initialises its display once)
 
 
 def _follow_mujoco_gl() -> None:
@@ -56,19 +62,39 @@ def _follow_mujoco_gl() -> None:
         gl_context.GLContext = GLContext
 
 
+def check_size(model: mujoco.MjModel, width: int, height: int) -> str | None:
+    """Why a width x height image cannot be rendered with the model's offscreen buffer, or None."""
+    offwidth, offheight = model.vis.global_.offwidth, model.vis.global_.offheight
+    if width <= offwidth and height <= offheight:
+        return None
+    return (f"a {width}x{height} camera image exceeds the model's offscreen buffer ({offwidth}x{offheight}); "
+            f"add <visual><global offwidth=\"{max(width, offwidth)}\" offheight=\"{max(height, offheight)}\"/>"
+            "</visual> to the model or ask for a smaller image")
+
+
 def _renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
-    pool = _RENDERERS.setdefault(model, {})
-    renderer = pool.get((width, height))
-    if renderer is None:
-        _follow_mujoco_gl()
-        offwidth, offheight = model.vis.global_.offwidth, model.vis.global_.offheight
-        if width > offwidth or height > offheight:
-            raise SuiteError(
-                f"a {width}x{height} camera image exceeds the model's offscreen buffer ({offwidth}x{offheight}); "
-                f"add <visual><global offwidth=\"{max(width, offwidth)}\" offheight=\"{max(height, offheight)}\"/>"
-                "</visual> to the model or ask for a smaller image")
-        renderer = pool[(width, height)] = mujoco.Renderer(model, height=height, width=width)
-        _close_at_exit()
+    """This thread's renderer for the model and size."""
+    key = (width, height, threading.get_ident())
+    pool = _RENDERERS.get(model)
+    renderer = None if pool is None else pool.get(key)
+    if renderer is not None:
+        return renderer
+    problem = check_size(model, width, height)
+    if problem is not None:
+        raise SuiteError(problem)
+    with _LOCK:
+        if _gl.import_failure is not None:
+            raise SuiteError(_gl.gl_error())
+        try:
+            _follow_mujoco_gl()
+            with warnings.catch_warnings():  # GLFW warns before it fails: the error says it all, once
+                warnings.simplefilter("ignore")
+                renderer = mujoco.Renderer(model, height=height, width=width)
+        except Exception as e:  # noqa: BLE001 - no usable GL: ImportError, FatalError, EGLError, no Renderer...
+            raise SuiteError(_gl.gl_error(e)) from None
+        _gl.release_current(renderer._gl_context)
+        _RENDERERS.setdefault(model, {})[key] = renderer
+    _close_at_exit()
     return renderer
 
 
@@ -84,11 +110,21 @@ def _close_at_exit() -> None:
 
 
 def close_renderers() -> None:
-    """Release every shared renderer (they are recreated on demand)."""
-    for pool in list(_RENDERERS.values()):
-        for renderer in pool.values():
+    """Release every shared renderer, of every thread (they are recreated on demand)."""
+    with _LOCK:
+        renderers = [r for pool in list(_RENDERERS.values()) for r in pool.values()]
+        for pool in list(_RENDERERS.values()):
+            pool.clear()
+    for renderer in renderers:
+        context = renderer._gl_context
+        try:
+            if context is not None:
+                context.make_current()  # MuJoCo 3 frees its GL objects without making it current
             renderer.close()
-        pool.clear()
+        except Exception:  # noqa: BLE001 - a context current in a thread that is rendering now: leave it
+            continue
+        finally:
+            _gl.release_current(context)
 
 
 def _scene_option(value: mujoco.MjvOption | Mapping[str, bool] | None) -> mujoco.MjvOption | None:
@@ -157,11 +193,13 @@ class Camera(Observable):
     def _callable(self, physics: Any) -> Callable[[], np.ndarray]:
         model, data = raw_structs(physics)
         cam = self.camera_id(model)
-        renderer = _renderer(model, self._width, self._height)
+        width, height = self._width, self._height
+        _renderer(model, width, height)  # fail at binding, not at the first frame
         depth, segmentation = self._mode == "depth", self._mode == "segmentation"
         option = self._scene_option
 
         def render() -> np.ndarray:
+            renderer = _renderer(model, width, height)  # the calling thread's
             if depth:
                 renderer.enable_depth_rendering()
             elif segmentation:
@@ -170,7 +208,10 @@ class Camera(Observable):
                 renderer.disable_depth_rendering()
                 renderer.disable_segmentation_rendering()
             renderer.update_scene(data, camera=cam, scene_option=option)
-            pixels = renderer.render()
+            try:
+                pixels = renderer.render()
+            finally:
+                _gl.release_current(renderer._gl_context)
             return pixels[..., None] if depth else pixels
 
         return render
