@@ -27,7 +27,7 @@ from .errors import Problem, SuiteError, did_you_mean
 from .kinds import kinds_of
 from .noise import build_noise
 from .observables import Camera, Feature, Generic, Observable
-from .observables.camera import MODES, SCENE_FLAGS
+from .observables.camera import MAX_SIDE, MODES, SCENE_FLAGS, default_size
 from .observables.feature import feature_index
 from .physics import Physics
 from .selection import select, split_selector
@@ -38,7 +38,8 @@ Schedule = int | Callable[..., int] | None
 
 
 def scene_flags() -> tuple[str, ...]:
-    """The names `camera.scene` accepts: mjtVisFlag without the `mjVIS_` prefix, lower case."""
+    """The names `camera.scene` accepts: render flags (mjtRndFlag) and visualisation flags (mjtVisFlag), lower
+    case without prefix."""
     return tuple(SCENE_FLAGS)
 
 
@@ -208,13 +209,19 @@ class _Binder:
         if not self.selection(name, cfg):
             return None
         assert cfg.camera is not None  # filled in by the loader for image kinds
-        width, height = cfg.camera.width, cfg.camera.height
+        own = default_size(self.model, select(self.model, cfg.element).ids[0])  # its MJCF resolution, or 320x240
+        width, height = cfg.camera.width or own[0], cfg.camera.height or own[1]
         vis = self.model.vis.global_
         for key, size, limit, attr in (("width", width, vis.offwidth, "offwidth"),
                                        ("height", height, vis.offheight, "offheight")):
-            if size > limit:
-                self.report(self.origin(name, "camera") + (key,),
-                            f"a {key} of {size} exceeds the model's offscreen buffer ({limit}); use at most "
+            given = getattr(cfg.camera, key) is not None
+            where = self.origin(name, "camera") + (key,) if given else ("sensors", name, "element")
+            what = f"a {key} of {size}" if given else f"the camera's resolution {key} of {size}"
+            if size > MAX_SIDE:
+                self.report(where, f"{what} is larger than OpenGL framebuffers allow ({MAX_SIDE} pixels a side in "
+                            "Mesa and on most GPUs); ask for a smaller image")
+            elif size > limit:
+                self.report(where, f"{what} exceeds the model's offscreen buffer ({limit}); use at most "
                             f"{limit} or add <visual><global {attr}=\"{size}\"/></visual> to the model")
         flags = scene_flags()
         for flag in cfg.camera.scene:

@@ -13,7 +13,7 @@ import threading
 import warnings
 import weakref
 from collections.abc import Callable, Mapping
-from typing import Any, Literal
+from typing import Any, Literal, cast
 
 import mujoco
 import numpy as np
@@ -33,10 +33,27 @@ MODES: dict[str, tuple[int, type, float, float]] = {
     "segmentation": (2, np.int32, -1, np.iinfo(np.int32).max),
 }
 
-# scene flags a camera accepts: mjtVisFlag names without the `mjVIS_` prefix, lower case -> enum value
-SCENE_FLAGS: dict[str, int] = {
-    name[len("mjVIS_"):].lower(): int(getattr(mujoco.mjtVisFlag, name))
-    for name in mujoco.mjtVisFlag.__members__ if name != "mjVIS_NUMVISFLAG"}
+# Scene flags a camera accepts, by lower-case name without prefix: MuJoCo's render flags (mjtRndFlag, in the
+# scene: shadow, reflection, skybox, ...; the ones the image mode sets are not offered) and visualisation
+# flags (mjtVisFlag, in MjvOption). name -> (table, index); `_MODE_FLAGS` are the mode's own.
+_MODE_FLAGS = ("mjRND_DEPTH", "mjRND_SEGMENT", "mjRND_IDCOLOR")
+SCENE_FLAGS: dict[str, tuple[str, int]] = {
+    **{name[len("mjRND_"):].lower(): ("render", int(value)) for name, value in mujoco.mjtRndFlag.__members__.items()
+       if name.startswith("mjRND_") and name not in _MODE_FLAGS},
+    **{name[len("mjVIS_"):].lower(): ("vis", int(value)) for name, value in mujoco.mjtVisFlag.__members__.items()
+       if name.startswith("mjVIS_")},
+}
+_DEFAULT_RENDER_FLAGS = np.array(mujoco.MjvScene().flags, dtype=np.uint8)  # shadow, reflection, skybox... on
+DEFAULT_SIZE = (320, 240)  # width, height when neither the suite nor the camera's MJCF `resolution` says
+MAX_SIDE = 16384  # pixels a side: what Mesa's software renderer and most GPUs' framebuffers allow
+
+
+def default_size(model: mujoco.MjModel, cam: int) -> tuple[int, int]:
+    """(width, height): the camera's MJCF `resolution` when the model sets one (MuJoCo's default is 1x1),
+    else 320x240."""
+    width, height = (int(v) for v in model.cam_resolution[cam])
+    return (width, height) if (width, height) != (1, 1) else DEFAULT_SIZE
+
 
 # per model: (width, height, thread) -> renderer. A renderer is used by one thread at a time, its own; no GL
 # context stays current after a frame, so one made in a thread that has ended is reused or closed from any.
@@ -64,6 +81,9 @@ def _follow_mujoco_gl() -> None:
 
 def check_size(model: mujoco.MjModel, width: int, height: int) -> str | None:
     """Why a width x height image cannot be rendered with the model's offscreen buffer, or None."""
+    if max(width, height) > MAX_SIDE:
+        return (f"a {width}x{height} camera image is larger than OpenGL framebuffers allow ({MAX_SIDE} pixels a "
+                "side in Mesa and on most GPUs); ask for a smaller image")
     offwidth, offheight = model.vis.global_.offwidth, model.vis.global_.offheight
     if width <= offwidth and height <= offheight:
         return None
@@ -127,22 +147,35 @@ def close_renderers() -> None:
             _gl.release_current(context)
 
 
-def _scene_option(value: mujoco.MjvOption | Mapping[str, bool] | None) -> mujoco.MjvOption | None:
+def scene_settings(value: mujoco.MjvOption | Mapping[str, bool] | None) -> tuple[mujoco.MjvOption | None, np.ndarray]:
+    """(visualisation option or None, the scene's render flags) for a camera's `scene`."""
+    render = _DEFAULT_RENDER_FLAGS.copy()
     if value is None or isinstance(value, mujoco.MjvOption):
-        return value
-    option = mujoco.MjvOption()
-    flags = SCENE_FLAGS
+        return value, render
+    option = mujoco.MjvOption() if any(SCENE_FLAGS.get(k, ("", 0))[0] == "vis" for k in value) else None
     for key, on in value.items():
-        if key not in flags:
-            raise SuiteError(f"unknown scene flag {key!r}{did_you_mean(key, flags)}; flags: {', '.join(flags)}")
-        option.flags[flags[key]] = bool(on)
-    return option
+        if key not in SCENE_FLAGS:
+            raise SuiteError(f"unknown scene flag {key!r}{did_you_mean(str(key), SCENE_FLAGS)}; "
+                             f"flags: {', '.join(SCENE_FLAGS)}")
+        table, index = SCENE_FLAGS[key]
+        if table == "vis":
+            cast(mujoco.MjvOption, option).flags[index] = bool(on)
+        else:
+            render[index] = bool(on)
+    return option, render
 
 
 class Camera(Observable):
-    """An image from a model camera ('camera:name', its name, or its id)."""
+    """An image from a model camera ('camera:name', its name, or its id).
 
-    def __init__(self, camera: str | int, height: int = 240, width: int = 320, update_interval: Any = 1,
+    `height` and `width` default to the camera's MJCF `resolution` when the model sets one, else 240x320;
+    until then (bound to a model) `array_spec` is None. `scene_option` switches scene flags by name
+    (`SCENE_FLAGS`: render flags such as shadow, reflection, skybox, and visualisation flags), or is an
+    `MjvOption`.
+    """
+
+    def __init__(self, camera: str | int, height: int | None = None, width: int | None = None,
+                 update_interval: Any = 1,
                  buffer_size: int | None = None, delay: Any = None, aggregator: Any = None,
                  corruptor: Callable[..., Any] | None = None,
                  mode: Literal["rgb", "depth", "segmentation"] = "rgb",
@@ -150,33 +183,43 @@ class Camera(Observable):
         if mode not in MODES:
             raise SuiteError(f"unknown camera mode {mode!r}{did_you_mean(str(mode), MODES)}; use {', '.join(MODES)}")
         for name, value in (("height", height), ("width", width)):
-            if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+            if value is not None and (not isinstance(value, int) or isinstance(value, bool) or value < 1):
                 raise SuiteError(f"camera {camera!r}: {name} must be a positive integer, got {value!r}")
         self._camera = camera.partition(":")[2] if isinstance(camera, str) and camera.startswith("camera:") else camera
         self._height, self._width, self._mode = height, width, mode
-        self._scene_option = _scene_option(scene_option)
+        self._size: tuple[int, int] | None = (width, height) if width is not None and height is not None else None
+        self._scene_option, self._render_flags = scene_settings(scene_option)
         super().__init__(update_interval, buffer_size, delay, aggregator, corruptor)
 
     def __repr__(self) -> str:
         return f"Camera({getattr(self, '_camera', '?')!r}, mode={getattr(self, '_mode', '?')!r})"
 
     @property
-    def height(self) -> int:
-        return self._height
+    def height(self) -> int | None:
+        """Image height: as given, else the bound camera's (None before binding)."""
+        return self._size[1] if self._size else self._height
 
     @property
-    def width(self) -> int:
-        return self._width
+    def width(self) -> int | None:
+        return self._size[0] if self._size else self._width
 
     @property
     def mode(self) -> str:
         return self._mode
 
     @property
-    def array_spec(self) -> specs.BoundedArray:
+    def array_spec(self) -> specs.BoundedArray | None:
+        if self._size is None:
+            return None
         channels, dtype, low, high = MODES[self._mode]
-        return specs.BoundedArray(shape=(self._height, self._width, channels), dtype=dtype,
-                                  minimum=low, maximum=high)
+        width, height = self._size
+        return specs.BoundedArray(shape=(height, width, channels), dtype=dtype, minimum=low, maximum=high)
+
+    def size(self, model: mujoco.MjModel) -> tuple[int, int]:
+        """(width, height) on `model`: as given, else the camera's MJCF resolution, else 320x240."""
+        cam = self.camera_id(model)
+        width, height = default_size(model, cam) if cam >= 0 else DEFAULT_SIZE
+        return (self._width or width, self._height or height)
 
     def camera_id(self, model: mujoco.MjModel) -> int:
         if isinstance(self._camera, int):
@@ -193,10 +236,10 @@ class Camera(Observable):
     def _callable(self, physics: Any) -> Callable[[], np.ndarray]:
         model, data = raw_structs(physics)
         cam = self.camera_id(model)
-        width, height = self._width, self._height
+        width, height = self._size = self.size(model)
         _renderer(model, width, height)  # fail at binding, not at the first frame
         depth, segmentation = self._mode == "depth", self._mode == "segmentation"
-        option = self._scene_option
+        option, flags = self._scene_option, self._render_flags
 
         def render() -> np.ndarray:
             renderer = _renderer(model, width, height)  # the calling thread's
@@ -208,6 +251,7 @@ class Camera(Observable):
                 renderer.disable_depth_rendering()
                 renderer.disable_segmentation_rendering()
             renderer.update_scene(data, camera=cam, scene_option=option)
+            renderer.scene.flags[:] = flags  # the renderer is shared: every frame sets all of them
             try:
                 pixels = renderer.render()
             finally:
