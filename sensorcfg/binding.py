@@ -221,8 +221,9 @@ class _Binder:
                 self.report(where, f"{what} is larger than OpenGL framebuffers allow ({MAX_SIDE} pixels a side in "
                             "Mesa and on most GPUs); ask for a smaller image")
             elif size > limit:
-                self.report(where, f"{what} exceeds the model's offscreen buffer ({limit}); use at most "
-                            f"{limit} or add <visual><global {attr}=\"{size}\"/></visual> to the model")
+                fix = f"use at most {limit}" if given else f"set camera: {{{key}: {limit}}} (or less)"
+                self.report(where, f"{what} exceeds the model's offscreen buffer ({limit}); {fix} or add "
+                            f"<visual><global {attr}=\"{size}\"/></visual> to the model")
         flags = scene_flags()
         for flag in cfg.camera.scene:
             if flag not in flags:
