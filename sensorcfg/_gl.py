@@ -10,17 +10,19 @@ itself raise, which would take every command down, `validate` included. sensorcf
 with its GL disabled (restoring MUJOCO_GL for child processes) and remembers why: everything that needs no
 camera works, and the first camera raises a SuiteError naming the packages to install (`gl_error`).
 
-Rendering leaves no context current after a frame (`release_current`), so a renderer made in one thread
-can be used, and closed, in another.
+A frame leaves the thread's GL state as it found it (`current_restored`): no context of ours stays current,
+so a renderer made in one thread can be used, and closed, in another, and a dm_control renderer in the same
+thread finds its own context current again.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
-from typing import Any
+from collections.abc import Iterator
 
-__all__ = ["choose_gl_backend", "gl_error", "release_current", "GL_PACKAGES"]
+__all__ = ["choose_gl_backend", "current_restored", "gl_error", "GL_PACKAGES"]
 
 # backend -> what a Debian/Ubuntu machine needs for it (README, "Cameras without a display")
 GL_PACKAGES: dict[str, str] = {
@@ -87,26 +89,61 @@ def gl_error(cause: BaseException | None = None) -> str:
             f"{fix}; suites without cameras run without it")
 
 
-def release_current(context: Any) -> None:
-    """Leave no GL context current in this thread (after a frame), whatever the backend."""
-    if context is None:
-        return
-    modules = [cls.__module__ for cls in type(context).__mro__]
-    if any(m.startswith("mujoco.egl") for m in modules):
+def _kind(context_class: type) -> str:
+    """'egl', 'osmesa' or 'glfw': which of mujoco's GL context classes `context_class` is (or derives from)."""
+    for cls in context_class.__mro__:
+        for kind in ("egl", "osmesa", "glfw"):
+            if cls.__module__.startswith(f"mujoco.{kind}"):
+                return kind
+    return ""
+
+
+@contextlib.contextmanager
+def current_restored(context_class: type) -> Iterator[None]:
+    """Whatever GL context this thread has current on entry is current again on exit (none: none).
+
+    A frame makes our renderer's context current; other GL users in the thread (dm_control's renderer,
+    which remembers its context as current) must find theirs again, and a thread must not keep ours
+    current, so that another thread may use or close it.
+    """
+    kind = _kind(context_class)
+    if kind == "egl":
         from mujoco import egl
 
-        if egl.EGL_DISPLAY is not None:
-            egl.EGL.eglMakeCurrent(egl.EGL_DISPLAY, egl.EGL.EGL_NO_SURFACE, egl.EGL.EGL_NO_SURFACE,
-                                   egl.EGL.EGL_NO_CONTEXT)
-    elif any(m.startswith("mujoco.osmesa") for m in modules):
+        gl = egl.EGL
+        before = (gl.eglGetCurrentDisplay(), gl.eglGetCurrentSurface(gl.EGL_DRAW), gl.eglGetCurrentSurface(gl.EGL_READ),
+                  gl.eglGetCurrentContext())
+        try:
+            yield
+        finally:
+            if before[3]:
+                gl.eglMakeCurrent(*before)
+            elif egl.EGL_DISPLAY is not None:
+                gl.eglMakeCurrent(egl.EGL_DISPLAY, gl.EGL_NO_SURFACE, gl.EGL_NO_SURFACE, gl.EGL_NO_CONTEXT)
+    elif kind == "glfw":
+        import glfw
+
+        previous = glfw.get_current_context()
+        try:
+            yield
+        finally:
+            glfw.make_context_current(previous)
+    elif kind == "osmesa":
         from mujoco import osmesa as mj_osmesa
         from OpenGL import GL, osmesa
 
-        osmesa.OSMesaMakeCurrent(None, None, GL.GL_FLOAT, 0, 0)
-        current = getattr(mj_osmesa, "_current_context", None)
-        if current is not None:
-            current.ref = None
-    elif any(m.startswith("mujoco.glfw") for m in modules):
-        import glfw
-
-        glfw.make_context_current(None)
+        local = getattr(mj_osmesa, "_current_context", None)
+        ref = getattr(local, "ref", None)
+        previous = ref() if ref is not None else None
+        had = osmesa.OSMesaGetCurrentContext()
+        try:
+            yield
+        finally:
+            if had and previous is not None and previous._context and previous._context.address == had.address:
+                previous.make_current()
+            else:
+                osmesa.OSMesaMakeCurrent(None, None, GL.GL_FLOAT, 0, 0)
+                if local is not None:
+                    local.ref = None
+    else:
+        yield

@@ -62,6 +62,17 @@ _RENDERERS: weakref.WeakKeyDictionary[mujoco.MjModel, dict[tuple[int, int, int],
 _LOCK = threading.Lock()  # guards the pools and context creation (EGL initialises its display once)
 
 
+def _gl_context_module() -> Any:
+    """mujoco's module whose `GLContext` its Renderer creates (None when rendering is unavailable)."""
+    module = sys.modules.get(getattr(mujoco.Renderer, "__module__", ""))
+    found = getattr(module, "gl_context", None)
+    return found or sys.modules.get("mujoco.rendering.classic.gl_context") or sys.modules.get("mujoco.gl_context")
+
+
+def _context_class() -> type:
+    return getattr(_gl_context_module(), "GLContext", None) or object
+
+
 def _follow_mujoco_gl() -> None:
     """Render with EGL when MUJOCO_GL says so, even if mujoco was imported before it was set.
 
@@ -70,7 +81,7 @@ def _follow_mujoco_gl() -> None:
     MUJOCO_GL=egl (see _gl.py). mujoco's Renderer looks its context class up at construction, so point
     it at EGL's.
     """
-    gl_context: Any = getattr(sys.modules.get(mujoco.Renderer.__module__), "gl_context", None)
+    gl_context = _gl_context_module()
     current = getattr(gl_context, "GLContext", None)
     if (os.environ.get("MUJOCO_GL", "").strip().lower() == "egl" and current is not None
             and getattr(current, "__module__", "").startswith("mujoco.glfw")):
@@ -107,12 +118,12 @@ def _renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer
             raise SuiteError(_gl.gl_error())
         try:
             _follow_mujoco_gl()
-            with warnings.catch_warnings():  # GLFW warns before it fails: the error says it all, once
-                warnings.simplefilter("ignore")
-                renderer = mujoco.Renderer(model, height=height, width=width)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # GLFW warns before it fails: the error says it all, once
+                with _gl.current_restored(_context_class()):
+                    renderer = mujoco.Renderer(model, height=height, width=width)
         except Exception as e:  # noqa: BLE001 - no usable GL: ImportError, FatalError, EGLError, no Renderer...
             raise SuiteError(_gl.gl_error(e)) from None
-        _gl.release_current(renderer._gl_context)
         _RENDERERS.setdefault(model, {})[key] = renderer
     _close_at_exit()
     return renderer
@@ -138,13 +149,12 @@ def close_renderers() -> None:
     for renderer in renderers:
         context = renderer._gl_context
         try:
-            if context is not None:
-                context.make_current()  # MuJoCo 3 frees its GL objects without making it current
-            renderer.close()
+            with _gl.current_restored(type(context)):
+                if context is not None:
+                    context.make_current()  # MuJoCo 3 frees its GL objects without making it current
+                renderer.close()
         except Exception:  # noqa: BLE001 - a context current in a thread that is rendering now: leave it
             continue
-        finally:
-            _gl.release_current(context)
 
 
 def scene_settings(value: mujoco.MjvOption | Mapping[str, bool] | None) -> tuple[mujoco.MjvOption | None, np.ndarray]:
@@ -252,10 +262,8 @@ class Camera(Observable):
                 renderer.disable_segmentation_rendering()
             renderer.update_scene(data, camera=cam, scene_option=option)
             renderer.scene.flags[:] = flags  # the renderer is shared: every frame sets all of them
-            try:
+            with _gl.current_restored(type(renderer._gl_context)):
                 pixels = renderer.render()
-            finally:
-                _gl.release_current(renderer._gl_context)
             return pixels[..., None] if depth else pixels
 
         return render
