@@ -21,6 +21,7 @@ import contextlib
 import os
 import sys
 from collections.abc import Iterator
+from typing import Any
 
 __all__ = ["choose_gl_backend", "current_restored", "gl_error", "GL_PACKAGES"]
 
@@ -123,19 +124,19 @@ def current_restored(context_class: type) -> Iterator[None]:
     elif kind == "glfw":
         import glfw
 
-        previous = glfw.get_current_context()
+        window = glfw.get_current_context()
         try:
             yield
         finally:
-            glfw.make_context_current(previous)
+            glfw.make_context_current(window)
     elif kind == "osmesa":
         from mujoco import osmesa as mj_osmesa
         from OpenGL import GL, osmesa
 
-        local = getattr(mj_osmesa, "_current_context", None)
+        local: Any = getattr(mj_osmesa, "_current_context", None)
         ref = getattr(local, "ref", None)
-        previous = ref() if ref is not None else None
-        had = osmesa.OSMesaGetCurrentContext()
+        previous: Any = ref() if ref is not None else None
+        had: Any = osmesa.OSMesaGetCurrentContext()
         try:
             yield
         finally:

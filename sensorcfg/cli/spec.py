@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 import json
 from collections.abc import Callable
-from typing import Any
+from typing import Any, cast
 
 from .common import EXIT_OK, HelpFormatter, add_suite_args, importable_cwd, load_model, load_suite, model_path
 from .describe import SensorRow, describe
@@ -92,7 +92,7 @@ def observation_spec(observables: dict[str, Any], model: Any, steps: int, *, str
                 sample_spec = type("Probe", (), {"shape": probe.shape, "dtype": probe.dtype})
         channel = Channel(name, lambda: None, None, sample_spec.shape, sample_spec.dtype, obs.buffer_size or 1,
                           strip, pad, steps, obs.aggregator, False, None)
-        out[name] = _spec(name, obs, channel)
+        out[name] = _spec(name, obs, cast(Any, channel))  # a Channel has the buffered shape and dtype it reads
     return out
 
 
