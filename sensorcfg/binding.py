@@ -113,6 +113,10 @@ class _Binder:
         if made is None or len(self.problems) > before:
             return None
         observable, shape, dtype = made
+        if cfg.aggregator is not None and shape is not None and 0 in shape:
+            self.report(self.origin(name, "aggregator"), f"{cfg.aggregator} has no values to reduce: this sensor reads "
+                        f"none (shape {tuple(shape)}); drop the aggregator, or select at least one value")
+            return None
         observable.enabled = cfg.enabled is not False
         if cfg.noise and shape is not None:
             stages = cfg.noise if self.import_callables else tuple(s for s in cfg.noise if s.type != "custom")

@@ -198,3 +198,33 @@ def test_the_physics_copies_independently_both_ways():
     qpos_b = b.physics.data.qpos.copy()
     a.step(-np.ones(3))
     np.testing.assert_array_equal(b.physics.data.qpos, qpos_b)  # and the other way round
+
+
+ZERO_WIDTH = f"""\
+model: {ROBOT}
+sensors:
+  nothing:
+    kind: qpos
+    element: joint:shoulder
+    index: "0:0"
+    buffer: 3
+    aggregator: mean
+  fine:
+    kind: qpos
+    element: joint:shoulder
+    index: "0:0"
+"""
+
+
+def test_zero_width_features_with_an_aggregator_are_a_problem_at_its_line():
+    suite = sensorcfg.loads(ZERO_WIDTH, file="s.yaml")
+    (problem,) = suite.check()
+    assert problem.format() == ("s.yaml:8:17: error: sensors.nothing.aggregator: mean has no values to reduce: this "
+                                "sensor reads none (shape (0,)); drop the aggregator, or select at least one value")
+    with pytest.raises(sensorcfg.SuiteError, match="s.yaml:8:17: error: sensors.nothing.aggregator"):
+        sensorcfg.Environment(ROBOT, suite)
+    if MUJOCO4:
+        from sensorcfg.batch import BatchEnvironment
+
+        with pytest.raises(sensorcfg.SuiteError, match="s.yaml:8:17: error: sensors.nothing.aggregator"):
+            BatchEnvironment(ROBOT, suite, 2)
