@@ -56,7 +56,7 @@ import dm_env
 import mujoco
 import numpy as np
 
-from ..env.environment import (_BAD_STATE, NOT_COPYABLE, ControlLoop, _suite_and_observables, action_spec,
+from ..env.environment import (_BAD_STATE, ControlLoop, _suite_and_observables, action_spec,
                                episode_timing, load_model, random_state_from)
 from ..errors import SuiteError
 from ..physics import Physics
@@ -351,12 +351,3 @@ class BatchEnvironment(ControlLoop):
 
     def close(self) -> None:
         pass
-
-    def __reduce_ex__(self, protocol: Any) -> Any:
-        raise TypeError(NOT_COPYABLE.format(type(self).__name__))
-
-    def __copy__(self) -> Any:
-        raise TypeError(NOT_COPYABLE.format(type(self).__name__))
-
-    def __deepcopy__(self, memo: Any) -> Any:
-        raise TypeError(NOT_COPYABLE.format(type(self).__name__))

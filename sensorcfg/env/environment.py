@@ -119,7 +119,8 @@ def _suite_and_observables(suite: Any, model: mujoco.MjModel) -> tuple[dict[str,
 
 class ControlLoop:
     """What both environments expose about their control loop; subclasses set `_n`, `_control_timestep`,
-    `_action_spec`, `_observation_spec` and `_batch_shape` (() for one simulation, (nsim,) for a batch)."""
+    `_action_spec`, `_observation_spec` and `_batch_shape` (() for one simulation, (nsim,) for a batch).
+    Neither environment can be copied or pickled (`NOT_COPYABLE` says why)."""
 
     _n: int
     _control_timestep: float
@@ -147,6 +148,15 @@ class ControlLoop:
     def discount_spec(self) -> specs.BoundedArray:
         return specs.BoundedArray(shape=self._batch_shape, dtype=np.float64, minimum=0.0, maximum=1.0,
                                   name="discount")
+
+    def __reduce_ex__(self, protocol: Any) -> Any:
+        raise TypeError(NOT_COPYABLE.format(type(self).__name__))
+
+    def __copy__(self) -> Any:
+        raise TypeError(NOT_COPYABLE.format(type(self).__name__))
+
+    def __deepcopy__(self, memo: Any) -> Any:
+        raise TypeError(NOT_COPYABLE.format(type(self).__name__))
 
 
 class Environment(ControlLoop, dm_env.Environment):
@@ -297,15 +307,6 @@ class Environment(ControlLoop, dm_env.Environment):
 
     def close(self) -> None:
         pass
-
-    def __reduce_ex__(self, protocol: Any) -> Any:
-        raise TypeError(NOT_COPYABLE.format(type(self).__name__))
-
-    def __copy__(self) -> Any:
-        raise TypeError(NOT_COPYABLE.format(type(self).__name__))
-
-    def __deepcopy__(self, memo: Any) -> Any:
-        raise TypeError(NOT_COPYABLE.format(type(self).__name__))
 
 
 def make_env(suite_path: str | os.PathLike, model: mujoco.MjModel | str | os.PathLike | None = None,
