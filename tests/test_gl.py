@@ -179,3 +179,19 @@ def test_without_gl_the_python_api_runs_camera_free_environments(tmp_path: Path)
     assert proc.returncode == 0, proc.stderr
     assert "camera: " in proc.stdout and "sudo apt-get install libosmesa6" in proc.stdout
     assert "MUJOCO_GL osmesa" in proc.stdout  # the user's setting is kept for child processes
+
+
+def test_renderers_of_ended_threads_are_closed() -> None:
+    from sensorcfg.observables import camera
+
+    env = sensorcfg.make_env(VISION, seed=0)
+    reference = _run(sensorcfg.make_env(VISION, seed=0), 3)
+    for _ in range(4):  # each short-lived thread renders with a renderer of its own
+        out: list = []
+        thread = threading.Thread(target=lambda: out.append(_run(env, 3)))
+        thread.start()
+        thread.join()
+        _same(out[0], reference)
+    pool = camera._RENDERERS[env.physics.model]
+    threads = {key[2] for key in pool}
+    assert len([t for t in threads if not t.is_alive()]) <= 1  # only the last thread's, closed by the next one

@@ -55,9 +55,10 @@ def default_size(model: mujoco.MjModel, cam: int) -> tuple[int, int]:
     return (width, height) if (width, height) != (1, 1) else DEFAULT_SIZE
 
 
-# per model: (width, height, thread) -> renderer. A renderer is used by one thread at a time, its own; no GL
-# context stays current after a frame, so one made in a thread that has ended is reused or closed from any.
-_RENDERERS: weakref.WeakKeyDictionary[mujoco.MjModel, dict[tuple[int, int, int], mujoco.Renderer]] = (
+# per model: (width, height, thread) -> renderer. A renderer is used by its own thread only; no GL context
+# stays current after a frame, so the renderers of threads that have ended are closed from another thread
+# (when a new renderer is made) or at exit.
+_RENDERERS: weakref.WeakKeyDictionary[mujoco.MjModel, dict[tuple[int, int, threading.Thread], mujoco.Renderer]] = (
     weakref.WeakKeyDictionary())
 _LOCK = threading.Lock()  # guards the pools and context creation (EGL initialises its display once)
 
@@ -105,7 +106,7 @@ def check_size(model: mujoco.MjModel, width: int, height: int) -> str | None:
 
 def _renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
     """This thread's renderer for the model and size."""
-    key = (width, height, threading.get_ident())
+    key = (width, height, threading.current_thread())
     pool = _RENDERERS.get(model)
     renderer = None if pool is None else pool.get(key)
     if renderer is not None:
@@ -125,6 +126,8 @@ def _renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer
         except Exception as e:  # noqa: BLE001 - no usable GL: ImportError, FatalError, EGLError, no Renderer...
             raise SuiteError(_gl.gl_error(e)) from None
         _RENDERERS.setdefault(model, {})[key] = renderer
+        ended = [pool.pop(k) for pool in list(_RENDERERS.values()) for k in list(pool) if not k[2].is_alive()]
+    _close(ended)
     _close_at_exit()
     return renderer
 
@@ -146,6 +149,10 @@ def close_renderers() -> None:
         renderers = [r for pool in list(_RENDERERS.values()) for r in pool.values()]
         for pool in list(_RENDERERS.values()):
             pool.clear()
+    _close(renderers)
+
+
+def _close(renderers: list[mujoco.Renderer]) -> None:
     for renderer in renderers:
         context = renderer._gl_context
         try:
