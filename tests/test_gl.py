@@ -144,6 +144,8 @@ NO_GL = {
                                 "sudo apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri"),
     "glx without a display": ({"MUJOCO_GL": "glx", "DISPLAY": None, "WAYLAND_DISPLAY": None,
                                "PYOPENGL_PLATFORM": None}, "sudo apt-get install libgl1 libglx-mesa0 libglfw3"),
+    "a backend MuJoCo does not know": ({"MUJOCO_GL": "foo", "PYOPENGL_PLATFORM": None},
+                                       "set MUJOCO_GL to one of egl, osmesa, glfw"),
 }
 
 
