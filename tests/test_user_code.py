@@ -234,5 +234,5 @@ def test_spec_table_shows_the_bounds(tmp_path: Path) -> None:
     proc = _cli("spec", "s.yaml", "--format", "json", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     bounds = {row["name"]: row["bounds"] for row in json.loads(proc.stdout)["sensors"]}
-    assert bounds == {"depth_noisy": "-", "depth_clipped": "0..inf", "depth_held": "0..inf", "rgb_noisy": "0..255",
+    assert bounds == {"depth_noisy": "- (noise)", "depth_clipped": "0..inf", "depth_held": "0..inf", "rgb_noisy": "0..255",
                       "joints_clipped": "[-0.2,-0.1]..0.1", "joints_zeroed": "0..1"}

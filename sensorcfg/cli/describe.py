@@ -107,16 +107,19 @@ def describe(suite: Any, observables: dict[str, Any], spec: dict[str, Any], mode
         buffer_axis = cfg.aggregator is None and not (suite.options.strip_singleton_buffer_dim and buffer == 1)
         rows.append(SensorRow(name, cfg.kind, elements, tuple(spec[name].shape), str(spec[name].dtype),
                               interval, hz, delay, ms, buffer, cfg.aggregator, noise_summary(cfg.noise or ()),
-                              interval_steps, delay_steps, buffer_axis, describe_bounds(spec[name])))
+                              interval_steps, delay_steps, buffer_axis, describe_bounds(spec[name], obs)))
     return rows
 
 
-def describe_bounds(spec: Any) -> str:
-    """'0..255', '0..inf', '[0,-1]..[1,1]' (per value), or '-' for an unbounded spec."""
+def describe_bounds(spec: Any, observable: Any = None) -> str:
+    """'0..255', '0..inf', '[0,-1]..[1,1]' (per value), '-' for an unbounded spec, '- (noise)' when the
+    observable's own bounds were dropped because its noise can leave them."""
     import numpy as np
 
     if not hasattr(spec, "minimum"):
-        return "-"
+        own = getattr(observable, "array_spec", None)
+        dropped = hasattr(own, "minimum") and getattr(observable, "noise", None) is not None
+        return "- (noise)" if dropped else "-"
 
     def one(value: Any) -> str:
         flat = np.unique(np.asarray(value))

@@ -23,9 +23,9 @@ EXAMPLES = """examples:
   sensorcfg spec configs/vision.yaml --set sensors.wrist_rgb.interval=50Hz
 
 Columns: elements selected, shape and dtype of the observation (buffer axis first), the bounds every value
-keeps (min..max, '-' when unbounded: noise that can leave a bound drops it, a last clip stage sets it,
-images keep theirs), sampling interval in physics steps and Hz, delay in steps and ms, buffer length,
-aggregator, and the noise stages in order. A drawn interval shows as lo..hi or {a,b} steps."""
+keeps (min..max; '-' when unbounded; '- (noise)' when noise that can leave them dropped them; a clip stage
+sets them; images keep theirs), sampling interval in physics steps and Hz, delay in steps and ms, buffer
+length, aggregator, and the noise stages in order. A drawn interval shows as lo..hi or {a,b} steps."""
 
 
 class Spec:
