@@ -27,7 +27,7 @@ from .errors import Problem, SuiteError, did_you_mean
 from .kinds import kinds_of
 from .noise import build_noise
 from .observables import Camera, Feature, Generic, Observable
-from .observables.camera import MODES, SCENE_FLAGS
+from .observables.camera import MAX_SIDE, MODES, SCENE_FLAGS, default_size
 from .observables.feature import feature_index
 from .physics import Physics
 from .selection import select, split_selector
@@ -38,7 +38,8 @@ Schedule = int | Callable[..., int] | None
 
 
 def scene_flags() -> tuple[str, ...]:
-    """The names `camera.scene` accepts: mjtVisFlag without the `mjVIS_` prefix, lower case."""
+    """The names `camera.scene` accepts: render flags (mjtRndFlag) and visualisation flags (mjtVisFlag), lower
+    case without prefix."""
     return tuple(SCENE_FLAGS)
 
 
@@ -47,6 +48,7 @@ class _Binder:
     suite: LoadedSuite
     model: mujoco.MjModel
     import_callables: bool
+    call_callables: bool  # building (not checking): a generic sensor with noise is called once for its shape
     problems: list[Problem] = dataclasses.field(default_factory=list)
 
     # -- where a key came from, and problems there --------------------------------------------
@@ -111,6 +113,10 @@ class _Binder:
         if made is None or len(self.problems) > before:
             return None
         observable, shape, dtype = made
+        if cfg.aggregator is not None and shape is not None and 0 in shape:
+            self.report(self.origin(name, "aggregator"), f"{cfg.aggregator} has no values to reduce: this sensor reads "
+                        f"none (shape {tuple(shape)}); drop the aggregator, or select at least one value")
+            return None
         observable.enabled = cfg.enabled is not False
         if cfg.noise and shape is not None:
             stages = cfg.noise if self.import_callables else tuple(s for s in cfg.noise if s.type != "custom")
@@ -207,14 +213,21 @@ class _Binder:
         if not self.selection(name, cfg):
             return None
         assert cfg.camera is not None  # filled in by the loader for image kinds
-        width, height = cfg.camera.width, cfg.camera.height
+        own = default_size(self.model, select(self.model, cfg.element).ids[0])  # its MJCF resolution, or 320x240
+        width, height = cfg.camera.width or own[0], cfg.camera.height or own[1]
         vis = self.model.vis.global_
         for key, size, limit, attr in (("width", width, vis.offwidth, "offwidth"),
                                        ("height", height, vis.offheight, "offheight")):
-            if size > limit:
-                self.report(self.origin(name, "camera") + (key,),
-                            f"a {key} of {size} exceeds the model's offscreen buffer ({limit}); use at most "
-                            f"{limit} or add <visual><global {attr}=\"{size}\"/></visual> to the model")
+            given = getattr(cfg.camera, key) is not None
+            where = self.origin(name, "camera") + (key,) if given else ("sensors", name, "element")
+            what = f"a {key} of {size}" if given else f"the camera's resolution {key} of {size}"
+            if size > MAX_SIDE:
+                self.report(where, f"{what} is larger than OpenGL framebuffers allow ({MAX_SIDE} pixels a side in "
+                            "Mesa and on most GPUs); ask for a smaller image")
+            elif size > limit:
+                fix = f"use at most {limit}" if given else f"set camera: {{{key}: {limit}}} (or less)"
+                self.report(where, f"{what} exceeds the model's offscreen buffer ({limit}); {fix} or add "
+                            f"<visual><global {attr}=\"{size}\"/></visual> to the model")
         flags = scene_flags()
         for flag in cfg.camera.scene:
             if flag not in flags:
@@ -231,13 +244,17 @@ class _Binder:
 
     def generic(self, name: str, cfg: SensorConfig, timing: dict[str, Any]) -> tuple[Observable, Any, Any] | None:
         assert cfg.callable is not None
+        path = ("sensors", name, "callable")
+        pos = self.suite.doc.pos(path)
+        loc = ".".join(path)
+        origin = pos.problem("", loc) if pos else Problem("", loc, self.suite.file)
         if not self.import_callables:
-            return Generic(_not_imported(cfg.callable), **timing), None, None
-        fn = self.import_callable(cfg.callable, ("sensors", name, "callable"))
+            return Generic(_not_imported(cfg.callable), origin=origin, **timing), None, None
+        fn = self.import_callable(cfg.callable, path)
         if fn is None:
             return None
         shape = dtype = None
-        if cfg.noise:  # the noise needs the value's shape: read it from one call on a fresh state
+        if cfg.noise and self.call_callables:  # the noise needs the value's shape: one call on a fresh state
             physics = Physics(self.model)
             mujoco.mj_forward(physics.model, physics.data)
             try:
@@ -247,7 +264,7 @@ class _Binder:
                             f"{type(e).__name__}: {e}")
                 return None
             shape, dtype = probe.shape, probe.dtype
-        return Generic(fn, **timing), shape, dtype
+        return Generic(fn, origin=origin, **timing), shape, dtype
 
     def import_callable(self, text: str, path: Path_) -> Callable[..., Any] | None:
         module_name, _, attr = text.partition(":")
@@ -292,10 +309,13 @@ def _index(value: Any) -> Any:
     return parts[0] if len(parts) == 1 else tuple(parts)
 
 
-def bind(suite: LoadedSuite, model: mujoco.MjModel, *, import_callables: bool) -> tuple[
+def bind(suite: LoadedSuite, model: mujoco.MjModel, *, import_callables: bool, call_callables: bool = True) -> tuple[
         dict[str, Observable], list[Problem]]:
-    """Observables for every sensor of `suite` (file order) and every problem found on the way."""
-    binder = _Binder(suite, model, import_callables)
+    """Observables for every sensor of `suite` (file order) and every problem found on the way.
+
+    With `call_callables` false (checking), no user callable is called: a generic sensor's noise, which
+    needs the shape of its value, is then built (and its shape-dependent mistakes found) only by a build."""
+    binder = _Binder(suite, model, import_callables, call_callables)
     observables: dict[str, Observable] = {}
     for name, cfg in suite.sensors.items():
         try:

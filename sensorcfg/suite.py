@@ -91,10 +91,12 @@ class Suite:
             message = f"cannot load the model {quote(str(path), 160)}: {str(e).strip()}"
             raise SuiteError(pos.problem(message, "model") if pos else Problem(message, file=str(path))) from None
 
-    def _bind(self, model: ModelLike, import_callables: bool) -> tuple[dict[str, Observable], list[Problem]]:
+    def _bind(self, model: ModelLike, import_callables: bool, call_callables: bool = True) -> tuple[
+            dict[str, Observable], list[Problem]]:
         from .binding import bind
 
-        observables, problems = bind(self._loaded, self._mjmodel(model), import_callables=import_callables)
+        observables, problems = bind(self._loaded, self._mjmodel(model), import_callables=import_callables,
+                                   call_callables=call_callables)
         return observables, problems + self._too_large(observables)
 
     def _too_large(self, observables: Mapping[str, Observable]) -> list[Problem]:
@@ -134,12 +136,12 @@ class Suite:
     def check(self, model: ModelLike = None, *, import_callables: bool = False) -> list[Problem]:
         """Every problem of the suite against `model` (empty when it builds); never raises for a mistake.
 
-        `generic` callables are not imported unless `import_callables` is true. `options` are checked too
+        `generic` and `custom` callables are not imported unless `import_callables` is true, and never called. `options` are checked too
         (a control interval must be a whole number of the model's physics steps).
         """
         try:
             mjmodel = self._mjmodel(model)
-            problems = self._bind(mjmodel, import_callables)[1]
+            problems = self._bind(mjmodel, import_callables, call_callables=False)[1]
         except SuiteError as e:
             return list(e.problems)
         try:

@@ -272,7 +272,7 @@ def test_spec_table_and_json(tmp_path: Path) -> None:
     proc = cli("spec", "s.yaml", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     rows = {line.split()[0]: line.split() for line in proc.stdout.splitlines() if line.startswith(("joints", "gyro"))}
-    assert rows["joints"][:9] == ["joints", "qpos", "2", "(2,", "2)", "float64", "2", "250", "1"]
+    assert rows["joints"][:10] == ["joints", "qpos", "2", "(2,", "2)", "float64", "-", "2", "250", "1"]
     assert "control step 5 physics steps (10 ms, 100 Hz)" in proc.stdout
     out = json.loads(cli("spec", "s.yaml", "--format", "json", cwd=tmp_path).stdout)
     sensors = {s["name"]: s for s in out["sensors"]}
@@ -280,6 +280,7 @@ def test_spec_table_and_json(tmp_path: Path) -> None:
     assert sensors["joints"]["delay_ms"] == "2" and sensors["joints"]["elements"] == 2
     assert sensors["gyro"]["delay"] == "0..3" and sensors["gyro"]["delay_ms"] == "0..6"
     assert sensors["gyro"]["noise"] == "gaussian(std=0.01)" and sensors["gyro"]["shape"] == [1, 3]
+    assert sensors["joints"]["bounds"] == "-"
     assert out["physics_steps_per_control_step"] == 5
 
 
@@ -433,7 +434,7 @@ def test_demo_in_an_empty_folder(tmp_path: Path) -> None:
                                                            "sensorcfg-demo.png"]
     assert proc.stdout.startswith("sensorcfg demo: the bundled sensor suite on the bundled robot, 40 control steps")
     header = next(line for line in proc.stdout.splitlines() if line.startswith("name "))
-    assert header.split() == ["name", "kind", "elems", "shape", "dtype", "interval", "Hz", "delay", "ms", "buffer",
+    assert header.split() == ["name", "kind", "elems", "shape", "dtype", "bounds", "interval", "Hz", "delay", "ms", "buffer",
                               "aggregator", "noise"]
     assert "ran 40 control steps" in proc.stdout and "camera renders:" in proc.stdout
     side = json.loads((tmp_path / "sensorcfg-demo.json").read_text())

@@ -265,8 +265,18 @@ class BatchEnvironment(ControlLoop):
         return BatchTimeStep(step_type, np.zeros(self._nsim), np.ones(self._nsim), self._updater.get_observation())
 
     def step(self, actions: Any) -> BatchTimeStep:
-        """One control step of every simulation (auto-resetting those whose episode ended)."""
-        actions = self._check_actions(actions)
+        """One control step of every simulation (auto-resetting those whose episode ended).
+
+        An exception raised during it (by `reward_fn` or `termination_fn`) propagates and ends every
+        simulation's episode: the next `step` resets them all (FIRST), as after a LAST step."""
+        actions = self._check_actions(actions)  # a bad action changes nothing
+        try:
+            return self._step(actions)
+        except BaseException:
+            self._needs_reset[:] = True
+            raise
+
+    def _step(self, actions: np.ndarray) -> BatchTimeStep:
         restart = self._needs_reset.copy()
         active = ~restart
         updater = self._updater
@@ -345,7 +355,7 @@ class BatchEnvironment(ControlLoop):
             warnings.warn(f"sensorcfg: {int(diverged.sum())} of {self._nsim} simulations diverged ({first}"
                           f"{', ...' if diverged.sum() > 5 else ''}; simulation {first[0]}: "
                           f"{self.last_divergence[first[0]]}); their episodes end here (discount 0)",
-                          RuntimeWarning, stacklevel=3)
+                          RuntimeWarning, stacklevel=4)
         return diverged
 
     def _check_actions(self, actions: Any) -> np.ndarray:

@@ -11,7 +11,7 @@ import dataclasses
 from collections.abc import Sequence
 from typing import Any
 
-__all__ = ["SensorRow", "describe", "describe_schedule", "noise_summary", "naive_samples"]
+__all__ = ["SensorRow", "describe", "describe_bounds", "describe_schedule", "noise_summary", "naive_samples"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -33,6 +33,7 @@ class SensorRow:
     interval_steps: int | None  # fixed schedules only (None when drawn per sample)
     delay_steps: int | None
     buffer_axis: bool  # whether the observation's first axis is the buffer (no aggregator, not stripped)
+    bounds: str = "-"  # the spec's 'minimum..maximum' (after noise: sensorcfg.noise.bounds), '-' when unbounded
 
     def as_dict(self) -> dict[str, Any]:
         d = dataclasses.asdict(self)
@@ -106,8 +107,25 @@ def describe(suite: Any, observables: dict[str, Any], spec: dict[str, Any], mode
         buffer_axis = cfg.aggregator is None and not (suite.options.strip_singleton_buffer_dim and buffer == 1)
         rows.append(SensorRow(name, cfg.kind, elements, tuple(spec[name].shape), str(spec[name].dtype),
                               interval, hz, delay, ms, buffer, cfg.aggregator, noise_summary(cfg.noise or ()),
-                              interval_steps, delay_steps, buffer_axis))
+                              interval_steps, delay_steps, buffer_axis, describe_bounds(spec[name], obs)))
     return rows
+
+
+def describe_bounds(spec: Any, observable: Any = None) -> str:
+    """'0..255', '0..inf', '[0,-1]..[1,1]' (per value), '-' for an unbounded spec, '- (noise)' when the
+    observable's own bounds were dropped because its noise can leave them."""
+    import numpy as np
+
+    if not hasattr(spec, "minimum"):
+        own = getattr(observable, "array_spec", None)
+        dropped = hasattr(own, "minimum") and getattr(observable, "noise", None) is not None
+        return "- (noise)" if dropped else "-"
+
+    def one(value: Any) -> str:
+        flat = np.unique(np.asarray(value))
+        return _compact(flat.item() if flat.size == 1 else flat.tolist())
+
+    return f"{one(spec.minimum)}..{one(spec.maximum)}"
 
 
 def naive_samples(row: SensorRow, physics_steps: int) -> int | None:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 import json
 from collections.abc import Callable
-from typing import Any
+from typing import Any, cast
 
 from ..errors import printable
 from .common import EXIT_OK, HelpFormatter, add_suite_args, importable_cwd, load_model, load_suite, model_path
@@ -23,9 +23,10 @@ EXAMPLES = """examples:
   sensorcfg spec configs/imu.yaml --model my_robot.xml --format json
   sensorcfg spec configs/vision.yaml --set sensors.wrist_rgb.interval=50Hz
 
-Columns: elements selected, shape and dtype of the observation (buffer axis first), sampling interval in
-physics steps and Hz, delay in steps and ms, buffer length, aggregator, and the noise stages in order.
-A drawn interval shows as lo..hi or {a,b} steps."""
+Columns: elements selected, shape and dtype of the observation (buffer axis first), the bounds every value
+keeps (min..max; '-' when unbounded; '- (noise)' when noise that can leave them dropped them; a clip stage
+sets them; images keep theirs), sampling interval in physics steps and Hz, delay in steps and ms, buffer
+length, aggregator, and the noise stages in order. A drawn interval shows as lo..hi or {a,b} steps."""
 
 
 class Spec:
@@ -55,22 +56,46 @@ def add_parser(sub: Any, epilog: str) -> None:
 
 
 def build_spec(suite: Any, model_file: str, control_steps: int | None = None) -> Spec:
-    """Build the suite on the model and read the specs (imports generic callables: their shapes are needed)."""
+    """Build the suite on the model and read the specs without taking a sample: no camera renders and no
+    noise stage runs (custom noise is never called); a generic callable is called once, on a fresh state,
+    because its shape is known only from a value."""
+    model = load_model(model_file)
+    importable_cwd()
+    observables = suite.build(model)
+    steps = control_steps or suite.updater_kwargs(model)["physics_steps_per_control_step"]
+    spec = observation_spec(observables, model, steps, strip=suite.options.strip_singleton_buffer_dim,
+                            pad=suite.options.pad_with_initial_value)
+    rows = describe(suite, observables, spec, model)
+    disabled = [name for name, o in observables.items() if not o.enabled]
+    return Spec(suite, model_file, model, rows, disabled, steps)
+
+
+def observation_spec(observables: dict[str, Any], model: Any, steps: int, *, strip: bool, pad: bool) -> dict[str, Any]:
+    """The Updater's dm_env specs (its own `_spec` rule), from each observable's spec instead of a sample."""
+    import mujoco
     import numpy as np
 
     from ..physics import Physics
-    from ..runtime.updater import Updater
+    from ..runtime.channels import Channel
+    from ..runtime.updater import _spec
 
-    importable_cwd()
-    model = load_model(model_file)
-    observables = suite.build(model)
-    steps = control_steps or suite.updater_kwargs(model)["physics_steps_per_control_step"]
-    updater = Updater(observables, steps, strip_singleton_buffer_dim=suite.options.strip_singleton_buffer_dim,
-                      pad_with_initial_value=suite.options.pad_with_initial_value)
-    updater.reset(Physics(model), np.random.RandomState(0))
-    rows = describe(suite, observables, updater.observation_spec(), model)
-    disabled = [name for name, o in observables.items() if not o.enabled]
-    return Spec(suite, model_file, model, rows, disabled, steps)
+    physics = Physics(model)
+    mujoco.mj_forward(model, physics.data)
+    out = {}
+    for name, obs in observables.items():
+        if not obs.enabled:
+            continue
+        sample_spec = obs.array_spec
+        if sample_spec is None:  # a feature binds first; a generic callable is called once, as the Updater does
+            sampler = obs.observation_callable(physics, np.random.RandomState(0))
+            sample_spec = obs.array_spec
+            if sample_spec is None:
+                probe = np.asarray(sampler())
+                sample_spec = type("Probe", (), {"shape": probe.shape, "dtype": probe.dtype})
+        channel = Channel(name, lambda: None, None, sample_spec.shape, sample_spec.dtype, obs.buffer_size or 1,
+                          strip, pad, steps, obs.aggregator, False, None)
+        out[name] = _spec(name, obs, cast(Any, channel))  # a Channel has the buffered shape and dtype it reads
+    return out
 
 
 def format_spec(spec: Spec) -> str:
@@ -79,12 +104,12 @@ def format_spec(spec: Spec) -> str:
     head = (f"{printable(spec.suite.file)} on {printable(spec.model_file)}\n"
             f"physics step {dt * 1e3:g} ms; control step {n} physics step{'s' if n != 1 else ''} "
             f"({n * dt * 1e3:g} ms, {1 / (n * dt):.4g} Hz)\n")
-    header = ["name", "kind", "elems", "shape", "dtype", "interval", "Hz", "delay", "ms", "buffer", "aggregator",
-              "noise"]
+    header = ["name", "kind", "elems", "shape", "dtype", "bounds", "interval", "Hz", "delay", "ms", "buffer",
+              "aggregator", "noise"]
     rows = [[r.name, r.kind, r.elements, "(" + ", ".join(map(str, r.shape)) + ("," if len(r.shape) == 1 else "")
-             + ")", r.dtype, r.interval, r.rate_hz, r.delay, r.delay_ms, r.buffer, r.aggregator, r.noise]
+             + ")", r.dtype, r.bounds, r.interval, r.rate_hz, r.delay, r.delay_ms, r.buffer, r.aggregator, r.noise]
             for r in spec.rows]
-    out = head + "\n" + table(header, rows, right=(2, 5, 6, 7, 8, 9))
+    out = head + "\n" + table(header, rows, right=(2, 6, 7, 8, 9, 10))
     count = len(spec.rows)
     out += f"\n\n{count} enabled observation{'s' if count != 1 else ''}"
     if spec.disabled:

@@ -98,7 +98,8 @@ def _replay(observables: dict[str, Any], physics_steps: int, substeps: int) -> d
     for name, obs in observables.items():
         schedule = {attr: _Replay(v.values) if isinstance(v, Recorder) else v
                     for attr, v in (("update_interval", obs.update_interval), ("delay", obs.delay))}
-        shadow = Generic(lambda _physics: np.float64(clock[0] + 1), buffer_size=obs.buffer_size, **schedule)
+        shadow = Generic(lambda _physics: np.float64(clock[0] + 1), buffer_size=obs.buffer_size,
+                         update_interval=schedule["update_interval"], delay=schedule["delay"])
         shadow.enabled = True
         shadows[name] = shadow
     updater = Updater(shadows, substeps)

@@ -59,8 +59,7 @@ def add_parser(sub: Any, epilog: str) -> None:
                    "(default: each suite's own 'model:')")
     p.add_argument("--format", choices=sorted(REPORTERS), default="text", help="output format (default: text)")
     p.add_argument("--import", dest="import_callables", action="store_true",
-                   help="import 'generic' and 'custom' callables too (a generic one with noise is called once, "
-                   "to learn its shape)")
+                   help="import 'generic' and 'custom' callables too (imported, never called)")
     add_common_suite_args(p, every=True)
     p.set_defaults(handler=command)
 

@@ -185,11 +185,15 @@ class CameraConfig(BaseModel):
     """Image settings for rgb, depth and segmentation sensors."""
 
     model_config = _FROZEN
-    width: int = Field(320, ge=1, strict=True, description="Image width in pixels.", examples=[64])
-    height: int = Field(240, ge=1, strict=True, description="Image height in pixels.", examples=[48])
+    width: int | None = Field(None, ge=1, strict=True, description="Image width in pixels. Default: the "
+                              "camera's own MJCF `resolution` when the model sets one, else 320.", examples=[64])
+    height: int | None = Field(None, ge=1, strict=True, description="Image height in pixels. Default: the "
+                               "camera's own MJCF `resolution` when the model sets one, else 240.", examples=[48])
     scene: dict[str, bool] = Field(
-        default_factory=dict, description="MuJoCo visualisation flags (mjtVisFlag without the mjVIS_ prefix, "
-        "lower case) switched on or off for this camera.", examples=[{"contactpoint": True}])
+        default_factory=dict, description="Scene flags switched on or off for this camera, by name (lower case, "
+        "without prefix): MuJoCo's render flags (mjtRndFlag: shadow, reflection, skybox, fog, haze, wireframe, "
+        "...) and visualisation flags (mjtVisFlag: contactpoint, transparent, ...). Turning off shadow and "
+        "reflection makes frames much cheaper.", examples=[{"shadow": False, "reflection": False}])
 
 
 # Fields a sensor and `defaults` share: one description each, used by both models.

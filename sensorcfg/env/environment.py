@@ -25,12 +25,17 @@ from ..physics import Physics, read_model
 from ..runtime.updater import Updater
 from .episode import episode_end
 
-__all__ = ["ControlLoop", "Environment", "make_env", "load_model", "random_state_from", "steps_per_control_step"]
+__all__ = ["NOT_COPYABLE", "ControlLoop", "Environment", "make_env", "load_model", "random_state_from", "steps_per_control_step"]
 
 _BAD_STATE = np.array([int(getattr(mujoco.mjtWarning, f"mjWARN_BAD{w}")) for w in ("QPOS", "QVEL", "QACC", "CTRL")])
 RewardFn = Callable[[Physics], float]
 TerminationFn = Callable[[Physics], bool]
 InitializeFn = Callable[[Physics, np.random.RandomState], None]
+# copy.copy, copy.deepcopy and pickle: sensors hold their own physics' MjData (and GL renderers), so a copy
+# would read the original's physics; say so instead of returning one.
+NOT_COPYABLE = ("a {0} cannot be copied or pickled: its sensors are bound to its own MjData and renderers, so a "
+                "copy would read the original's physics; build another {0} from the same model and suite (and "
+                "copy the state with mujoco.mj_copyData(new.physics.data, model, old.physics.data) if needed)")
 
 
 def random_state_from(seed: int | np.random.SeedSequence | np.random.RandomState | None) -> np.random.RandomState:
@@ -115,7 +120,8 @@ def _suite_and_observables(suite: Any, model: mujoco.MjModel) -> tuple[dict[str,
 
 class ControlLoop:
     """What both environments expose about their control loop; subclasses set `_n`, `_control_timestep`,
-    `_action_spec`, `_observation_spec` and `_batch_shape` (() for one simulation, (nsim,) for a batch)."""
+    `_action_spec`, `_observation_spec` and `_batch_shape` (() for one simulation, (nsim,) for a batch).
+    Neither environment can be copied or pickled (`NOT_COPYABLE` says why)."""
 
     _n: int
     _control_timestep: float
@@ -143,6 +149,15 @@ class ControlLoop:
     def discount_spec(self) -> specs.BoundedArray:
         return specs.BoundedArray(shape=self._batch_shape, dtype=np.float64, minimum=0.0, maximum=1.0,
                                   name="discount")
+
+    def __reduce_ex__(self, protocol: Any) -> Any:
+        raise TypeError(NOT_COPYABLE.format(type(self).__name__))
+
+    def __copy__(self) -> Any:
+        raise TypeError(NOT_COPYABLE.format(type(self).__name__))
+
+    def __deepcopy__(self, memo: Any) -> Any:
+        raise TypeError(NOT_COPYABLE.format(type(self).__name__))
 
 
 class Environment(ControlLoop, dm_env.Environment):
@@ -223,6 +238,7 @@ class Environment(ControlLoop, dm_env.Environment):
         mujoco.mj_forward(model, data)
 
     def reset(self) -> dm_env.TimeStep:
+        self._needs_reset = True  # until this reset completes (an `initialize_episode` may raise)
         self._reset_physics(self._random_state)
         self._updater.reset(self._physics, self._random_state)
         self._steps = 0
@@ -232,10 +248,21 @@ class Environment(ControlLoop, dm_env.Environment):
         return dm_env.restart(self._updater.get_observation())
 
     def step(self, action: Any) -> dm_env.TimeStep:
+        """One control step. An exception raised during it (by a generic sensor, custom noise, `reward_fn` or
+        `termination_fn`) propagates and ends the episode: the physics and the sensors' buffers are left
+        mid-step, so the next `step` starts a new episode (returns FIRST), as after a LAST step."""
         if self._needs_reset:
             return self.reset()
+        ctrl = self._check_action(action)  # a bad action changes nothing
+        try:
+            return self._step(ctrl)
+        except BaseException:
+            self._needs_reset = True
+            raise
+
+    def _step(self, ctrl: np.ndarray) -> dm_env.TimeStep:
         data = self._physics.data
-        data.ctrl[:] = self._check_action(action)
+        data.ctrl[:] = ctrl
         updater, model = self._updater, self._model
         updater.prepare_for_next_control_step()
         for _ in range(self._n):
@@ -248,7 +275,7 @@ class Environment(ControlLoop, dm_env.Environment):
         if divergence is not None:
             self.last_divergence = divergence
             warnings.warn(f"sensorcfg: the simulation diverged at t={data.time:.4f}s ({divergence}); "
-                          "the episode ends here (discount 0)", RuntimeWarning, stacklevel=2)
+                          "the episode ends here (discount 0)", RuntimeWarning, stacklevel=3)
         terminated = divergence is None and self._termination_fn is not None and self._termination_fn(self._physics)
         last, discount = episode_end(divergence is not None, bool(terminated), self._steps, self._step_limit)
         if last:

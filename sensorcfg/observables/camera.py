@@ -9,14 +9,17 @@ from __future__ import annotations
 import atexit
 import os
 import sys
+import threading
+import warnings
 import weakref
 from collections.abc import Callable, Mapping
-from typing import Any, Literal
+from typing import Any, Literal, cast
 
 import mujoco
 import numpy as np
 from dm_env import specs
 
+from .. import _gl
 from ..errors import SuiteError, did_you_mean
 from ..physics import raw_structs
 from .base import Observable
@@ -30,13 +33,45 @@ MODES: dict[str, tuple[int, type, float, float]] = {
     "segmentation": (2, np.int32, -1, np.iinfo(np.int32).max),
 }
 
-# scene flags a camera accepts: mjtVisFlag names without the `mjVIS_` prefix, lower case -> enum value
-SCENE_FLAGS: dict[str, int] = {
-    name[len("mjVIS_"):].lower(): int(getattr(mujoco.mjtVisFlag, name))
-    for name in mujoco.mjtVisFlag.__members__ if name != "mjVIS_NUMVISFLAG"}
+# Scene flags a camera accepts, by lower-case name without prefix: MuJoCo's render flags (mjtRndFlag, in the
+# scene: shadow, reflection, skybox, ...; the ones the image mode sets are not offered) and visualisation
+# flags (mjtVisFlag, in MjvOption). name -> (table, index); `_MODE_FLAGS` are the mode's own.
+_MODE_FLAGS = ("mjRND_DEPTH", "mjRND_SEGMENT", "mjRND_IDCOLOR")
+SCENE_FLAGS: dict[str, tuple[str, int]] = {
+    **{name[len("mjRND_"):].lower(): ("render", int(value)) for name, value in mujoco.mjtRndFlag.__members__.items()
+       if name.startswith("mjRND_") and name not in _MODE_FLAGS},
+    **{name[len("mjVIS_"):].lower(): ("vis", int(value)) for name, value in mujoco.mjtVisFlag.__members__.items()
+       if name.startswith("mjVIS_")},
+}
+_DEFAULT_RENDER_FLAGS = np.array(mujoco.MjvScene().flags, dtype=np.uint8)  # shadow, reflection, skybox... on
+DEFAULT_SIZE = (320, 240)  # width, height when neither the suite nor the camera's MJCF `resolution` says
+MAX_SIDE = 16384  # pixels a side: what Mesa's software renderer and most GPUs' framebuffers allow
 
-_RENDERERS: weakref.WeakKeyDictionary[mujoco.MjModel, dict[tuple[int, int], mujoco.Renderer]] = (
+
+def default_size(model: mujoco.MjModel, cam: int) -> tuple[int, int]:
+    """(width, height): the camera's MJCF `resolution` when the model sets one (MuJoCo's default is 1x1),
+    else 320x240."""
+    width, height = (int(v) for v in model.cam_resolution[cam])
+    return (width, height) if (width, height) != (1, 1) else DEFAULT_SIZE
+
+
+# per model: (width, height, thread) -> renderer. A renderer is used by its own thread only; no GL context
+# stays current after a frame, so the renderers of threads that have ended are closed from another thread
+# (when a new renderer is made) or at exit.
+_RENDERERS: weakref.WeakKeyDictionary[mujoco.MjModel, dict[tuple[int, int, threading.Thread], mujoco.Renderer]] = (
     weakref.WeakKeyDictionary())
+_LOCK = threading.Lock()  # guards the pools and context creation (EGL initialises its display once)
+
+
+def _gl_context_module() -> Any:
+    """mujoco's module whose `GLContext` its Renderer creates (None when rendering is unavailable)."""
+    module = sys.modules.get(getattr(mujoco.Renderer, "__module__", ""))
+    found = getattr(module, "gl_context", None)
+    return found or sys.modules.get("mujoco.rendering.classic.gl_context") or sys.modules.get("mujoco.gl_context")
+
+
+def _context_class() -> type:
+    return getattr(_gl_context_module(), "GLContext", None) or object
 
 
 def _follow_mujoco_gl() -> None:
@@ -47,7 +82,7 @@ def _follow_mujoco_gl() -> None:
     MUJOCO_GL=egl (see _gl.py). mujoco's Renderer looks its context class up at construction, so point
     it at EGL's.
     """
-    gl_context: Any = getattr(sys.modules.get(mujoco.Renderer.__module__), "gl_context", None)
+    gl_context = _gl_context_module()
     current = getattr(gl_context, "GLContext", None)
     if (os.environ.get("MUJOCO_GL", "").strip().lower() == "egl" and current is not None
             and getattr(current, "__module__", "").startswith("mujoco.glfw")):
@@ -56,19 +91,44 @@ def _follow_mujoco_gl() -> None:
         gl_context.GLContext = GLContext
 
 
+def check_size(model: mujoco.MjModel, width: int, height: int) -> str | None:
+    """Why a width x height image cannot be rendered with the model's offscreen buffer, or None."""
+    if max(width, height) > MAX_SIDE:
+        return (f"a {width}x{height} camera image is larger than OpenGL framebuffers allow ({MAX_SIDE} pixels a "
+                "side in Mesa and on most GPUs); ask for a smaller image")
+    offwidth, offheight = model.vis.global_.offwidth, model.vis.global_.offheight
+    if width <= offwidth and height <= offheight:
+        return None
+    return (f"a {width}x{height} camera image exceeds the model's offscreen buffer ({offwidth}x{offheight}); "
+            f"add <visual><global offwidth=\"{max(width, offwidth)}\" offheight=\"{max(height, offheight)}\"/>"
+            "</visual> to the model or ask for a smaller image")
+
+
 def _renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
-    pool = _RENDERERS.setdefault(model, {})
-    renderer = pool.get((width, height))
-    if renderer is None:
-        _follow_mujoco_gl()
-        offwidth, offheight = model.vis.global_.offwidth, model.vis.global_.offheight
-        if width > offwidth or height > offheight:
-            raise SuiteError(
-                f"a {width}x{height} camera image exceeds the model's offscreen buffer ({offwidth}x{offheight}); "
-                f"add <visual><global offwidth=\"{max(width, offwidth)}\" offheight=\"{max(height, offheight)}\"/>"
-                "</visual> to the model or ask for a smaller image")
-        renderer = pool[(width, height)] = mujoco.Renderer(model, height=height, width=width)
-        _close_at_exit()
+    """This thread's renderer for the model and size."""
+    key = (width, height, threading.current_thread())
+    pool = _RENDERERS.get(model)
+    renderer = None if pool is None else pool.get(key)
+    if renderer is not None:
+        return renderer
+    problem = check_size(model, width, height)
+    if problem is not None:
+        raise SuiteError(problem)
+    with _LOCK:
+        if _gl.import_failure is not None:
+            raise SuiteError(_gl.gl_error())
+        try:
+            _follow_mujoco_gl()
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # GLFW warns before it fails: the error says it all, once
+                with _gl.current_restored(_context_class()):
+                    renderer = mujoco.Renderer(model, height=height, width=width)
+        except Exception as e:  # noqa: BLE001 - no usable GL: ImportError, FatalError, EGLError, no Renderer...
+            raise SuiteError(_gl.gl_error(e)) from None
+        _RENDERERS.setdefault(model, {})[key] = renderer
+        ended = [pool.pop(k) for pool in list(_RENDERERS.values()) for k in list(pool) if not k[2].is_alive()]
+    _close(ended)
+    _close_at_exit()
     return renderer
 
 
@@ -84,29 +144,55 @@ def _close_at_exit() -> None:
 
 
 def close_renderers() -> None:
-    """Release every shared renderer (they are recreated on demand)."""
-    for pool in list(_RENDERERS.values()):
-        for renderer in pool.values():
-            renderer.close()
-        pool.clear()
+    """Release every shared renderer, of every thread (they are recreated on demand)."""
+    with _LOCK:
+        renderers = [r for pool in list(_RENDERERS.values()) for r in pool.values()]
+        for pool in list(_RENDERERS.values()):
+            pool.clear()
+    _close(renderers)
 
 
-def _scene_option(value: mujoco.MjvOption | Mapping[str, bool] | None) -> mujoco.MjvOption | None:
+def _close(renderers: list[mujoco.Renderer]) -> None:
+    for renderer in renderers:
+        context = renderer._gl_context
+        try:
+            with _gl.current_restored(type(context)):
+                if context is not None:
+                    context.make_current()  # MuJoCo 3 frees its GL objects without making it current
+                renderer.close()
+        except Exception:  # noqa: BLE001 - a context current in a thread that is rendering now: leave it
+            continue
+
+
+def scene_settings(value: mujoco.MjvOption | Mapping[str, bool] | None) -> tuple[mujoco.MjvOption | None, np.ndarray]:
+    """(visualisation option or None, the scene's render flags) for a camera's `scene`."""
+    render = _DEFAULT_RENDER_FLAGS.copy()
     if value is None or isinstance(value, mujoco.MjvOption):
-        return value
-    option = mujoco.MjvOption()
-    flags = SCENE_FLAGS
+        return value, render
+    option = mujoco.MjvOption() if any(SCENE_FLAGS.get(k, ("", 0))[0] == "vis" for k in value) else None
     for key, on in value.items():
-        if key not in flags:
-            raise SuiteError(f"unknown scene flag {key!r}{did_you_mean(key, flags)}; flags: {', '.join(flags)}")
-        option.flags[flags[key]] = bool(on)
-    return option
+        if key not in SCENE_FLAGS:
+            raise SuiteError(f"unknown scene flag {key!r}{did_you_mean(str(key), SCENE_FLAGS)}; "
+                             f"flags: {', '.join(SCENE_FLAGS)}")
+        table, index = SCENE_FLAGS[key]
+        if table == "vis":
+            cast(mujoco.MjvOption, option).flags[index] = bool(on)
+        else:
+            render[index] = bool(on)
+    return option, render
 
 
 class Camera(Observable):
-    """An image from a model camera ('camera:name', its name, or its id)."""
+    """An image from a model camera ('camera:name', its name, or its id).
 
-    def __init__(self, camera: str | int, height: int = 240, width: int = 320, update_interval: Any = 1,
+    `height` and `width` default to the camera's MJCF `resolution` when the model sets one, else 240x320;
+    until then (bound to a model) `array_spec` is None. `scene_option` switches scene flags by name
+    (`SCENE_FLAGS`: render flags such as shadow, reflection, skybox, and visualisation flags), or is an
+    `MjvOption`.
+    """
+
+    def __init__(self, camera: str | int, height: int | None = None, width: int | None = None,
+                 update_interval: Any = 1,
                  buffer_size: int | None = None, delay: Any = None, aggregator: Any = None,
                  corruptor: Callable[..., Any] | None = None,
                  mode: Literal["rgb", "depth", "segmentation"] = "rgb",
@@ -114,33 +200,43 @@ class Camera(Observable):
         if mode not in MODES:
             raise SuiteError(f"unknown camera mode {mode!r}{did_you_mean(str(mode), MODES)}; use {', '.join(MODES)}")
         for name, value in (("height", height), ("width", width)):
-            if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+            if value is not None and (not isinstance(value, int) or isinstance(value, bool) or value < 1):
                 raise SuiteError(f"camera {camera!r}: {name} must be a positive integer, got {value!r}")
         self._camera = camera.partition(":")[2] if isinstance(camera, str) and camera.startswith("camera:") else camera
         self._height, self._width, self._mode = height, width, mode
-        self._scene_option = _scene_option(scene_option)
+        self._size: tuple[int, int] | None = (width, height) if width is not None and height is not None else None
+        self._scene_option, self._render_flags = scene_settings(scene_option)
         super().__init__(update_interval, buffer_size, delay, aggregator, corruptor)
 
     def __repr__(self) -> str:
         return f"Camera({getattr(self, '_camera', '?')!r}, mode={getattr(self, '_mode', '?')!r})"
 
     @property
-    def height(self) -> int:
-        return self._height
+    def height(self) -> int | None:
+        """Image height: as given, else the bound camera's (None before binding)."""
+        return self._size[1] if self._size else self._height
 
     @property
-    def width(self) -> int:
-        return self._width
+    def width(self) -> int | None:
+        return self._size[0] if self._size else self._width
 
     @property
     def mode(self) -> str:
         return self._mode
 
     @property
-    def array_spec(self) -> specs.BoundedArray:
+    def array_spec(self) -> specs.BoundedArray | None:
+        if self._size is None:
+            return None
         channels, dtype, low, high = MODES[self._mode]
-        return specs.BoundedArray(shape=(self._height, self._width, channels), dtype=dtype,
-                                  minimum=low, maximum=high)
+        width, height = self._size
+        return specs.BoundedArray(shape=(height, width, channels), dtype=dtype, minimum=low, maximum=high)
+
+    def size(self, model: mujoco.MjModel) -> tuple[int, int]:
+        """(width, height) on `model`: as given, else the camera's MJCF resolution, else 320x240."""
+        cam = self.camera_id(model)
+        width, height = default_size(model, cam) if cam >= 0 else DEFAULT_SIZE
+        return (self._width or width, self._height or height)
 
     def camera_id(self, model: mujoco.MjModel) -> int:
         if isinstance(self._camera, int):
@@ -157,11 +253,13 @@ class Camera(Observable):
     def _callable(self, physics: Any) -> Callable[[], np.ndarray]:
         model, data = raw_structs(physics)
         cam = self.camera_id(model)
-        renderer = _renderer(model, self._width, self._height)
+        width, height = self._size = self.size(model)
+        _renderer(model, width, height)  # fail at binding, not at the first frame
         depth, segmentation = self._mode == "depth", self._mode == "segmentation"
-        option = self._scene_option
+        option, flags = self._scene_option, self._render_flags
 
         def render() -> np.ndarray:
+            renderer = _renderer(model, width, height)  # the calling thread's
             if depth:
                 renderer.enable_depth_rendering()
             elif segmentation:
@@ -170,7 +268,9 @@ class Camera(Observable):
                 renderer.disable_depth_rendering()
                 renderer.disable_segmentation_rendering()
             renderer.update_scene(data, camera=cam, scene_option=option)
-            pixels = renderer.render()
+            renderer.scene.flags[:] = flags  # the renderer is shared: every frame sets all of them
+            with _gl.current_restored(type(renderer._gl_context)):
+                pixels = renderer.render()
             return pixels[..., None] if depth else pixels
 
         return render

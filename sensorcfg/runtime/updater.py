@@ -18,6 +18,7 @@ from dm_env import specs
 from ..draws import episode_entropy
 from ..errors import ArgumentError, SuiteError
 from ..observables.aggregators import preserves_bounds
+from ..noise.bounds import noisy_bounds
 from .mujoco_structs import structs_of as raw_structs
 from .bank import BankMember, FeatureBank, buffer_view, fields_of, qualifies
 from .channels import FixedChannel, RandomChannel, make_channel
@@ -268,11 +269,13 @@ def observation_spec(name: str, observable: Any, ch: _Reader) -> specs.Array:
     where the aggregator preserves them (the Updater's and the batch's `observation_spec`)."""
     array_spec = observable.array_spec
     aggregator = observable.aggregator
-    if aggregator is None and array_spec is not None:
+    noise = getattr(observable, "noise", None)
+    if aggregator is None and array_spec is not None and noise is None:
         return array_spec.replace(name=name, shape=ch.buffered_shape)
     bounds = None
     if isinstance(array_spec, specs.BoundedArray):
         bounds = (array_spec.minimum, array_spec.maximum)
+    bounds = noisy_bounds(noise, bounds)  # the bounds every noisy sample keeps (sensorcfg.noise.bounds)
     shape, dtype = ch.buffered_shape, ch.dtype
     if aggregator is not None:
         aggregated = np.asarray(aggregator(np.zeros(ch.buffered_shape, dtype=ch.dtype)))
