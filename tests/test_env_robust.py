@@ -126,7 +126,7 @@ def test_a_bad_action_changes_nothing():
     env = sensorcfg.Environment(ROBOT, suite(), physics_steps_per_control_step=3, seed=5)
     env.reset()
     env.step(ACTIONS[0])
-    with pytest.raises(sensorcfg.SuiteError, match="action must have shape"):
+    with pytest.raises(sensorcfg.ArgumentError, match="action must have shape"):
         env.step(np.zeros(7))
     assert env.step(ACTIONS[1]).mid()  # the episode goes on
 

@@ -71,13 +71,13 @@ def build_spec(suite: Any, model_file: str, control_steps: int | None = None) ->
 
 
 def observation_spec(observables: dict[str, Any], model: Any, steps: int, *, strip: bool, pad: bool) -> dict[str, Any]:
-    """The Updater's dm_env specs (its own `_spec` rule), from each observable's spec instead of a sample."""
+    """The Updater's dm_env specs (its own `observation_spec` rule), from each observable's spec instead of a sample."""
     import mujoco
     import numpy as np
 
     from ..physics import Physics
-    from ..runtime.channels import Channel
-    from ..runtime.updater import _spec
+    from ..runtime.channels import Channel, ChannelSpec
+    from ..runtime.updater import observation_spec as one_spec
 
     physics = Physics(model)
     mujoco.mj_forward(model, physics.data)
@@ -92,9 +92,9 @@ def observation_spec(observables: dict[str, Any], model: Any, steps: int, *, str
             if sample_spec is None:
                 probe = np.asarray(sampler())
                 sample_spec = type("Probe", (), {"shape": probe.shape, "dtype": probe.dtype})
-        channel = Channel(name, lambda: None, None, sample_spec.shape, sample_spec.dtype, obs.buffer_size or 1,
-                          strip, pad, steps, obs.aggregator, False, None)
-        out[name] = _spec(name, obs, cast(Any, channel))  # a Channel has the buffered shape and dtype it reads
+        channel = Channel(ChannelSpec(name, lambda: None, None, tuple(sample_spec.shape), sample_spec.dtype,
+                                      obs.buffer_size or 1, strip, pad, steps, obs.aggregator, False, None))
+        out[name] = one_spec(name, obs, cast(Any, channel))  # a Channel has the buffered shape and dtype it reads
     return out
 
 
