@@ -82,7 +82,7 @@ def main() -> None:
           f"{os.cpu_count()} CPUs, nthread={args.nthread or 'all'}; medians of {args.repeats} repeats x {k} "
           "control steps")
     print(f"{'nsim':>6} {'physics':>12} {'batched':>12} {'loop':>12} {'suite cost':>11} {'recording':>11} "
-          f"{'floor':>7} {'null':>8} {'batched/loop':>13}")
+          f"{'floor':>7} {'null':>8} {'batched/loop':>13} {'reset':>9}")
     for nsim in args.nsim:
         rng = np.random.default_rng(0)
         lo, hi = model.actuator_ctrlrange.T
@@ -118,8 +118,10 @@ def main() -> None:
 
         def repeat(env: BatchEnvironment = env, loop: list = loop, state: np.ndarray = state,
                    actions: np.ndarray = actions, nsim: int = nsim) -> dict[str, float]:
-            """K control steps of each variant; returns env steps per second of each."""
-            env.reset()
+            """K control steps of each variant; returns env steps per second of each (and the reset's seconds)."""
+            t0 = time.perf_counter()
+            env.reset()  # a full reset: every simulation starts an episode
+            reset = time.perf_counter() - t0
             for e in loop:
                 e.reset()
             paired = [("physics", physics_step), ("null", physics_step), ("recording", record_step),
@@ -140,7 +142,7 @@ def main() -> None:
                     t0 = time.perf_counter()
                     loop_step(a)
                     wall["loop"] += time.perf_counter() - t0
-            return {name: k * nsim / t for name, t in wall.items()}
+            return {**{name: k * nsim / t for name, t in wall.items()}, "reset": reset}
 
         repeat()  # warm-up
         rows: dict[str, list[float]] = {}
@@ -155,11 +157,11 @@ def main() -> None:
         floor = med["physics"] / med["floor"] - 1
         print(f"{nsim:>6} {med['physics']:>12,.0f} {med['batched']:>12,.0f} {med.get('loop', nan):>12,.0f} "
               f"{100 * cost:>10.1f}% {100 * recording:>10.1f}% {100 * floor:>6.1f}% {100 * null:>+7.1f}% "
-              f"{med['batched'] / med.get('loop', nan):>12.2f}x")
+              f"{med['batched'] / med.get('loop', nan):>12.2f}x {1000 * med['reset']:>7.1f}ms")
     print("env steps/s: control steps x simulations per wall-clock second. suite cost = physics/batched - 1 "
           "(target <= 5% at 512), of which recording = physics/recording - 1 is MuJoCo's; floor = recording "
           "plus one gather of what the reads need; null = physics against itself (the comparison's noise); "
-          "batched/loop target >= 1.8x on 2 cores")
+          "batched/loop target >= 1.8x on 2 cores; reset: a full reset of every simulation (median)")
 
 
 if __name__ == "__main__":
