@@ -28,6 +28,7 @@ from dm_env import specs
 
 from ..draws import ChoiceSteps, UniformSteps
 from ..errors import SuiteError
+from ..observables.feature import batch_on_demand_problem
 from ..runtime.bank import _REDUCERS, _reader
 from ..runtime.channels import Channel, FixedChannel, RandomChannel
 from ..runtime.updater import DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, Updater, _drawer, _episode_entropy, sensor_rng
@@ -82,8 +83,12 @@ class BatchUpdater:
         features = [(name, obs, ch) for (name, obs), ch in zip(enabled, channels) if not hasattr(obs, "camera_id")]
         for name, obs, ch in cameras:
             self._check_camera(name, obs, ch)
+        model = physics.model if not hasattr(physics.model, "ptr") else physics.model.ptr
         for name, obs, ch in features:
             self._check(name, obs, ch)
+            problem = batch_on_demand_problem(model, _reader(ch).field)
+            if problem:
+                raise SuiteError(f"sensor {name!r}: {problem}")
         data = physics.data if not hasattr(physics.data, "ptr") else physics.data.ptr
         fixed = [(name, obs, ch) for name, obs, ch in features if isinstance(ch, FixedChannel)]
         drawn = [(name, obs, ch) for name, obs, ch in features if isinstance(ch, RandomChannel)]
@@ -99,7 +104,6 @@ class BatchUpdater:
         if cameras:
             from .camera import BatchCameras
 
-            model = physics.model if not hasattr(physics.model, "ptr") else physics.model.ptr
             self.cameras = BatchCameras([(self.output_index[name], obs, ch) for name, obs, ch in cameras],
                                         model, self.nsim, self.n, self.pad)
         self.labels = [name for name, _, _ in ordered]

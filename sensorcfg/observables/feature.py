@@ -16,32 +16,77 @@ import numpy as np
 from dm_env import specs
 
 from ..errors import SuiteError, did_you_mean
-from ..kinds import SOFT_RAGGED, forwards_when_dirty, kinds_of, ragged_slices
+from ..kinds import CONSTANT, ON_DEMAND, SOFT_RAGGED, STATE, OnDemand, forwards_when_dirty, kinds_of, offered_kinds, ragged_slices
 from ..physics import raw_structs
 from ..selection import select, split_selector
 from .base import Observable
 
-__all__ = ["Feature", "FieldReader", "SyncingFieldReader", "feature_index", "forward_if_dirty"]
+__all__ = ["Feature", "FieldReader", "SyncingFieldReader", "feature_index", "forward_if_dirty", "on_demand",
+           "batch_on_demand_problem"]
 
 
 class FieldReader:
-    """Reads a precomputed set of positions of one mjData/mjModel array."""
+    """Reads a precomputed set of positions of one mjData/mjModel array.
 
-    __slots__ = ("source", "index", "shape", "dtype", "field", "struct")
+    `compute`, when set, fills a field MuJoCo computes on demand only (`kinds.ON_DEMAND`) before the read.
+    """
 
-    def __init__(self, struct: str, field: str, source: np.ndarray, index: np.ndarray):
+    __slots__ = ("source", "index", "shape", "dtype", "field", "struct", "compute")
+
+    def __init__(self, struct: str, field: str, source: np.ndarray, index: np.ndarray,
+                 compute: Callable[[], None] | None = None):
         self.struct = struct
         self.field = field
         self.source = source  # a flat view of the array: it follows the simulation in place
         self.index = index  # positions in `source`, already in the observation's shape
         self.shape = index.shape
         self.dtype = source.dtype
+        self.compute = compute
 
     def __call__(self) -> np.ndarray:
+        if self.compute is not None:
+            self.compute()
         return self.source.take(self.index)
 
     def read_into(self, out: np.ndarray) -> None:
+        if self.compute is not None:
+            self.compute()
         np.take(self.source, self.index, out=out)
+
+
+def on_demand(model: mujoco.MjModel, data: mujoco.MjData, field: str) -> Callable[[], None] | None:
+    """For a field MuJoCo fills only when the model's sensors need it, the call that fills it, at most once
+    per physics step: MuJoCo's own flag (`flg_rnepost`, `flg_subtreevel`) says whether it ran since the last
+    step. None for every other field."""
+    spec: OnDemand | None = ON_DEMAND.get(field)
+    if spec is None:
+        return None
+    function, flag = getattr(mujoco, spec.function), spec.flag
+    if not hasattr(data, flag):  # a MuJoCo without the flags: compute at every read
+        return lambda: function(model, data)
+
+    def compute() -> None:
+        if not getattr(data, flag):
+            function(model, data)
+
+    return compute
+
+
+def batch_on_demand_problem(model: mujoco.MjModel, field: str) -> str | None:
+    """Why a batched rollout cannot record `field` truly, or None when it can: a rollout steps every
+    simulation in C and records after each substep, so a field MuJoCo computes on demand is recorded as
+    zeros unless the model's own sensors make every step compute it (mj_forward then leaves the flag set)."""
+    spec = ON_DEMAND.get(field)
+    if spec is None:
+        return None
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    if getattr(data, spec.flag, False):
+        return None
+    return (f"{field} is filled by {spec.function} only when something asks for it, and a BatchEnvironment's "
+            "rollout cannot call it between substeps (it would read zeros); use the single-simulation "
+            "Environment, or give the model a sensor that needs it (an accelerometer or force sensor for "
+            "cacc/cfrc_*, a subtreelinvel or subtreeangmom sensor for subtree_*)")
 
 
 class SyncingFieldReader(FieldReader):
@@ -54,16 +99,21 @@ class SyncingFieldReader(FieldReader):
 
     __slots__ = ("sync",)
 
-    def __init__(self, struct: str, field: str, source: np.ndarray, index: np.ndarray, sync: Callable[[], None]):
-        super().__init__(struct, field, source, index)
+    def __init__(self, struct: str, field: str, source: np.ndarray, index: np.ndarray, sync: Callable[[], None],
+                 compute: Callable[[], None] | None = None):
+        super().__init__(struct, field, source, index, compute)
         self.sync = sync
 
     def __call__(self) -> np.ndarray:
         self.sync()
+        if self.compute is not None:
+            self.compute()
         return self.source.take(self.index)
 
     def read_into(self, out: np.ndarray) -> None:
         self.sync()
+        if self.compute is not None:
+            self.compute()
         np.take(self.source, self.index, out=out)
 
 
@@ -154,9 +204,11 @@ class Feature(Observable):
         type_name, _ = split_selector(selectors[0])
         kinds = kinds_of(type_name)
         if self._kind not in kinds:
+            hint = did_you_mean(self._kind, offered_kinds(type_name, STATE)) or did_you_mean(
+                self._kind, offered_kinds(type_name, CONSTANT))
             raise SuiteError(
-                f"{self!r}: a {type_name} has no kind {self._kind!r}{did_you_mean(self._kind, kinds)}; "
-                f"{type_name} kinds include {', '.join(sorted(kinds)[:40])}")
+                f"{self!r}: a {type_name} has no kind {self._kind!r}{hint}; "
+                f"{type_name} kinds include {', '.join(offered_kinds(type_name, STATE)[:40])}")
 
     def __repr__(self) -> str:
         element = getattr(self, "_element", "?")
@@ -181,10 +233,11 @@ class Feature(Observable):
             self._bound = bound
         template = bound[1]
         source = getattr(data if template.struct == "data" else model, template.field).reshape(-1)
+        compute = on_demand(model, data, template.field) if template.struct == "data" else None
         sync = forward_if_dirty(physics) if forwards_when_dirty(template.struct, self._kind) else None
         if sync is not None:
-            return SyncingFieldReader(template.struct, template.field, source, template.index, sync)
-        return FieldReader(template.struct, template.field, source, template.index)
+            return SyncingFieldReader(template.struct, template.field, source, template.index, sync, compute)
+        return FieldReader(template.struct, template.field, source, template.index, compute)
 
     def _callable(self, physics: Any) -> Callable[[], np.ndarray]:
         return self.reader(physics)

@@ -1,0 +1,108 @@
+"""Fields MuJoCo computes on demand (cfrc_ext, cfrc_int, cacc; subtree_linvel, subtree_angmom) are computed
+when a suite reads them, at the physics steps it samples them, and equal MuJoCo's own functions.
+
+The model has the traits of Menagerie robots: an unnamed free joint, unnamed feet touching a floor, and no
+sensors, so MuJoCo itself never fills these fields.
+"""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+import sensorcfg
+from sensorcfg import SuiteError
+
+MODEL = Path(__file__).parent / "models" / "menagerie_like.xml"
+CALVES = ["body:fl_calf", "body:fr_calf", "body:hl_calf", "body:hr_calf"]
+ON_DEMAND_SUITE = f"""
+model: {MODEL}
+options: {{control_interval: 10}}
+sensors:
+  calf_cfrc_ext: {{kind: cfrc_ext, element: {CALVES}}}
+  feet_cfrc_ext: {{kind: cfrc_ext, element: "body:*", within: body:base}}
+  base_cfrc_int: {{kind: cfrc_int, element: body:base}}
+  base_cacc: {{kind: cacc, element: body:base}}
+  base_subtree_linvel: {{kind: subtree_linvel, element: body:base}}
+  base_subtree_angmom: {{kind: subtree_angmom, element: body:base}}
+  base_xpos: {{kind: xpos, element: body:base}}
+"""
+FIELDS = {"calf_cfrc_ext": "cfrc_ext", "base_cfrc_int": "cfrc_int", "base_cacc": "cacc",
+          "base_subtree_linvel": "subtree_linvel", "base_subtree_angmom": "subtree_angmom"}
+
+
+def _episode(model: mujoco.MjModel, steps: int = 60):
+    suite = sensorcfg.loads(ON_DEMAND_SUITE)
+    env = sensorcfg.Environment(model, suite, seed=0, keyframe="crouch")
+    rng = np.random.default_rng(0)
+    env.reset()
+    for _ in range(steps):
+        ts = env.step(rng.uniform(-0.3, 0.3, model.nu) + model.key_ctrl[0])
+        yield env, ts.observation
+
+
+def test_on_demand_fields_equal_mujocos_own_functions() -> None:
+    model = mujoco.MjModel.from_xml_path(str(MODEL))
+    calves = [model.body(n.partition(":")[2]).id for n in CALVES]
+    base = model.body("base").id
+    nonzero = dict.fromkeys(FIELDS, 0)
+    for env, obs in _episode(model):
+        reference = copy.copy(env.physics.data)  # the state after the last substep, computed afresh
+        mujoco.mj_rnePostConstraint(model, reference)
+        mujoco.mj_subtreeVel(model, reference)
+        np.testing.assert_array_equal(obs["calf_cfrc_ext"][0], reference.cfrc_ext[calves])
+        for name, field in FIELDS.items():
+            if name != "calf_cfrc_ext":
+                np.testing.assert_array_equal(obs[name][0], getattr(reference, field)[base], err_msg=name)
+        for name in FIELDS:
+            nonzero[name] += bool(np.any(obs[name] != 0))
+    assert all(count >= 50 for count in nonzero.values()), nonzero  # feet stand on the floor: no silent zeros
+
+
+def test_on_demand_fields_equal_those_mujoco_fills_for_its_own_sensors() -> None:
+    """The same trajectory on the model with sensors that make every step compute these fields.
+
+    cacc and cfrc_int are left out: MuJoCo's in-step call uses the velocity the step started from, and a call
+    after the step (ours, or any user's) the velocity it ended with (README, "Fields computed on demand")."""
+    spec = mujoco.MjSpec.from_file(str(MODEL))
+    spec.add_sensor(type=mujoco.mjtSensor.mjSENS_SUBTREELINVEL, objtype=mujoco.mjtObj.mjOBJ_BODY, objname="base")
+    site = spec.body("base").add_site(name="imu")
+    spec.add_sensor(type=mujoco.mjtSensor.mjSENS_ACCELEROMETER, objtype=mujoco.mjtObj.mjOBJ_SITE, objname=site.name)
+    with_sensors = spec.compile()
+    ours = [obs for _, obs in _episode(mujoco.MjModel.from_xml_path(str(MODEL)), 30)]
+    theirs = [obs for _, obs in _episode(with_sensors, 30)]
+    for a, b in zip(ours, theirs):
+        for name in ("calf_cfrc_ext", "feet_cfrc_ext", "base_subtree_linvel", "base_subtree_angmom"):
+            np.testing.assert_array_equal(a[name], b[name], err_msg=name)
+
+
+def test_computed_only_at_sampled_steps() -> None:
+    """Interval 3 with 10 steps per control step: the last step of a control step samples nothing."""
+    model = mujoco.MjModel.from_xml_path(str(MODEL))
+    suite = sensorcfg.loads(f"""
+model: {MODEL}
+options: {{control_interval: 10}}
+sensors:
+  ext: {{kind: cfrc_ext, element: body:fl_calf, interval: 3}}
+  com: {{kind: subtree_linvel, element: body:base, interval: 5}}
+""")
+    env = sensorcfg.Environment(model, suite, seed=0)
+    env.reset()
+    data = env.physics.data
+    assert data.flg_rnepost and data.flg_subtreevel  # the reset sample computed both
+    env.step(np.zeros(model.nu))  # step 10: `com` samples (10 = 2 * 5), `ext` does not (9 did)
+    assert not data.flg_rnepost and data.flg_subtreevel
+
+
+def test_batch_refuses_on_demand_fields_it_cannot_compute() -> None:
+    pytest.importorskip("mujoco.batch")
+    if int(mujoco.__version__.split(".")[0]) < 4:
+        pytest.skip("BatchEnvironment needs MuJoCo 4")
+    suite = sensorcfg.loads(ON_DEMAND_SUITE)
+    with pytest.raises(SuiteError, match=r"sensor 'calf_cfrc_ext': cfrc_ext is filled by mj_rnePostConstraint "
+                       "only when something asks for it"):
+        sensorcfg.BatchEnvironment(str(MODEL), suite, 2)
