@@ -24,7 +24,7 @@ from .config.tables import GENERIC_KIND, IMAGE_KINDS
 from .config.units import to_steps
 from .draws import ChoiceSteps, UniformSteps
 from .errors import Problem, SuiteError, did_you_mean
-from .kinds import kinds_of
+from .kinds import CONSTANT, INTERNAL, STATE, kinds_of, offered_kinds, state_twin
 from .noise import build_noise
 from .observables import Camera, Feature, Generic, Observable
 from .observables.camera import MODES, SCENE_FLAGS
@@ -107,6 +107,9 @@ class _Binder:
                       delay=self.schedule(name, "delay", cfg.delay, 0),
                       buffer_size=cfg.buffer, aggregator=cfg.aggregator)
         builders = {GENERIC_KIND: self.generic, **dict.fromkeys(IMAGE_KINDS, self.camera)}
+        if cfg.kind in builders and cfg.constant is not None:
+            self.report(("sensors", name, "constant"), f"'constant' is for features of model fields; a sensor of kind "
+                        f"{cfg.kind!r} is not one: remove it")
         made = builders.get(cfg.kind, self.feature)(name, cfg, timing)
         if made is None or len(self.problems) > before:
             return None
@@ -163,15 +166,8 @@ class _Binder:
         type_name = self.element_type(name, cfg)
         if type_name is None:
             return None
-        kinds = kinds_of(type_name)
-        if cfg.kind not in kinds:
-            extra = f"; a camera image is kind {', '.join(IMAGE_KINDS)}" if type_name == "camera" else ""
-            candidates = list(kinds) + (list(IMAGE_KINDS) if type_name == "camera" else [])
-            self.report(("sensors", name, "kind"),
-                        f"a {type_name} has no kind {cfg.kind!r}{did_you_mean(cfg.kind, candidates)}; "
-                        f"{type_name} kinds: {', '.join(sorted(kinds))}{extra}")
-            return None
-        if not self.selection(name, cfg):
+        kind_ok = self.kind(name, cfg, type_name)
+        if not self.selection(name, cfg) or not kind_ok:
             return None
         index = _index(cfg.index)
         selectors = cast("str | tuple[str, ...]", cfg.element)
@@ -183,6 +179,34 @@ class _Binder:
         element = cfg.element if isinstance(cfg.element, str) else list(cast("tuple[str, ...]", cfg.element))
         feature = Feature(cfg.kind, element, index=index, within=cfg.within, **timing)
         return feature, flat.shape, dtype
+
+    def kind(self, name: str, cfg: SensorConfig, type_name: str) -> bool:
+        """Whether `kind` is one the element type offers, and state unless the sensor asks for a constant."""
+        spec = kinds_of(type_name).get(cfg.kind)
+        role = spec.role if spec is not None else INTERNAL
+        here = ("sensors", name)
+        if role == INTERNAL:
+            states, constants = offered_kinds(type_name, STATE), offered_kinds(type_name, CONSTANT)
+            hint = did_you_mean(cfg.kind, states + (list(IMAGE_KINDS) if type_name == "camera" else []))
+            if not hint and did_you_mean(cfg.kind, constants):
+                hint = did_you_mean(cfg.kind, constants)[:-2] + ", a model constant read with 'constant: true'?)"
+            what = f" ({spec.field} is MuJoCo's internal bookkeeping, not a value to sense)" if spec else ""
+            extra = f"; a camera image is kind {', '.join(IMAGE_KINDS)}" if type_name == "camera" else ""
+            self.report(here + ("kind",), f"a {type_name} has no kind {cfg.kind!r}{what}{hint}; {type_name} kinds: "
+                        f"{', '.join(states) or '(none that change with the simulation)'}{extra}")
+            return False
+        assert spec is not None  # only INTERNAL covers a kind the type lacks
+        if role == CONSTANT and not cfg.constant:
+            twin = state_twin(type_name, cfg.kind)
+            instead = f"for the simulated value read {twin!r}, or " if twin else ""
+            self.report(here + ("kind",), f"a {type_name}'s {cfg.kind!r} is a model constant ({spec.field}), not "
+                        f"simulation state; {instead}add 'constant: true' to read the constant")
+            return False
+        if role == STATE and cfg.constant:
+            self.report(self.origin(name, "constant"), f"{cfg.kind!r} changes with the simulation; 'constant: true' "
+                        "is for model constants: remove it")
+            return False
+        return True
 
     def _culprit(self, kind: str, selectors: str | tuple[str, ...], within: str | None, index: Any) -> str:
         """Which key a failed feature read is reported on: `index`, unless the elements fail without it."""

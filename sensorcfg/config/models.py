@@ -246,6 +246,10 @@ class SensorConfig(BaseModel):
     index: Index | None = Field(
         None, description="A part of the value: an integer, a list of integers, or numpy-style slices as text.",
         examples=[0, [0, 2], "0:3", ":, 2"])
+    constant: bool | None = Field(
+        None, strict=True, description="Read a model constant (a body's `mass`, a joint's `range`) rather than "
+        "simulation state. Without it a kind that does not change with the simulation is an error, since a "
+        "constant read as a sensor is silently wrong data.", examples=[True])
     camera: CameraConfig | None = Field(
         None, description=f"Image settings; for {', '.join(IMAGE_KINDS)} sensors only.",
         examples=[{"width": 64, "height": 48}])
