@@ -131,15 +131,15 @@ class _Binder:
         """Whether `element` (and `within`) resolve; problems point at the list entry at fault."""
         here = ("sensors", name)
         ok = True
-        if cfg.within is not None:
+        for selector, path in _entries(cfg.within, here + ("within",)):
             try:
-                select(self.model, cfg.within)
+                select(self.model, selector)
             except SuiteError as e:
-                self.report_all(here + ("within",), e)
-                return False
-        entries = [(cfg.element, here + ("element",))] if isinstance(cfg.element, str) else [
-            (sel, here + ("element", i)) for i, sel in enumerate(cfg.element or ())]
-        for selector, path in entries:
+                self.report_all(path, e)
+                ok = False
+        if not ok:
+            return False
+        for selector, path in _entries(cfg.element, here + ("element",)):
             try:
                 select(self.model, selector, cfg.within)
             except SuiteError as e:
@@ -208,7 +208,8 @@ class _Binder:
             return False
         return True
 
-    def _culprit(self, kind: str, selectors: str | tuple[str, ...], within: str | None, index: Any) -> str:
+    def _culprit(self, kind: str, selectors: str | tuple[str, ...], within: str | tuple[str, ...] | None,
+                 index: Any) -> str:
         """Which key a failed feature read is reported on: `index`, unless the elements fail without it."""
         if index is None:
             return "element"
@@ -290,6 +291,15 @@ class _Binder:
             self.report(path, f"{text!r} is a {type(target).__name__}, not a function")
             return None
         return target
+
+
+def _entries(value: str | tuple[str, ...] | None, path: Path_) -> list[tuple[str, Path_]]:
+    """A selector, or each entry of a list of them, with the path of its node."""
+    if value is None:
+        return []
+    if isinstance(value, str):
+        return [(value, path)]
+    return [(v, path + (i,)) for i, v in enumerate(value)]
 
 
 def _not_imported(text: str) -> Callable[[Any], Any]:

@@ -321,7 +321,7 @@ LOAD_MISTAKES = [
         '    kind: qpos\n'
         '    element: joint:*\n'
         '    within: forearm\n',
-        "5:13: error: sensors.s.within: within takes a body selector, 'body:name' (for example 'body:forearm'); got 'forearm'",
+        "5:13: error: sensors.s.within: within takes a body selector, 'body:name' (for example 'body:forearm'), or a list of them; got 'forearm'",
         id='within_form'),
     pytest.param(
         'sensors:\n'

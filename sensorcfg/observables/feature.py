@@ -131,7 +131,7 @@ def forward_if_dirty(physics: Any) -> Callable[[], None] | None:
 
 
 def feature_index(model: mujoco.MjModel, kind: str, element: str | Sequence[str],
-                  within: str | None = None, index: Any = None,
+                  within: str | Sequence[str] | None = None, index: Any = None,
                   data: mujoco.MjData | None = None) -> tuple[str, str, np.ndarray, np.dtype]:
     """(struct, field, flat positions shaped like the value, dtype) for a feature on `model`."""
     sel = select(model, element, within)
@@ -161,6 +161,7 @@ def feature_index(model: mujoco.MjModel, kind: str, element: str | Sequence[str]
     rows_arr = np.asarray(rows, dtype=np.intp)
     flat = (rows_arr[:, None] * row_width + np.arange(row_width, dtype=np.intp)[None, :]).reshape(shape)
     if index is not None:
+        _check_slices(index, shape, kind, element, len(sel.ids))
         try:
             flat = flat[index]
         except (IndexError, TypeError, ValueError) as e:
@@ -169,6 +170,26 @@ def feature_index(model: mujoco.MjModel, kind: str, element: str | Sequence[str]
     # np.array, not np.ascontiguousarray: the latter turns a 0-d index (one element of a per-element
     # scalar field, e.g. the `mass` of one body) into shape (1,), where dm_control gives a scalar.
     return spec.struct, spec.field, np.array(flat, dtype=np.intp, order="C"), array.dtype
+
+
+def _check_slices(index: Any, shape: tuple[int, ...], kind: str, element: Any, count: int) -> None:
+    """numpy clips a slice to its axis silently; a suite's slice must lie within the value's axis instead
+    (`3:6` of 4 elements is a mistake, not 1 element)."""
+    parts = index if isinstance(index, tuple) else (index,)
+    if Ellipsis in parts:
+        at = parts.index(Ellipsis)
+        parts = parts[:at] + (slice(None),) * (len(shape) - len(parts) + 1) + parts[at + 1:]
+    for axis, part in enumerate(parts[:len(shape)]):
+        if not isinstance(part, slice):
+            continue
+        size = shape[axis]
+        for bound in (part.start, part.stop):
+            if bound is not None and not -size <= bound <= size:
+                what = f"{count} elements" if count > 1 else "one element"
+                text = ":".join("" if b is None else str(b) for b in (part.start, part.stop))
+                raise SuiteError(f"index {text!r} reaches past axis {axis} of {kind} of {what} (shape {shape}: "
+                                 f"{size} entries on that axis, 0 to {size - 1}); numpy would silently return fewer "
+                                 f"values: use a range within 0:{size}")
 
 
 class Feature(Observable):
@@ -181,11 +202,11 @@ class Feature(Observable):
 
     def __init__(self, kind: str, element: str | Sequence[str], update_interval: Any = 1,
                  buffer_size: int | None = None, delay: Any = None, aggregator: Any = None,
-                 corruptor: Callable[..., Any] | None = None, index: Any = None, within: str | None = None):
+                 corruptor: Callable[..., Any] | None = None, index: Any = None, within: str | Sequence[str] | None = None):
         self._kind = kind
         self._element = element if isinstance(element, str) else tuple(element)
         self._index = index
-        self._within = within
+        self._within = within if within is None or isinstance(within, str) else tuple(within)
         self._check_kind()
         self._bound: tuple[weakref.ref, FieldReader] | None = None
         super().__init__(update_interval, buffer_size, delay, aggregator, corruptor)
