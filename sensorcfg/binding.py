@@ -30,7 +30,7 @@ from .observables import Camera, Feature, Generic, Observable
 from .observables.camera import MODES, SCENE_FLAGS
 from .observables.feature import feature_index
 from .physics import Physics
-from .selection import select, split_selector
+from .selection import keyframe_id, select, split_selector
 
 __all__ = ["bind", "scene_flags"]
 
@@ -98,6 +98,19 @@ class _Binder:
                 return None
             return ChoiceSteps(tuple(v for v in values if v is not None), value.p)
         return self.steps(value, path, minimum)
+
+    # -- options ---------------------------------------------------------------------------------
+
+    def options(self) -> None:
+        """`options` against the model: the keyframe exists, the control interval is whole physics steps."""
+        options = self.suite.config.options
+        if options.keyframe is not None:
+            try:
+                keyframe_id(self.model, options.keyframe)
+            except SuiteError as e:
+                self.report_all(("options", "keyframe"), e)
+        if options.control_interval is not None:
+            self.steps(options.control_interval, ("options", "control_interval"), 1)
 
     # -- one sensor -----------------------------------------------------------------------------
 
@@ -330,6 +343,7 @@ def bind(suite: LoadedSuite, model: mujoco.MjModel, *, import_callables: bool) -
         dict[str, Observable], list[Problem]]:
     """Observables for every sensor of `suite` (file order) and every problem found on the way."""
     binder = _Binder(suite, model, import_callables)
+    binder.options()
     observables: dict[str, Observable] = {}
     for name, cfg in suite.sensors.items():
         try:

@@ -20,7 +20,7 @@ import mujoco
 from .errors import Problem, SuiteError, did_you_mean
 from .kinds import ELEMENT_TYPES
 
-__all__ = ["Selection", "select", "split_selector", "element_names", "element_labels", "ID_PREFIX"]
+__all__ = ["Selection", "select", "split_selector", "element_names", "element_labels", "keyframe_id", "ID_PREFIX"]
 
 ID_PREFIX = "#"  # `joint:#0`: an element by id; also the label of an unnamed element
 
@@ -161,8 +161,11 @@ def _in_any(model: mujoco.MjModel, body: int | None, roots: list[int]) -> bool:
     return any(_in_subtree(model, body, root) for root in roots)
 
 
+_NOUNS = {"key": "keyframe"}  # element types whose suite name is not the word a message uses
+
+
 def _plural(type_name: str) -> str:
-    return "bodies" if type_name == "body" else f"{type_name}s"
+    return {"body": "bodies", "key": "keyframes"}.get(type_name, f"{type_name}s")
 
 
 def _lookup(model: mujoco.MjModel, type_name: str, name: str) -> int:
@@ -184,5 +187,15 @@ def _lookup(model: mujoco.MjModel, type_name: str, name: str) -> int:
         unnamed = sum(1 for n in element_names(model, type_name) if not n)
         if unnamed:
             hint += f" ({unnamed} unnamed: select them by id, '{type_name}:{ID_PREFIX}<id>', or with a glob)"
-        raise SuiteError(Problem(f"the model has no {type_name} named {name!r}{hint}"))
+        raise SuiteError(Problem(f"the model has no {_NOUNS.get(type_name, type_name)} named {name!r}{hint}"))
     return int(i)
+
+
+def keyframe_id(model: mujoco.MjModel, keyframe: int | str) -> int:
+    """The index of a keyframe given by name (with "did you mean") or index (checked against `nkey`)."""
+    if isinstance(keyframe, str):
+        return _lookup(model, "key", keyframe)
+    if isinstance(keyframe, bool) or not isinstance(keyframe, int) or not 0 <= keyframe < model.nkey:
+        count = f"keyframes 0 to {model.nkey - 1}" if model.nkey else "no keyframes"
+        raise SuiteError(Problem(f"keyframe {keyframe!r} is out of range: the model has {count}"))
+    return int(keyframe)

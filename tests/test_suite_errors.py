@@ -335,7 +335,7 @@ LOAD_MISTAKES = [
         'options:\n'
         '  pad_initial: true\n'
         'sensors: {}\n',
-        "2:3: error: options.pad_initial: unknown key 'pad_initial' (did you mean 'pad_with_initial_value'?); allowed keys: pad_with_initial_value, strip_singleton_buffer_dim, control_interval",
+        "2:3: error: options.pad_initial: unknown key 'pad_initial' (did you mean 'pad_with_initial_value'?); allowed keys: pad_with_initial_value, strip_singleton_buffer_dim, control_interval, keyframe",
         id='options_key'),
     pytest.param(
         'defaults:\n'

@@ -295,6 +295,10 @@ class OptionsConfig(BaseModel):
     control_interval: ControlInterval | None = Field(
         None, description="Physics steps per control step (as steps, a duration or a rate); default 1.",
         examples=[10, "20ms", "50Hz"])
+    keyframe: Annotated[int, Field(ge=0, strict=True)] | Annotated[str, StringConstraints(min_length=1)] | None = Field(
+        None, description="The model keyframe every episode starts from: its name or its index (default: the "
+        "model's reset state). `sensorcfg run --keyframe` and the environments' `keyframe=` override it.",
+        examples=["home", 0])
 
 
 class SuiteConfig(BaseModel):
