@@ -20,6 +20,7 @@ from pydantic import ValidationError
 
 from ..errors import Problem, SuiteError, did_you_mean
 from .locate import describe, problem_at, problems_from
+from .menagerie import MENAGERIE_SCHEME, resolve_menagerie
 from .models import CameraConfig, SensorConfig, SuiteConfig
 from .source import Doc, Path_, Pos, compose, dotted
 from .tables import GENERIC_KIND, IMAGE_KINDS
@@ -241,7 +242,9 @@ def _merge_camera(default: CameraConfig | None, own: CameraConfig | None) -> Cam
 
 
 def resolve_model_path(value: str, base_dir: Path) -> str:
-    """A suite's `model:` as a path: relative to the suite, or inside an installed package."""
+    """A suite's `model:` as a path: relative to the suite, inside an installed package, or in Menagerie."""
+    if value.startswith(MENAGERIE_SCHEME):
+        return resolve_menagerie(value)
     if value.startswith(PACKAGE_SCHEME):
         package, _, inner = value[len(PACKAGE_SCHEME):].partition("/")
         spec = importlib.util.find_spec(package) if package and "." not in package else None

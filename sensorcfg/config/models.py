@@ -307,9 +307,10 @@ class SuiteConfig(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid", title="sensorcfg sensor suite")
     version: Literal[1] = Field(1, description="Version of the suite format.", examples=[1])
     model: str | None = Field(
-        None, description="Default MJCF model, relative to this file, or 'package://<package>/<path>' for a "
-        "file shipped inside an installed Python package.", examples=["../models/arm.xml",
-                                                                       "package://sensorcfg/assets/robot.xml"])
+        None, description="Default MJCF model, relative to this file; 'package://<package>/<path>' for a "
+        "file shipped inside an installed Python package; 'menagerie://<robot folder>/<file>' for a MuJoCo "
+        "Menagerie robot, through the mujoco-menagerie package (which honours MENAGERIE_ROOT).",
+        examples=["../models/arm.xml", "package://sensorcfg/assets/robot.xml", "menagerie://unitree_go2/scene.xml"])
     extends: str | None = Field(
         None, description="Another suite (relative to this file) to start from; this file overrides it key by "
         "key, and `null` removes an inherited key.", examples=["base.yaml"])
