@@ -9,9 +9,12 @@ at the YAML node it is about; `generic` callables are imported only when asked.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import importlib
-from collections.abc import Callable
+import sys
+from collections.abc import Callable, Iterator
+from pathlib import Path
 from typing import Any, Literal, cast
 
 import mujoco
@@ -23,6 +26,7 @@ from .config.source import Path_
 from .config.tables import GENERIC_KIND, IMAGE_KINDS
 from .config.units import to_steps
 from .draws import ChoiceSteps, UniformSteps
+from .checks import batch_problems, sensor_problems
 from .errors import Problem, SuiteError, did_you_mean
 from .kinds import CONSTANT, INTERNAL, STATE, kinds_of, offered_kinds, state_twin
 from .noise import build_noise
@@ -47,6 +51,7 @@ class _Binder:
     suite: LoadedSuite
     model: mujoco.MjModel
     import_callables: bool
+    batch: bool = False  # also check what BatchEnvironment needs
     problems: list[Problem] = dataclasses.field(default_factory=list)
 
     # -- where a key came from, and problems there --------------------------------------------
@@ -124,9 +129,15 @@ class _Binder:
             self.report(("sensors", name, "constant"), f"'constant' is for features of model fields; a sensor of kind "
                         f"{cfg.kind!r} is not one: remove it")
         made = builders.get(cfg.kind, self.feature)(name, cfg, timing)
+        shape, dtype = (made[1], made[2]) if made is not None else (None, None)
+        found = sensor_problems(cfg, shape, self.suite.config.options.strip_singleton_buffer_dim)
+        if self.batch and cfg.enabled is not False:  # (a camera's or callable's need no binding)
+            found += batch_problems(cfg, dtype, self.field(cfg) if made is not None else None, self.model)
+        for key, message in found:
+            self.report(self.origin(name, str(key[0])) + key[1:], message)
         if made is None or len(self.problems) > before:
             return None
-        observable, shape, dtype = made
+        observable = made[0]
         observable.enabled = cfg.enabled is not False
         if cfg.noise and shape is not None:
             stages = cfg.noise if self.import_callables else tuple(s for s in cfg.noise if s.type != "custom")
@@ -139,6 +150,20 @@ class _Binder:
                     self.report(base + rest, p.message)
                 return None
         return observable
+
+    def folder(self, name: str) -> str | None:
+        """The folder of the file that defines sensor `name` (`generic` and `custom` callables import from
+        there first), or None for a suite given as text."""
+        pos = self.suite.doc.pos(("sensors", name))
+        file = pos.file if pos else self.suite.file
+        return str(Path(file).resolve().parent) if file and Path(file).is_file() else None
+
+    def field(self, cfg: SensorConfig) -> str | None:
+        """The mjData / mjModel field a bound feature reads (None for cameras and callables)."""
+        if cfg.kind in IMAGE_KINDS or cfg.kind == GENERIC_KIND or cfg.element is None:
+            return None
+        first = cfg.element if isinstance(cfg.element, str) else cfg.element[0]
+        return kinds_of(split_selector(first)[0])[cfg.kind].field
 
     def selection(self, name: str, cfg: SensorConfig) -> bool:
         """Whether `element` (and `within`) resolve; problems point at the list entry at fault."""
@@ -167,6 +192,8 @@ class _Binder:
         return ok
 
     def element_type(self, name: str, cfg: SensorConfig) -> str | None:
+        if cfg.element is None:  # the loader reports a missing (or rejected) element, once
+            return None
         first = cfg.element if isinstance(cfg.element, str) else (cfg.element or ("",))[0]
         path = ("sensors", name, "element") + (() if isinstance(cfg.element, str) else (0,))
         try:
@@ -315,6 +342,20 @@ def _entries(value: str | tuple[str, ...] | None, path: Path_) -> list[tuple[str
     return [(v, path + (i,)) for i, v in enumerate(value)]
 
 
+@contextlib.contextmanager
+def _suite_folder_first(folder: str | None) -> Iterator[None]:
+    """Imports made inside look in `folder` first, then sys.path (a module imported once stays imported)."""
+    if folder is None or (sys.path and sys.path[0] == folder):
+        yield
+        return
+    sys.path.insert(0, folder)
+    try:
+        yield
+    finally:
+        if folder in sys.path:
+            sys.path.remove(folder)
+
+
 def _not_imported(text: str) -> Callable[[Any], Any]:
     def never_imported(physics: Any) -> Any:
         raise RuntimeError(f"{text} was not imported: build the suite with import_callables=True to run it")
@@ -339,15 +380,17 @@ def _index(value: Any) -> Any:
     return parts[0] if len(parts) == 1 else tuple(parts)
 
 
-def bind(suite: LoadedSuite, model: mujoco.MjModel, *, import_callables: bool) -> tuple[
+def bind(suite: LoadedSuite, model: mujoco.MjModel, *, import_callables: bool, batch: bool = False) -> tuple[
         dict[str, Observable], list[Problem]]:
-    """Observables for every sensor of `suite` (file order) and every problem found on the way."""
-    binder = _Binder(suite, model, import_callables)
+    """Observables for every sensor of `suite` (file order) and every problem found on the way; with
+    `batch`, also what BatchEnvironment cannot run."""
+    binder = _Binder(suite, model, import_callables, batch)
     binder.options()
     observables: dict[str, Observable] = {}
     for name, cfg in suite.sensors.items():
         try:
-            observable = binder.bind(name, cfg)
+            with _suite_folder_first(binder.folder(name)):
+                observable = binder.bind(name, cfg)
         except SuiteError as e:  # a check an observable makes itself, that binding did not anticipate
             binder.report_all(("sensors", name), e)
             continue

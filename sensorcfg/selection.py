@@ -184,9 +184,9 @@ def _lookup(model: mujoco.MjModel, type_name: str, name: str) -> int:
         hint = did_you_mean(name, names)
         if not hint:
             hint = f"; its {_plural(type_name)} are: {', '.join(names[:12]) or '(none)'}" + (" ..." if len(names) > 12 else "")
-        unnamed = sum(1 for n in element_names(model, type_name) if not n)
-        if unnamed:
-            hint += f" ({unnamed} unnamed: select them by id, '{type_name}:{ID_PREFIX}<id>', or with a glob)"
+            unnamed = sum(1 for n in element_names(model, type_name) if not n)
+            if unnamed:
+                hint += f" ({unnamed} unnamed: select them by id, '{type_name}:{ID_PREFIX}<id>', or with a glob)"
         raise SuiteError(Problem(f"the model has no {_NOUNS.get(type_name, type_name)} named {name!r}{hint}"))
     return int(i)
 

@@ -87,30 +87,32 @@ class Suite:
             message = f"cannot load the model {str(path)!r}: {str(e).strip()}"
             raise SuiteError(pos.problem(message, "model") if pos else Problem(message, file=str(path))) from None
 
-    def _bind(self, model: ModelLike, import_callables: bool) -> tuple[dict[str, Observable], list[Problem]]:
+    def _bind(self, model: ModelLike, import_callables: bool, batch: bool) -> tuple[dict[str, Observable], list[Problem]]:
         from .binding import bind
 
-        return bind(self._loaded, self._mjmodel(model), import_callables=import_callables)
+        return bind(self._loaded, self._mjmodel(model), import_callables=import_callables, batch=batch)
 
-    def build(self, model: ModelLike = None, *, import_callables: bool = True) -> dict[str, Observable]:
+    def build(self, model: ModelLike = None, *, import_callables: bool = True,
+              batch: bool = False) -> dict[str, Observable]:
         """The observables of every sensor, in file order, with their `enabled` flags set.
 
         `model` is a `mujoco.MjModel`, a model path, or None for the suite's own `model:`. `generic`
         callables are imported (pass `import_callables=False` to leave them unimported placeholders).
-        Raises SuiteError listing every problem.
+        With `batch`, what BatchEnvironment cannot run is a problem too. Raises SuiteError listing every problem.
         """
-        observables, problems = self._bind(model, import_callables)
+        observables, problems = self._bind(model, import_callables, batch)
         if problems:
             raise SuiteError(problems)
         return observables
 
-    def check(self, model: ModelLike = None, *, import_callables: bool = False) -> list[Problem]:
+    def check(self, model: ModelLike = None, *, import_callables: bool = False, batch: bool = False) -> list[Problem]:
         """Every problem of the suite against `model` (empty when it builds); never raises for a mistake.
 
-        `generic` callables are not imported unless `import_callables` is true.
+        `generic` callables are not imported unless `import_callables` is true; with `batch`, what
+        BatchEnvironment cannot run is a problem too.
         """
         try:
-            return self._bind(model, import_callables)[1]
+            return self._bind(model, import_callables, batch)[1]
         except SuiteError as e:
             return list(e.problems)
 

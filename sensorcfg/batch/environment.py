@@ -134,7 +134,7 @@ class BatchEnvironment(ControlLoop):
         self._model = load_model(model)
         self._nsim = int(nsim)
         self._batch_shape = (self._nsim,)
-        observables, options = _suite_and_observables(suite, self._model)
+        observables, options = _suite_and_observables(suite, self._model, batch=True)
         self._keyframe = keyframe_index(self._model, keyframe, options.pop("keyframe", None))
         self._n, self._control_timestep, self._step_limit = episode_timing(
             self._model, physics_steps_per_control_step, control_timestep, time_limit,

@@ -58,6 +58,9 @@ def add_parser(sub: Any, epilog: str) -> None:
                    "to learn its shape)")
     p.add_argument("--set", dest="overrides", action="append", default=[], type=override, metavar="KEY=VALUE",
                    help="override a key in every suite before checking (repeatable)")
+    p.add_argument("--batch", action="store_true",
+                   help="also check what BatchEnvironment needs (no noise, aggregators or drawn schedules on "
+                   "cameras; float64 mjData features; no generic or custom callables; ...)")
     p.set_defaults(handler=command)
 
 
@@ -89,7 +92,7 @@ def _walk(root: Path) -> Iterator[Path]:
 
 
 def check_file(path: Path, model: tuple[str, Any] | None, overrides: Sequence[str], import_callables: bool,
-               models: dict[str, Any] | None = None) -> FileResult:
+               models: dict[str, Any] | None = None, *, batch: bool = False) -> FileResult:
     """One suite's problems. `model` is (name, MjModel) from --model, or None for the suite's own `model:`;
     `models` caches the suites' own models by path so a folder of suites for one robot loads it once.
     Sensors that pass the schema are checked against the model even when others do not."""
@@ -117,7 +120,7 @@ def check_file(path: Path, model: tuple[str, Any] | None, overrides: Sequence[st
                     models[target] = None  # let check() report it, positioned at the suite's `model:` line
             target = models[target]  # None: let the suite load it and report where its `model:` is
     seen = {(p.file, p.line, p.col, p.message) for p in problems}
-    problems += [p for p in suite.check(target, import_callables=import_callables)
+    problems += [p for p in suite.check(target, import_callables=import_callables, batch=batch)
                  if (p.file, p.line, p.col, p.message) not in seen]
     files = list(dict.fromkeys(p.file for p in problems))
     problems.sort(key=lambda p: (files.index(p.file), p.line or 0, p.col or 0))
@@ -164,6 +167,6 @@ def command(args: argparse.Namespace) -> int:
     if args.import_callables:
         importable_cwd()
     models: dict[str, Any] = {}
-    results = [check_file(f, model, args.overrides, args.import_callables, models) for f in files]
+    results = [check_file(f, model, args.overrides, args.import_callables, models, batch=args.batch) for f in files]
     print(REPORTERS[args.format](results))
     return EXIT_OK if all(r.valid for r in results) else EXIT_INVALID

@@ -270,18 +270,22 @@ def _finish(doc: Doc, file: str, dirs: dict[str, Path], problems: list[Problem])
     except ValidationError as e:
         found = {(p.file, p.line, p.col) for p in doc.problems}  # a removed node: report it once
         later = [p for p in problems_from(e, doc, SuiteConfig) if (p.file, p.line, p.col) not in found]
-        partial = _without_invalid(value, e)
         rest: list[Problem] = []
         loaded = None
-        if partial is not None:  # the sensors that passed: their own problems, and a suite to bind them
-            try:
+        for whole in (False, True):  # drop the rejected keys of a sensor, else the whole sensor
+            partial = _without_invalid(value, e, whole_sensors=whole)
+            if partial is None:
+                break
+            rest = []
+            try:  # the sensors' remaining keys: their own problems, and a suite to bind them
                 loaded = _finish_valid(SuiteConfig.model_validate(partial), doc, file, dirs, rest)
             except ValidationError:
-                loaded = None
-            if loaded is not None:  # bind only the sensors with no problem so far
-                bad = {p.loc.split(".")[1] for p in rest if p.loc.startswith("sensors.")}
-                loaded = dataclasses.replace(loaded, sensors={k: v for k, v in loaded.sensors.items()
-                                                              if k not in bad})
+                continue
+            dropped = {p.loc for p in later}
+            rest = [p for p in rest if p.loc not in dropped]  # a dropped key is reported once, as the schema did
+            bad = {p.loc.split(".")[1] for p in rest if p.loc.startswith("sensors.")}
+            loaded = dataclasses.replace(loaded, sensors={k: v for k, v in loaded.sensors.items() if k not in bad})
+            break
         error = SuiteError(_sorted(problems + later + rest))
         error._partial = loaded  # type: ignore[attr-defined]  # read by `sensorcfg.suite.check_file`
         raise error from None
@@ -291,14 +295,19 @@ def _finish(doc: Doc, file: str, dirs: dict[str, Path], problems: list[Problem])
     return loaded
 
 
-def _without_invalid(value: dict[str, Any], error: ValidationError) -> dict[str, Any] | None:
-    """The suite without the sensors (and top-level keys) the schema rejected, or None when the rest
-    cannot stand alone (the `sensors` mapping itself is malformed)."""
+def _without_invalid(value: dict[str, Any], error: ValidationError, whole_sensors: bool) -> dict[str, Any] | None:
+    """The suite without what the schema rejected: each sensor's rejected keys (or, with `whole_sensors`,
+    those sensors) and rejected top-level keys; None when the rest cannot stand alone (the `sensors`
+    mapping itself is malformed). Keeping a sensor's valid keys lets binding report its model mistakes
+    in the same pass as its schema mistakes."""
     sensors_out: set[Any] = set()
+    sensor_keys_out: dict[Any, set[Any]] = {}
     keys_out: set[Any] = set()
     for e in error.errors(include_url=False):
         loc = tuple(e["loc"])
-        if len(loc) >= 2 and loc[0] == "sensors":
+        if len(loc) >= 3 and loc[0] == "sensors" and not whole_sensors and e["type"] != "missing":
+            sensor_keys_out.setdefault(loc[1], set()).add(loc[2])
+        elif len(loc) >= 2 and loc[0] == "sensors":
             sensors_out.add(loc[1])
         elif loc and loc[0] != "sensors":
             keys_out.add(loc[0])
@@ -306,7 +315,9 @@ def _without_invalid(value: dict[str, Any], error: ValidationError) -> dict[str,
             return None
     rest = {k: v for k, v in value.items() if k not in keys_out}
     if isinstance(rest.get("sensors"), dict):
-        rest["sensors"] = {k: v for k, v in rest["sensors"].items() if k not in sensors_out}
+        rest["sensors"] = {k: ({kk: vv for kk, vv in v.items() if kk not in sensor_keys_out[k]}
+                               if k in sensor_keys_out and isinstance(v, dict) else v)
+                           for k, v in rest["sensors"].items() if k not in sensors_out}
     return rest
 
 

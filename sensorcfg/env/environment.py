@@ -103,7 +103,8 @@ def action_spec(model: mujoco.MjModel, leading: tuple[int, ...] = ()) -> specs.B
                               minimum=np.where(limited, lo, -np.inf), maximum=np.where(limited, hi, np.inf))
 
 
-def _suite_and_observables(suite: Any, model: mujoco.MjModel) -> tuple[dict[str, Any], dict[str, Any]]:
+def _suite_and_observables(suite: Any, model: mujoco.MjModel,
+                           batch: bool = False) -> tuple[dict[str, Any], dict[str, Any]]:
     """Observables and Updater keyword arguments from a Suite, a suite path, or a dict of observables;
     the suite's `options.keyframe` too, under "keyframe" (the environment pops it)."""
     if isinstance(suite, Mapping):
@@ -112,7 +113,8 @@ def _suite_and_observables(suite: Any, model: mujoco.MjModel) -> tuple[dict[str,
         from .. import load
 
         suite = load(suite)
-    return suite.build(model), {**suite.updater_kwargs(model), "keyframe": suite.options.keyframe}
+    observables = suite.build(model, batch=True) if batch else suite.build(model)
+    return observables, {**suite.updater_kwargs(model), "keyframe": suite.options.keyframe}
 
 
 def keyframe_index(model: mujoco.MjModel, keyframe: int | str | None, suite_keyframe: int | str | None) -> int | None:
