@@ -17,11 +17,10 @@ from .config.models import ChoiceDraw, SensorConfig, UniformDraw
 from .config.tables import GENERIC_KIND, IMAGE_KINDS
 from .observables.feature import batch_on_demand_problem
 
-__all__ = ["sensor_problems", "batch_problems", "BATCH_REDUCERS"]
+__all__ = ["sensor_problems", "batch_problems"]
 
 Found = list[tuple[tuple[str | int, ...], str]]  # (key path inside the sensor, message)
 
-BATCH_REDUCERS = ("min", "max", "sum", "mean", "median")  # the aggregators a batch vectorises
 _SINGLE = "remove it, or use the single-simulation Environment"
 _CAMERA_WHAT = {"noise": "noise", "aggregator": "an aggregator", "interval": "a drawn interval",
                 "delay": "a drawn delay"}
@@ -69,9 +68,6 @@ def batch_problems(cfg: SensorConfig, dtype: Any, field: str | None, model: mujo
     problem = batch_on_demand_problem(model, field) if field else None
     if problem:
         found.append((("kind",), problem))
-    if cfg.aggregator is not None and cfg.aggregator not in BATCH_REDUCERS:
-        found.append((("aggregator",), f"a BatchEnvironment vectorises the aggregators {', '.join(BATCH_REDUCERS)}; "
-                      f"{cfg.aggregator!r} would run per simulation"))
     for i, stage in enumerate(cfg.noise or ()):
         if stage.type == "custom":
             found.append((("noise", i), "a custom noise stage runs Python once per sample and simulation, which a "
