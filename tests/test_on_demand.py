@@ -103,6 +103,12 @@ def test_batch_refuses_on_demand_fields_it_cannot_compute() -> None:
     if int(mujoco.__version__.split(".")[0]) < 4:
         pytest.skip("BatchEnvironment needs MuJoCo 4")
     suite = sensorcfg.loads(ON_DEMAND_SUITE)
-    with pytest.raises(SuiteError, match=r"sensor 'calf_cfrc_ext': cfrc_ext is filled by mj_rnePostConstraint "
-                       "only when something asks for it"):
+    with pytest.raises(SuiteError) as e:  # a suite: each sensor at its `kind`
         sensorcfg.BatchEnvironment(str(MODEL), suite, 2)
+    assert [p.loc for p in e.value.problems] == [f"sensors.{name}.kind" for name in (
+        "calf_cfrc_ext", "feet_cfrc_ext", "base_cfrc_int", "base_cacc", "base_subtree_linvel", "base_subtree_angmom")]
+    assert e.value.problems[0].message.startswith("cfrc_ext is filled by mj_rnePostConstraint only when something "
+                                                  "asks for it, and a BatchEnvironment's rollout cannot call it")
+    model = mujoco.MjModel.from_xml_path(str(MODEL))
+    with pytest.raises(SuiteError, match=r"sensor 'ext': cfrc_ext is filled by mj_rnePostConstraint"):  # Python
+        sensorcfg.BatchEnvironment(model, {"ext": sensorcfg.Feature("cfrc_ext", "body:fl_calf")}, 2)

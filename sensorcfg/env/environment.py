@@ -114,7 +114,7 @@ def _suite_and_observables(suite: Any, model: mujoco.MjModel,
 
         suite = load(suite)
     observables = suite.build(model, batch=True) if batch else suite.build(model)
-    return observables, {**suite.updater_kwargs(model), "keyframe": suite.options.keyframe}
+    return observables, {**suite.updater_kwargs(model), "keyframe": getattr(suite.options, "keyframe", None)}
 
 
 def keyframe_index(model: mujoco.MjModel, keyframe: int | str | None, suite_keyframe: int | str | None) -> int | None:
