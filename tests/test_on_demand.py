@@ -110,5 +110,7 @@ def test_batch_refuses_on_demand_fields_it_cannot_compute() -> None:
     assert e.value.problems[0].message.startswith("cfrc_ext is filled by mj_rnePostConstraint only when something "
                                                   "asks for it, and a BatchEnvironment's rollout cannot call it")
     model = mujoco.MjModel.from_xml_path(str(MODEL))
+    feature = sensorcfg.Feature("cfrc_ext", "body:fl_calf")
+    feature.enabled = True  # (observables start disabled, as dm_control's do)
     with pytest.raises(SuiteError, match=r"sensor 'ext': cfrc_ext is filled by mj_rnePostConstraint"):  # Python
-        sensorcfg.BatchEnvironment(model, {"ext": sensorcfg.Feature("cfrc_ext", "body:fl_calf")}, 2)
+        sensorcfg.BatchEnvironment(model, {"ext": feature}, 2)
