@@ -60,3 +60,20 @@ def test_package_errors_are_problems_at_the_model_line(menagerie_root: Path) -> 
         sensorcfg.loads(SUITE.replace("anymal_c", "anymal"), file="s.yaml")
     with pytest.raises(SuiteError, match=r"'anybotics_anymal_c' has no file 'scene_x.xml'"):
         sensorcfg.loads(SUITE.replace("scene.xml", "scene_x.xml"), file="s.yaml")
+
+
+SUITES = sorted((Path(__file__).resolve().parent.parent / "configs" / "menagerie").glob("*.yaml"))
+
+
+def test_there_is_a_menagerie_suite_per_robot_class() -> None:
+    assert [p.stem.split("_")[0] for p in SUITES] == ["arm", "hand", "humanoid", "quadruped"]
+
+
+@pytest.mark.parametrize("path", SUITES, ids=[p.stem for p in SUITES])
+def test_menagerie_suites_name_a_robot_and_pass_the_schema(path: Path) -> None:
+    """Without Menagerie here, the suites are checked up to their model: syntax, schema, units."""
+    text = path.read_text()
+    model_line = next(line for line in text.splitlines() if line.startswith("model: "))
+    assert model_line.startswith("model: menagerie://")
+    suite = sensorcfg.loads(text.replace(model_line, ""), file=path.name)
+    assert suite.sensors and suite.model is None
