@@ -167,10 +167,13 @@ def state_twin(type_name: str, kind: str) -> str | None:
 class OnDemand:
     function: str  # mujoco.<function>(model, data)
     flag: str  # mjData flag set by the function, cleared by mj_step / mj_forward
+    # Whether it reads `qvel`: after mj_step that is the velocity the step ended with, while every other
+    # input is from the step's start (the kinematics); MuJoCo's in-step call used the starting velocity.
+    reads_qvel: bool
 
 
-_RNE_POST = OnDemand("mj_rnePostConstraint", "flg_rnepost")
-_SUBTREE_VEL = OnDemand("mj_subtreeVel", "flg_subtreevel")
+_RNE_POST = OnDemand("mj_rnePostConstraint", "flg_rnepost", reads_qvel=True)  # cacc += cdof_dot * qvel
+_SUBTREE_VEL = OnDemand("mj_subtreeVel", "flg_subtreevel", reads_qvel=False)  # from cvel
 ON_DEMAND: dict[str, OnDemand] = {"cacc": _RNE_POST, "cfrc_ext": _RNE_POST, "cfrc_int": _RNE_POST,
                                   "subtree_linvel": _SUBTREE_VEL, "subtree_angmom": _SUBTREE_VEL}
 

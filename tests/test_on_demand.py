@@ -35,8 +35,8 @@ FIELDS = {"calf_cfrc_ext": "cfrc_ext", "base_cfrc_int": "cfrc_int", "base_cacc":
           "base_subtree_linvel": "subtree_linvel", "base_subtree_angmom": "subtree_angmom"}
 
 
-def _episode(model: mujoco.MjModel, steps: int = 60):
-    suite = sensorcfg.loads(ON_DEMAND_SUITE)
+def _episode(model: mujoco.MjModel, steps: int = 60, overrides: list[str] | None = None):
+    suite = sensorcfg.loads(ON_DEMAND_SUITE, overrides)
     env = sensorcfg.Environment(model, suite, seed=0, keyframe="crouch")
     rng = np.random.default_rng(0)
     env.reset()
@@ -46,12 +46,30 @@ def _episode(model: mujoco.MjModel, steps: int = 60):
 
 
 def test_on_demand_fields_equal_mujocos_own_functions() -> None:
+    """Each value equals MuJoCo's function called on the state the last step computed (its kinematics and
+    the velocity it started from), and is not zero: the feet stand on the floor."""
     model = mujoco.MjModel.from_xml_path(str(MODEL))
+    suite = sensorcfg.loads(ON_DEMAND_SUITE)
+    physics = sensorcfg.Physics(model)
+    data = physics.data
+    mujoco.mj_resetDataKeyframe(model, data, model.key("crouch").id)
+    mujoco.mj_forward(model, data)
+    updater = sensorcfg.Updater(suite.build(model), **suite.updater_kwargs(model))
+    updater.reset(physics, np.random.RandomState(0))
     calves = [model.body(n.partition(":")[2]).id for n in CALVES]
     base = model.body("base").id
+    rng = np.random.default_rng(0)
     nonzero = dict.fromkeys(FIELDS, 0)
-    for env, obs in _episode(model):
-        reference = copy.copy(env.physics.data)  # the state after the last substep, computed afresh
+    for _ in range(60):
+        data.ctrl[:] = rng.uniform(-0.3, 0.3, model.nu) + model.key("crouch").ctrl
+        updater.prepare_for_next_control_step()
+        for _ in range(updater.physics_steps_per_control_step):
+            start_qvel = data.qvel.copy()
+            mujoco.mj_step(model, data)
+            updater.update()
+        obs = updater.get_observation()
+        reference = copy.copy(data)
+        reference.qvel[:] = start_qvel  # the velocity the last step started from, as in MuJoCo's own call
         mujoco.mj_rnePostConstraint(model, reference)
         mujoco.mj_subtreeVel(model, reference)
         np.testing.assert_array_equal(obs["calf_cfrc_ext"][0], reference.cfrc_ext[calves])
@@ -60,23 +78,27 @@ def test_on_demand_fields_equal_mujocos_own_functions() -> None:
                 np.testing.assert_array_equal(obs[name][0], getattr(reference, field)[base], err_msg=name)
         for name in FIELDS:
             nonzero[name] += bool(np.any(obs[name] != 0))
-    assert all(count >= 50 for count in nonzero.values()), nonzero  # feet stand on the floor: no silent zeros
+    assert all(count >= 50 for count in nonzero.values()), nonzero
 
 
-def test_on_demand_fields_equal_those_mujoco_fills_for_its_own_sensors() -> None:
-    """The same trajectory on the model with sensors that make every step compute these fields.
-
-    cacc and cfrc_int are left out: MuJoCo's in-step call uses the velocity the step started from, and a call
-    after the step (ours, or any user's) the velocity it ended with (README, "Fields computed on demand")."""
+@pytest.mark.parametrize("overrides", [
+    pytest.param([], id="once-per-control-step"),
+    pytest.param(["defaults.buffer=10", "defaults.aggregator=max"], id="every-step-max-per-control-step"),
+    pytest.param(["defaults.interval=3", "defaults.buffer=4", "defaults.delay=2"], id="interval-3-buffer-4-delay-2"),
+    pytest.param(["defaults.interval={uniform: [1, 4]}", "defaults.buffer=3"], id="drawn-interval"),
+])
+def test_on_demand_fields_equal_those_mujoco_fills_for_its_own_sensors(overrides: list[str]) -> None:
+    """The same trajectory on the model with sensors that make every step compute these fields, bit for bit:
+    cacc and cfrc_int too, which MuJoCo computes from the velocity the step started from."""
     spec = mujoco.MjSpec.from_file(str(MODEL))
     spec.add_sensor(type=mujoco.mjtSensor.mjSENS_SUBTREELINVEL, objtype=mujoco.mjtObj.mjOBJ_BODY, objname="base")
     site = spec.body("base").add_site(name="imu")
     spec.add_sensor(type=mujoco.mjtSensor.mjSENS_ACCELEROMETER, objtype=mujoco.mjtObj.mjOBJ_SITE, objname=site.name)
     with_sensors = spec.compile()
-    ours = [obs for _, obs in _episode(mujoco.MjModel.from_xml_path(str(MODEL)), 30)]
-    theirs = [obs for _, obs in _episode(with_sensors, 30)]
+    ours = [obs for _, obs in _episode(mujoco.MjModel.from_xml_path(str(MODEL)), 30, overrides)]
+    theirs = [obs for _, obs in _episode(with_sensors, 30, overrides)]
     for a, b in zip(ours, theirs):
-        for name in ("calf_cfrc_ext", "feet_cfrc_ext", "base_subtree_linvel", "base_subtree_angmom"):
+        for name in [*FIELDS, "feet_cfrc_ext"]:
             np.testing.assert_array_equal(a[name], b[name], err_msg=name)
 
 

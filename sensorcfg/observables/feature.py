@@ -21,7 +21,7 @@ from ..physics import raw_structs
 from ..selection import select, split_selector
 from .base import Observable
 
-__all__ = ["Feature", "FieldReader", "SyncingFieldReader", "feature_index", "forward_if_dirty", "on_demand",
+__all__ = ["Feature", "FieldReader", "SyncingFieldReader", "feature_index", "forward_if_dirty", "on_demand", "OnDemandCompute",
            "batch_on_demand_problem"]
 
 
@@ -31,10 +31,10 @@ class FieldReader:
     `compute`, when set, fills a field MuJoCo computes on demand only (`kinds.ON_DEMAND`) before the read.
     """
 
-    __slots__ = ("source", "index", "shape", "dtype", "field", "struct", "compute")
+    __slots__ = ("source", "index", "shape", "dtype", "field", "struct", "compute", "before_step")
 
     def __init__(self, struct: str, field: str, source: np.ndarray, index: np.ndarray,
-                 compute: Callable[[], None] | None = None):
+                 compute: OnDemandCompute | None = None):
         self.struct = struct
         self.field = field
         self.source = source  # a flat view of the array: it follows the simulation in place
@@ -42,6 +42,8 @@ class FieldReader:
         self.shape = index.shape
         self.dtype = source.dtype
         self.compute = compute
+        # for the Updater: call one physics step before each sample (None when nothing needs it)
+        self.before_step = compute.before_step if compute is not None and compute.start_qvel is not None else None
 
     def __call__(self) -> np.ndarray:
         if self.compute is not None:
@@ -54,22 +56,51 @@ class FieldReader:
         np.take(self.source, self.index, out=out)
 
 
-def on_demand(model: mujoco.MjModel, data: mujoco.MjData, field: str) -> Callable[[], None] | None:
-    """For a field MuJoCo fills only when the model's sensors need it, the call that fills it, at most once
-    per physics step: MuJoCo's own flag (`flg_rnepost`, `flg_subtreevel`) says whether it ran since the last
-    step. None for every other field."""
-    spec: OnDemand | None = ON_DEMAND.get(field)
-    if spec is None:
-        return None
-    function, flag = getattr(mujoco, spec.function), spec.flag
-    if not hasattr(data, flag):  # a MuJoCo without the flags: compute at every read
-        return lambda: function(model, data)
+class OnDemandCompute:
+    """Fills a field MuJoCo computes on demand only (`kinds.ON_DEMAND`), at most once per physics step:
+    MuJoCo's own flag (`flg_rnepost`, `flg_subtreevel`) says whether it ran since the last step.
 
-    def compute() -> None:
-        if not getattr(data, flag):
-            function(model, data)
+    A function that reads `qvel` would see, after `mj_step`, the velocity the step ended with, next to
+    kinematics from the step's start. `before_step` remembers the velocity the next step starts from (the
+    Updater calls it one physics step before each sample); the computation then runs on it, as MuJoCo's
+    in-step call does. Without it (a read outside our Updater, or the reset sample, whose state is
+    consistent) the function runs on the data as they are.
+    """
 
-    return compute
+    __slots__ = ("model", "data", "function", "flag", "start_qvel", "remembered")
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, spec: OnDemand):
+        self.model, self.data = model, data
+        self.function = getattr(mujoco, spec.function)
+        self.flag = spec.flag if hasattr(data, spec.flag) else None  # None: a MuJoCo without the flags
+        self.start_qvel = np.empty(model.nv) if spec.reads_qvel else None
+        self.remembered = False
+
+    def before_step(self, step: int = 0) -> None:
+        if self.start_qvel is not None:
+            np.copyto(self.start_qvel, self.data.qvel)
+            self.remembered = True
+
+    def __call__(self) -> None:
+        data = self.data
+        if self.flag is not None and getattr(data, self.flag):
+            return
+        if self.remembered and self.start_qvel is not None:
+            self.remembered = False
+            end_qvel = data.qvel.copy()
+            data.qvel[:] = self.start_qvel
+            try:
+                self.function(self.model, data)
+            finally:
+                data.qvel[:] = end_qvel
+        else:
+            self.function(self.model, data)
+
+
+def on_demand(model: mujoco.MjModel, data: mujoco.MjData, field: str) -> OnDemandCompute | None:
+    """The computation a field MuJoCo fills only on demand needs before it is read; None for other fields."""
+    spec = ON_DEMAND.get(field)
+    return None if spec is None else OnDemandCompute(model, data, spec)
 
 
 def batch_on_demand_problem(model: mujoco.MjModel, field: str) -> str | None:
@@ -100,7 +131,7 @@ class SyncingFieldReader(FieldReader):
     __slots__ = ("sync",)
 
     def __init__(self, struct: str, field: str, source: np.ndarray, index: np.ndarray, sync: Callable[[], None],
-                 compute: Callable[[], None] | None = None):
+                 compute: OnDemandCompute | None = None):
         super().__init__(struct, field, source, index, compute)
         self.sync = sync
 

@@ -170,6 +170,13 @@ class Updater:
             steps = sorted({t for ch in syncing for p in ch.needed_phases() for t in range(p, rows, ch.period())})
             tasks[:0] = [(rows, steps, -2, lambda step: sync())]
         self._random = [(order, ch) for order, ch in enumerate(self._channels) if isinstance(ch, RandomChannel)]
+        last = len(self._channels)  # after every sampler of the step
+        for ch in self._channels:  # a field computed on demand from the velocity a step starts from:
+            before = getattr(ch.sampler, "before_step", None)  # remember it one step before each sample
+            if isinstance(ch, FixedChannel) and before is not None:
+                tasks.append((ch.period(), [(p - 1) % ch.period() for p in ch.needed_phases()], last, before))
+            elif before is not None:  # a drawn schedule: at every step
+                tasks.append((1, [0], last, before))
         period = math.lcm(*(p for p, _, _, _ in tasks)) if tasks else 1
         if period > _MAX_PLAN_PERIOD:  # pathological interval mixes: each task checks its own phase
             self._period, self._plan, self._orders = 1, [()], [()]
