@@ -26,9 +26,9 @@ from .config.source import Path_
 from .config.tables import GENERIC_KIND, IMAGE_KINDS
 from .config.units import to_steps
 from .draws import ChoiceSteps, UniformSteps
-from .checks import batch_problems, sensor_problems
+from .checks import batch_problems, kind_problems, sensor_problems
 from .errors import Problem, SuiteError, did_you_mean
-from .kinds import CONSTANT, INTERNAL, STATE, kinds_of, offered_kinds, state_twin
+from .kinds import kinds_of
 from .noise import build_noise
 from .observables import Camera, Feature, Generic, Observable
 from .observables.camera import MODES, SCENE_FLAGS
@@ -165,18 +165,23 @@ class _Binder:
         first = cfg.element if isinstance(cfg.element, str) else cfg.element[0]
         return kinds_of(split_selector(first)[0])[cfg.kind].field
 
-    def selection(self, name: str, cfg: SensorConfig) -> bool:
-        """Whether `element` (and `within`) resolve; problems point at the list entry at fault."""
-        here = ("sensors", name)
+    def within(self, name: str, cfg: SensorConfig) -> bool:
+        """Whether every body `within` names exists; problems point at the list entry at fault."""
         ok = True
-        for selector, path in _entries(cfg.within, here + ("within",)):
+        for selector, path in _entries(cfg.within, ("sensors", name, "within")):
             try:
                 select(self.model, selector)
             except SuiteError as e:
                 self.report_all(path, e)
                 ok = False
-        if not ok:
+        return ok
+
+    def selection(self, name: str, cfg: SensorConfig) -> bool:
+        """Whether `element` (and `within`) resolve; problems point at the list entry at fault."""
+        here = ("sensors", name)
+        if not self.within(name, cfg):
             return False
+        ok = True
         for selector, path in _entries(cfg.element, here + ("element",)):
             try:
                 select(self.model, selector, cfg.within)
@@ -205,6 +210,7 @@ class _Binder:
     def feature(self, name: str, cfg: SensorConfig, timing: dict[str, Any]) -> tuple[Observable, Any, Any] | None:
         type_name = self.element_type(name, cfg)
         if type_name is None:
+            self.within(name, cfg)  # (still a mistake of its own)
             return None
         kind_ok = self.kind(name, cfg, type_name)
         if not self.selection(name, cfg) or not kind_ok:
@@ -222,31 +228,10 @@ class _Binder:
 
     def kind(self, name: str, cfg: SensorConfig, type_name: str) -> bool:
         """Whether `kind` is one the element type offers, and state unless the sensor asks for a constant."""
-        spec = kinds_of(type_name).get(cfg.kind)
-        role = spec.role if spec is not None else INTERNAL
-        here = ("sensors", name)
-        if role == INTERNAL:
-            states, constants = offered_kinds(type_name, STATE), offered_kinds(type_name, CONSTANT)
-            hint = did_you_mean(cfg.kind, states + (list(IMAGE_KINDS) if type_name == "camera" else []))
-            if not hint and did_you_mean(cfg.kind, constants):
-                hint = did_you_mean(cfg.kind, constants)[:-2] + ", a model constant read with 'constant: true'?)"
-            what = f" ({spec.field} is MuJoCo's internal bookkeeping, not a value to sense)" if spec else ""
-            extra = f"; a camera image is kind {', '.join(IMAGE_KINDS)}" if type_name == "camera" else ""
-            self.report(here + ("kind",), f"a {type_name} has no kind {cfg.kind!r}{what}{hint}; {type_name} kinds: "
-                        f"{', '.join(states) or '(none that change with the simulation)'}{extra}")
-            return False
-        assert spec is not None  # only INTERNAL covers a kind the type lacks
-        if role == CONSTANT and not cfg.constant:
-            twin = state_twin(type_name, cfg.kind)
-            instead = f"for the simulated value read {twin!r}, or " if twin else ""
-            self.report(here + ("kind",), f"a {type_name}'s {cfg.kind!r} is a model constant ({spec.field}), not "
-                        f"simulation state; {instead}add 'constant: true' to read the constant")
-            return False
-        if role == STATE and cfg.constant:
-            self.report(self.origin(name, "constant"), f"{cfg.kind!r} changes with the simulation; 'constant: true' "
-                        "is for model constants: remove it")
-            return False
-        return True
+        found = kind_problems(type_name, cfg.kind, bool(cfg.constant))
+        for key, message in found:
+            self.report(self.origin(name, "constant") if key == ("constant",) else ("sensors", name, "kind"), message)
+        return not found
 
     def _culprit(self, kind: str, selectors: str | tuple[str, ...], within: str | tuple[str, ...] | None,
                  index: Any) -> str:

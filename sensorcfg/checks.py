@@ -1,5 +1,6 @@
-"""Checks of one bound sensor that need its value's shape: what `Environment` would refuse or read wrongly
-at its first step, and (asked for with `batch=True`) what `BatchEnvironment` cannot run.
+"""Checks of one sensor against the model's tables: whether its `kind` is state (or a constant it asks
+for); with its value's shape, what `Environment` would refuse or read wrongly at its first step; and
+(asked for with `batch=True`) what `BatchEnvironment` cannot run.
 
 Each rule returns (key, message) pairs; binding reports them at the key's line (the sensor's own key, or
 `defaults`), all at once. The batch rules mirror the checks `BatchUpdater` makes on observables built in
@@ -15,15 +16,43 @@ import numpy as np
 
 from .config.models import ChoiceDraw, SensorConfig, UniformDraw
 from .config.tables import GENERIC_KIND, IMAGE_KINDS
+from .errors import did_you_mean
+from .kinds import CONSTANT, INTERNAL, STATE, kinds_of, offered_kinds, state_twin
 from .observables.feature import batch_on_demand_problem
 
-__all__ = ["sensor_problems", "batch_problems"]
+__all__ = ["kind_problems", "sensor_problems", "batch_problems"]
 
 Found = list[tuple[tuple[str | int, ...], str]]  # (key path inside the sensor, message)
 
 _SINGLE = "remove it, or use the single-simulation Environment"
 _CAMERA_WHAT = {"noise": "noise", "aggregator": "an aggregator", "interval": "a drawn interval",
                 "delay": "a drawn delay"}
+
+
+def kind_problems(type_name: str, kind: str, constant: bool) -> Found:
+    """A kind the type does not offer (internal fields included), a constant read without `constant: true`,
+    or `constant: true` on state; "did you mean" prefers state kinds."""
+    spec = kinds_of(type_name).get(kind)
+    role = spec.role if spec is not None else INTERNAL
+    if role == INTERNAL:
+        states, constants = offered_kinds(type_name, STATE), offered_kinds(type_name, CONSTANT)
+        hint = did_you_mean(kind, states + (list(IMAGE_KINDS) if type_name == "camera" else []))
+        if not hint and did_you_mean(kind, constants):
+            hint = did_you_mean(kind, constants)[:-2] + ", a model constant read with 'constant: true'?)"
+        what = f" ({spec.field} is MuJoCo's internal bookkeeping, not a value to sense)" if spec else ""
+        extra = f"; a camera image is kind {', '.join(IMAGE_KINDS)}" if type_name == "camera" else ""
+        return [(("kind",), f"a {type_name} has no kind {kind!r}{what}{hint}; {type_name} kinds: "
+                 f"{', '.join(states) or '(none that change with the simulation)'}{extra}")]
+    assert spec is not None  # only INTERNAL covers a kind the type lacks
+    if role == CONSTANT and not constant:
+        twin = state_twin(type_name, kind)
+        instead = f"for the simulated value read {twin!r}, or " if twin else ""
+        return [(("kind",), f"a {type_name}'s {kind!r} is a model constant ({spec.field}), not simulation state; "
+                 f"{instead}add 'constant: true' to read the constant")]
+    if role == STATE and constant:
+        return [(("constant",), f"{kind!r} changes with the simulation; 'constant: true' is for model constants: "
+                 "remove it")]
+    return []
 
 
 def sensor_problems(cfg: SensorConfig, shape: tuple[int, ...] | None, strip: bool) -> Found:
