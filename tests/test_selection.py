@@ -69,3 +69,16 @@ def test_an_index_within_the_axis_still_works(model: mujoco.MjModel) -> None:
                             '  z: {kind: xpos, element: "body:#*", index: "..., 2"}\n')
     obs = sensorcfg.Environment(model, suite).reset().observation
     assert obs["s"].shape == (1, 1, 3) and obs["z"].shape == (1, 4)
+
+
+def test_spec_says_how_unnamed_elements_are_labelled(tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    suite = tmp_path / "s.yaml"
+    suite.write_text(f"model: {MODEL}\noptions: {{keyframe: crouch}}\nsensors:\n"
+                     "  q: {kind: qpos, element: 'joint:*'}\n  toes: {kind: xpos, element: 'body:#*', within: body:fl_leg}\n")
+    done = subprocess.run([sys.executable, "-m", "sensorcfg", "spec", str(suite)], capture_output=True, text=True)
+    lines = done.stdout.splitlines()
+    assert lines[1].endswith("; episodes start from keyframe 'crouch'")
+    assert lines[-1] == "unnamed elements, labelled by id: joint:#0 (q); body:#4 (toes)"
