@@ -74,14 +74,17 @@ def test_batch_environment_resets_to_the_keyframe(model: mujoco.MjModel) -> None
     np.testing.assert_array_equal(step.observation["q"][1], single.step(np.zeros(model.nu)).observation["q"])
 
 
-def test_run_keyframe_option(tmp_path: Path, model: mujoco.MjModel) -> None:
+@pytest.mark.parametrize("command", ["run", "demo"])
+def test_run_and_demo_keyframe_option(tmp_path: Path, model: mujoco.MjModel, command: str) -> None:
     suite = tmp_path / "s.yaml"
     suite.write_text(SUITE)
     out = tmp_path / "o.npz"
-    cmd = [sys.executable, "-m", "sensorcfg", "run", str(suite), "--steps", "2", "--keyframe", "raised", "--out", str(out)]
-    done = subprocess.run(cmd, capture_output=True, text=True)
+    tail = ["--out", str(out)] if command == "run" else ["--prefix", str(tmp_path / "o"), "--no-plot"]
+    cmd = [sys.executable, "-m", "sensorcfg", command, str(suite), "--steps", "2", "--keyframe", "raised", *tail]
+    done = subprocess.run(cmd, capture_output=True, text=True, cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     np.testing.assert_array_equal(np.load(out)["q"][0, 0], model.key("raised").qpos)
-    bad = subprocess.run(cmd[:-2] + ["--keyframe", "rased"], capture_output=True, text=True)
+    bad = subprocess.run([*cmd[:cmd.index("--keyframe")], "--keyframe", "rased"], capture_output=True, text=True,
+                         cwd=tmp_path)
     assert bad.returncode == 2
     assert "sensorcfg: error: --keyframe: the model has no keyframe named 'rased' (did you mean 'raised'?)" in bad.stderr
