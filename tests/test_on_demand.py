@@ -136,3 +136,28 @@ def test_batch_refuses_on_demand_fields_it_cannot_compute() -> None:
     feature.enabled = True  # (observables start disabled, as dm_control's do)
     with pytest.raises(SuiteError, match=r"sensor 'ext': cfrc_ext is filled by mj_rnePostConstraint"):  # Python
         sensorcfg.BatchEnvironment(model, {"ext": feature}, 2)
+
+
+def test_batch_records_them_truly_when_the_models_sensors_compute_them() -> None:
+    if int(mujoco.__version__.split(".")[0]) < 4:
+        pytest.skip("BatchEnvironment needs MuJoCo 4")
+    spec = mujoco.MjSpec.from_file(str(MODEL))
+    spec.add_sensor(type=mujoco.mjtSensor.mjSENS_SUBTREELINVEL, objtype=mujoco.mjtObj.mjOBJ_BODY, objname="base")
+    spec.body("base").add_site(name="imu")
+    spec.add_sensor(type=mujoco.mjtSensor.mjSENS_ACCELEROMETER, objtype=mujoco.mjtObj.mjOBJ_SITE, objname="imu")
+    model = spec.compile()
+    suite = sensorcfg.loads(ON_DEMAND_SUITE, ["options.keyframe=crouch"])
+    batch = sensorcfg.BatchEnvironment(model, suite, 2, seed=0)
+    singles = [sensorcfg.Environment(model, suite, seed=sensorcfg.batch.sim_seed(0, i)) for i in range(2)]
+    first = batch.reset().observation
+    for i, env in enumerate(singles):
+        for name, value in env.reset().observation.items():
+            np.testing.assert_array_equal(first[name][i], value, err_msg=name)
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        actions = rng.uniform(-0.3, 0.3, (2, model.nu)) + model.key("crouch").ctrl
+        obs = batch.step(actions).observation
+        for i, env in enumerate(singles):
+            for name, value in env.step(actions[i]).observation.items():
+                np.testing.assert_array_equal(obs[name][i], value, err_msg=name)
+    assert np.any(obs["calf_cfrc_ext"] != 0)
