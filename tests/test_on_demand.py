@@ -161,3 +161,26 @@ def test_batch_records_them_truly_when_the_models_sensors_compute_them() -> None
             for name, value in env.step(actions[i]).observation.items():
                 np.testing.assert_array_equal(obs[name][i], value, err_msg=name)
     assert np.any(obs["calf_cfrc_ext"] != 0)
+
+
+def test_a_forward_pass_after_the_step_is_read_as_it_left_the_data() -> None:
+    """After mj_forward the kinematics match the velocity the step ended with: no remembered velocity."""
+    model = mujoco.MjModel.from_xml_path(str(MODEL))
+    suite = sensorcfg.loads(ON_DEMAND_SUITE)
+    physics = sensorcfg.Physics(model)
+    data = physics.data
+    mujoco.mj_resetDataKeyframe(model, data, model.key("crouch").id)
+    mujoco.mj_forward(model, data)
+    updater = sensorcfg.Updater(suite.build(model), **suite.updater_kwargs(model))
+    updater.reset(physics, np.random.RandomState(0))
+    base = model.body("base").id
+    for _ in range(5):
+        updater.prepare_for_next_control_step()
+        for k in range(updater.physics_steps_per_control_step):
+            mujoco.mj_step(model, data)
+            if k == updater.physics_steps_per_control_step - 1:
+                mujoco.mj_forward(model, data)  # e.g. dm_control bringing a dirty physics up to date
+            updater.update()
+        reference = copy.copy(data)
+        mujoco.mj_rnePostConstraint(model, reference)
+        np.testing.assert_array_equal(updater.get_observation()["base_cacc"][0], reference.cacc[base])

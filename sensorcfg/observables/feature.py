@@ -56,37 +56,45 @@ class FieldReader:
         np.take(self.source, self.index, out=out)
 
 
+_FORWARD, _STEP = int(mujoco.mjtTimer.mjTIMER_FORWARD), int(mujoco.mjtTimer.mjTIMER_STEP)
+
+
 class OnDemandCompute:
     """Fills a field MuJoCo computes on demand only (`kinds.ON_DEMAND`), at most once per physics step:
     MuJoCo's own flag (`flg_rnepost`, `flg_subtreevel`) says whether it ran since the last step.
 
     A function that reads `qvel` would see, after `mj_step`, the velocity the step ended with, next to
     kinematics from the step's start. `before_step` remembers the velocity the next step starts from (the
-    Updater calls it one physics step before each sample); the computation then runs on it, as MuJoCo's
-    in-step call does. Without it (a read outside our Updater, or the reset sample, whose state is
-    consistent) the function runs on the data as they are.
+    Updater calls it one physics step before each sample), with MuJoCo's counts of steps and forward
+    passes; when exactly one step, and no other forward pass, ran since, the computation runs on that
+    velocity, as MuJoCo's in-step call does. Otherwise (the reset sample, a read outside our Updater, a
+    forward pass after the step, the RK4 integrator) it runs on the data as they are.
     """
 
-    __slots__ = ("model", "data", "function", "flag", "start_qvel", "remembered")
+    __slots__ = ("model", "data", "function", "flag", "start_qvel", "stamp")
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, spec: OnDemand):
         self.model, self.data = model, data
         self.function = getattr(mujoco, spec.function)
         self.flag = spec.flag if hasattr(data, spec.flag) else None  # None: a MuJoCo without the flags
         self.start_qvel = np.empty(model.nv) if spec.reads_qvel else None
-        self.remembered = False
+        self.stamp: tuple[int, int] | None = None  # (forward passes, steps) when `start_qvel` was taken
+
+    def _counts(self) -> tuple[int, int]:
+        timer = self.data.timer
+        return int(timer[_FORWARD].number), int(timer[_STEP].number)
 
     def before_step(self, step: int = 0) -> None:
         if self.start_qvel is not None:
             np.copyto(self.start_qvel, self.data.qvel)
-            self.remembered = True
+            self.stamp = self._counts()
 
     def __call__(self) -> None:
         data = self.data
         if self.flag is not None and getattr(data, self.flag):
             return
-        if self.remembered and self.start_qvel is not None:
-            self.remembered = False
+        forward, steps = self._counts()
+        if self.start_qvel is not None and self.stamp == (forward - 1, steps - 1):
             end_qvel = data.qvel.copy()
             data.qvel[:] = self.start_qvel
             try:
