@@ -9,9 +9,12 @@ at the YAML node it is about; `generic` callables are imported only when asked.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import importlib
-from collections.abc import Callable
+import sys
+from collections.abc import Callable, Iterator
+from pathlib import Path
 from typing import Any, Literal, cast
 
 import mujoco
@@ -23,6 +26,7 @@ from .config.source import Path_
 from .config.tables import GENERIC_KIND, IMAGE_KINDS
 from .config.units import to_steps
 from .draws import ChoiceSteps, UniformSteps
+from .checks import batch_problems, kind_problems, sensor_problems
 from .errors import Problem, SuiteError, did_you_mean
 from .kinds import kinds_of
 from .noise import build_noise
@@ -30,7 +34,7 @@ from .observables import Camera, Feature, Generic, Observable
 from .observables.camera import MAX_SIDE, MODES, SCENE_FLAGS, default_size
 from .observables.feature import feature_index
 from .physics import Physics
-from .selection import select, split_selector
+from .selection import keyframe_id, select, split_selector
 
 __all__ = ["bind", "scene_flags"]
 
@@ -48,7 +52,8 @@ class _Binder:
     suite: LoadedSuite
     model: mujoco.MjModel
     import_callables: bool
-    call_callables: bool  # building (not checking): a generic sensor with noise is called once for its shape
+    call_callables: bool = True  # building (not checking): a generic sensor with noise is called once for its shape
+    batch: bool = False  # also check what BatchEnvironment needs
     problems: list[Problem] = dataclasses.field(default_factory=list)
 
     # -- where a key came from, and problems there --------------------------------------------
@@ -101,6 +106,19 @@ class _Binder:
             return ChoiceSteps(tuple(v for v in values if v is not None), value.p)
         return self.steps(value, path, minimum)
 
+    # -- options ---------------------------------------------------------------------------------
+
+    def options(self) -> None:
+        """`options` against the model: the keyframe exists, the control interval is whole physics steps."""
+        options = self.suite.config.options
+        if options.keyframe is not None:
+            try:
+                keyframe_id(self.model, options.keyframe)
+            except SuiteError as e:
+                self.report_all(("options", "keyframe"), e)
+        if options.control_interval is not None:
+            self.steps(options.control_interval, ("options", "control_interval"), 1)
+
     # -- one sensor -----------------------------------------------------------------------------
 
     def bind(self, name: str, cfg: SensorConfig) -> Observable | None:
@@ -109,14 +127,19 @@ class _Binder:
                       delay=self.schedule(name, "delay", cfg.delay, 0),
                       buffer_size=cfg.buffer, aggregator=cfg.aggregator)
         builders = {GENERIC_KIND: self.generic, **dict.fromkeys(IMAGE_KINDS, self.camera)}
+        if cfg.kind in builders and cfg.constant is not None:
+            self.report(("sensors", name, "constant"), f"'constant' is for features of model fields; a sensor of kind "
+                        f"{cfg.kind!r} is not one: remove it")
         made = builders.get(cfg.kind, self.feature)(name, cfg, timing)
+        shape, dtype = (made[1], made[2]) if made is not None else (None, None)
+        found = sensor_problems(cfg, shape, self.suite.config.options.strip_singleton_buffer_dim)
+        if self.batch and cfg.enabled is not False:  # (a camera's or callable's need no binding)
+            found += batch_problems(cfg, dtype, self.field(cfg) if made is not None else None, self.model)
+        for key, message in found:
+            self.report(self.origin(name, str(key[0])) + key[1:], message)
         if made is None or len(self.problems) > before:
             return None
-        observable, shape, dtype = made
-        if cfg.aggregator is not None and shape is not None and 0 in shape:
-            self.report(self.origin(name, "aggregator"), f"{cfg.aggregator} has no values to reduce: this sensor reads "
-                        f"none (shape {tuple(shape)}); drop the aggregator, or select at least one value")
-            return None
+        observable = made[0]
         observable.enabled = cfg.enabled is not False
         if cfg.noise and shape is not None:
             stages = cfg.noise if self.import_callables else tuple(s for s in cfg.noise if s.type != "custom")
@@ -130,19 +153,38 @@ class _Binder:
                 return None
         return observable
 
+    def folder(self, name: str) -> str | None:
+        """The folder of the file that defines sensor `name` (`generic` and `custom` callables import from
+        there first), or None for a suite given as text."""
+        pos = self.suite.doc.pos(("sensors", name))
+        file = pos.file if pos else self.suite.file
+        return str(Path(file).resolve().parent) if file and Path(file).is_file() else None
+
+    def field(self, cfg: SensorConfig) -> str | None:
+        """The mjData / mjModel field a bound feature reads (None for cameras and callables)."""
+        if cfg.kind in IMAGE_KINDS or cfg.kind == GENERIC_KIND or cfg.element is None:
+            return None
+        first = cfg.element if isinstance(cfg.element, str) else cfg.element[0]
+        return kinds_of(split_selector(first)[0])[cfg.kind].field
+
+    def within(self, name: str, cfg: SensorConfig) -> bool:
+        """Whether every body `within` names exists; problems point at the list entry at fault."""
+        ok = True
+        for selector, path in _entries(cfg.within, ("sensors", name, "within")):
+            try:
+                select(self.model, selector)
+            except SuiteError as e:
+                self.report_all(path, e)
+                ok = False
+        return ok
+
     def selection(self, name: str, cfg: SensorConfig) -> bool:
         """Whether `element` (and `within`) resolve; problems point at the list entry at fault."""
         here = ("sensors", name)
+        if not self.within(name, cfg):
+            return False
         ok = True
-        if cfg.within is not None:
-            try:
-                select(self.model, cfg.within)
-            except SuiteError as e:
-                self.report_all(here + ("within",), e)
-                return False
-        entries = [(cfg.element, here + ("element",))] if isinstance(cfg.element, str) else [
-            (sel, here + ("element", i)) for i, sel in enumerate(cfg.element or ())]
-        for selector, path in entries:
+        for selector, path in _entries(cfg.element, here + ("element",)):
             try:
                 select(self.model, selector, cfg.within)
             except SuiteError as e:
@@ -157,6 +199,8 @@ class _Binder:
         return ok
 
     def element_type(self, name: str, cfg: SensorConfig) -> str | None:
+        if cfg.element is None:  # the loader reports a missing (or rejected) element, once
+            return None
         first = cfg.element if isinstance(cfg.element, str) else (cfg.element or ("",))[0]
         path = ("sensors", name, "element") + (() if isinstance(cfg.element, str) else (0,))
         try:
@@ -168,16 +212,10 @@ class _Binder:
     def feature(self, name: str, cfg: SensorConfig, timing: dict[str, Any]) -> tuple[Observable, Any, Any] | None:
         type_name = self.element_type(name, cfg)
         if type_name is None:
+            self.within(name, cfg)  # (still a mistake of its own)
             return None
-        kinds = kinds_of(type_name)
-        if cfg.kind not in kinds:
-            extra = f"; a camera image is kind {', '.join(IMAGE_KINDS)}" if type_name == "camera" else ""
-            candidates = list(kinds) + (list(IMAGE_KINDS) if type_name == "camera" else [])
-            self.report(("sensors", name, "kind"),
-                        f"a {type_name} has no kind {cfg.kind!r}{did_you_mean(cfg.kind, candidates)}; "
-                        f"{type_name} kinds: {', '.join(sorted(kinds))}{extra}")
-            return None
-        if not self.selection(name, cfg):
+        kind_ok = self.kind(name, cfg, type_name)
+        if not self.selection(name, cfg) or not kind_ok:
             return None
         index = _index(cfg.index)
         selectors = cast("str | tuple[str, ...]", cfg.element)
@@ -190,7 +228,15 @@ class _Binder:
         feature = Feature(cfg.kind, element, index=index, within=cfg.within, **timing)
         return feature, flat.shape, dtype
 
-    def _culprit(self, kind: str, selectors: str | tuple[str, ...], within: str | None, index: Any) -> str:
+    def kind(self, name: str, cfg: SensorConfig, type_name: str) -> bool:
+        """Whether `kind` is one the element type offers, and state unless the sensor asks for a constant."""
+        found = kind_problems(type_name, cfg.kind, bool(cfg.constant))
+        for key, message in found:
+            self.report(self.origin(name, "constant") if key == ("constant",) else ("sensors", name, "kind"), message)
+        return not found
+
+    def _culprit(self, kind: str, selectors: str | tuple[str, ...], within: str | tuple[str, ...] | None,
+                 index: Any) -> str:
         """Which key a failed feature read is reported on: `index`, unless the elements fail without it."""
         if index is None:
             return "element"
@@ -285,6 +331,29 @@ class _Binder:
         return target
 
 
+def _entries(value: str | tuple[str, ...] | None, path: Path_) -> list[tuple[str, Path_]]:
+    """A selector, or each entry of a list of them, with the path of its node."""
+    if value is None:
+        return []
+    if isinstance(value, str):
+        return [(value, path)]
+    return [(v, path + (i,)) for i, v in enumerate(value)]
+
+
+@contextlib.contextmanager
+def _suite_folder_first(folder: str | None) -> Iterator[None]:
+    """Imports made inside look in `folder` first, then sys.path (a module imported once stays imported)."""
+    if folder is None or (sys.path and sys.path[0] == folder):
+        yield
+        return
+    sys.path.insert(0, folder)
+    try:
+        yield
+    finally:
+        if folder in sys.path:
+            sys.path.remove(folder)
+
+
 def _not_imported(text: str) -> Callable[[Any], Any]:
     def never_imported(physics: Any) -> Any:
         raise RuntimeError(f"{text} was not imported: build the suite with import_callables=True to run it")
@@ -309,17 +378,20 @@ def _index(value: Any) -> Any:
     return parts[0] if len(parts) == 1 else tuple(parts)
 
 
-def bind(suite: LoadedSuite, model: mujoco.MjModel, *, import_callables: bool, call_callables: bool = True) -> tuple[
-        dict[str, Observable], list[Problem]]:
-    """Observables for every sensor of `suite` (file order) and every problem found on the way.
+def bind(suite: LoadedSuite, model: mujoco.MjModel, *, import_callables: bool, call_callables: bool = True,
+         batch: bool = False) -> tuple[dict[str, Observable], list[Problem]]:
+    """Observables for every sensor of `suite` (file order) and every problem found on the way; with
+    `batch`, also what BatchEnvironment cannot run.
 
     With `call_callables` false (checking), no user callable is called: a generic sensor's noise, which
     needs the shape of its value, is then built (and its shape-dependent mistakes found) only by a build."""
-    binder = _Binder(suite, model, import_callables, call_callables)
+    binder = _Binder(suite, model, import_callables, call_callables, batch)
+    binder.options()
     observables: dict[str, Observable] = {}
     for name, cfg in suite.sensors.items():
         try:
-            observable = binder.bind(name, cfg)
+            with _suite_folder_first(binder.folder(name)):
+                observable = binder.bind(name, cfg)
         except SuiteError as e:  # a check an observable makes itself, that binding did not anticipate
             binder.report_all(("sensors", name), e)
             continue

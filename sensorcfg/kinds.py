@@ -18,7 +18,8 @@ import re
 import mujoco
 from mujoco.introspect import structs as _introspect
 
-__all__ = ["ELEMENT_TYPES", "ElementType", "FieldSpec", "kinds_of", "element_type"]
+__all__ = ["ELEMENT_TYPES", "ElementType", "FieldSpec", "kinds_of", "element_type", "offered_kinds", "state_twin",
+           "ON_DEMAND", "OnDemand"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -112,6 +113,69 @@ class FieldSpec:
     @property
     def ragged(self) -> bool:
         return self.size in RAGGED
+
+    @property
+    def role(self) -> str:
+        """STATE (changes with the simulation), CONSTANT (a model value) or INTERNAL (MuJoCo's bookkeeping)."""
+        if any(p.search(self.kind) for p, _ in _INTERNAL):
+            return INTERNAL
+        return CONSTANT if self.struct == "model" else STATE
+
+
+# What a kind is to a suite. STATE changes with the simulation: what a sensor reads. CONSTANT is a model
+# value (a body's `mass`, a joint's `range`, a body's compiled `pos` in its parent): a suite reads one only
+# when it says so (`constant: true`), since a constant read as a sensor is silently wrong data. INTERNAL
+# fields are MuJoCo's own addresses, sizes and solver scratch: never offered, listed or suggested
+# (dm_control's bind still has them, and so has the Python `Feature`, for parity).
+STATE, CONSTANT, INTERNAL = "state", "constant", "internal"
+_INTERNAL: tuple[tuple[re.Pattern[str], str], ...] = tuple((re.compile(p), why) for p, why in (
+    (r"adr\Z", "an address into another array"),
+    (r"(num|nnz)\Z", "a count of entries in another array"),
+    (r"\Aname_", "an address into the names buffer"),
+    (r"\A(efm|map)_", "solver scratch"),
+    (r"\A[BDJM](_|0\Z|adr\Z)", "a sparse-matrix layout"),
+    (r"Diag(Inv)?\Z", "a factorisation of the mass matrix"),
+    (r"\A(awake_ind|parent_awake_ind|island|qacc_warmstart|hessian_valid)\Z", "solver or sleeping scratch"),
+    (r"\A(plugin|sameframe|simple|needstage|signature)\Z", "a compiler flag"),
+))
+
+# A constant that has a simulated counterpart, suggested instead of it: `x` + kind (`pos` -> `xpos`,
+# `quat` -> `xquat`), the kind without a trailing 0 (`qpos0` -> `qpos`), or a row of this table.
+_TWINS = {("joint", "pos"): "xanchor", ("joint", "axis"): "xaxis", ("joint", "qpos_spring"): "qpos",
+          ("camera", "mat0"): "xmat", ("light", "dir0"): "xdir", ("camera", "pos0"): "xpos",
+          ("light", "pos0"): "xpos"}
+
+
+def offered_kinds(type_name: str, role: str) -> list[str]:
+    """The kinds of a type with this role, sorted: what messages list and "did you mean" offers."""
+    return sorted(k for k, spec in kinds_of(type_name).items() if spec.role == role)
+
+
+def state_twin(type_name: str, kind: str) -> str | None:
+    """The state kind a user most likely meant by a constant one (`quat` of a body -> `xquat`), or None."""
+    table = kinds_of(type_name)
+    for candidate in (_TWINS.get((type_name, kind)), "x" + kind, kind.rstrip("0")):
+        if candidate and candidate != kind and candidate in table and table[candidate].role == STATE:
+            return candidate
+    return None
+
+
+# mjData fields that MuJoCo computes on demand only (when the model's own sensors need them): the function
+# that fills them and the mjData flag it sets until the next step clears it. A feature of one of these
+# calls the function before it samples, once per physics step (the flag says whether it ran already).
+@dataclasses.dataclass(frozen=True)
+class OnDemand:
+    function: str  # mujoco.<function>(model, data)
+    flag: str  # mjData flag set by the function, cleared by mj_step / mj_forward
+    # Whether it reads `qvel`: after mj_step that is the velocity the step ended with, while every other
+    # input is from the step's start (the kinematics); MuJoCo's in-step call used the starting velocity.
+    reads_qvel: bool
+
+
+_RNE_POST = OnDemand("mj_rnePostConstraint", "flg_rnepost", reads_qvel=True)  # cacc += cdof_dot * qvel
+_SUBTREE_VEL = OnDemand("mj_subtreeVel", "flg_subtreevel", reads_qvel=False)  # from cvel
+ON_DEMAND: dict[str, OnDemand] = {"cacc": _RNE_POST, "cfrc_ext": _RNE_POST, "cfrc_int": _RNE_POST,
+                                  "subtree_linvel": _SUBTREE_VEL, "subtree_angmom": _SUBTREE_VEL}
 
 
 def _array_fields(struct_name: str, cls: type) -> list[tuple[str, str, str]]:

@@ -1,9 +1,11 @@
 """Resolving element selectors (`joint:knee`, `site:finger_*`, lists of them) against an MjModel.
 
 A single `type:name` selects one element and gives the unbatched shape; a list, or a name with glob
-characters, gives the batched shape (list order, then model order within a glob). `within="body:leg"`
-keeps only the elements attached to that body's subtree. Name look-ups happen here, once; observables keep
-only the resulting ids.
+characters, gives the batched shape (list order, then model order within a glob). `type:#3` selects by id,
+wherever a name is accepted. Unnamed elements are labelled `#<id>`, and a glob matches labels, so
+`joint:*` is every joint, named or not (an unnamed free joint included), as dm_control's `find_all` is.
+`within="body:leg"` (or a list of bodies) keeps only the elements attached to those bodies' subtrees.
+Name look-ups happen here, once; observables keep only the resulting ids.
 """
 
 from __future__ import annotations
@@ -11,14 +13,16 @@ from __future__ import annotations
 import dataclasses
 import fnmatch
 from collections.abc import Sequence
-from typing import cast
+from typing import Any, cast
 
 import mujoco
 
 from .errors import Problem, SuiteError, did_you_mean
 from .kinds import ELEMENT_TYPES
 
-__all__ = ["Selection", "select", "split_selector", "element_names"]
+__all__ = ["Selection", "select", "split_selector", "element_names", "element_labels", "keyframe_id", "ID_PREFIX"]
+
+ID_PREFIX = "#"  # `joint:#0`: an element by id; also the label of an unnamed element
 
 _GLOB_CHARS = frozenset("*?[")
 
@@ -53,6 +57,11 @@ def element_names(model: mujoco.MjModel, type_name: str) -> list[str]:
     et = ELEMENT_TYPES[type_name]
     count = int(getattr(model, et.count, 0))
     return [mujoco.mj_id2name(model, et.obj, i) or "" for i in range(count)]
+
+
+def element_labels(model: mujoco.MjModel, type_name: str) -> list[str]:
+    """Every element's label, by id: its name, or `#<id>` when it has none."""
+    return [n or f"{ID_PREFIX}{i}" for i, n in enumerate(element_names(model, type_name))]
 
 
 def _body_of(model: mujoco.MjModel, type_name: str, i: int) -> int | None:
@@ -92,7 +101,8 @@ def _in_subtree(model: mujoco.MjModel, body: int | None, root: int) -> bool:
     return body == root
 
 
-def select(model: mujoco.MjModel, element: str | Sequence[str], within: str | None = None) -> Selection:
+def select(model: mujoco.MjModel, element: str | Sequence[str],
+           within: str | Sequence[str] | None = None) -> Selection:
     """Resolve a selector (or a list of them) to element ids; every mistake is collected."""
     batched = not isinstance(element, str)
     selectors = [element] if isinstance(element, str) else list(element)
@@ -101,37 +111,40 @@ def select(model: mujoco.MjModel, element: str | Sequence[str], within: str | No
     problems: list[Problem] = []
     types: set[str] = set()
     ids: list[int] = []
-    root = None
+    roots: list[int] | None = None
     if within is not None:
-        try:
-            wtype, wname = split_selector(within)
-            if wtype != "body":
-                raise SuiteError(Problem(f"'within' takes a body ('body:name'), got {within!r}"))
-            root = _lookup(model, "body", wname)
-        except SuiteError as e:
-            problems.extend(e.problems)
+        roots = []
+        for text in [within] if isinstance(within, str) else list(within):
+            try:
+                wtype, wname = split_selector(text)
+                if wtype != "body":
+                    raise SuiteError(Problem(f"'within' takes bodies ('body:name'), got {text!r}"))
+                roots.append(_lookup(model, "body", wname))
+            except SuiteError as e:
+                problems.extend(e.problems)
+    bodies = [] if within is None else [w.partition(":")[2] for w in ([within] if isinstance(within, str) else within)]
+    scope = f" under {'body' if len(bodies) == 1 else 'bodies'} {', '.join(map(repr, bodies))}" if bodies else ""
     for text in selectors:
         try:
             type_name, pattern = split_selector(text)
             types.add(type_name)
             if _GLOB_CHARS & set(pattern):
                 batched = True
-                names = element_names(model, type_name)
-                found = [i for i, n in enumerate(names)
-                         if n and fnmatch.fnmatchcase(n, pattern) and not (type_name == "body" and i == 0)]
-                if root is not None:
-                    found = [i for i in found if _in_subtree(model, _body_of(model, type_name, i), root)]
+                labels = element_labels(model, type_name)
+                found = [i for i, label in enumerate(labels)
+                         if fnmatch.fnmatchcase(label, pattern) and not (type_name == "body" and i == 0)]
+                if roots is not None:
+                    found = [i for i in found if _in_any(model, _body_of(model, type_name, i), roots)]
                 if not found:
-                    scope = f" under body {cast(str, within).partition(':')[2]!r}" if root is not None else ""
-                    known = [n for n in names if n][:12]
+                    known = [n for n in element_names(model, type_name) if n][:12]
                     raise SuiteError(Problem(
                         f"{text!r} matches no {type_name}{scope} in the model; "
                         f"its {_plural(type_name)} are: {', '.join(known) or '(none with names)'}"))
                 ids.extend(found)
             else:
                 i = _lookup(model, type_name, pattern)
-                if root is not None and not _in_subtree(model, _body_of(model, type_name, i), root):
-                    raise SuiteError(Problem(f"{text!r} is not in the subtree of {within!r}"))
+                if roots is not None and not _in_any(model, _body_of(model, type_name, i), roots):
+                    raise SuiteError(Problem(f"{text!r} is not in the subtree of {cast(Any, within)!r}"))
                 ids.append(i)
         except SuiteError as e:
             problems.extend(e.problems)
@@ -140,20 +153,49 @@ def select(model: mujoco.MjModel, element: str | Sequence[str], within: str | No
     if problems:
         raise SuiteError(problems)
     type_name = types.pop()
-    chosen = tuple(mujoco.mj_id2name(model, ELEMENT_TYPES[type_name].obj, i) or "" for i in ids)
-    return Selection(type_name, tuple(ids), chosen, batched)
+    labels = element_labels(model, type_name)
+    return Selection(type_name, tuple(ids), tuple(labels[i] for i in ids), batched)
+
+
+def _in_any(model: mujoco.MjModel, body: int | None, roots: list[int]) -> bool:
+    return any(_in_subtree(model, body, root) for root in roots)
+
+
+_NOUNS = {"key": "keyframe"}  # element types whose suite name is not the word a message uses
 
 
 def _plural(type_name: str) -> str:
-    return "bodies" if type_name == "body" else f"{type_name}s"
+    return {"body": "bodies", "key": "keyframes"}.get(type_name, f"{type_name}s")
 
 
 def _lookup(model: mujoco.MjModel, type_name: str, name: str) -> int:
-    i = mujoco.mj_name2id(model, ELEMENT_TYPES[type_name].obj, name)
+    """The id of the element named `name`, or given as `#<id>`."""
+    et = ELEMENT_TYPES[type_name]
+    if name.startswith(ID_PREFIX):
+        count = int(getattr(model, et.count, 0))
+        text = name[len(ID_PREFIX):]
+        if not text.isdigit() or int(text) >= count:
+            raise SuiteError(Problem(f"{type_name}:{name} is not a {type_name} id: the model's {_plural(type_name)} "
+                                     f"are #0 to #{count - 1}" if count else f"the model has no {_plural(type_name)}"))
+        return int(text)
+    i = mujoco.mj_name2id(model, et.obj, name)
     if i < 0:
         names = [n for n in element_names(model, type_name) if n]
         hint = did_you_mean(name, names)
         if not hint:
             hint = f"; its {_plural(type_name)} are: {', '.join(names[:12]) or '(none)'}" + (" ..." if len(names) > 12 else "")
-        raise SuiteError(Problem(f"the model has no {type_name} named {name!r}{hint}"))
+            unnamed = sum(1 for n in element_names(model, type_name) if not n)
+            if unnamed:
+                hint += f" ({unnamed} unnamed: select them by id, '{type_name}:{ID_PREFIX}<id>', or with a glob)"
+        raise SuiteError(Problem(f"the model has no {_NOUNS.get(type_name, type_name)} named {name!r}{hint}"))
     return int(i)
+
+
+def keyframe_id(model: mujoco.MjModel, keyframe: int | str) -> int:
+    """The index of a keyframe given by name (with "did you mean") or index (checked against `nkey`)."""
+    if isinstance(keyframe, str):
+        return _lookup(model, "key", keyframe)
+    if isinstance(keyframe, bool) or not isinstance(keyframe, int) or not 0 <= keyframe < model.nkey:
+        count = f"keyframes 0 to {model.nkey - 1}" if model.nkey else "no keyframes"
+        raise SuiteError(Problem(f"keyframe {keyframe!r} is out of range: the model has {count}"))
+    return int(keyframe)

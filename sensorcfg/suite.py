@@ -91,12 +91,12 @@ class Suite:
             message = f"cannot load the model {quote(str(path), 160)}: {str(e).strip()}"
             raise SuiteError(pos.problem(message, "model") if pos else Problem(message, file=str(path))) from None
 
-    def _bind(self, model: ModelLike, import_callables: bool, call_callables: bool = True) -> tuple[
+    def _bind(self, model: ModelLike, import_callables: bool, batch: bool = False, call_callables: bool = True) -> tuple[
             dict[str, Observable], list[Problem]]:
         from .binding import bind
 
         observables, problems = bind(self._loaded, self._mjmodel(model), import_callables=import_callables,
-                                   call_callables=call_callables)
+                                   call_callables=call_callables, batch=batch)
         return observables, problems + self._too_large(observables)
 
     def _too_large(self, observables: Mapping[str, Observable]) -> list[Problem]:
@@ -121,34 +121,30 @@ class Suite:
                 problems.append(pos.problem(message, ".".join(path)) if pos else Problem(message, ".".join(path)))
         return problems
 
-    def build(self, model: ModelLike = None, *, import_callables: bool = True) -> dict[str, Observable]:
+    def build(self, model: ModelLike = None, *, import_callables: bool = True,
+              batch: bool = False) -> dict[str, Observable]:
         """The observables of every sensor, in file order, with their `enabled` flags set.
 
         `model` is a `mujoco.MjModel`, a model path, or None for the suite's own `model:`. `generic`
         callables are imported (pass `import_callables=False` to leave them unimported placeholders).
-        Raises SuiteError listing every problem.
+        With `batch`, what BatchEnvironment cannot run is a problem too. Raises SuiteError listing every problem.
         """
-        observables, problems = self._bind(model, import_callables)
+        observables, problems = self._bind(model, import_callables, batch)
         if problems:
             raise SuiteError(problems)
         return observables
 
-    def check(self, model: ModelLike = None, *, import_callables: bool = False) -> list[Problem]:
+    def check(self, model: ModelLike = None, *, import_callables: bool = False, batch: bool = False) -> list[Problem]:
         """Every problem of the suite against `model` (empty when it builds); never raises for a mistake.
 
-        `generic` and `custom` callables are not imported unless `import_callables` is true, and never called. `options` are checked too
-        (a control interval must be a whole number of the model's physics steps).
+        `generic` and `custom` callables are not imported unless `import_callables` is true, and never called;
+        with `batch`, what BatchEnvironment cannot run is a problem too. `options` are checked too (the
+        keyframe exists; a control interval is a whole number of the model's physics steps).
         """
         try:
-            mjmodel = self._mjmodel(model)
-            problems = self._bind(mjmodel, import_callables, call_callables=False)[1]
+            return self._bind(model, import_callables, batch, call_callables=False)[1]
         except SuiteError as e:
             return list(e.problems)
-        try:
-            self.updater_kwargs(mjmodel)
-        except SuiteError as e:
-            problems = list(e.problems) + problems
-        return problems
 
     def updater_kwargs(self, model: ModelLike = None) -> dict[str, Any]:
         """Keyword arguments for `sensorcfg.Updater` from `options` (time converted with the model)."""

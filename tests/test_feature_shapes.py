@@ -298,7 +298,7 @@ def test_unknown_element_and_kind(arm: sensorcfg.Physics) -> None:
     with pytest.raises(sensorcfg.SuiteError, match=r"the model has no body named 'bse' \(did you mean 'base'\?\)"):
         sensorcfg.Feature("xpos", "body:bse")(arm)
     with pytest.raises(sensorcfg.SuiteError, match=r"Feature\('qpos', 'body:base'\): a body has no kind 'qpos' "
-                                                   r"\(did you mean 'pos' or 'xpos' or 'ipos'\?\)"):
+                                                   r"\(did you mean 'xpos' or 'xipos'\?\)"):  # state kinds first
         sensorcfg.Feature("qpos", "body:base")
     with pytest.raises(sensorcfg.SuiteError, match=r"unknown element type 'bdy' \(did you mean 'body'\?\)"):
         sensorcfg.Feature("xpos", "bdy:base")

@@ -90,7 +90,7 @@ LOAD_MISTAKES = [
         '    kind: qpos\n'
         '    element: joint:elbow\n'
         '    intreval: 2\n',
-        "5:5: error: sensors.s.intreval: unknown key 'intreval' (did you mean 'interval'?); allowed keys: kind, element, within, index, camera, callable, interval, delay, buffer, aggregator, enabled, noise",
+        "5:5: error: sensors.s.intreval: unknown key 'intreval' (did you mean 'interval'?); allowed keys: kind, element, within, index, constant, camera, callable, interval, delay, buffer, aggregator, enabled, noise",
         id='sensor_unknown_key'),
     pytest.param(
         'sensors:\n'
@@ -321,7 +321,7 @@ LOAD_MISTAKES = [
         '    kind: qpos\n'
         '    element: joint:*\n'
         '    within: forearm\n',
-        "5:13: error: sensors.s.within: within takes a body selector, 'body:name' (for example 'body:forearm'); got 'forearm'",
+        "5:13: error: sensors.s.within: within takes a body selector, 'body:name' (for example 'body:forearm'), or a list of them; got 'forearm'",
         id='within_form'),
     pytest.param(
         'sensors:\n'
@@ -335,7 +335,7 @@ LOAD_MISTAKES = [
         'options:\n'
         '  pad_initial: true\n'
         'sensors: {}\n',
-        "2:3: error: options.pad_initial: unknown key 'pad_initial' (did you mean 'pad_with_initial_value'?); allowed keys: pad_with_initial_value, strip_singleton_buffer_dim, control_interval",
+        "2:3: error: options.pad_initial: unknown key 'pad_initial' (did you mean 'pad_with_initial_value'?); allowed keys: pad_with_initial_value, strip_singleton_buffer_dim, control_interval, keyframe",
         id='options_key'),
     pytest.param(
         'defaults:\n'
@@ -433,14 +433,14 @@ MODEL_MISTAKES = [
         '  s:\n'
         '    kind: qpoz\n'
         '    element: joint:elbow\n',
-        "3:11: error: sensors.s.kind: a joint has no kind 'qpoz' (did you mean 'qpos' or 'qpos0'?); joint kinds: ...",
+        "3:11: error: sensors.s.kind: a joint has no kind 'qpoz' (did you mean 'qpos'?); joint kinds: ...",
         id='kind_for_type'),
     pytest.param(
         'sensors:\n'
         '  s:\n'
         '    kind: qpos\n'
         '    element: site:imu\n',
-        "3:11: error: sensors.s.kind: a site has no kind 'qpos' (did you mean 'pos' or 'xpos'?); site kinds: ...",
+        "3:11: error: sensors.s.kind: a site has no kind 'qpos' (did you mean 'xpos'?); site kinds: ...",
         id='kind_for_site'),
     pytest.param(
         'sensors:\n'

@@ -12,7 +12,8 @@ SeedSequence). Streams therefore depend on the simulation's index only: growing 
 leaves the other simulations' streams unchanged. Each sensor's noise then has its own stream per episode
 (`sensor_key(episode entropy, sensor name)`), as in the single simulation.
 
-Episodes (auto-reset, as dm_env and Gymnasium's next-step mode): a simulation whose last step ended its
+Episodes start from `keyframe` (a name or an index), else the suite's `options.keyframe`, else the model's
+reset state. Episodes (auto-reset, as dm_env and Gymnasium's next-step mode): a simulation whose last step ended its
 episode (time limit: truncation, discount 1; divergence: termination, discount 0) is reset by the next
 `step`, which returns FIRST for it and ignores its action; so does every simulation before the first
 `reset`. `reset(ids)` restarts the given simulations now (all when None): their physics, buffers and
@@ -57,8 +58,8 @@ import mujoco
 import numpy as np
 
 from ..env.episode import episode_end
-from ..env.environment import (_BAD_STATE, ControlLoop, _suite_and_observables, action_spec, episode_timing, load_model,
-                               random_state_from)
+from ..env.environment import (_BAD_STATE, ControlLoop, _suite_and_observables, action_spec, episode_timing,
+                               keyframe_index, load_model, random_state_from)
 from ..errors import ArgumentError, SuiteError, UnsupportedError
 from ..physics import Physics
 from .updater import BatchUpdater
@@ -142,14 +143,15 @@ class BatchEnvironment(ControlLoop):
                  nthread: int | None = None, physics_steps_per_control_step: int | None = None,
                  control_timestep: float | None = None, time_limit: float | None = None,
                  seed: int | np.random.SeedSequence | None = None, reward_fn: BatchRewardFn | None = None,
-                 termination_fn: BatchTerminationFn | None = None):
+                 termination_fn: BatchTerminationFn | None = None, keyframe: int | str | None = None):
         batch_module = _batch_module()
         _check_arguments(nsim, nthread, reward_fn, termination_fn)
         self._reward_fn, self._termination_fn = reward_fn, termination_fn
         self._model = load_model(model)
         self._nsim = int(nsim)
         self._batch_shape = (self._nsim,)
-        observables, options = _suite_and_observables(suite, self._model)
+        observables, options = _suite_and_observables(suite, self._model, batch=True)
+        self._keyframe = keyframe_index(self._model, keyframe, options.pop("keyframe", None))
         self._substeps, self._control_timestep, self._step_limit = episode_timing(
             self._model, physics_steps_per_control_step, control_timestep, time_limit,
             options.get("physics_steps_per_control_step"))
@@ -238,7 +240,7 @@ class BatchEnvironment(ControlLoop):
     def _reset_sims(self, ids: np.ndarray) -> None:
         """Physics and updater reset of `ids` (non-empty)."""
         try:
-            self._batch.reset(ids)
+            self._batch.reset(ids, keyframe=-1 if self._keyframe is None else self._keyframe)
         except self._simulation_error as e:  # a reset that raises: report it, keep it for the next step
             raise SuiteError(f"resetting simulations {list(e.ids)[:5]} raised in MuJoCo: {e}") from None
         data, values = self._scratch, self._updater.reset_values

@@ -30,6 +30,7 @@ from ..draws import (DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, ChoiceSteps, Unifor
                      episode_entropy, sensor_key)
 from ..errors import ArgumentError, SuiteError
 from ..observables.aggregators import AGGREGATORS, builtin
+from ..observables.feature import batch_on_demand_problem
 from ..runtime.bank import _reader
 from ..runtime.channels import Channel, FixedChannel, RandomChannel, make_channel
 from ..runtime.updater import observation_spec
@@ -106,7 +107,8 @@ class BatchUpdater:
         entries = self._bind(observables, physics, bool(strip_singleton_buffer_dim))
         self.names = [entry.name for entry in entries]
         self._spec = {e.name: observation_spec(e.name, e.observable, e.channel) for e in entries}
-        cameras, fixed, drawn = self._arrange(entries)
+        model = physics.model if not hasattr(physics.model, "ptr") else physics.model.ptr
+        cameras, fixed, drawn = self._arrange(entries, model)
         ordered = fixed + drawn  # history columns: fixed channels first (the read plan's), then random ones
         self.fixed = [cast(FixedChannel, e.channel) for e in fixed]
         self.nfixed = len(fixed)
@@ -141,14 +143,18 @@ class BatchUpdater:
         return [_Entry(name, obs, make_channel(name, obs, physics, random_state, None, self.substeps, strip, self.pad))
                 for name, obs in observables.items() if obs.enabled]
 
-    def _arrange(self, entries: list[_Entry]) -> tuple[list[_Entry], list[_Entry], list[_Entry]]:
-        """Cameras, fixed-schedule features and drawn-schedule features, each checked for the batch."""
+    def _arrange(self, entries: list[_Entry], model: Any) -> tuple[list[_Entry], list[_Entry], list[_Entry]]:
+        """Cameras, fixed-schedule features and drawn-schedule features, each checked for the batch (a field
+        MuJoCo computes on demand cannot be computed between a rollout's substeps)."""
         cameras = [e for e in entries if hasattr(e.observable, "camera_id")]
         features = [e for e in entries if not hasattr(e.observable, "camera_id")]
         for entry in cameras:
             self._check_camera(*entry)
         for entry in features:
             self._check(*entry)
+            problem = batch_on_demand_problem(model, _reader(entry.channel).field)
+            if problem:
+                raise SuiteError(f"sensor {entry.name!r}: {problem}")
         return (cameras, [e for e in features if isinstance(e.channel, FixedChannel)],
                 [e for e in features if isinstance(e.channel, RandomChannel)])
 

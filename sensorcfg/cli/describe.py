@@ -71,7 +71,8 @@ def noise_summary(stages: Sequence[Any]) -> str:
     """'gaussian(std=0.01) > quantize(step=0.001)' from the sensor's noise stage configs."""
     parts = []
     for stage in stages:
-        params = stage.model_dump(exclude_defaults=True, exclude={"type"})
+        # (warnings=False: a per-value list is held as a tuple, which pydantic warns about while dumping it as is)
+        params = stage.model_dump(exclude_defaults=True, exclude={"type"}, warnings=False)
         text = ", ".join(f"{k}={_compact(v)}" for k, v in params.items())
         parts.append(f"{stage.type}({text})" if text else stage.type)
     return " > ".join(parts) or "-"

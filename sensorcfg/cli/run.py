@@ -52,6 +52,7 @@ class Settings:
     control_timestep: float | None = None
     seed: int = 0
     random_actions: bool = False
+    keyframe: int | str | None = None
 
 
 @dataclasses.dataclass
@@ -82,6 +83,9 @@ def add_run_args(p: argparse.ArgumentParser, steps: int, random_actions: bool = 
                        help="seconds per control step, a whole number of physics steps")
     p.add_argument("--seed", type=seed, default=0, metavar="S",
                    help="seed of the episode and the actions, 0 to 2**32-1 (default 0)")
+    p.add_argument("--keyframe", type=_keyframe, metavar="KEY",
+                   help="start every episode from this model keyframe, a name or an index (default: the suite's "
+                   "options.keyframe, else the model's reset state)")
     if random_actions:
         p.add_argument("--zero-actions", dest="random_actions", action="store_false",
                        help="zero controls (default: uniform random controls within each actuator's ctrlrange)")
@@ -89,6 +93,10 @@ def add_run_args(p: argparse.ArgumentParser, steps: int, random_actions: bool = 
         p.add_argument("--random-actions", action="store_true",
                        help="uniform random controls within each actuator's ctrlrange ([-1, 1] if unlimited); "
                        "default: zero controls")
+
+
+def _keyframe(text: str) -> int | str:
+    return int(text) if text.isdigit() else text
 
 
 def add_parser(sub: Any, epilog: str) -> None:
@@ -135,15 +143,23 @@ def control_steps(suite: Any, model: Any, settings: Settings) -> int:
 def make_env(suite: Any, model_file: str, settings: Settings, *, record_timing: bool) -> tuple[Any, dict[str, Any]]:
     """The Environment and the suite's observables (drawn schedules wrapped in Recorders when asked)."""
     from ..env import Environment
+    from ..errors import SuiteError
+    from ..selection import keyframe_id
     from . import timing
 
     importable_cwd()
     model = load_model(model_file)
     substeps = control_steps(suite, model, settings)
+    if settings.keyframe is not None:
+        try:
+            keyframe_id(model, settings.keyframe)
+        except SuiteError as e:
+            raise UsageError(f"--keyframe: {e.problems[0].message}") from None
     observables = suite.build(model)
     if record_timing:
         timing.record_draws(observables)
-    env = Environment(model, _Built(suite, observables), physics_steps_per_control_step=substeps, seed=settings.seed)
+    env = Environment(model, _Built(suite, observables), physics_steps_per_control_step=substeps, seed=settings.seed,
+                      keyframe=settings.keyframe)
     timing.clear_draws(observables)
     return env, observables
 
@@ -262,7 +278,8 @@ def execute(suite: Any, model_file: str, settings: Settings, out: Path | None, p
     if out is not None:
         sidecar = {"sensorcfg": __version__, "suite": suite.file, "model": model_file, "overrides": overrides,
                    "settings": {"steps": settings.steps, "steps_done": rec.steps_done, "seed": settings.seed,
-                                "random_actions": settings.random_actions, "physics_timestep": dt,
+                                "random_actions": settings.random_actions, "keyframe": settings.keyframe,
+                                "physics_timestep": dt,
                                 "physics_steps_per_control_step": n, "control_timestep": n * dt},
                    "arrays": {TIME_KEY: "time in seconds at each control step, reset first",
                               ACTION_KEY: "controls applied at each control step"},
@@ -289,7 +306,7 @@ def execute(suite: Any, model_file: str, settings: Settings, out: Path | None, p
 
 
 def settings_from(args: argparse.Namespace) -> Settings:
-    return Settings(args.steps, args.substeps, args.control_timestep, args.seed, args.random_actions)
+    return Settings(args.steps, args.substeps, args.control_timestep, args.seed, args.random_actions, args.keyframe)
 
 
 def command(args: argparse.Namespace) -> int:

@@ -101,9 +101,11 @@ def observation_spec(observables: dict[str, Any], model: Any, steps: int, *, str
 def format_spec(spec: Spec) -> str:
     dt = spec.timestep
     n = spec.control_steps
+    keyframe = getattr(spec.suite.options, "keyframe", None)
     head = (f"{printable(spec.suite.file)} on {printable(spec.model_file)}\n"
             f"physics step {dt * 1e3:g} ms; control step {n} physics step{'s' if n != 1 else ''} "
-            f"({n * dt * 1e3:g} ms, {1 / (n * dt):.4g} Hz)\n")
+            f"({n * dt * 1e3:g} ms, {1 / (n * dt):.4g} Hz)"
+            + (f"; episodes start from keyframe {printable(repr(keyframe))}" if keyframe is not None else "") + "\n")
     header = ["name", "kind", "elems", "shape", "dtype", "bounds", "interval", "Hz", "delay", "ms", "buffer",
               "aggregator", "noise"]
     rows = [[r.name, r.kind, r.elements, "(" + ", ".join(map(str, r.shape)) + ("," if len(r.shape) == 1 else "")
@@ -114,6 +116,26 @@ def format_spec(spec: Spec) -> str:
     out += f"\n\n{count} enabled observation{'s' if count != 1 else ''}"
     if spec.disabled:
         out += f"; disabled: {', '.join(spec.disabled)}"
+    unnamed = _unnamed(spec)
+    if unnamed:
+        out += "\nunnamed elements, labelled by id: " + "; ".join(
+            f"{label} ({', '.join(names)})" for label, names in unnamed.items())
+    return out
+
+
+def _unnamed(spec: Spec) -> dict[str, list[str]]:
+    """The unnamed elements the enabled sensors select, as `type:#id`, with the sensors selecting each."""
+    from ..selection import ID_PREFIX, select
+
+    out: dict[str, list[str]] = {}
+    enabled = {r.name for r in spec.rows}
+    for name, cfg in spec.suite.sensors.items():
+        if name not in enabled or cfg.element is None or cfg.kind == "generic":
+            continue
+        sel = select(spec.model, cfg.element, cfg.within)
+        for label in sel.names:
+            if label.startswith(ID_PREFIX):
+                out.setdefault(f"{sel.type}:{label}", []).append(name)
     return out
 
 

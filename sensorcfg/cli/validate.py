@@ -60,6 +60,9 @@ def add_parser(sub: Any, epilog: str) -> None:
     p.add_argument("--format", choices=sorted(REPORTERS), default="text", help="output format (default: text)")
     p.add_argument("--import", dest="import_callables", action="store_true",
                    help="import 'generic' and 'custom' callables too (imported, never called)")
+    p.add_argument("--batch", action="store_true",
+                   help="also check what BatchEnvironment needs (no noise, aggregators or drawn schedules on "
+                   "cameras; float64 mjData features; no generic or custom callables; ...)")
     add_common_suite_args(p, every=True)
     p.set_defaults(handler=command)
 
@@ -142,7 +145,8 @@ def _walk(root: Path, found: Found) -> None:
     found.files[first:] = sorted(found.files[first:])  # path order: a folder's files and subfolders by name
 
 def check_file(path: Path, model: tuple[str, Any] | None, overrides: Sequence[str], import_callables: bool,
-               models: dict[str, Any] | None = None, extends_root: str | None = None) -> FileResult:
+               models: dict[str, Any] | None = None, extends_root: str | None = None, batch: bool = False
+               ) -> FileResult:
     """One suite's problems. `model` is (name, MjModel) from --model, or None for the suite's own `model:`;
     `models` caches the suites' own models by path so a folder of suites for one robot loads it once.
     Sensors that pass the schema are checked against the model even when others do not."""
@@ -168,7 +172,7 @@ def check_file(path: Path, model: tuple[str, Any] | None, overrides: Sequence[st
                     models[target] = None  # let check() report it, positioned at the suite's `model:` line
             target = models[target]  # None: let the suite load it and report where its `model:` is
     seen = {(p.file, p.line, p.col, p.message) for p in problems}
-    problems += [p for p in suite.check(target, import_callables=import_callables)
+    problems += [p for p in suite.check(target, import_callables=import_callables, batch=batch)
                  if (p.file, p.line, p.col, p.message) not in seen]
     files = list(dict.fromkeys(p.file for p in problems))
     problems.sort(key=lambda p: (files.index(p.file), p.line or 0, p.col or 0))
@@ -233,8 +237,8 @@ def command(args: argparse.Namespace) -> int:
     if args.import_callables:
         importable_cwd()
     models: dict[str, Any] = {}
-    results = [check_isolated(f, model, args.overrides, args.import_callables, models, args.extends_root)
-               for f in found.files]
+    results = [check_isolated(f, model, args.overrides, args.import_callables, models, args.extends_root,
+                              args.batch) for f in found.files]
     results += found.errors
     print(REPORTERS[args.format](results))
     errors = [r for r in results if r.error]

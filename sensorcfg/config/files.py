@@ -16,6 +16,7 @@ from pathlib import Path
 
 from ..errors import quote
 from . import limits
+from .menagerie import MENAGERIE_SCHEME, resolve_menagerie
 
 __all__ = ["Unreadable", "irregular", "display", "read_text", "resolve", "resolve_model_path", "inside", "PACKAGE_SCHEME"]
 
@@ -122,7 +123,9 @@ def inside(path: Path, root: Path) -> bool:
 
 
 def resolve_model_path(value: str, base_dir: Path) -> str:
-    """A suite's `model:` as a path: relative to the suite, or inside an installed package."""
+    """A suite's `model:` as a path: relative to the suite, inside an installed package, or in Menagerie."""
+    if value.startswith(MENAGERIE_SCHEME):
+        return resolve_menagerie(value)
     if value.startswith(PACKAGE_SCHEME):
         package, _, inner = value[len(PACKAGE_SCHEME):].partition("/")
         spec = None

@@ -71,14 +71,19 @@ def _sorted(problems: Sequence[Problem]) -> tuple[Problem, ...]:
     return tuple(sorted(problems, key=lambda p: (files.index(p.file), p.line or 0, p.col or 0)))
 
 
-def _without_invalid(value: dict[str, Any], error: ValidationError) -> dict[str, Any] | None:
-    """The suite without the sensors (and top-level keys) the schema rejected, or None when the rest
-    cannot stand alone (the `sensors` mapping itself is malformed)."""
+def _without_invalid(value: dict[str, Any], error: ValidationError, whole_sensors: bool) -> dict[str, Any] | None:
+    """The suite without what the schema rejected: each sensor's rejected keys (or, with `whole_sensors`,
+    those sensors) and rejected top-level keys; None when the rest cannot stand alone (the `sensors`
+    mapping itself is malformed). Keeping a sensor's valid keys lets binding report its model mistakes
+    in the same pass as its schema mistakes."""
     sensors_out: set[Any] = set()
+    sensor_keys_out: dict[Any, set[Any]] = {}
     keys_out: set[Any] = set()
     for e in error.errors(include_url=False):
         loc = tuple(e["loc"])
-        if len(loc) >= 2 and loc[0] == "sensors":
+        if len(loc) >= 3 and loc[0] == "sensors" and not whole_sensors and e["type"] != "missing":
+            sensor_keys_out.setdefault(loc[1], set()).add(loc[2])
+        elif len(loc) >= 2 and loc[0] == "sensors":
             sensors_out.add(loc[1])
         elif loc and loc[0] != "sensors":
             keys_out.add(loc[0])
@@ -86,7 +91,9 @@ def _without_invalid(value: dict[str, Any], error: ValidationError) -> dict[str,
             return None
     rest = {k: v for k, v in value.items() if k not in keys_out}
     if isinstance(rest.get("sensors"), dict):
-        rest["sensors"] = {k: v for k, v in rest["sensors"].items() if k not in sensors_out}
+        rest["sensors"] = {k: ({kk: vv for kk, vv in v.items() if kk not in sensor_keys_out[k]}
+                               if k in sensor_keys_out and isinstance(v, dict) else v)
+                           for k, v in rest["sensors"].items() if k not in sensors_out}
     return rest
 
 
@@ -108,18 +115,23 @@ def _complete(config: SuiteConfig, doc: Doc, file: str, dirs: dict[str, Path]) -
     return LoadedSuite(config, sensors, doc, file, model), problems
 
 
-def _partial(value: dict[str, Any], error: ValidationError, doc: Doc, file: str,
-             dirs: dict[str, Path]) -> tuple[LoadedSuite | None, list[Problem]]:
-    """The sensors that passed the schema, with their own problems and without any sensor that has one."""
-    rest = _without_invalid(value, error)
-    if rest is None:
-        return None, []
-    try:
-        loaded, problems = _complete(SuiteConfig.model_validate(rest), doc, file, dirs)
-    except ValidationError:
-        return None, []
-    bad = {p.loc.split(".")[1] for p in problems if p.loc.startswith("sensors.")}
-    return dataclasses.replace(loaded, sensors={k: v for k, v in loaded.sensors.items() if k not in bad}), problems
+def _partial(value: dict[str, Any], error: ValidationError, doc: Doc, file: str, dirs: dict[str, Path],
+             dropped: set[str]) -> tuple[LoadedSuite | None, list[Problem]]:
+    """What passed the schema, with its own problems and without any sensor that has one: first each sensor
+    without its rejected keys (so a model mistake is found in the same pass as a schema mistake), else
+    without the sensors the schema rejected. `dropped`: the locations the schema already reported."""
+    for whole in (False, True):
+        rest = _without_invalid(value, error, whole_sensors=whole)
+        if rest is None:
+            return None, []
+        try:
+            loaded, problems = _complete(SuiteConfig.model_validate(rest), doc, file, dirs)
+        except ValidationError:
+            continue
+        problems = [p for p in problems if p.loc not in dropped]  # a dropped key is reported once
+        bad = {p.loc.split(".")[1] for p in problems if p.loc.startswith("sensors.")}
+        return dataclasses.replace(loaded, sensors={k: v for k, v in loaded.sensors.items() if k not in bad}), problems
+    return None, []
 
 
 def _validate(doc: Doc, file: str, dirs: dict[str, Path], problems: list[Problem]) -> LoadResult:
@@ -137,7 +149,7 @@ def _validate(doc: Doc, file: str, dirs: dict[str, Path], problems: list[Problem
     except ValidationError as e:
         found = {(p.file, p.line, p.col) for p in doc.problems}  # a removed node: report it once
         later = [p for p in problems_from(e, doc, SuiteConfig) if (p.file, p.line, p.col) not in found]
-        partial, rest = _partial(value, e, doc, file, dirs)
+        partial, rest = _partial(value, e, doc, file, dirs, {p.loc for p in later})
         return LoadResult(partial, _sorted(problems + later + rest))
     loaded, rest = _complete(config, doc, file, dirs)
     problems += rest

@@ -150,6 +150,18 @@ def _element(value: Any) -> str | tuple[str, ...]:
     return _selector(value)
 
 
+_WITHIN = re.compile(r"\Abody:\S.*\Z")
+
+
+def _within(value: Any) -> str | tuple[str, ...]:
+    """`within`: a body ('body:leg', 'body:#3') or a non-empty list of them."""
+    values = value if isinstance(value, list) else [value]
+    if not values or not all(isinstance(v, str) and _WITHIN.match(v.strip()) for v in values):
+        raise ValueError("within takes a body selector, 'body:name' (for example 'body:forearm'), or a list of them; "
+                         f"got {value!r}")
+    return tuple(v.strip() for v in values) if isinstance(value, list) else value.strip()
+
+
 def _index(value: Any) -> int | tuple[int, ...] | str:
     if isinstance(value, int) and not isinstance(value, bool):
         return value
@@ -169,6 +181,11 @@ Element = Annotated[str | tuple[str, ...], PlainValidator(_element), PlainSerial
                     WithJsonSchema({"anyOf": [
     {"type": "string", "pattern": _SELECTOR.pattern.replace(r"\A", "^").replace(r"\Z", "$")},
     {"type": "array", "minItems": 1, "items": {"type": "string"}}]})]
+Within = Annotated[str | tuple[str, ...], PlainValidator(_within), PlainSerializer(_dump_listlike, return_type=Any),
+                   WithJsonSchema({"anyOf": [
+    {"type": "string", "pattern": _WITHIN.pattern.replace(r"\A", "^").replace(r"\Z", "$")},
+    {"type": "array", "minItems": 1, "items": {"type": "string",
+                                               "pattern": _WITHIN.pattern.replace(r"\A", "^").replace(r"\Z", "$")}}]})]
 Index = Annotated[int | tuple[int, ...] | str, PlainValidator(_index), PlainSerializer(_dump_listlike, return_type=Any),
                   WithJsonSchema({"anyOf": [
     {"type": "integer"}, {"type": "array", "items": {"type": "integer"}, "minItems": 1}, {"type": "string"}]})]
@@ -246,15 +263,20 @@ class SensorConfig(BaseModel):
         f"names it (qpos, xpos, sensordata, ...); {', '.join(IMAGE_KINDS)} for a camera; "
         f"'{GENERIC_KIND}' for a Python callable.", examples=["qpos", "sensordata", "rgb", "generic"])
     element: Element | None = Field(
-        None, description="Which elements: 'type:name' (one element, unbatched shape), a glob ('joint:*', "
-        "'site:finger_*') or a list of selectors (batched shape, list order, then model order within a glob).",
+        None, description="Which elements: 'type:name' or 'type:#id' (one element, unbatched shape), a glob "
+        "('joint:*': every joint, unnamed ones included; 'site:finger_*') or a list of selectors (batched shape, "
+        "list order, then model order within a glob). Unnamed elements are labelled '#<id>'.",
         examples=["joint:*", ["sensor:imu_gyro", "sensor:imu_accel"], "camera:wrist"])
-    within: str | None = Field(
-        None, pattern=r"^body:\S.*$", description="Keep only elements in the subtree of this body.",
-        examples=["body:forearm"])
+    within: Within | None = Field(
+        None, description="Keep only elements in the subtree of this body (or of any of a list of bodies).",
+        examples=["body:forearm", ["body:FL_calf", "body:FR_calf"]])
     index: Index | None = Field(
         None, description="A part of the value: an integer, a list of integers, or numpy-style slices as text.",
         examples=[0, [0, 2], "0:3", ":, 2"])
+    constant: bool | None = Field(
+        None, strict=True, description="Read a model constant (a body's `mass`, a joint's `range`) rather than "
+        "simulation state. Without it a kind that does not change with the simulation is an error, since a "
+        "constant read as a sensor is silently wrong data.", examples=[True])
     camera: CameraConfig | None = Field(
         None, description=f"Image settings; for {', '.join(IMAGE_KINDS)} sensors only.",
         examples=[{"width": 64, "height": 48}])
@@ -282,6 +304,10 @@ class OptionsConfig(BaseModel):
     control_interval: ControlInterval | None = Field(
         None, description="Physics steps per control step (as steps, a duration or a rate); default 1.",
         examples=[10, "20ms", "50Hz"])
+    keyframe: Annotated[int, Field(ge=0, strict=True)] | Annotated[str, StringConstraints(min_length=1)] | None = Field(
+        None, description="The model keyframe every episode starts from: its name or its index (default: the "
+        "model's reset state). `sensorcfg run --keyframe` and the environments' `keyframe=` override it.",
+        examples=["home", 0])
 
 
 class SuiteConfig(BaseModel):
@@ -290,9 +316,10 @@ class SuiteConfig(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid", title="sensorcfg sensor suite")
     version: Literal[1] = Field(1, description="Version of the suite format.", examples=[1])
     model: str | None = Field(
-        None, description="Default MJCF model, relative to this file, or 'package://<package>/<path>' for a "
-        "file shipped inside an installed Python package.", examples=["../models/arm.xml",
-                                                                       "package://sensorcfg/assets/robot.xml"])
+        None, description="Default MJCF model, relative to this file; 'package://<package>/<path>' for a "
+        "file shipped inside an installed Python package; 'menagerie://<robot folder>/<file>' for a MuJoCo "
+        "Menagerie robot, through the mujoco-menagerie package (which honours MENAGERIE_ROOT).",
+        examples=["../models/arm.xml", "package://sensorcfg/assets/robot.xml", "menagerie://unitree_go2/scene.xml"])
     extends: str | None = Field(
         None, description="Another suite (relative to this file) to start from; this file overrides it key by "
         "key, and `null` removes an inherited key.", examples=["base.yaml"])

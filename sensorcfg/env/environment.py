@@ -23,9 +23,11 @@ from dm_env import specs
 from ..errors import ArgumentError, SuiteError
 from ..physics import Physics, read_model
 from ..runtime.updater import Updater
+from ..selection import keyframe_id
 from .episode import episode_end
 
-__all__ = ["NOT_COPYABLE", "ControlLoop", "Environment", "make_env", "load_model", "random_state_from", "steps_per_control_step"]
+__all__ = ["NOT_COPYABLE", "ControlLoop", "Environment", "make_env", "load_model", "random_state_from",
+           "steps_per_control_step", "keyframe_index"]
 
 _BAD_STATE = np.array([int(getattr(mujoco.mjtWarning, f"mjWARN_BAD{w}")) for w in ("QPOS", "QVEL", "QACC", "CTRL")])
 RewardFn = Callable[[Physics], float]
@@ -107,15 +109,24 @@ def action_spec(model: mujoco.MjModel, leading: tuple[int, ...] = ()) -> specs.B
                               minimum=np.where(limited, lo, -np.inf), maximum=np.where(limited, hi, np.inf))
 
 
-def _suite_and_observables(suite: Any, model: mujoco.MjModel) -> tuple[dict[str, Any], dict[str, Any]]:
-    """Observables and Updater keyword arguments from a Suite, a suite path, or a dict of observables."""
+def _suite_and_observables(suite: Any, model: mujoco.MjModel,
+                           batch: bool = False) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Observables and Updater keyword arguments from a Suite, a suite path, or a dict of observables;
+    the suite's `options.keyframe` too, under "keyframe" (the environment pops it)."""
     if isinstance(suite, Mapping):
         return dict(suite), {}
     if isinstance(suite, (str, os.PathLike)):
         from .. import load
 
         suite = load(suite)
-    return suite.build(model), suite.updater_kwargs(model)
+    observables = suite.build(model, batch=True) if batch else suite.build(model)
+    return observables, {**suite.updater_kwargs(model), "keyframe": getattr(suite.options, "keyframe", None)}
+
+
+def keyframe_index(model: mujoco.MjModel, keyframe: int | str | None, suite_keyframe: int | str | None) -> int | None:
+    """The keyframe every reset starts from: `keyframe` when given, else the suite's `options.keyframe`."""
+    chosen = suite_keyframe if keyframe is None else keyframe
+    return None if chosen is None else keyframe_id(model, chosen)
 
 
 class ControlLoop:
@@ -177,6 +188,7 @@ class Environment(ControlLoop, dm_env.Environment):
         self._physics = Physics(self._model)
         self._warning_counts = self._physics.data.warning.number  # a live view of MjData's counters
         observables, kwargs = _suite_and_observables(suite, self._model)
+        suite_keyframe = kwargs.pop("keyframe", None)
         self._n, self._control_timestep, self._step_limit = episode_timing(
             self._model, physics_steps_per_control_step, control_timestep, time_limit,
             kwargs.pop("physics_steps_per_control_step", None))
@@ -184,7 +196,7 @@ class Environment(ControlLoop, dm_env.Environment):
         self._updater = Updater(observables, self._n, **kwargs)
         self._random_state = random_state_from(seed)
         self._reward_fn, self._termination_fn, self._initialize = reward_fn, termination_fn, initialize_episode
-        self._keyframe = self._keyframe_id(keyframe)
+        self._keyframe = keyframe_index(self._model, keyframe, suite_keyframe)
         self._needs_reset = True
         self._steps = 0
         self.last_divergence: str | None = None
@@ -214,18 +226,6 @@ class Environment(ControlLoop, dm_env.Environment):
         self._needs_reset = True
 
     # -- episodes ---------------------------------------------------------------------------------
-
-    def _keyframe_id(self, keyframe: int | str | None) -> int | None:
-        if keyframe is None:
-            return None
-        if isinstance(keyframe, str):
-            key = mujoco.mj_name2id(self._model, mujoco.mjtObj.mjOBJ_KEY, keyframe)
-            if key < 0:
-                raise SuiteError(f"the model has no keyframe named {keyframe!r}")
-            return key
-        if not 0 <= keyframe < self._model.nkey:
-            raise SuiteError(f"keyframe {keyframe} is out of range: the model has {self._model.nkey}")
-        return int(keyframe)
 
     def _reset_physics(self, random_state: np.random.RandomState, initialize: bool = True) -> None:
         model, data = self._model, self._physics.data

@@ -16,32 +16,116 @@ import numpy as np
 from dm_env import specs
 
 from ..errors import SuiteError, did_you_mean
-from ..kinds import SOFT_RAGGED, forwards_when_dirty, kinds_of, ragged_slices
+from ..kinds import CONSTANT, ON_DEMAND, SOFT_RAGGED, STATE, OnDemand, forwards_when_dirty, kinds_of, offered_kinds, ragged_slices
 from ..physics import raw_structs
 from ..selection import select, split_selector
 from .base import Observable
 
-__all__ = ["Feature", "FieldReader", "SyncingFieldReader", "feature_index", "forward_if_dirty"]
+__all__ = ["Feature", "FieldReader", "SyncingFieldReader", "feature_index", "forward_if_dirty", "on_demand", "OnDemandCompute",
+           "batch_on_demand_problem"]
 
 
 class FieldReader:
-    """Reads a precomputed set of positions of one mjData/mjModel array."""
+    """Reads a precomputed set of positions of one mjData/mjModel array.
 
-    __slots__ = ("source", "index", "shape", "dtype", "field", "struct")
+    `compute`, when set, fills a field MuJoCo computes on demand only (`kinds.ON_DEMAND`) before the read.
+    """
 
-    def __init__(self, struct: str, field: str, source: np.ndarray, index: np.ndarray):
+    __slots__ = ("source", "index", "shape", "dtype", "field", "struct", "compute", "before_step")
+
+    def __init__(self, struct: str, field: str, source: np.ndarray, index: np.ndarray,
+                 compute: OnDemandCompute | None = None):
         self.struct = struct
         self.field = field
         self.source = source  # a flat view of the array: it follows the simulation in place
         self.index = index  # positions in `source`, already in the observation's shape
         self.shape = index.shape
         self.dtype = source.dtype
+        self.compute = compute
+        # for the Updater: call one physics step before each sample (None when nothing needs it)
+        self.before_step = compute.before_step if compute is not None and compute.start_qvel is not None else None
 
     def __call__(self) -> np.ndarray:
+        if self.compute is not None:
+            self.compute()
         return self.source.take(self.index)
 
     def read_into(self, out: np.ndarray) -> None:
+        if self.compute is not None:
+            self.compute()
         np.take(self.source, self.index, out=out)
+
+
+_FORWARD, _STEP = int(mujoco.mjtTimer.mjTIMER_FORWARD), int(mujoco.mjtTimer.mjTIMER_STEP)
+
+
+class OnDemandCompute:
+    """Fills a field MuJoCo computes on demand only (`kinds.ON_DEMAND`), at most once per physics step:
+    MuJoCo's own flag (`flg_rnepost`, `flg_subtreevel`) says whether it ran since the last step.
+
+    A function that reads `qvel` would see, after `mj_step`, the velocity the step ended with, next to
+    kinematics from the step's start. `before_step` remembers the velocity the next step starts from (the
+    Updater calls it one physics step before each sample), with MuJoCo's counts of steps and forward
+    passes; when exactly one step, and no other forward pass, ran since, the computation runs on that
+    velocity, as MuJoCo's in-step call does. Otherwise (the reset sample, a read outside our Updater, a
+    forward pass after the step, the RK4 integrator) it runs on the data as they are.
+    """
+
+    __slots__ = ("model", "data", "function", "flag", "start_qvel", "stamp")
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, spec: OnDemand):
+        self.model, self.data = model, data
+        self.function = getattr(mujoco, spec.function)
+        self.flag = spec.flag if hasattr(data, spec.flag) else None  # None: a MuJoCo without the flags
+        self.start_qvel = np.empty(model.nv) if spec.reads_qvel else None
+        self.stamp: tuple[int, int] | None = None  # (forward passes, steps) when `start_qvel` was taken
+
+    def _counts(self) -> tuple[int, int]:
+        timer = self.data.timer
+        return int(timer[_FORWARD].number), int(timer[_STEP].number)
+
+    def before_step(self, step: int = 0) -> None:
+        if self.start_qvel is not None:
+            np.copyto(self.start_qvel, self.data.qvel)
+            self.stamp = self._counts()
+
+    def __call__(self) -> None:
+        data = self.data
+        if self.flag is not None and getattr(data, self.flag):
+            return
+        forward, steps = self._counts()
+        if self.start_qvel is not None and self.stamp == (forward - 1, steps - 1):
+            end_qvel = data.qvel.copy()
+            data.qvel[:] = self.start_qvel
+            try:
+                self.function(self.model, data)
+            finally:
+                data.qvel[:] = end_qvel
+        else:
+            self.function(self.model, data)
+
+
+def on_demand(model: mujoco.MjModel, data: mujoco.MjData, field: str) -> OnDemandCompute | None:
+    """The computation a field MuJoCo fills only on demand needs before it is read; None for other fields."""
+    spec = ON_DEMAND.get(field)
+    return None if spec is None else OnDemandCompute(model, data, spec)
+
+
+def batch_on_demand_problem(model: mujoco.MjModel, field: str) -> str | None:
+    """Why a batched rollout cannot record `field` truly, or None when it can: a rollout steps every
+    simulation in C and records after each substep, so a field MuJoCo computes on demand is recorded as
+    zeros unless the model's own sensors make every step compute it (mj_forward then leaves the flag set)."""
+    spec = ON_DEMAND.get(field)
+    if spec is None:
+        return None
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    if getattr(data, spec.flag, False):
+        return None
+    return (f"{field} is filled by {spec.function} only when something asks for it, and a BatchEnvironment's "
+            "rollout cannot call it between substeps (it would read zeros); use the single-simulation "
+            "Environment, or give the model a sensor that needs it (an accelerometer or force sensor for "
+            "cacc/cfrc_*, a subtreelinvel or subtreeangmom sensor for subtree_*)")
 
 
 class SyncingFieldReader(FieldReader):
@@ -54,16 +138,21 @@ class SyncingFieldReader(FieldReader):
 
     __slots__ = ("sync",)
 
-    def __init__(self, struct: str, field: str, source: np.ndarray, index: np.ndarray, sync: Callable[[], None]):
-        super().__init__(struct, field, source, index)
+    def __init__(self, struct: str, field: str, source: np.ndarray, index: np.ndarray, sync: Callable[[], None],
+                 compute: OnDemandCompute | None = None):
+        super().__init__(struct, field, source, index, compute)
         self.sync = sync
 
     def __call__(self) -> np.ndarray:
         self.sync()
+        if self.compute is not None:
+            self.compute()
         return self.source.take(self.index)
 
     def read_into(self, out: np.ndarray) -> None:
         self.sync()
+        if self.compute is not None:
+            self.compute()
         np.take(self.source, self.index, out=out)
 
 
@@ -81,7 +170,7 @@ def forward_if_dirty(physics: Any) -> Callable[[], None] | None:
 
 
 def feature_index(model: mujoco.MjModel, kind: str, element: str | Sequence[str],
-                  within: str | None = None, index: Any = None,
+                  within: str | Sequence[str] | None = None, index: Any = None,
                   data: mujoco.MjData | None = None) -> tuple[str, str, np.ndarray, np.dtype]:
     """(struct, field, flat positions shaped like the value, dtype) for a feature on `model`."""
     sel = select(model, element, within)
@@ -111,6 +200,7 @@ def feature_index(model: mujoco.MjModel, kind: str, element: str | Sequence[str]
     rows_arr = np.asarray(rows, dtype=np.intp)
     flat = (rows_arr[:, None] * row_width + np.arange(row_width, dtype=np.intp)[None, :]).reshape(shape)
     if index is not None:
+        _check_slices(index, shape, kind, element, len(sel.ids))
         try:
             flat = flat[index]
         except (IndexError, TypeError, ValueError) as e:
@@ -119,6 +209,26 @@ def feature_index(model: mujoco.MjModel, kind: str, element: str | Sequence[str]
     # np.array, not np.ascontiguousarray: the latter turns a 0-d index (one element of a per-element
     # scalar field, e.g. the `mass` of one body) into shape (1,), where dm_control gives a scalar.
     return spec.struct, spec.field, np.array(flat, dtype=np.intp, order="C"), array.dtype
+
+
+def _check_slices(index: Any, shape: tuple[int, ...], kind: str, element: Any, count: int) -> None:
+    """numpy clips a slice to its axis silently; a suite's slice must lie within the value's axis instead
+    (`3:6` of 4 elements is a mistake, not 1 element)."""
+    parts = index if isinstance(index, tuple) else (index,)
+    if Ellipsis in parts:
+        at = parts.index(Ellipsis)
+        parts = parts[:at] + (slice(None),) * (len(shape) - len(parts) + 1) + parts[at + 1:]
+    for axis, part in enumerate(parts[:len(shape)]):
+        if not isinstance(part, slice):
+            continue
+        size = shape[axis]
+        for bound in (part.start, part.stop):
+            if bound is not None and not -size <= bound <= size:
+                what = f"{count} elements" if count > 1 else "one element"
+                text = ":".join("" if b is None else str(b) for b in (part.start, part.stop))
+                raise SuiteError(f"index {text!r} reaches past axis {axis} of {kind} of {what} (shape {shape}: "
+                                 f"{size} entries on that axis, 0 to {size - 1}); numpy would silently return fewer "
+                                 f"values: use a range within 0:{size}")
 
 
 class Feature(Observable):
@@ -131,11 +241,11 @@ class Feature(Observable):
 
     def __init__(self, kind: str, element: str | Sequence[str], update_interval: Any = 1,
                  buffer_size: int | None = None, delay: Any = None, aggregator: Any = None,
-                 corruptor: Callable[..., Any] | None = None, index: Any = None, within: str | None = None):
+                 corruptor: Callable[..., Any] | None = None, index: Any = None, within: str | Sequence[str] | None = None):
         self._kind = kind
         self._element = element if isinstance(element, str) else tuple(element)
         self._index = index
-        self._within = within
+        self._within = within if within is None or isinstance(within, str) else tuple(within)
         self._check_kind()
         self._bound: tuple[weakref.ref, FieldReader] | None = None
         super().__init__(update_interval, buffer_size, delay, aggregator, corruptor)
@@ -154,9 +264,11 @@ class Feature(Observable):
         type_name, _ = split_selector(selectors[0])
         kinds = kinds_of(type_name)
         if self._kind not in kinds:
+            hint = did_you_mean(self._kind, offered_kinds(type_name, STATE)) or did_you_mean(
+                self._kind, offered_kinds(type_name, CONSTANT))
             raise SuiteError(
-                f"{self!r}: a {type_name} has no kind {self._kind!r}{did_you_mean(self._kind, kinds)}; "
-                f"{type_name} kinds include {', '.join(sorted(kinds)[:40])}")
+                f"{self!r}: a {type_name} has no kind {self._kind!r}{hint}; "
+                f"{type_name} kinds include {', '.join(offered_kinds(type_name, STATE)[:40])}")
 
     def __repr__(self) -> str:
         element = getattr(self, "_element", "?")
@@ -181,10 +293,11 @@ class Feature(Observable):
             self._bound = bound
         template = bound[1]
         source = getattr(data if template.struct == "data" else model, template.field).reshape(-1)
+        compute = on_demand(model, data, template.field) if template.struct == "data" else None
         sync = forward_if_dirty(physics) if forwards_when_dirty(template.struct, self._kind) else None
         if sync is not None:
-            return SyncingFieldReader(template.struct, template.field, source, template.index, sync)
-        return FieldReader(template.struct, template.field, source, template.index)
+            return SyncingFieldReader(template.struct, template.field, source, template.index, sync, compute)
+        return FieldReader(template.struct, template.field, source, template.index, compute)
 
     def _callable(self, physics: Any) -> Callable[[], np.ndarray]:
         return self.reader(physics)

@@ -264,10 +264,11 @@ def _snapshot_rows(phases: list[tuple[int, int, list[int]]], rows: int) -> list[
 
 def qualifies(ch: Any) -> TypeGuard[FixedChannel]:
     """Whether a channel can join the bank: an uncorrupted float64 mjData feature whose noise (if any)
-    the bank can apply."""
+    the bank can apply. A field MuJoCo computes on demand (`compute`) is read by its own reader, which fills it
+    first."""
     sampler = ch.sampler
     return (isinstance(ch, FixedChannel) and getattr(sampler, "struct", None) == "data"
-            and hasattr(sampler, "index") and ch.dtype == np.float64 and program(ch.noise) is not None
+            and hasattr(sampler, "index") and getattr(sampler, "compute", None) is None and ch.dtype == np.float64 and program(ch.noise) is not None
             and (ch.aggregator is None or (ch.builtin_aggregator and ch.has_buffer_dim
                                            and builtin(ch.aggregator) is not None)))
 

@@ -166,6 +166,14 @@ class Updater:
         """One table over the common period: which sampling tasks run at each step's phase."""
         tasks = self._tasks()
         self._random = [(order, ch) for order, ch in enumerate(self._channels) if isinstance(ch, RandomChannel)]
+        last = len(self._channels)  # after every sampler of the step
+        for ch in self._channels:  # a field computed on demand from the velocity a step starts from:
+            before = getattr(ch.sampler, "before_step", None)  # remember it one step before each sample
+            if isinstance(ch, FixedChannel) and before is not None:
+                period = ch.period()
+                tasks.append(PlanTask(period, [(p - 1) % period for p in ch.needed_phases()], last, before))
+            elif before is not None:  # a drawn schedule: at every step
+                tasks.append(PlanTask(1, [0], last, before))
         period = math.lcm(*(task.period for task in tasks)) if tasks else 1
         if period > _MAX_PLAN_PERIOD:  # pathological interval mixes: each task checks its own phase
             self._period, self._plan, self._orders = 1, [()], [()]

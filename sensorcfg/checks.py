@@ -1,0 +1,105 @@
+"""Checks of one sensor against the model's tables: whether its `kind` is state (or a constant it asks
+for); with its value's shape, what `Environment` would refuse or read wrongly at its first step; and
+(asked for with `batch=True`) what `BatchEnvironment` cannot run.
+
+Each rule returns (key, message) pairs; binding reports them at the key's line (the sensor's own key, or
+`defaults`), all at once. The batch rules mirror the checks `BatchUpdater` makes on observables built in
+Python, for suites, where a line can be named.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from .config.models import ChoiceDraw, SensorConfig, UniformDraw
+from .config.tables import GENERIC_KIND, IMAGE_KINDS
+from .errors import did_you_mean
+from .kinds import CONSTANT, INTERNAL, STATE, kinds_of, offered_kinds, state_twin
+from .observables.feature import batch_on_demand_problem
+
+__all__ = ["kind_problems", "sensor_problems", "batch_problems"]
+
+Found = list[tuple[tuple[str | int, ...], str]]  # (key path inside the sensor, message)
+
+_SINGLE = "remove it, or use the single-simulation Environment"
+_CAMERA_WHAT = {"noise": "noise", "aggregator": "an aggregator", "interval": "a drawn interval",
+                "delay": "a drawn delay"}
+
+
+def kind_problems(type_name: str, kind: str, constant: bool) -> Found:
+    """A kind the type does not offer (internal fields included), a constant read without `constant: true`,
+    or `constant: true` on state; "did you mean" prefers state kinds."""
+    spec = kinds_of(type_name).get(kind)
+    role = spec.role if spec is not None else INTERNAL
+    if role == INTERNAL:
+        states, constants = offered_kinds(type_name, STATE), offered_kinds(type_name, CONSTANT)
+        hint = did_you_mean(kind, states + (list(IMAGE_KINDS) if type_name == "camera" else []))
+        if not hint and did_you_mean(kind, constants):
+            hint = did_you_mean(kind, constants)[:-2] + ", a model constant read with 'constant: true'?)"
+        what = f" ({spec.field} is MuJoCo's internal bookkeeping, not a value to sense)" if spec else ""
+        extra = f"; a camera image is kind {', '.join(IMAGE_KINDS)}" if type_name == "camera" else ""
+        return [(("kind",), f"a {type_name} has no kind {kind!r}{what}{hint}; {type_name} kinds: "
+                 f"{', '.join(states) or '(none that change with the simulation)'}{extra}")]
+    assert spec is not None  # only INTERNAL covers a kind the type lacks
+    if role == CONSTANT and not constant:
+        twin = state_twin(type_name, kind)
+        instead = f"for the simulated value read {twin!r}, or " if twin else ""
+        return [(("kind",), f"a {type_name}'s {kind!r} is a model constant ({spec.field}), not simulation state; "
+                 f"{instead}add 'constant: true' to read the constant")]
+    if role == STATE and constant:
+        return [(("constant",), f"{kind!r} changes with the simulation; 'constant: true' is for model constants: "
+                 "remove it")]
+    return []
+
+
+def sensor_problems(cfg: SensorConfig, shape: tuple[int, ...] | None, strip: bool) -> Found:
+    """An aggregator needs a buffer axis to reduce and values to reduce."""
+    if cfg.aggregator is None or shape is None or cfg.kind in IMAGE_KINDS:
+        return []
+    buffer = cfg.buffer or 1
+    if strip and buffer == 1:
+        return [(("aggregator",), f"with options.strip_singleton_buffer_dim and a buffer of 1 there is no buffer axis, "
+                 f"so {cfg.aggregator!r} would reduce the value's own first axis (shape {shape}); remove the "
+                 "aggregator, or use a buffer of 2 or more")]
+    if 0 in shape:
+        return [(("aggregator",), f"the value has no entries (shape {shape}), so {cfg.aggregator!r} has nothing "
+                 "to reduce (min and max raise, mean and median give nan); remove the aggregator or select "
+                 "elements that have this value")]
+    return []
+
+
+def _drawn(value: Any) -> bool:
+    return isinstance(value, (UniformDraw, ChoiceDraw))
+
+
+def batch_problems(cfg: SensorConfig, dtype: Any, field: str | None, model: mujoco.MjModel) -> Found:
+    """What `BatchEnvironment` cannot run, by key."""
+    found: Found = []
+    if cfg.kind in IMAGE_KINDS:
+        for key, present in (("noise", bool(cfg.noise)), ("aggregator", cfg.aggregator is not None),
+                             ("interval", _drawn(cfg.interval)), ("delay", _drawn(cfg.delay))):
+            if present:
+                found.append(((key,), f"a BatchEnvironment renders cameras per simulation and cannot apply "
+                              f"{_CAMERA_WHAT[key]} to them; {_SINGLE}"))
+        return found
+    if cfg.kind == GENERIC_KIND:
+        return [(("kind",), "a generic callable runs Python per sample and simulation, which a BatchEnvironment "
+                 "cannot vectorise; use the single-simulation Environment for it")]
+    if cfg.constant:
+        found.append((("constant",), "a BatchEnvironment reads mjData fields across simulations, not model "
+                      f"constants; {_SINGLE}"))
+    elif dtype is not None and np.dtype(dtype) != np.float64:
+        found.append((("kind",), f"{cfg.kind} is {np.dtype(dtype)}; a BatchEnvironment vectorises float64 "
+                      f"features only; {_SINGLE}"))
+    problem = batch_on_demand_problem(model, field) if field else None
+    if problem:
+        found.append((("kind",), problem))
+    for i, stage in enumerate(cfg.noise or ()):
+        if stage.type == "custom":
+            found.append((("noise", i), "a custom noise stage runs Python once per sample and simulation, which a "
+                          "BatchEnvironment cannot vectorise; express it with built-in stages, or use the "
+                          "single-simulation Environment"))
+    return found

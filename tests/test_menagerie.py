@@ -1,0 +1,79 @@
+"""`model: menagerie://<robot>/<file>` resolves through the mujoco-menagerie package, honouring MENAGERIE_ROOT.
+
+The test environments have neither Menagerie nor the package (and no network): a robot folder of our own
+under a temporary MENAGERIE_ROOT stands in for a checkout when the package is installed, and a missing
+package must be a positioned problem that names it.
+"""
+
+from __future__ import annotations
+
+import shutil
+import sys
+from pathlib import Path
+
+import pytest
+
+import sensorcfg
+from sensorcfg import SuiteError
+
+MODEL = Path(__file__).parent / "models" / "menagerie_like.xml"
+SUITE = "model: menagerie://anybotics_anymal_c/scene.xml\nsensors:\n  q: {kind: qpos, element: 'joint:*'}\n"
+
+
+def test_a_missing_package_is_a_problem_at_the_model_line(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setitem(sys.modules, "mujoco_menagerie", None)  # import fails as if not installed
+    with pytest.raises(SuiteError) as e:
+        sensorcfg.loads(SUITE, file="s.yaml")
+    assert [p.format() for p in e.value.problems] == [
+        "s.yaml:1:8: error: model: a menagerie:// model is found through the 'mujoco-menagerie' package, which is "
+        "not installed: pip install mujoco-menagerie (or 'sensorcfg[menagerie]'); set MENAGERIE_ROOT to a Menagerie "
+        "checkout to use it instead of the package's download cache"]
+
+
+@pytest.mark.parametrize("model", ["menagerie://anybotics_anymal_c", "menagerie:///scene.xml"])
+def test_a_menagerie_model_names_a_robot_folder_and_a_file(model: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    with pytest.raises(SuiteError, match=r"names no file; write 'menagerie://<robot folder>/<file>', for example "
+                       r"'menagerie://unitree_go2/scene.xml'"):
+        sensorcfg.loads(SUITE.replace("menagerie://anybotics_anymal_c/scene.xml", model))
+
+
+@pytest.fixture
+def menagerie_root(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    pytest.importorskip("mujoco_menagerie", reason="the optional extra 'menagerie' is not installed here")
+    robot = tmp_path / "anybotics_anymal_c"
+    robot.mkdir()
+    shutil.copy(MODEL, robot / "scene.xml")
+    monkeypatch.setenv("MENAGERIE_ROOT", str(tmp_path))
+    return tmp_path
+
+
+def test_the_package_resolves_the_robot_under_menagerie_root(menagerie_root: Path) -> None:
+    suite = sensorcfg.loads(SUITE)
+    assert suite.model == str(menagerie_root / "anybotics_anymal_c" / "scene.xml")
+    assert suite.check() == []
+
+
+def test_package_errors_are_problems_at_the_model_line(menagerie_root: Path) -> None:
+    with pytest.raises(SuiteError, match=r"s.yaml:1:8: error: model: mujoco-menagerie cannot provide "
+                       r"'menagerie://anybotics_anymal/scene.xml': Unknown robot 'anybotics_anymal'. Did you mean "
+                       r"'anybotics_anymal_c'\?"):
+        sensorcfg.loads(SUITE.replace("anymal_c", "anymal"), file="s.yaml")
+    with pytest.raises(SuiteError, match=r"'anybotics_anymal_c' has no file 'scene_x.xml'"):
+        sensorcfg.loads(SUITE.replace("scene.xml", "scene_x.xml"), file="s.yaml")
+
+
+SUITES = sorted((Path(__file__).resolve().parent.parent / "configs" / "menagerie").glob("*.yaml"))
+
+
+def test_there_is_a_menagerie_suite_per_robot_class() -> None:
+    assert [p.stem.split("_")[0] for p in SUITES] == ["arm", "hand", "humanoid", "quadruped"]
+
+
+@pytest.mark.parametrize("path", SUITES, ids=[p.stem for p in SUITES])
+def test_menagerie_suites_name_a_robot_and_pass_the_schema(path: Path) -> None:
+    """Without Menagerie here, the suites are checked up to their model: syntax, schema, units."""
+    text = path.read_text()
+    model_line = next(line for line in text.splitlines() if line.startswith("model: "))
+    assert model_line.startswith("model: menagerie://")
+    suite = sensorcfg.loads(text.replace(model_line, ""), file=path.name)
+    assert suite.sensors and suite.model is None
