@@ -27,14 +27,14 @@ def _pytest(session: nox.Session, **env: str) -> None:
 
 @nox.session(name="tests-mujoco4")
 def tests_mujoco4(session: nox.Session) -> None:
-    session.install("-e", ".[test,gym,plot]", "mujoco>=4,<5")
+    session.install("-e", ".[test,gym,plot,menagerie]", "mujoco>=4,<5")
     session.run("python", "-c", "import mujoco; print('mujoco', mujoco.__version__)")
     _pytest(session)
 
 
 @nox.session(name="oracle-mujoco3")
 def oracle_mujoco3(session: nox.Session) -> None:
-    session.install("-e", ".[test,gym,plot]", "mujoco==3.17.0", "dm-control==1.0.50")
+    session.install("-e", ".[test,gym,plot,menagerie]", "mujoco==3.17.0", "dm-control==1.0.50")
     session.run("python", "-c", "import mujoco, dm_control; print('mujoco', mujoco.__version__)")
     _pytest(session, SENSORCFG_REQUIRE_ORACLE="1")
 

@@ -219,8 +219,9 @@ sensors:
 def test_zero_width_features_with_an_aggregator_are_a_problem_at_its_line():
     suite = sensorcfg.loads(ZERO_WIDTH, file="s.yaml")
     (problem,) = suite.check()
-    assert problem.format() == ("s.yaml:8:17: error: sensors.nothing.aggregator: mean has no values to reduce: this "
-                                "sensor reads none (shape (0,)); drop the aggregator, or select at least one value")
+    assert problem.format() == ("s.yaml:8:17: error: sensors.nothing.aggregator: the value has no entries (shape (0,)), "
+                                "so 'mean' has nothing to reduce (min and max raise, mean and median give nan); "
+                                "remove the aggregator or select elements that have this value")
     with pytest.raises(sensorcfg.SuiteError, match="s.yaml:8:17: error: sensors.nothing.aggregator"):
         sensorcfg.Environment(ROBOT, suite)
     if MUJOCO4:

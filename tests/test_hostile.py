@@ -73,7 +73,9 @@ def test_loading_returns_a_result_not_a_decorated_exception() -> None:
             "  bad: {kind: qpos, element: 'joint:elbow', buffer: 0}\n")
     result = parse_text(text)
     assert not result.ok and [p.loc for p in result.problems] == ["sensors.bad.buffer"]
-    assert list(result.suite.sensors) == ["good"]  # the part that stands, to check against a model
+    # the part that stands, to check against a model: a sensor without its rejected key (issue 12: a schema
+    # mistake must not hide the same sensor's model mistakes)
+    assert list(result.suite.sensors) == ["good", "bad"] and "buffer" not in result.suite.sensors["bad"].model_fields_set
     with pytest.raises(SuiteError) as info:
         result.unwrap()
     assert not hasattr(info.value, "_partial")
