@@ -62,7 +62,7 @@ def test_package_errors_are_problems_at_the_model_line(menagerie_root: Path) -> 
         sensorcfg.loads(SUITE.replace("scene.xml", "scene_x.xml"), file="s.yaml")
 
 
-SUITES = sorted((Path(__file__).resolve().parent.parent / "configs" / "menagerie").glob("*.yaml"))
+SUITES = sorted((Path(__file__).resolve().parent.parent / "examples" / "menagerie").glob("*.yaml"))
 
 
 def test_there_is_a_menagerie_suite_per_robot_class() -> None:
