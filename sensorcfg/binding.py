@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import importlib
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any, Literal, cast
 
 import mujoco
@@ -20,11 +20,12 @@ import numpy as np
 from .config.loader import LoadedSuite
 from .config.models import ChoiceDraw, SensorConfig, UniformDraw
 from .config.source import Path_
-from .config.tables import GENERIC_KIND, IMAGE_KINDS
+from .config.tables import GENERIC_KIND, HEIGHTSCAN_KIND, IMAGE_KINDS
 from .config.units import to_steps
 from .draws import ChoiceSteps, UniformSteps
 from .errors import Problem, SuiteError, did_you_mean
 from .kinds import kinds_of
+from .native import NATIVE, bind_native, native_row
 from .noise import build_noise
 from .observables import Camera, Feature, Generic, Observable
 from .observables.camera import MODES, SCENE_FLAGS
@@ -47,19 +48,24 @@ class _Binder:
     suite: LoadedSuite
     model: mujoco.MjModel
     import_callables: bool
+    refused: Mapping[str, str] = dataclasses.field(default_factory=dict)  # MuJoCo's word per native sensor
     problems: list[Problem] = dataclasses.field(default_factory=list)
+    quiet: bool = False  # binding a clean twin: its source reports the problems they share
 
     # -- where a key came from, and problems there --------------------------------------------
 
     def origin(self, name: str, key: str) -> Path_:
         """`sensors.<name>.<key>` when the sensor wrote it, else `defaults.<key>` (so a bad default is
         reported once, at its own line)."""
-        raw = self.suite.doc.value["sensors"][name]
+        raw = self.suite.doc.value["sensors"].get(self.suite.twins.get(name, name)) or {}
         if key in raw or key not in (self.suite.doc.value.get("defaults") or {}):
             return ("sensors", name, key)
         return ("defaults", key)
 
     def report(self, path: Path_, message: str, *, key: bool = False) -> None:
+        if self.quiet:
+            self.problems.append(Problem(message))
+            return
         pos = self.suite.doc.pos(path, key=key)
         loc = ".".join(map(str, path))
         problem = pos.problem(message, loc) if pos else Problem(message, loc, self.suite.file)
@@ -106,7 +112,8 @@ class _Binder:
         timing = dict(update_interval=self.schedule(name, "interval", cfg.interval, 1),
                       delay=self.schedule(name, "delay", cfg.delay, 0),
                       buffer_size=cfg.buffer, aggregator=cfg.aggregator)
-        builders = {GENERIC_KIND: self.generic, **dict.fromkeys(IMAGE_KINDS, self.camera)}
+        builders = {GENERIC_KIND: self.generic, HEIGHTSCAN_KIND: self.heightscan,
+                    **dict.fromkeys(IMAGE_KINDS, self.camera)}
         made = builders.get(cfg.kind, self.feature)(name, cfg, timing)
         if made is None or len(self.problems) > before:
             return None
@@ -163,13 +170,24 @@ class _Binder:
         type_name = self.element_type(name, cfg)
         if type_name is None:
             return None
+        if native_row(cfg.kind, type_name) is not None:
+            source = self.suite.twins.get(name, name)  # a twin reads its source's MuJoCo sensors
+            return bind_native(self.model, source, cfg, timing, self.report, self.refused, _index(cfg.index))
         kinds = kinds_of(type_name)
+        for key in ("frame", "with_", "data", "reduce", "num", "cutoff"):
+            if getattr(cfg, key) is not None and cfg.kind in kinds:
+                self.report(("sensors", name, key.rstrip("_")), f"{key.rstrip('_')!r} is an option of MuJoCo's "
+                            f"{cfg.kind} sensor, but on a {type_name} {cfg.kind!r} is its attribute "
+                            f"{kinds[cfg.kind].field} (the element type decides): remove it", key=True)
+                return None
         if cfg.kind not in kinds:
             extra = f"; a camera image is kind {', '.join(IMAGE_KINDS)}" if type_name == "camera" else ""
-            candidates = list(kinds) + (list(IMAGE_KINDS) if type_name == "camera" else [])
+            native = [k for k, row in NATIVE.items() if type_name in row.objects]
+            candidates = list(kinds) + native + (list(IMAGE_KINDS) if type_name == "camera" else [])
             self.report(("sensors", name, "kind"),
                         f"a {type_name} has no kind {cfg.kind!r}{did_you_mean(cfg.kind, candidates)}; "
-                        f"{type_name} kinds: {', '.join(sorted(kinds))}{extra}")
+                        f"{type_name} kinds: {', '.join(sorted(kinds))}; MuJoCo sensors on a {type_name}: "
+                        f"{', '.join(native) or '(none)'}{extra}")
             return None
         if not self.selection(name, cfg):
             return None
@@ -228,6 +246,26 @@ class _Binder:
                         scene_option=dict(cfg.camera.scene) or None, **timing)
         channels, dtype, _, _ = MODES[cfg.kind]
         return camera, (height, width, channels), dtype
+
+    def heightscan(self, name: str, cfg: SensorConfig, timing: dict[str, Any]) -> tuple[Observable, Any, Any] | None:
+        from .heightscan import HeightScan
+
+        type_name = self.element_type(name, cfg)
+        if type_name is None:
+            return None
+        if type_name not in ("body", "site") or not isinstance(cfg.element, str) or set("*?[") & set(cfg.element):
+            self.report(("sensors", name, "element"), f"a height scan is cast from one frame, 'body:<name>' or "
+                        f"'site:<name>'; got {cfg.element!r}")
+            return None
+        if not self.selection(name, cfg):
+            return None
+        assert cfg.scan is not None  # filled in by the loader
+        groups = [g for g in cfg.scan.geomgroup or () if not 0 <= g < 6]
+        if groups:
+            self.report(self.origin(name, "scan") + ("geomgroup",), f"geom groups are 0-5; got {groups}")
+            return None
+        scan = HeightScan(cfg.element, cfg.scan, **timing)
+        return scan, scan.shape, np.dtype(np.float64)
 
     def generic(self, name: str, cfg: SensorConfig, timing: dict[str, Any]) -> tuple[Observable, Any, Any] | None:
         assert cfg.callable is not None
@@ -292,12 +330,21 @@ def _index(value: Any) -> Any:
     return parts[0] if len(parts) == 1 else tuple(parts)
 
 
-def bind(suite: LoadedSuite, model: mujoco.MjModel, *, import_callables: bool) -> tuple[
-        dict[str, Observable], list[Problem]]:
-    """Observables for every sensor of `suite` (file order) and every problem found on the way."""
-    binder = _Binder(suite, model, import_callables)
+def bind(suite: LoadedSuite, model: mujoco.MjModel, *, import_callables: bool,
+         refused: Mapping[str, str] | None = None) -> tuple[dict[str, Observable], list[Problem]]:
+    """Observables for every sensor of `suite` (file order) and every problem found on the way.
+
+    `refused`: MuJoCo's message for each native sensor it would not compile (`sensorcfg.native`)."""
+    binder = _Binder(suite, model, import_callables, dict(refused or {}))
+    twin_binder = _Binder(suite, model, import_callables, dict(refused or {}), quiet=True)
     observables: dict[str, Observable] = {}
     for name, cfg in suite.sensors.items():
+        if name in suite.twins:  # its source's problems are reported once, at the source's lines
+            if suite.twins[name] in observables:
+                made = twin_binder.bind(name, cfg)
+                if made is not None:
+                    observables[name] = made
+            continue
         try:
             observable = binder.bind(name, cfg)
         except SuiteError as e:  # a check an observable makes itself, that binding did not anticipate

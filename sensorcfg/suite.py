@@ -63,14 +63,24 @@ class Suite:
     # -- against a model ------------------------------------------------------------------------
 
     def _mjmodel(self, model: ModelLike) -> mujoco.MjModel:
+        return self._compiled(model)[0]
+
+    def _compiled(self, model: ModelLike) -> tuple[mujoco.MjModel, dict[str, str]]:
+        """The model to bind to, and MuJoCo's message for each native sensor it refused. A path (or the
+        suite's `model:`, or an MjSpec) is compiled with the suite's native sensors; an MjModel is taken
+        as it is (it must carry them)."""
         import mujoco
 
         if isinstance(model, mujoco.MjModel):
-            return model
+            return model, {}
+        if isinstance(model, mujoco.MjSpec):
+            from .native import compile_model
+
+            return compile_model(model, self._loaded.sensors)
         if model is not None and not isinstance(model, (str, os.PathLike)):
             from .physics import raw_structs
 
-            return raw_structs(model)[0]
+            return raw_structs(model)[0], {}
         if model is None:
             if self.model is None:
                 message = "no model to check against: pass one, or name it in the suite with 'model: path/to/robot.xml'"
@@ -80,9 +90,12 @@ class Suite:
         else:
             path, pos = str(model), None
         try:
+            from .native import compile_model, native_names
             from .physics import read_model
 
-            return read_model(path)
+            if native_names(self._loaded.sensors):
+                return compile_model(path, self._loaded.sensors)
+            return read_model(path), {}
         except (ValueError, OSError) as e:
             message = f"cannot load the model {str(path)!r}: {str(e).strip()}"
             raise SuiteError(pos.problem(message, "model") if pos else Problem(message, file=str(path))) from None
@@ -90,12 +103,29 @@ class Suite:
     def _bind(self, model: ModelLike, import_callables: bool) -> tuple[dict[str, Observable], list[Problem]]:
         from .binding import bind
 
-        return bind(self._loaded, self._mjmodel(model), import_callables=import_callables)
+        mjmodel, refused = self._compiled(model)
+        return bind(self._loaded, mjmodel, import_callables=import_callables, refused=refused)
+
+    def compile(self, model: ModelLike = None) -> mujoco.MjModel:
+        """The model with the MuJoCo sensors (and sites) the suite's native kinds add: `model` is an MJCF
+        path, an `MjSpec` (copied) or None for the suite's `model:`; an MjModel is returned as it is.
+
+        The file is not edited. Raises SuiteError listing every problem of the suite against the model
+        when MuJoCo refuses one of its sensors.
+        """
+        mjmodel, refused = self._compiled(model)
+        if refused:
+            from .binding import bind
+
+            raise SuiteError(bind(self._loaded, mjmodel, import_callables=False, refused=refused)[1])
+        return mjmodel
 
     def build(self, model: ModelLike = None, *, import_callables: bool = True) -> dict[str, Observable]:
         """The observables of every sensor, in file order, with their `enabled` flags set.
 
-        `model` is a `mujoco.MjModel`, a model path, or None for the suite's own `model:`. `generic`
+        `model` is a `mujoco.MjModel`, a model path, an `MjSpec`, or None for the suite's own `model:`; a
+        path or spec is compiled with the suite's MuJoCo sensor kinds, an MjModel must already carry them
+        (`Suite.compile`), and the observables then run only on that model. `generic`
         callables are imported (pass `import_callables=False` to leave them unimported placeholders).
         Raises SuiteError listing every problem.
         """

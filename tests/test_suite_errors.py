@@ -90,7 +90,7 @@ LOAD_MISTAKES = [
         '    kind: qpos\n'
         '    element: joint:elbow\n'
         '    intreval: 2\n',
-        "5:5: error: sensors.s.intreval: unknown key 'intreval' (did you mean 'interval'?); allowed keys: kind, element, within, index, camera, callable, interval, delay, buffer, aggregator, enabled, noise",
+        "5:5: error: sensors.s.intreval: unknown key 'intreval' (did you mean 'interval'?); allowed keys: kind, element, within, index, camera, callable, frame, with, data, reduce, num, cutoff, scan, interval, delay, buffer, aggregator, enabled, noise, twin",
         id='sensor_unknown_key'),
     pytest.param(
         'sensors:\n'
@@ -341,7 +341,7 @@ LOAD_MISTAKES = [
         'defaults:\n'
         '  kind: qpos\n'
         'sensors: {}\n',
-        "2:3: error: defaults.kind: unknown key 'kind'; allowed keys: interval, delay, buffer, aggregator, enabled, noise, camera",
+        "2:3: error: defaults.kind: unknown key 'kind'; allowed keys: interval, delay, buffer, aggregator, enabled, noise, twin, camera",
         id='defaults_key'),
     pytest.param(
         'sensors:\n'

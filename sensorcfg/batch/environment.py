@@ -56,7 +56,7 @@ import dm_env
 import mujoco
 import numpy as np
 
-from ..env.environment import (_BAD_STATE, ControlLoop, _suite_and_observables, action_spec, episode_timing, load_model,
+from ..env.environment import (_BAD_STATE, ControlLoop, action_spec, episode_timing, model_and_observables,
                                random_state_from)
 from ..errors import SuiteError
 from ..physics import Physics
@@ -130,10 +130,9 @@ class BatchEnvironment(ControlLoop):
             raise SuiteError(f"nsim must be a positive integer (simulations), got {nsim!r}")
         if nthread is not None and (not isinstance(nthread, (int, np.integer)) or nthread < 0):
             raise SuiteError(f"nthread must be a non-negative integer (0: every CPU), got {nthread!r}")
-        self._model = load_model(model)
+        self._model, observables, options = model_and_observables(model, suite)
         self._nsim = int(nsim)
         self._batch_shape = (self._nsim,)
-        observables, options = _suite_and_observables(suite, self._model)
         self._n, self._control_timestep, self._step_limit = episode_timing(
             self._model, physics_steps_per_control_step, control_timestep, time_limit,
             options.get("physics_steps_per_control_step"))

@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import importlib.util
 import os
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, cast
@@ -20,9 +21,9 @@ from pydantic import ValidationError
 
 from ..errors import Problem, SuiteError, did_you_mean
 from .locate import describe, problem_at, problems_from
-from .models import CameraConfig, SensorConfig, SuiteConfig
+from .models import SENSOR_NAME_PATTERN, CameraConfig, ScanConfig, SensorConfig, SuiteConfig
 from .source import Doc, Path_, Pos, compose, dotted
-from .tables import GENERIC_KIND, IMAGE_KINDS
+from .tables import GENERIC_KIND, HEIGHTSCAN_KIND, IMAGE_KINDS, NATIVE_KINDS
 
 __all__ = ["LoadedSuite", "load_path", "load_text", "resolve_model_path", "PACKAGE_SCHEME"]
 
@@ -38,6 +39,7 @@ class LoadedSuite:
     doc: Doc
     file: str
     model: str | None  # resolved default model path
+    twins: dict[str, str] = dataclasses.field(default_factory=dict)  # twin name -> the sensor it mirrors
 
 
 # -- reading and `extends` ------------------------------------------------------------------------
@@ -180,7 +182,14 @@ def apply_override(doc: Doc, text: str) -> list[Problem]:
 # -- validation, defaults and the rules between keys -------------------------------------------------
 
 def _is_feature(kind: str) -> bool:
-    return kind not in IMAGE_KINDS and kind != GENERIC_KIND
+    return kind not in IMAGE_KINDS and kind not in (GENERIC_KIND, HEIGHTSCAN_KIND)
+
+
+def _is_native(kind: str) -> bool:
+    return kind in NATIVE_KINDS
+
+
+_NATIVE_ONLY = "MuJoCo sensor kinds (velocimeter, framepos, contact, ...)"
 
 
 # key -> (which kinds may have it, what to call them in a message)
@@ -190,6 +199,13 @@ _ONLY_FOR = {
     "index": (_is_feature, "sensors that read an attribute of model elements"),
     "camera": (lambda k: k in IMAGE_KINDS, "image sensors (kind rgb, depth or segmentation)"),
     "callable": (lambda k: k == GENERIC_KIND, "kind 'generic'"),
+    "frame": (_is_native, _NATIVE_ONLY),
+    "with_": (_is_native, _NATIVE_ONLY),
+    "data": (_is_native, _NATIVE_ONLY),
+    "reduce": (_is_native, _NATIVE_ONLY),
+    "num": (_is_native, _NATIVE_ONLY),
+    "cutoff": (_is_native, _NATIVE_ONLY),
+    "scan": (lambda k: k == HEIGHTSCAN_KIND, f"kind {HEIGHTSCAN_KIND!r}"),
 }
 # key -> (which kinds need it, an example)
 _NEEDS = {
@@ -205,8 +221,9 @@ def _effective(name: str, sensor: SensorConfig, config: SuiteConfig, doc: Doc) -
     here = ("sensors", name)
     for key, (allowed, who) in _ONLY_FOR.items():
         if getattr(sensor, key) is not None and not allowed(sensor.kind):
-            problems.append(problem_at(doc, here + (key,), f"{key!r} is only for {who}; this sensor's kind is "
-                                       f"{sensor.kind!r}: remove it or change the kind", key=True))
+            label = key.rstrip("_")
+            problems.append(problem_at(doc, here + (label,), f"{label!r} is only for {who}; this sensor's kind "
+                                       f"is {sensor.kind!r}: remove it or change the kind", key=True))
     for key, (needed, example) in _NEEDS.items():
         if getattr(sensor, key) is None and needed(sensor.kind):
             example = _IMAGE_EXAMPLE if sensor.kind in IMAGE_KINDS and key == "element" else example
@@ -214,11 +231,13 @@ def _effective(name: str, sensor: SensorConfig, config: SuiteConfig, doc: Doc) -
                                     dotted(here + (key,)), *_key_where(doc, here)))
     defaults = config.defaults
     update: dict[str, Any] = {}
-    for field in ("interval", "delay", "buffer", "aggregator", "enabled", "noise"):
+    for field in ("interval", "delay", "buffer", "aggregator", "enabled", "noise", "twin"):
         if getattr(sensor, field) is None and getattr(defaults, field) is not None:
             update[field] = getattr(defaults, field)
     if sensor.kind in IMAGE_KINDS:
         update["camera"] = _merge_camera(defaults.camera, sensor.camera)
+    if sensor.kind == HEIGHTSCAN_KIND and sensor.scan is None:
+        update["scan"] = ScanConfig()
     if update.get("enabled", sensor.enabled) is None:
         update["enabled"] = True
     if update.get("noise", sensor.noise) is None:
@@ -314,6 +333,7 @@ def _finish_valid(config: SuiteConfig, doc: Doc, file: str, dirs: dict[str, Path
     for name, sensor in config.sensors.items():
         sensors[name], found = _effective(name, sensor, config, doc)
         problems.extend(found)
+    sensors, twins = _with_twins(sensors, doc, problems)
     model = None
     if config.model is not None:
         pos = doc.pos(("model",))
@@ -322,7 +342,38 @@ def _finish_valid(config: SuiteConfig, doc: Doc, file: str, dirs: dict[str, Path
             model = resolve_model_path(config.model, base)
         except ValueError as e:
             problems.append(problem_at(doc, ("model",), str(e)))
-    return LoadedSuite(config, sensors, doc, file, model)
+    return LoadedSuite(config, sensors, doc, file, model, twins)
+
+
+def _twin_of(cfg: SensorConfig) -> SensorConfig:
+    """The clean twin of a sensor: no noise, no delay; with a buffer of 1 it samples every step, so its one
+    sample is taken at the read; a longer buffer keeps the sensor's interval (its history's spacing)."""
+    interval = 1 if (cfg.buffer or 1) == 1 else cfg.interval
+    return cfg.model_copy(update={"noise": (), "delay": 0, "interval": interval, "twin": None, "enabled": True})
+
+
+def _with_twins(sensors: dict[str, SensorConfig], doc: Doc,
+                problems: list[Problem]) -> tuple[dict[str, SensorConfig], dict[str, str]]:
+    """Each sensor followed by its clean twin, when it has one (`twin:`, or `defaults.twin` with '{name}')."""
+    out: dict[str, SensorConfig] = {}
+    twins: dict[str, str] = {}
+    for name, cfg in sensors.items():
+        out[name] = cfg
+        if cfg.twin is None or cfg.twin is False:
+            continue
+        own = cfg.twin if isinstance(cfg.twin, str) else None
+        where = ("sensors", name, "twin") if doc.pos(("sensors", name, "twin")) else ("defaults", "twin")
+        twin = own.replace("{name}", name) if own is not None else None
+        if twin is None or not re.match(SENSOR_NAME_PATTERN, twin):
+            problems.append(problem_at(doc, where, f"twin takes the name of the clean copy (letters, digits, _ - /; "
+                                       f"'{{name}}' stands for the sensor's name); got {cfg.twin!r}"))
+            continue
+        if twin in sensors or twin in out:
+            problems.append(problem_at(doc, where, f"twin {twin!r} is already a sensor's name; choose another"))
+            continue
+        out[twin] = _twin_of(cfg)
+        twins[twin] = name
+    return out, twins
 
 
 def _sorted(problems: list[Problem]) -> list[Problem]:

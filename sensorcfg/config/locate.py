@@ -91,9 +91,10 @@ def model_at(root: type[BaseModel], path: Path_, value: Any) -> type[BaseModel] 
             in_container = False
         else:
             model = _pick(models, node)
-            if model is None or part not in model.model_fields:
+            names = {f.alias or n: n for n, f in model.model_fields.items()} if model is not None else {}
+            if part not in names:
                 return None
-            annotation = model.model_fields[part].annotation
+            annotation = model.model_fields[names[part]].annotation
             models = _models_in(annotation)
             in_container = _is_container(annotation)
             if not models:
@@ -151,7 +152,7 @@ def _message(error: ErrorDetails, path: Path_, root: type[BaseModel], value: Any
         return f"missing required key {name!r}{_MISSING.get(str(name), '')}"
     if kind == "extra_forbidden":
         model = model_at(root, path[:-1], value)
-        fields = list(model.model_fields) if model else []
+        fields = [f.alias or n for n, f in model.model_fields.items()] if model else []
         allowed = f"; allowed keys: {', '.join(fields)}" if fields else ""
         return f"unknown key {name!r}{did_you_mean(str(name), fields)}{allowed}"
     if kind == "value_error":

@@ -101,15 +101,21 @@ def action_spec(model: mujoco.MjModel, leading: tuple[int, ...] = ()) -> specs.B
                               minimum=np.where(limited, lo, -np.inf), maximum=np.where(limited, hi, np.inf))
 
 
-def _suite_and_observables(suite: Any, model: mujoco.MjModel) -> tuple[dict[str, Any], dict[str, Any]]:
-    """Observables and Updater keyword arguments from a Suite, a suite path, or a dict of observables."""
+def model_and_observables(model: Any, suite: Any) -> tuple[mujoco.MjModel, dict[str, Any], dict[str, Any]]:
+    """The model (a path or an MjSpec compiled with the suite's MuJoCo sensor kinds), its observables and
+    the Updater's keyword arguments, from a Suite, a suite path, or a dict of observables."""
     if isinstance(suite, Mapping):
-        return dict(suite), {}
+        return load_model(model), dict(suite), {}
     if isinstance(suite, (str, os.PathLike)):
         from .. import load
 
         suite = load(suite)
-    return suite.build(model), suite.updater_kwargs(model)
+    if isinstance(model, (str, os.PathLike, mujoco.MjSpec)):
+        if not isinstance(model, mujoco.MjSpec):
+            load_model(model)  # a missing or broken file: the same error as without a suite
+        model = suite.compile(model)
+    model = load_model(model)
+    return model, suite.build(model), suite.updater_kwargs(model)
 
 
 class ControlLoop:
@@ -151,16 +157,15 @@ class Environment(ControlLoop, dm_env.Environment):
     `options.control_interval`, else one physics step.
     """
 
-    def __init__(self, model: mujoco.MjModel | str | os.PathLike, suite: Any, *,
+    def __init__(self, model: mujoco.MjModel | mujoco.MjSpec | str | os.PathLike, suite: Any, *,
                  physics_steps_per_control_step: int | None = None, control_timestep: float | None = None,
                  time_limit: float | None = None,
                  seed: int | np.random.SeedSequence | np.random.RandomState | None = None,
                  reward_fn: RewardFn | None = None, termination_fn: TerminationFn | None = None,
                  initialize_episode: InitializeFn | None = None, keyframe: int | str | None = None):
-        self._model = load_model(model)
+        self._model, observables, kwargs = model_and_observables(model, suite)
         self._physics = Physics(self._model)
         self._warning_counts = self._physics.data.warning.number  # a live view of MjData's counters
-        observables, kwargs = _suite_and_observables(suite, self._model)
         self._n, self._control_timestep, self._step_limit = episode_timing(
             self._model, physics_steps_per_control_step, control_timestep, time_limit,
             kwargs.pop("physics_steps_per_control_step", None))
