@@ -176,8 +176,9 @@ class _Binder:
         kinds = kinds_of(type_name)
         for key in ("frame", "with_", "data", "reduce", "num", "cutoff"):
             if getattr(cfg, key) is not None and cfg.kind in kinds:
+                article = "an" if type_name[0] in "aeiou" else "a"
                 self.report(("sensors", name, key.rstrip("_")), f"{key.rstrip('_')!r} is an option of MuJoCo's "
-                            f"{cfg.kind} sensor, but on a {type_name} {cfg.kind!r} is its attribute "
+                            f"{cfg.kind} sensor, but on {article} {type_name} {cfg.kind!r} is its attribute "
                             f"{kinds[cfg.kind].field} (the element type decides): remove it", key=True)
                 return None
         if cfg.kind not in kinds:

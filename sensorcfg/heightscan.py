@@ -77,6 +77,8 @@ def heights(pos: np.ndarray, starts: np.ndarray, dirs: np.ndarray, dist: np.ndar
 class HeightScan(Observable):
     """A height scan from the frame of `element` ('body:name' or 'site:name'); see the module docstring."""
 
+    per_simulation = True  # a BatchEnvironment casts it per simulation, from that simulation's MjData
+
     def __init__(self, element: str, scan: ScanConfig, update_interval: Any = 1, buffer_size: int | None = None,
                  delay: Any = None, aggregator: Any = None, corruptor: Callable[..., Any] | None = None):
         self._element = element

@@ -53,6 +53,11 @@ def _bound(label: str, attr: str, value: Any, default: int) -> int:
                      "{choice: [...]}")
 
 
+def _per_simulation(obs: Any) -> bool:
+    """Observables that need a simulation's whole MjData (cameras, height scans): run per simulation."""
+    return hasattr(obs, "camera_id") or getattr(obs, "per_simulation", False)
+
+
 class BatchUpdater:
     """Samples, delays, buffers, aggregates and corrupts observables of nsim simulations of one model.
 
@@ -78,8 +83,8 @@ class BatchUpdater:
         ch: FixedChannel | RandomChannel
         self.names = [name for name, _ in enabled]
         cameras = cast("list[tuple[str, Any, FixedChannel]]",  # a drawn schedule fails `_check_camera`
-                       [(name, obs, ch) for (name, obs), ch in zip(enabled, channels) if hasattr(obs, "camera_id")])
-        features = [(name, obs, ch) for (name, obs), ch in zip(enabled, channels) if not hasattr(obs, "camera_id")]
+                       [(name, obs, ch) for (name, obs), ch in zip(enabled, channels) if _per_simulation(obs)])
+        features = [(name, obs, ch) for (name, obs), ch in zip(enabled, channels) if not _per_simulation(obs)]
         for name, obs, ch in cameras:
             self._check_camera(name, obs, ch)
         for name, obs, ch in features:
@@ -159,7 +164,8 @@ class BatchUpdater:
                 else "an aggregator" if ch.aggregator is not None
                 else "a drawn interval or delay" if not isinstance(ch, FixedChannel) else None)
         if what:
-            raise SuiteError(f"camera {name!r}: a BatchEnvironment renders cameras per simulation and cannot apply "
+            raise SuiteError(f"{name!r}: a BatchEnvironment renders cameras (and casts height scans) per simulation "
+                             f"and cannot apply "
                              f"{what} to them; remove it, or use the single-simulation Environment")
 
     def _drawers(self, label: str, obs: Any) -> Any:

@@ -54,6 +54,10 @@ def native_row(kind: str, type_name: str | None) -> NativeType | None:
     return row
 
 
+def _a(word: str) -> str:
+    return "an" if word[0] in "aeiou" else "a"
+
+
 def _one(model: mujoco.MjModel, text: str, allowed: tuple[str, ...], what: str) -> tuple[str, str]:
     """(element type, name) of a `frame:` / `with:` that names one element of an allowed type."""
     type_name, _ = split_selector(text)
@@ -98,8 +102,8 @@ def _intprm(row: NativeType, cfg: SensorConfig, report: Report, here: tuple[Any,
         found = _mask(row.kind, cfg.data, report, here)
         ok = ok and found is not None
         mask = found or 0
-    elif row.kind == "contact":
-        mask = 1  # MuJoCo's default: found
+    elif "data" in row.options:
+        mask = 1  # MuJoCo's default: the first field (contact: found; rangefinder: dist)
     reduce = REDUCE.get(cfg.reduce or "none")
     if reduce is None:
         report(here + ("reduce",), f"reduce is one of {', '.join(REDUCE)}; got {cfg.reduce!r}"
@@ -151,7 +155,7 @@ def plan_sensor(model: mujoco.MjModel, name: str, cfg: SensorConfig, report: Rep
                f"(mjSENS_{row.sensor}); upgrade MuJoCo or use another kind")
         return None
     if type_name not in row.objects:
-        report(here + ("element",), f"a {cfg.kind} sensor reads {' or '.join(t + ':<name>' for t in row.objects)}; "
+        report(here + ("element",), f"{_a(cfg.kind)} {cfg.kind} sensor reads {' or '.join(t + ':<name>' for t in row.objects)}; "
                f"got {first!r}")
         return None
     ok = True
@@ -162,12 +166,12 @@ def plan_sensor(model: mujoco.MjModel, name: str, cfg: SensorConfig, report: Rep
         label = key.rstrip("_")
         if value is None:
             if required:
-                report(here + ("kind",), f"a {cfg.kind} sensor needs `{label}:`, one of "
+                report(here + ("kind",), f"{_a(cfg.kind)} {cfg.kind} sensor needs `{label}:`, one of "
                        f"{' or '.join(t + ':<name>' for t in allowed)}")
                 ok = False
             continue
         if not allowed:
-            report(here + (label,), f"a {cfg.kind} sensor takes no `{label}:`")
+            report(here + (label,), f"{_a(cfg.kind)} {cfg.kind} sensor takes no `{label}:`")
             ok = False
             continue
         try:
