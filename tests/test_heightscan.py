@@ -1,0 +1,106 @@
+"""`kind: heightscan` over a heightfield ramp of known shape: the analytic heights, misses, alignments.
+
+The terrain model has a floor over x in [-2, 2] and a heightfield ramp over x in [3, 5] (height
+(x - 3) / 4, exact on each triangle), with a gap between them where rays miss.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+import sensorcfg
+from sensorcfg.heightscan import pattern
+from sensorcfg.config.models import ScanConfig
+from sensorcfg.physics import Physics
+
+TERRAIN = str(Path(__file__).parent / "models" / "terrain.xml")
+MUJOCO4 = int(mujoco.__version__.split(".")[0]) >= 4
+
+
+def _ground(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Terrain height, NaN where there is none."""
+    on_floor = (np.abs(x) <= 2) & (np.abs(y) <= 2)
+    on_ramp = (x >= 3) & (x <= 5) & (np.abs(y) <= 1)
+    return np.where(on_floor, 0.0, np.where(on_ramp, (x - 3) / 4, np.nan))
+
+
+def _scan(scan: str, qpos: list[float]) -> tuple[np.ndarray, Physics]:
+    suite = sensorcfg.loads(f"sensors:\n  h: {{kind: heightscan, element: body:base, scan: {scan}}}\n")
+    model = suite.compile(TERRAIN)
+    physics = Physics(model)
+    physics.data.qpos[:7] = qpos
+    mujoco.mj_forward(model, physics.data)
+    return suite.build(model)["h"].observation_callable(physics)(), physics
+
+
+def _pose(x: float, y: float, z: float, yaw: float = 0.0, pitch: float = 0.0) -> list[float]:
+    """A pose turned by `yaw` about the world z axis after pitching about its own y axis (heading = yaw)."""
+    q = np.zeros(4)
+    mujoco.mju_mulQuat(q, np.array([np.cos(yaw / 2), 0, 0, np.sin(yaw / 2)]),
+                       np.array([np.cos(pitch / 2), 0, np.sin(pitch / 2), 0]))
+    return [x, y, z, *q]
+
+
+def test_grid_counts_both_ends() -> None:
+    assert pattern(ScanConfig(size=(1.6, 1.0), resolution=0.1)).shape == (17, 11, 2)
+
+
+@pytest.mark.parametrize("yaw", [0.0, 0.4, -2.0])
+def test_yaw_aligned_grid_over_the_ramp_reads_the_analytic_heights(yaw: float) -> None:
+    values, physics = _scan("{size: [1.6, 1.0], resolution: 0.1, miss: -7.5}", _pose(3.6, 0.1, 1.2, yaw, 0.3))
+    offsets = pattern(ScanConfig(size=(1.6, 1.0), resolution=0.1))
+    c, s = np.cos(yaw), np.sin(yaw)
+    x = 3.6 + c * offsets[..., 0] - s * offsets[..., 1]
+    y = 0.1 + s * offsets[..., 0] + c * offsets[..., 1]
+    base_z = physics.data.xpos[physics.model.body("base").id, 2]
+    expected = base_z - _ground(x, y)
+    hit = ~np.isnan(expected)
+    assert values.shape == (17, 11) and hit.sum() > 50 and (~hit).sum() >= 5  # ramp, floor and the gap
+    np.testing.assert_allclose(values[hit], expected[hit], rtol=0, atol=1e-9)
+    assert np.all(values[~hit] == -7.5)
+
+
+def test_full_alignment_follows_the_tilt_and_reads_vertical_heights() -> None:
+    pitch = 0.3
+    values, physics = _scan("{pattern: ring, radii: [0.2, 0.4], count: 6, alignment: full, above: 0.5}",
+                            _pose(4.3, 0.0, 1.0, 0.0, pitch))
+    rot = physics.data.xmat[physics.model.body("base").id].reshape(3, 3)
+    origin = physics.data.xpos[physics.model.body("base").id]
+    offsets = pattern(ScanConfig(pattern="ring", radii=(0.2, 0.4), count=6))
+    starts = origin + np.einsum("ij,...j->...i", rot, np.concatenate([offsets, np.full(offsets.shape[:-1] + (1,), 0.5)], -1))
+    d = -rot[:, 2]
+    t = (starts[..., 0] - 3 - 4 * starts[..., 2]) / (4 * d[2] - d[0])  # ray meets z = (x - 3) / 4
+    hit_z = starts[..., 2] + t * d[2]
+    np.testing.assert_allclose(values, origin[2] - hit_z, rtol=0, atol=1e-9)
+
+
+def test_world_alignment_on_the_floor_reads_the_origin_height_and_misses_beyond_reach() -> None:
+    values, _ = _scan("{pattern: ring, radii: [0.5], count: 8, alignment: world}", _pose(0.0, 0.0, 0.7, 1.0))
+    np.testing.assert_allclose(values, 0.7, rtol=0, atol=1e-12)  # the robot's own legs are seen through
+    short, _ = _scan("{pattern: ring, radii: [0.5], count: 8, max_distance: 1.5}", _pose(0.0, 0.0, 0.7))
+    assert np.all(short == 1.5 - 1.0)  # default miss: max_distance - above
+
+
+@pytest.mark.skipif(not MUJOCO4, reason="mujoco.batch needs MuJoCo 4")
+def test_batched_scans_equal_single_ones() -> None:
+    from sensorcfg.batch import BatchEnvironment, sim_seed
+
+    suite = sensorcfg.loads("options: {control_interval: 10}\nsensors:\n"
+                            "  h: {kind: heightscan, element: site:imu, interval: 5, buffer: 2}\n"
+                            "  v: {kind: velocimeter, element: body:base}\n")
+    batch = BatchEnvironment(TERRAIN, suite, 2, seed=3)
+    singles = [sensorcfg.Environment(TERRAIN, suite, seed=sim_seed(3, i)) for i in range(2)]
+    batch.reset()
+    for env in singles:
+        env.reset()
+    rng = np.random.default_rng(0)
+    for _ in range(15):
+        actions = rng.uniform(-1, 1, (2, 2))
+        out = batch.step(actions)
+        for i, env in enumerate(singles):
+            for name, value in env.step(actions[i]).observation.items():
+                np.testing.assert_array_equal(out.observation[name][i], value, err_msg=name)
