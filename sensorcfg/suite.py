@@ -65,6 +65,10 @@ class Suite:
     def _mjmodel(self, model: ModelLike) -> mujoco.MjModel:
         return self._compiled(model)[0]
 
+    def _sources(self) -> dict[str, SensorConfig]:
+        """The sensors that may add MuJoCo sensors: clean twins read their source's."""
+        return {k: v for k, v in self._loaded.sensors.items() if k not in self._loaded.twins}
+
     def _compiled(self, model: ModelLike) -> tuple[mujoco.MjModel, dict[str, str]]:
         """The model to bind to, and MuJoCo's message for each native sensor it refused. A path (or the
         suite's `model:`, or an MjSpec) is compiled with the suite's native sensors; an MjModel is taken
@@ -76,7 +80,7 @@ class Suite:
         if isinstance(model, mujoco.MjSpec):
             from .native import compile_model
 
-            return compile_model(model, self._loaded.sensors)
+            return compile_model(model, self._sources())
         if model is not None and not isinstance(model, (str, os.PathLike)):
             from .physics import raw_structs
 
@@ -93,8 +97,8 @@ class Suite:
             from .native import compile_model, native_names
             from .physics import read_model
 
-            if native_names(self._loaded.sensors):
-                return compile_model(path, self._loaded.sensors)
+            if native_names(self._sources()):
+                return compile_model(path, self._sources())
             return read_model(path), {}
         except (ValueError, OSError) as e:
             message = f"cannot load the model {str(path)!r}: {str(e).strip()}"
