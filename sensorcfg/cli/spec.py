@@ -11,7 +11,8 @@ import json
 from collections.abc import Callable
 from typing import Any
 
-from .common import EXIT_OK, HelpFormatter, add_suite_args, importable_cwd, load_model, load_suite, model_path
+from .common import (EXIT_OK, HelpFormatter, add_suite_args, importable_cwd, load_suite, model_path,
+                     suite_model)
 from .describe import SensorRow, describe
 from .report import table
 
@@ -60,7 +61,7 @@ def build_spec(suite: Any, model_file: str, control_steps: int | None = None) ->
     from ..runtime.updater import Updater
 
     importable_cwd()
-    model = load_model(model_file)
+    model = suite_model(suite, model_file)
     observables = suite.build(model)
     steps = control_steps or suite.updater_kwargs(model)["physics_steps_per_control_step"]
     updater = Updater(observables, steps, strip_singleton_buffer_dim=suite.options.strip_singleton_buffer_dim,
