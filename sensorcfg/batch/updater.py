@@ -164,8 +164,8 @@ class BatchUpdater:
                 else "an aggregator" if ch.aggregator is not None
                 else "a drawn interval or delay" if not isinstance(ch, FixedChannel) else None)
         if what:
-            raise SuiteError(f"{name!r}: a BatchEnvironment renders cameras (and casts height scans) per simulation "
-                             f"and cannot apply "
+            label, does = ("camera", "renders cameras") if hasattr(obs, "camera_id") else ("height scan", "casts height scans")
+            raise SuiteError(f"{label} {name!r}: a BatchEnvironment {does} per simulation and cannot apply "
                              f"{what} to them; remove it, or use the single-simulation Environment")
 
     def _drawers(self, label: str, obs: Any) -> Any:
