@@ -237,7 +237,7 @@ def _effective(name: str, sensor: SensorConfig, config: SuiteConfig, doc: Doc) -
     if sensor.kind in IMAGE_KINDS:
         update["camera"] = _merge_camera(defaults.camera, sensor.camera)
     if sensor.kind == HEIGHTSCAN_KIND and sensor.scan is None:
-        update["scan"] = ScanConfig()
+        update["scan"] = ScanConfig.model_validate({})
     if update.get("enabled", sensor.enabled) is None:
         update["enabled"] = True
     if update.get("noise", sensor.noise) is None:

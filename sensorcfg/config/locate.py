@@ -91,7 +91,9 @@ def model_at(root: type[BaseModel], path: Path_, value: Any) -> type[BaseModel] 
             in_container = False
         else:
             model = _pick(models, node)
-            names = {f.alias or n: n for n, f in model.model_fields.items()} if model is not None else {}
+            if model is None:
+                return None
+            names = {f.alias or n: n for n, f in model.model_fields.items()}
             if part not in names:
                 return None
             annotation = model.model_fields[names[part]].annotation

@@ -44,7 +44,7 @@ def bind_native(model: mujoco.MjModel, name: str, cfg: SensorConfig, timing: dic
         report(here + ("kind",), carry_hint(cfg.kind))
         return None
     dims = [int(model.sensor_dim[i]) for i in ids]
-    positions = np.arange(sum(dims), dtype=np.intp)
+    positions: np.ndarray = np.arange(sum(dims), dtype=np.intp)
     batched = select(model, cfg.element or (), cfg.within).batched
     if batched and len(set(dims)) == 1:
         positions = positions.reshape(len(dims), dims[0]) if dims[0] > 1 else positions

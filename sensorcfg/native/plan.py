@@ -117,7 +117,7 @@ def _intprm(row: NativeType, cfg: SensorConfig, report: Report, here: tuple[Any,
 
 def _objects(model: mujoco.MjModel, row: NativeType, sel: Selection, name: str) -> list[tuple[str, str, str | None]]:
     """(objtype, objname, body to add a site to) per selected element."""
-    out = []
+    out: list[tuple[str, str, str | None]] = []
     for i, (element_id, element_name) in enumerate(zip(sel.ids, sel.names)):
         if sel.type == "body" and row.body_site:
             body = element_name or ("world" if element_id == 0 else "")
