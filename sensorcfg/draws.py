@@ -1,18 +1,36 @@
-"""Intervals and delays drawn per sample: `{uniform: [lo, hi]}` and `{choice: [...], p: [...]}` in steps.
+"""Seeding and schedule callables: every rule about who draws what, from which stream, in one place.
 
-The Updater calls a schedule callable that takes a `random_state` keyword with its own random state, so
-draws are seeded with the episode. Both classes are frozen and compare by value (handy in tests), and
-accept a numpy `RandomState` (as dm_control passes) or a `Generator`.
+- `UniformSteps` / `ChoiceSteps`: intervals and delays drawn per sample (`{uniform: [lo, hi]}`,
+  `{choice: [...], p: [...]}` in steps). Frozen, compare by value, accept a numpy `RandomState` (as
+  dm_control passes) or a `Generator`.
+- `takes_random_state`: which schedule callables are given the episode's random state (dm_control's rule).
+- `drawer`: an interval or delay setting as an int or a validated zero-argument draw.
+- `episode_entropy` / `sensor_rng`: each sensor's own noise stream per episode, derived from the episode's
+  random state and the sensor's name.
+
+The Updater, the batch and the dm_control adapter all call these; none restates them.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+import functools
+import hashlib
+import inspect
+import numbers
+from collections.abc import Callable, Sequence
+from typing import Any, cast
 
 import numpy as np
 
-__all__ = ["UniformSteps", "ChoiceSteps"]
+from .errors import SuiteError
+
+__all__ = ["UniformSteps", "ChoiceSteps", "takes_random_state", "drawer", "episode_entropy", "sensor_rng",
+           "as_draw", "DEFAULT_UPDATE_INTERVAL", "DEFAULT_DELAY", "DEFAULT_BUFFER_SIZE"]
+
+DEFAULT_BUFFER_SIZE = 1
+DEFAULT_UPDATE_INTERVAL = 1
+DEFAULT_DELAY = 0
 
 
 def _integers(random_state: Any, low: int, high_exclusive: int) -> int:
@@ -53,3 +71,71 @@ class ChoiceSteps:
         if self.p is None:
             return self.values[_integers(random_state, 0, len(self.values))]
         return self.values[int(random_state.choice(len(self.values), p=self.p))]
+
+
+def sensor_rng(entropy: Sequence[int], name: str) -> np.random.Generator:
+    """A sensor's own random stream: the episode's entropy and a stable hash of the sensor's name.
+
+    Adding, removing or reordering other sensors leaves this stream unchanged.
+    """
+    key = int.from_bytes(hashlib.blake2b(name.encode(), digest_size=8).digest(), "little")
+    return np.random.Generator(np.random.PCG64(np.random.SeedSequence(list(entropy), spawn_key=(key,))))
+
+
+def episode_entropy(random_state: Any) -> list[int]:
+    """Four words drawn from the episode's random state (numpy's global one for None), seeding every
+    sensor's noise stream of the episode (`sensor_rng`)."""
+    if isinstance(random_state, np.random.Generator):
+        return [int(x) for x in random_state.integers(0, 2**32, size=4, dtype=np.uint64)]
+    if random_state is None:
+        random_state = np.random.mtrand._rand  # numpy's global RandomState, as dm_control would use
+    return [int(x) for x in random_state.randint(0, 2**32, size=4, dtype=np.uint64)]
+
+
+def takes_random_state(value: Callable[..., Any]) -> bool:
+    """Whether a schedule callable is given the episode's random_state.
+
+    dm_control passes it to its Variations only, and calls any other callable with no arguments, even one
+    with an optional `random_state` (which then draws from its own generator). We do the same, and also
+    pass it to callables that require it (`lambda random_state: ...`), which dm_control cannot call.
+    """
+    if any(c.__name__ == "Variation" and c.__module__.startswith("dm_control.") for c in type(value).__mro__):
+        return True
+    try:
+        param = inspect.signature(value).parameters.get("random_state")
+    except (TypeError, ValueError):
+        return False
+    return (param is not None and param.default is param.empty
+            and param.kind in (param.POSITIONAL_OR_KEYWORD, param.KEYWORD_ONLY))
+
+
+def drawer(owner: str, attr: str, value: Any, default: int, random_state: Any) -> int | Callable[[], int]:
+    """An int, or a zero-argument function drawing validated ints (dm_control Variations get random_state)."""
+    if not value:
+        return default
+    lowest = 0 if attr == "delay" else 1
+    if not callable(value):
+        if not isinstance(value, numbers.Integral) or isinstance(value, bool) or value < lowest:
+            raise SuiteError(f"observable {owner!r}: {attr} must be a "
+                             f"{'non-negative' if attr == 'delay' else 'positive'} integer, got {value!r}")
+        return int(value)
+    draw = functools.partial(value, random_state=random_state) if takes_random_state(value) else value
+    if isinstance(value, (UniformSteps, ChoiceSteps)) and value.minimum >= lowest:
+        # sensorcfg's own draws give integers >= their minimum: no check per draw. A closure, not the
+        # partial: copies of a channel (deepcopy) must keep drawing from the episode's random state.
+        return lambda: value(random_state)
+
+    def checked() -> int:
+        drawn = draw()
+        # (typeshed's numbers.Real declares neither >= nor __int__: cast to the float it behaves as)
+        if isinstance(drawn, numbers.Real) and float(drawn).is_integer() and cast(float, drawn) >= lowest:
+            return int(cast(float, drawn))
+        raise SuiteError(f"observable {owner!r}: its {attr} callable drew {drawn!r}; "
+                         f"it must draw integers >= {lowest} (physics steps)")
+
+    return checked
+
+
+def as_draw(value: int | Callable[[], int]) -> Callable[[], int]:
+    """A `drawer` result as a zero-argument function (a constant becomes one)."""
+    return value if callable(value) else (lambda: value)

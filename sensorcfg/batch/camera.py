@@ -29,8 +29,8 @@ class _Camera:
         self.ch = channel
         self.render = render
         self.ring = np.zeros((nsim, channel.capacity, *channel.shape), channel.dtype)
-        self.needed = np.zeros(channel.period(), bool)
-        self.needed[channel.needed_phases()] = True
+        self.needed = np.zeros(channel.schedule.period, bool)
+        self.needed[channel.schedule.needed_phases()] = True
 
 
 class BatchCameras:
@@ -65,7 +65,7 @@ class BatchCameras:
             ch = camera.ch
             due = np.flatnonzero(camera.needed[(t + k) % camera.needed.size] & active)
             for i in due:  # one get_data and one render per simulation: the documented cost
-                camera.ring[i, ((t[i] + k) // ch.interval) % ch.capacity] = self._frame(i, camera)
+                camera.ring[i, ch.schedule.slot((t[i] + k) // ch.interval)] = self._frame(i, camera)
 
     def reset(self, ids: np.ndarray) -> None:
         """The reset frames of simulations `ids` (rendered after their physics reset)."""
@@ -80,6 +80,6 @@ class BatchCameras:
         sims = np.arange(self.nsim)[:, None]
         for position, camera in zip(self.positions, self.cameras):
             ch = camera.ch
-            start = (t - ch.delay) // ch.interval - ch.buffer_size + 1
-            window = camera.ring[sims, (start[:, None] + np.arange(ch.buffer_size)) % ch.capacity]
+            start = ch.schedule.window_start(t)
+            window = camera.ring[sims, ch.schedule.slot(start[:, None] + np.arange(ch.buffer_size))]
             out[position] = window if ch.has_buffer_dim else window[:, 0]

@@ -39,7 +39,7 @@ class Layout:
         self.cols = np.cumsum([0] + [math.prod(ch.shape) for ch in channels]).astype(np.intp)
         self.width = int(self.cols[-1])
         period = math.lcm(n, *(ch.interval for ch in self.fixed))
-        span = max(span, n + 1, *(ch.delay + ch.buffer_size * ch.interval + n + 1 for ch in self.fixed))
+        span = max(span, n + 1, *(ch.schedule.wait + n + 1 for ch in self.fixed))
         self.rows = period * -(-span // period)  # a multiple of every period, longer than any wait
         self.nphase = self.rows // n
         # Columns read only from the history: noisy ones (corrupted there, at their samples) and those of
@@ -191,14 +191,14 @@ class Layout:
         # single-simulation plan samples at); a noise-free channel's samples that a later read takes from
         # there: sample s = t + k is read at R < s + b i + d, so later ones need k + b i + d - 1 >= 2n.
         for c, ch in enumerate(self.fixed):
-            i, d, b = ch.interval, ch.delay, ch.buffer_size
-            sampled = set(ch.needed_phases())
+            schedule, i = ch.schedule, ch.interval
+            sampled = set(schedule.needed_phases())
             for q in range(self.nphase):
                 for k in range(1, n + 1):
                     if c in noisy:
-                        keep = (q * n + k) % ch.period() in sampled
+                        keep = (q * n + k) % schedule.period in sampled
                     else:
-                        keep = (q * n + k) % i == 0 and k + b * i + d - 1 >= 2 * n
+                        keep = (q * n + k) % i == 0 and schedule.last_read((q * n + k) // i) >= q * n + 2 * n
                     if keep:
                         self.later[q, k - 1, self.cols[c]:self.cols[c + 1]] = True
 

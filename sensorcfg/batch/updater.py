@@ -7,7 +7,7 @@ episode's age), then one reduction per (aggregator, buffer) group.
 
 Noise runs at each sample's own step on the simulations that sample then, in place in the history
 (`batch.noise`); random intervals and delays are planned per simulation by the single-simulation
-channel itself (`batch.timeline`). Scheduling, buffers and noise are the single-simulation Updater's to
+channel itself (`batch.random_schedules`). Scheduling, buffers and noise are the single-simulation Updater's to
 the bit: the per-simulation state is its episode's age (`t`), random state, noise and random plans.
 
 Differences from the Updater: every observable must be a float64 mjData feature without a corruptor, or
@@ -26,14 +26,16 @@ from typing import Any, cast
 import numpy as np
 from dm_env import specs
 
-from ..draws import ChoiceSteps, UniformSteps
+from ..draws import (DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, ChoiceSteps, UniformSteps, as_draw, drawer,
+                     episode_entropy, sensor_rng)
 from ..errors import SuiteError
-from ..runtime.bank import _REDUCERS, _reader
+from ..observables.aggregators import AGGREGATORS, builtin
+from ..runtime.bank import _reader
 from ..runtime.channels import Channel, FixedChannel, RandomChannel
-from ..runtime.updater import DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, Updater, _drawer, _episode_entropy, sensor_rng
+from ..runtime.updater import Updater
 from .layout import Layout
 from .noise import BatchPipeline
-from .timeline import Timelines
+from .random_schedules import Timelines
 
 __all__ = ["BatchUpdater"]
 
@@ -154,9 +156,9 @@ class BatchUpdater:
             raise SuiteError(f"sensor {name!r}: {ch.dtype} features cannot be vectorised (float64 only)")
         aggregator = ch.aggregator
         if aggregator is not None and not (ch.builtin_aggregator and ch.has_buffer_dim
-                                           and getattr(aggregator, "name", None) in _REDUCERS):
+                                           and builtin(aggregator) is not None):
             raise SuiteError(f"sensor {name!r}: its aggregator cannot be vectorised across simulations: use one of "
-                             f"{', '.join(_REDUCERS)} on a buffer (a custom callable would run per simulation)")
+                             f"{', '.join(AGGREGATORS)} on a buffer (a custom callable would run per simulation)")
 
     @staticmethod
     def _check_camera(name: str, obs: Any, ch: Channel) -> None:
@@ -170,10 +172,9 @@ class BatchUpdater:
 
     def _drawers(self, label: str, obs: Any) -> Any:
         def make(random_state: Any) -> tuple[Any, Any]:
-            interval = _drawer(label, "update_interval", obs.update_interval, DEFAULT_UPDATE_INTERVAL, random_state)
-            delay = _drawer(label, "delay", obs.delay, DEFAULT_DELAY, random_state)
-            as_fn = lambda v: v if callable(v) else (lambda: v)  # noqa: E731
-            return as_fn(interval), as_fn(delay)
+            interval = drawer(label, "update_interval", obs.update_interval, DEFAULT_UPDATE_INTERVAL, random_state)
+            delay = drawer(label, "delay", obs.delay, DEFAULT_DELAY, random_state)
+            return as_draw(interval), as_draw(delay)
         return make
 
     # -- episodes ---------------------------------------------------------------------------------
@@ -192,7 +193,7 @@ class BatchUpdater:
             rs = random_states[i]
             if self.started[i]:
                 self.timelines.finish(i, int(self.control_steps[i]))
-            entropy = _episode_entropy(rs) if self.noisy else None
+            entropy = episode_entropy(rs) if self.noisy else None
             for c, pipeline in self.noise.items():
                 pipeline.reset(i, sensor_rng(entropy or [], self.labels[c]))
             if self.timelines.specs:
@@ -319,7 +320,7 @@ class BatchUpdater:
             ch = self.channels[c]
             values = self.flat.take(self.layout.drawn(c, codes, self.t, self.G))  # (nsim, buffer, width)
             if ch.aggregator is not None:
-                reduced = _REDUCERS[cast(Any, ch.aggregator).name](np.ascontiguousarray(values.transpose(1, 0, 2)))
+                reduced = AGGREGATORS[cast(Any, ch.aggregator).name].reduce(np.ascontiguousarray(values.transpose(1, 0, 2)))
                 out[c] = reduced.reshape(self.nsim, *ch.shape)
             elif ch.has_buffer_dim:
                 out[c] = values.reshape(self.nsim, ch.buffer_size, *ch.shape)

@@ -119,15 +119,11 @@ def _replay(observables: dict[str, Any], physics_steps: int, n: int) -> dict[str
 
 
 def _visible(sampled: np.ndarray, interval: int, delay: int, n: int, buffer: int) -> np.ndarray:
-    """Whether sample k (taken at k * interval) is still among the newest `buffer` at its first read.
+    """Whether sample k (taken at k * interval) is still among the newest `buffer` at its first read
+    (dm_control's semantics in closed form: `runtime.schedule`)."""
+    from ..runtime.schedule import Schedule
 
-    Reads happen every `n` steps; the first one at or after delivery sees the samples delivered by then,
-    the newest being number (read - delay) // interval. dm_control's semantics, in closed form.
-    """
-    k = sampled // interval
-    first_read = -(-(sampled + delay) // n) * n
-    newest = (first_read - delay) // interval
-    return newest - k < buffer
+    return Schedule(interval, delay, buffer, n).visible(sampled // interval)
 
 
 def _collect(observation: dict[str, np.ndarray], seen: dict[str, dict[int, int]], step: int) -> None:

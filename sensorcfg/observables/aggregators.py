@@ -1,30 +1,54 @@
-"""The built-in aggregators: one table, read by the observables, the Updater's specs and the suite schema.
+"""The built-in aggregators: one read-only table, read by the observables, the Updater's specs, the feature
+bank, the batch and the suite schema.
 
 Each reduces a buffer over its first axis. `preserves_bounds` says whether a bounded spec stays bounded
 after aggregation: min, max, mean and median of values within bounds stay within them; a sum does not.
+`reduce` is the same reduction written for the bank and the batch (a stacked group of buffers, reduced once
+per group), bit-identical to numpy's (and so dm_control's) reduction along axis 0: numpy adds rows in order
+and divides the sum by the count; a median is the middle value, or the mean of the two middle values.
 (dm_control sets a misspelled `bounds_reserving` on its built-ins while its Updater reads
 `preserves_bounds`, so it silently drops bounds; we read both names.)
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import types
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
 
-__all__ = ["AGGREGATORS", "Aggregator", "get_aggregator", "preserves_bounds"]
+__all__ = ["AGGREGATORS", "Aggregator", "builtin", "get_aggregator", "preserves_bounds"]
+
+
+def _mean(x: np.ndarray) -> np.ndarray:
+    total = np.add.reduce(x, axis=0) if x.shape[0] != 2 else x[0] + x[1]
+    return np.true_divide(total, x.shape[0], out=total)
+
+
+def _median(x: np.ndarray) -> np.ndarray:
+    b = x.shape[0]
+    if b <= 2:  # the middle value, or the mean of both (a nan anywhere gives nan, as in numpy)
+        return x[0].copy() if b == 1 else np.true_divide(x[0] + x[1], 2)
+    s = np.sort(x, axis=0)
+    out = s[b // 2].copy() if b % 2 else np.true_divide(s[b // 2 - 1] + s[b // 2], 2)
+    nan = np.isnan(s[-1])  # numpy's median is nan wherever a nan is present (sort puts nans last)
+    if nan.any():
+        out[nan] = np.nan
+    return out
 
 
 class Aggregator:
-    """A named reduction over the buffer axis."""
+    """A named reduction over the buffer axis; `reduce` is its bank-exact form (see the module's doc)."""
 
-    __slots__ = ("name", "_func", "preserves_bounds")
+    __slots__ = ("name", "_func", "preserves_bounds", "reduce")
 
-    def __init__(self, name: str, func: Callable[..., np.ndarray], preserves_bounds: bool):
+    def __init__(self, name: str, func: Callable[..., np.ndarray], preserves_bounds: bool,
+                 reduce: Callable[[np.ndarray], np.ndarray]):
         self.name = name
         self._func = func
         self.preserves_bounds = preserves_bounds
+        self.reduce = reduce
 
     def __call__(self, buffered: np.ndarray) -> np.ndarray:
         return self._func(buffered, axis=0)
@@ -33,16 +57,22 @@ class Aggregator:
         return f"Aggregator({self.name!r})"
 
 
-AGGREGATORS: dict[str, Aggregator] = {
-    name: Aggregator(name, func, keeps)
-    for name, func, keeps in (
-        ("min", np.min, True),
-        ("max", np.max, True),
-        ("mean", np.mean, True),
-        ("median", np.median, True),
-        ("sum", np.sum, False),
+AGGREGATORS: Mapping[str, Aggregator] = types.MappingProxyType({
+    name: Aggregator(name, func, keeps, reduce)
+    for name, func, keeps, reduce in (
+        ("min", np.min, True, lambda x: np.minimum.reduce(x, 0)),
+        ("max", np.max, True, lambda x: np.maximum.reduce(x, 0)),
+        ("mean", np.mean, True, _mean),
+        ("median", np.median, True, _median),
+        ("sum", np.sum, False, lambda x: np.add.reduce(x, 0)),
     )
-}
+})
+
+
+def builtin(aggregator: object) -> Aggregator | None:
+    """The table's entry when `aggregator` is one of the built-ins (the object itself), else None."""
+    found = AGGREGATORS.get(getattr(aggregator, "name", None) or "")
+    return found if found is aggregator else None
 
 
 def get_aggregator(value: str | Callable[[np.ndarray], Any] | None,

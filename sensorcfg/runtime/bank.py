@@ -17,39 +17,11 @@ from typing import Any, Protocol, TypeGuard, cast
 
 import numpy as np
 
+from ..observables.aggregators import AGGREGATORS, builtin
 from .bank_noise import BankNoise, Program, program
 from .channels import Channel, FixedChannel
 
 __all__ = ["FeatureBank", "BankMember", "buffer_view", "read_plan"]
-
-# Reductions over the buffer axis, bit-identical to numpy's (and so to dm_control's) min, max, sum, mean
-# and median along axis 0: numpy adds rows in order and divides the sum by the count; a median is the
-# middle value, or the mean of the two middle values.
-def _mean(x: np.ndarray) -> np.ndarray:
-    total = np.add.reduce(x, axis=0) if x.shape[0] != 2 else x[0] + x[1]
-    return np.true_divide(total, x.shape[0], out=total)
-
-
-def _median(x: np.ndarray) -> np.ndarray:
-    b = x.shape[0]
-    if b <= 2:  # the middle value, or the mean of both (a nan anywhere gives nan, as in numpy)
-        return x[0].copy() if b == 1 else np.true_divide(x[0] + x[1], 2)
-    s = np.sort(x, axis=0)
-    out = s[b // 2].copy() if b % 2 else np.true_divide(s[b // 2 - 1] + s[b // 2], 2)
-    nan = np.isnan(s[-1])  # numpy's median is nan wherever a nan is present (sort puts nans last)
-    if nan.any():
-        out[nan] = np.nan
-    return out
-
-
-_REDUCERS = {
-    "min": lambda x: np.minimum.reduce(x, 0),
-    "max": lambda x: np.maximum.reduce(x, 0),
-    "sum": lambda x: np.add.reduce(x, 0),
-    "mean": _mean,
-    "median": _median,
-}
-
 
 _CHUNK_STEPS = 256  # physics steps of noise drawn at a time (rounded up to the sampling period)
 
@@ -134,7 +106,7 @@ class FeatureBank:
         self.source = np.concatenate(
             [offsets[_reader(ch).field] + _reader(ch).index.ravel() for ch in channels]).astype(np.intp)
         period = math.lcm(read_interval, *(ch.interval for ch in channels))
-        span = max(ch.delay + ch.buffer_size * ch.interval for ch in channels) + read_interval + 1
+        span = max(ch.schedule.wait for ch in channels) + read_interval + 1
         programs = [program(ch.noise) for ch in channels]
         noisy = any(programs)
         # Noise is drawn a chunk ahead; the history then also holds a chunk (rows: a multiple of the chunk).
@@ -210,9 +182,7 @@ class FeatureBank:
 
     def samples(self, position: int, step: int) -> int:
         """Samples member `position` has taken by `step`: the reset sample plus its needed steps so far."""
-        period, per_period, phases = self.phases[position]
-        full, rest = divmod(step, period)
-        return 1 + full * per_period + sum(1 for p in phases if p <= rest) - (1 if 0 in phases else 0)
+        return self.channels[position].schedule.samples_taken(self.phases[position][2], step)
 
     def _plan_read(self, phase: int) -> tuple[np.ndarray, list[Any], list[Any], list[Any]]:
         index, groups, plain = read_plan(self.channels, self.cols, self.rows, phase)
@@ -252,7 +222,7 @@ def qualifies(ch: Any) -> TypeGuard[FixedChannel]:
     return (isinstance(ch, FixedChannel) and getattr(sampler, "struct", None) == "data"
             and hasattr(sampler, "index") and ch.dtype == np.float64 and program(ch.noise) is not None
             and (ch.aggregator is None or (ch.builtin_aggregator and ch.has_buffer_dim
-                                           and getattr(ch.aggregator, "name", None) in _REDUCERS)))
+                                           and builtin(ch.aggregator) is not None)))
 
 
 def read_plan(channels: list[FixedChannel], cols: np.ndarray, rows: int,
@@ -266,8 +236,7 @@ def read_plan(channels: list[FixedChannel], cols: np.ndarray, rows: int,
     width = int(cols[-1])
     blocks: dict[Any, list[tuple[int, np.ndarray]]] = {}
     for i, ch in enumerate(channels):
-        k = (phase - ch.delay) // ch.interval
-        steps = ch.interval * (k - ch.buffer_size + 1 + np.arange(ch.buffer_size))
+        steps = ch.interval * ch.schedule.window(phase)
         block = (steps % rows)[:, None] * width + np.arange(cols[i], cols[i + 1])
         key: tuple[Any, ...] | None = None if ch.aggregator is None else (
             cast(Any, ch.aggregator).name, ch.buffer_size)  # a builtin aggregator: it has a name
@@ -290,7 +259,7 @@ def read_plan(channels: list[FixedChannel], cols: np.ndarray, rows: int,
         for i, block in entries:
             members.append((i, slice(col, col + block.shape[1]), channels[i].shape))
             col += block.shape[1]
-        groups.append((_REDUCERS[key[0]], slice(offset, offset + stacked.size), stacked.shape, members))
+        groups.append((AGGREGATORS[key[0]].reduce, slice(offset, offset + stacked.size), stacked.shape, members))
         parts.append(stacked.ravel())
         offset += stacked.size
     return np.concatenate(parts).astype(np.intp), groups, plain

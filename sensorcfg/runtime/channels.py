@@ -15,11 +15,12 @@ dm_control does (the same draws, in the same order) and skips what it can prove 
 from __future__ import annotations
 
 import collections
-import math
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+
+from .schedule import Schedule
 
 __all__ = ["Channel", "FixedChannel", "RandomChannel"]
 
@@ -72,26 +73,19 @@ class FixedChannel(Channel):
         super().__init__(*args, **kwargs)
         self.interval = interval
         self.delay = delay
-        b = self.buffer_size
+        self.schedule = Schedule(interval, delay, self.buffer_size, self.read_interval)
         # Samples in flight (taken, not yet delivered) plus the visible window fit in `capacity` slots.
-        self.capacity = c = b + -(-delay // interval) + 1
-        self.doubled = b > 1  # each sample is stored twice so every window is one contiguous slice
+        self.capacity = c = self.schedule.capacity
+        self.doubled = self.buffer_size > 1  # each sample is stored twice so every window is one contiguous slice
         self.ring = np.zeros(((2 * c) if self.doubled else c,) + self.shape, dtype=self.dtype)
         self.rows = [self.ring[i:i + 1].reshape(self.shape) for i in range(len(self.ring))]  # views, also 0-d
 
     def period(self) -> int:
-        return math.lcm(self.interval, self.read_interval)
+        return self.schedule.period
 
     def needed_phases(self) -> list[int]:
         """Steps t in [0, period) at which a sample is needed (t > 0 steps; t = 0 is the reset sample)."""
-        i, d, n, b = self.interval, self.delay, self.read_interval, self.buffer_size
-        phases = []
-        for t in range(0, self.period(), i):
-            first_read = -(-(t + d) // n) * n
-            newest_delivered = (first_read - d) // i  # index of the newest sample delivered at that read
-            if newest_delivered - t // i < b:
-                phases.append(t)
-        return phases
+        return self.schedule.needed_phases()
 
     def start(self, step: int) -> None:
         """The reset sample (always taken: it also pads the buffer when asked)."""
@@ -103,13 +97,13 @@ class FixedChannel(Channel):
         self._store(0, value)
 
     def _store(self, k: int, value: Any) -> None:
-        slot = k % self.capacity
+        slot = self.schedule.slot(k)
         self.rows[slot][...] = value
         if self.doubled:
             self.rows[slot + self.capacity][...] = self.rows[slot]
 
     def sample(self, step: int) -> None:
-        slot = (step // self.interval) % self.capacity
+        slot = self.schedule.slot(step // self.interval)
         if self.read_into is not None:
             self.samples += 1
             row = self.rows[slot]
@@ -120,7 +114,7 @@ class FixedChannel(Channel):
             self._store(step // self.interval, self.value(step))
 
     def read(self, step: int) -> Any:
-        start = ((step - self.delay) // self.interval - self.buffer_size + 1) % self.capacity
+        start = self.schedule.slot(self.schedule.window_start(step))
         if self.has_buffer_dim:
             return self.finish(self.ring[start:start + self.buffer_size])
         return self.finish(self.rows[start])  # a 0-d array for scalar samples, as dm_control returns

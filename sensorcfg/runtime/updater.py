@@ -8,9 +8,6 @@ Observables are duck-typed: dm_control's own observables work unchanged.
 from __future__ import annotations
 
 import dataclasses
-import functools
-import hashlib
-import inspect
 import math
 import numbers
 from collections.abc import Callable, Mapping, Sequence
@@ -19,83 +16,20 @@ from typing import Any, Union, cast
 import numpy as np
 from dm_env import specs
 
-from ..draws import ChoiceSteps, UniformSteps
+from ..draws import (DEFAULT_BUFFER_SIZE, DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, as_draw, drawer, episode_entropy,
+                     sensor_rng)
 from ..errors import SuiteError
-from ..observables.aggregators import AGGREGATORS, preserves_bounds
-from .handle import structs_of as raw_structs
+from ..observables.aggregators import builtin, preserves_bounds
+from .mujoco_structs import structs_of as raw_structs
 from .bank import BankMember, FeatureBank, qualifies
 from .channels import FixedChannel, RandomChannel
 
-__all__ = ["Updater", "sensor_rng"]
+__all__ = ["Updater"]
 
-DEFAULT_BUFFER_SIZE = 1
-DEFAULT_UPDATE_INTERVAL = 1
-DEFAULT_DELAY = 0
 _MAX_PLAN_PERIOD = 1 << 16
 
 _Task = Callable[[int], None]  # one sampling task of the plan, called with the step
 _Reader = Union[FixedChannel, RandomChannel, BankMember]  # what the layout holds per observable
-
-
-def sensor_rng(entropy: Sequence[int], name: str) -> np.random.Generator:
-    """A sensor's own random stream: the episode's entropy and a stable hash of the sensor's name.
-
-    Adding, removing or reordering other sensors leaves this stream unchanged.
-    """
-    key = int.from_bytes(hashlib.blake2b(name.encode(), digest_size=8).digest(), "little")
-    return np.random.Generator(np.random.PCG64(np.random.SeedSequence(list(entropy), spawn_key=(key,))))
-
-
-def _episode_entropy(random_state: Any) -> list[int]:
-    if isinstance(random_state, np.random.Generator):
-        return [int(x) for x in random_state.integers(0, 2**32, size=4, dtype=np.uint64)]
-    if random_state is None:
-        random_state = np.random.mtrand._rand  # numpy's global RandomState, as dm_control would use
-    return [int(x) for x in random_state.randint(0, 2**32, size=4, dtype=np.uint64)]
-
-
-def _takes_random_state(value: Callable[..., Any]) -> bool:
-    """Whether a schedule callable is given the episode's random_state.
-
-    dm_control passes it to its Variations only, and calls any other callable with no arguments, even one
-    with an optional `random_state` (which then draws from its own generator). We do the same, and also
-    pass it to callables that require it (`lambda random_state: ...`), which dm_control cannot call.
-    """
-    if any(c.__name__ == "Variation" and c.__module__.startswith("dm_control.") for c in type(value).__mro__):
-        return True
-    try:
-        param = inspect.signature(value).parameters.get("random_state")
-    except (TypeError, ValueError):
-        return False
-    return (param is not None and param.default is param.empty
-            and param.kind in (param.POSITIONAL_OR_KEYWORD, param.KEYWORD_ONLY))
-
-
-def _drawer(owner: str, attr: str, value: Any, default: int, random_state: Any) -> int | Callable[[], int]:
-    """An int, or a zero-argument function drawing validated ints (dm_control Variations get random_state)."""
-    if not value:
-        return default
-    if not callable(value):
-        if not isinstance(value, numbers.Integral) or isinstance(value, bool) or value < (0 if attr == "delay" else 1):
-            raise SuiteError(f"observable {owner!r}: {attr} must be a "
-                             f"{'non-negative' if attr == 'delay' else 'positive'} integer, got {value!r}")
-        return int(value)
-    draw = functools.partial(value, random_state=random_state) if _takes_random_state(value) else value
-    lowest = 0 if attr == "delay" else 1
-    if isinstance(value, (UniformSteps, ChoiceSteps)) and value.minimum >= lowest:
-        # sensorcfg's own draws give integers >= their minimum: no check per draw. A closure, not the
-        # partial: copies of a channel (deepcopy) must keep drawing from the episode's random state.
-        return lambda: value(random_state)
-
-    def checked() -> int:
-        drawn = draw()
-        # (typeshed's numbers.Real declares neither >= nor __int__: cast to the float it behaves as)
-        if isinstance(drawn, numbers.Real) and float(drawn).is_integer() and cast(float, drawn) >= lowest:
-            return int(cast(float, drawn))
-        raise SuiteError(f"observable {owner!r}: its {attr} callable drew {drawn!r}; "
-                         f"it must draw integers >= {lowest} (physics steps)")
-
-    return checked
 
 
 class Updater:
@@ -140,7 +74,7 @@ class Updater:
         """Bind every enabled observable, take the reset samples, and precompute the sampling plan."""
         dicts = list(self._observables) if self._nested else [self._observables]
         noisy = any(getattr(o, "noise", None) is not None for d in dicts for o in d.values() if o.enabled)
-        entropy = _episode_entropy(random_state) if noisy else None
+        entropy = episode_entropy(random_state) if noisy else None
         layout: list[tuple[type, list[tuple[str, FixedChannel | RandomChannel]]]] = []
         for index, obs_dict in enumerate(dicts):
             entries: list[tuple[str, FixedChannel | RandomChannel]] = []
@@ -197,8 +131,8 @@ class Updater:
         except SuiteError as e:  # binding to the model (unknown element, camera, ...): say which observable
             raise SuiteError([p if p.loc else dataclasses.replace(p, message=f"observable {label!r}: {p.message}")
                               for p in e.problems]) from None
-        interval = _drawer(label, "update_interval", observable.update_interval, DEFAULT_UPDATE_INTERVAL, random_state)
-        delay = _drawer(label, "delay", observable.delay, DEFAULT_DELAY, random_state)
+        interval = drawer(label, "update_interval", observable.update_interval, DEFAULT_UPDATE_INTERVAL, random_state)
+        delay = drawer(label, "delay", observable.delay, DEFAULT_DELAY, random_state)
         buffer_size = observable.buffer_size or DEFAULT_BUFFER_SIZE
         if not isinstance(buffer_size, numbers.Integral) or isinstance(buffer_size, bool) or buffer_size < 1:
             raise SuiteError(f"observable {label!r}: buffer_size must be a positive integer, got {buffer_size!r}")
@@ -214,10 +148,9 @@ class Updater:
         read_into = getattr(sampler, "read_into", None)
         aggregator = observable.aggregator
         args = (label, sampler, read_into, shape, dtype, int(buffer_size), self._strip, self._pad, self._n,
-                aggregator, any(aggregator is a for a in AGGREGATORS.values()), noise)
+                aggregator, builtin(aggregator) is not None, noise)
         if callable(interval) or callable(delay):
-            as_fn = lambda v: v if callable(v) else (lambda: v)  # noqa: E731
-            return RandomChannel(*args, interval=as_fn(interval), delay=as_fn(delay))
+            return RandomChannel(*args, interval=as_draw(interval), delay=as_draw(delay))
         return FixedChannel(*args, interval=interval, delay=delay)
 
     def _build_plan(self) -> None:

@@ -2,21 +2,20 @@
 
 sensorcfg observables already take a dm_control Physics (they read `.model.ptr` / `.data.ptr`). What
 dm_control's Updater does not know about is a sensor's noise pipeline, which our Updater applies and seeds
-per sensor. The bridge folds that pipeline into the observation callable: on each episode (dm_control binds
+per sensor. The adapter folds that pipeline into the observation callable: on each episode (dm_control binds
 observables at every reset) the pipeline is reseeded from dm_control's random state and the sensor's name,
 and each sample is corrupted with the simulated time read from the physics.
 """
 
 from __future__ import annotations
 
-import inspect
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
 from ..physics import raw_structs
-from ..runtime.updater import _episode_entropy, sensor_rng
+from ..draws import episode_entropy, sensor_rng, takes_random_state
 
 __all__ = ["dm_control_observables", "BridgedObservable"]
 
@@ -30,8 +29,9 @@ class BridgedObservable:
         self._random_state: Any = None
 
     def _schedule(self, value: Any) -> Any:
-        """dm_control passes its random state only to its own Variations: bind ours to the episode's."""
-        if callable(value) and _takes_random_state(value):
+        """dm_control passes its random state only to its own Variations; a callable that requires one gets
+        the episode's too (the Updater's rule, `takes_random_state`), and any other is called bare."""
+        if callable(value) and takes_random_state(value):
             return lambda: value(random_state=self._random_state)
         return value
 
@@ -66,7 +66,7 @@ class BridgedObservable:
         noise = self._observable.noise
         if noise is None:
             return sample
-        noise.reset(sensor_rng(_episode_entropy(random_state), self._name))
+        noise.reset(sensor_rng(episode_entropy(random_state), self._name))
         model, data = raw_structs(physics)
         timestep = float(model.opt.timestep)
 
@@ -77,13 +77,6 @@ class BridgedObservable:
 
     def __call__(self, physics: Any, random_state: Any = None) -> Any:
         return self.observation_callable(physics, random_state)()
-
-
-def _takes_random_state(fn: Any) -> bool:
-    try:
-        return "random_state" in inspect.signature(fn).parameters
-    except (TypeError, ValueError):
-        return False
 
 
 def dm_control_observables(suite: Any, physics: Any) -> dict[str, Any]:

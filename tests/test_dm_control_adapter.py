@@ -1,4 +1,4 @@
-"""Suites inside dm_control: dm_control's own Updater runs the bridged observables (oracle environment)."""
+"""Suites inside dm_control: dm_control's own Updater runs the adapted observables (oracle environment)."""
 
 from __future__ import annotations
 
@@ -68,3 +68,38 @@ def test_noise_and_random_delays_run_under_dm_control_deterministically(oracle):
         for name in a:
             np.testing.assert_array_equal(a[name], b[name], err_msg=name)
     assert not np.array_equal(first[-1]["arm_qpos"], clean[-1]["arm_qpos"])  # the noise is applied
+
+
+def test_schedule_callables_get_the_random_state_by_one_rule(oracle):
+    # dm_control calls a callable with an optional random_state bare; one requiring it gets the episode's.
+    # Our Updater and the adapter (under dm_control's Updater) follow the same rule: `takes_random_state`.
+    from sensorcfg.draws import takes_random_state
+
+    seen = {"optional": [], "required": []}
+
+    def optional(random_state=None):
+        seen["optional"].append(random_state)
+        return 2
+
+    def required(random_state):
+        seen["required"].append(random_state)
+        return 3
+
+    assert not takes_random_state(optional) and takes_random_state(required)
+    physics = dm_physics(oracle)
+    for runner in ("ours", "dm_control"):
+        seen["optional"].clear()
+        seen["required"].clear()
+        observables = {"a": sensorcfg.Feature("qpos", "joint:shoulder", update_interval=optional, delay=required)}
+        observables["a"].enabled = True
+        random_state = np.random.RandomState(0)
+        if runner == "ours":
+            updater = sensorcfg.Updater(observables, 2)
+        else:
+            from sensorcfg.env.dm_control_adapter import BridgedObservable
+
+            updater = oracle.updater.Updater({"a": BridgedObservable("a", observables["a"])}, 2)
+        updater.reset(physics, random_state)
+        updater.prepare_for_next_control_step()
+        assert seen["optional"] and all(rs is None for rs in seen["optional"]), runner
+        assert seen["required"] and all(rs is random_state for rs in seen["required"]), runner

@@ -1,0 +1,95 @@
+"""The arithmetic of a fixed schedule, in one place: which samples exist, which a read sees, where they live.
+
+A fixed schedule is (interval i, delay d, buffer b, read interval n), all in physics steps since reset.
+dm_control's semantics in closed form:
+
+- sample k is taken at step `k * i` (sample 0 is the reset sample) and delivered at `k * i + d`;
+- reads happen at every multiple R of n; the read at R sees the window of samples
+  `newest(R) - b + 1 .. newest(R)`, with `newest(R) = (R - d) // i` (indices below 0 are the padding);
+- sample k is *visible* when it is still in the window of the first read at or after its delivery; a
+  sample that is never visible need not be taken (skipping stays invisible), unless the sensor carries
+  stateful noise, which must see every sample of the nominal schedule (`every_sample`);
+- the pattern of visible samples repeats every `period = lcm(i, n)` steps;
+- samples wait in a ring of `capacity = b + ceil(d / i) + 1` slots: sample k lives in slot `k % capacity`.
+
+Every consumer calls this module: `FixedChannel`, the feature bank's read plans and sample counts, the
+batch's store (what the history keeps), the batch's camera rings and the CLI's timing panels. Functions
+that take a sample index or a step accept numpy integer arrays too.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, NamedTuple
+
+import numpy as np
+
+__all__ = ["Schedule"]
+
+
+class Schedule(NamedTuple):
+    """A constant integer schedule, in physics steps."""
+
+    interval: int
+    delay: int
+    buffer: int
+    read_interval: int
+    every_sample: bool = False  # stateful noise: every sample of the nominal schedule is taken
+
+    @property
+    def period(self) -> int:
+        """Steps after which the pattern of taken samples and read windows repeats."""
+        return math.lcm(self.interval, self.read_interval)
+
+    @property
+    def capacity(self) -> int:
+        """Ring slots that hold every sample in flight (taken, not delivered) plus the visible window."""
+        return self.buffer + -(-self.delay // self.interval) + 1
+
+    @property
+    def wait(self) -> int:
+        """Steps from a sample's time to its last read, at most (`delay + buffer * interval`)."""
+        return self.delay + self.buffer * self.interval
+
+    def newest(self, read_step: Any) -> Any:
+        """Index of the newest sample delivered by the read at `read_step` (negative: none yet)."""
+        return (read_step - self.delay) // self.interval
+
+    def window_start(self, read_step: Any) -> Any:
+        """Index of the oldest sample in the window of the read at `read_step` (may be negative: padding)."""
+        return self.newest(read_step) - self.buffer + 1
+
+    def window(self, read_step: int) -> np.ndarray:
+        """Sample indices the read at `read_step` sees, oldest first (negative ones are padding)."""
+        return self.window_start(read_step) + np.arange(self.buffer)
+
+    def first_read(self, sample: Any) -> Any:
+        """The step of the first read at or after sample `sample`'s delivery."""
+        n = self.read_interval
+        return -(-(sample * self.interval + self.delay) // n) * n
+
+    def last_read(self, sample: Any) -> Any:
+        """The step of the last read whose window holds sample `sample` (reads at multiples of n)."""
+        n = self.read_interval
+        return (sample * self.interval + self.wait - 1) // n * n
+
+    def visible(self, sample: Any) -> Any:
+        """Whether some read sees sample `sample`: it is still in the window of its first read."""
+        return self.newest(self.first_read(sample)) - sample < self.buffer
+
+    def needed_phases(self) -> list[int]:
+        """Steps t in [0, period) at which a sample must be taken (the reset sample always is)."""
+        samples = np.arange(self.period // self.interval)
+        if not self.every_sample:
+            samples = samples[self.visible(samples)]
+        return [int(k) * self.interval for k in samples]
+
+    def slot(self, sample: Any) -> Any:
+        """The ring slot of sample `sample`."""
+        return sample % self.capacity
+
+    def samples_taken(self, phases: list[int], step: int) -> int:
+        """Samples taken by `step` (inclusive) when `phases` (`needed_phases()`) are: the reset sample,
+        then every needed phase of every period so far."""
+        full, rest = divmod(step, self.period)
+        return 1 + full * len(phases) + sum(1 for p in phases if p <= rest) - (1 if 0 in phases else 0)
