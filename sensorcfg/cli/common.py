@@ -131,7 +131,7 @@ def suite_model(suite: Any, path: str) -> Any:
     from ..native import native_names
 
     model = load_model(path)
-    return suite.compile(path) if native_names(suite.sensors) else model
+    return suite.compile(path) if native_names(getattr(suite, "sensors", {})) else model
 
 
 def load_suite(path: str, overrides: Sequence[str] = ()) -> Any:
