@@ -74,10 +74,60 @@ def heights(pos: np.ndarray, starts: np.ndarray, dirs: np.ndarray, dist: np.ndar
     return np.where(dist >= 0, pos[..., None, 2] - hit_z, miss)
 
 
+class _Terrain:
+    """What a model's rays may hit, and the distance to a terrain geom from a ray's own start.
+
+    A ray's value never depends on the moving geoms it passed through: once the first terrain geom along
+    it is known, its distance is recomputed from the ray's start with that geom's own ray function (the
+    one mj_ray calls), so one simulation (mj_ray per ray, on MjData's kinematics) and a batch
+    (`Batch.ray`, which recomputes kinematics from the state) agree to the bit.
+    """
+
+    def __init__(self, model: mujoco.MjModel, scan: ScanConfig):
+        self.model = model
+        self.static = np.asarray(model.body_weldid[model.geom_bodyid] == 0)
+        self.group = None if scan.geomgroup is None else np.isin(np.arange(6), scan.geomgroup).astype(np.uint8)
+        self.max_distance = scan.max_distance
+        self.data = mujoco.MjData(model)  # terrain geoms are welded to the world: their poses are constants
+        mujoco.mj_kinematics(model, self.data)
+
+    def snap(self, geom: int, start: np.ndarray, vec: np.ndarray) -> float:
+        m, d, kind = self.model, self.data, int(self.model.geom_type[geom])
+        if kind == int(mujoco.mjtGeom.mjGEOM_HFIELD):
+            return float(mujoco.mj_rayHfield(m, d, geom, start, vec))
+        if kind == int(mujoco.mjtGeom.mjGEOM_MESH):
+            return float(mujoco.mj_rayMesh(m, d, geom, start, vec))
+        return float(mujoco.mju_rayGeom(d.geom_xpos[geom], d.geom_xmat[geom], m.geom_size[geom], start, vec, kind))
+
+    def resolve(self, starts: np.ndarray, dirs: np.ndarray, cast: Cast) -> np.ndarray:
+        """Distances (..., nray) to the first terrain geom within reach, -1 for none; `cast(starts, dirs,
+        mask)` returns (dist, geomid) of the first geom for the rays in `mask` (others may be anything)."""
+        dist, geom = cast(starts, dirs, np.ones(starts.shape[:-1], bool))
+        out = np.where(geom >= 0, dist, -1.0)
+        moving = (geom >= 0) & ~self.static[np.maximum(geom, 0)]
+        here, travelled = starts.copy(), np.zeros(dist.shape)
+        while moving.any():
+            step = np.where(moving, dist + _SEE_THROUGH, 0.0)
+            here = here + step[..., None] * dirs
+            travelled += step
+            moving &= travelled <= self.max_distance
+            dist, geom = cast(here, dirs, moving)
+            landed = moving & (geom >= 0) & self.static[np.maximum(geom, 0)]
+            for i in zip(*np.nonzero(landed)):
+                out[i] = self.snap(int(geom[i]), starts[i], np.ascontiguousarray(dirs[i]))
+            out[moving & (geom < 0)] = -1.0
+            out[moving & (travelled > self.max_distance)] = -1.0
+            moving &= (geom >= 0) & ~landed
+        return np.where(out <= self.max_distance, out, -1.0)
+
+
+Cast = Callable[[np.ndarray, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
+
+
 class HeightScan(Observable):
     """A height scan from the frame of `element` ('body:name' or 'site:name'); see the module docstring."""
 
-    per_simulation = True  # a BatchEnvironment casts it per simulation, from that simulation's MjData
+    per_simulation = True  # a BatchEnvironment samples it per simulation (all due ones at once: batch_reader)
 
     def __init__(self, element: str, scan: ScanConfig, update_interval: Any = 1, buffer_size: int | None = None,
                  delay: Any = None, aggregator: Any = None, corruptor: Callable[..., Any] | None = None):
@@ -98,35 +148,49 @@ class HeightScan(Observable):
     def array_spec(self) -> specs.Array | None:
         return None if self._corruptor is not None else specs.Array(self.shape, np.float64)
 
+    def _frame(self, model: mujoco.MjModel) -> tuple[int, str, str]:
+        sel = select(model, self._element)
+        return (sel.ids[0], "xpos", "xmat") if sel.type == "body" else (sel.ids[0], "site_xpos", "site_xmat")
+
+    def _values(self, terrain: _Terrain, pos: np.ndarray, mat: np.ndarray, cast: Cast) -> np.ndarray:
+        """Heights for frames at `pos` (..., 3), `mat` (..., 9): the one rule both paths call."""
+        scan = self._scan
+        starts, dirs = ray_starts(pos, mat, self._offsets.reshape(-1, 2), scan.above, scan.alignment)
+        dirs = np.ascontiguousarray(dirs)
+        dist = terrain.resolve(starts, dirs, cast)
+        return heights(pos, starts, dirs, dist, self._miss).reshape(pos.shape[:-1] + self.shape)
+
     def _callable(self, physics: Any) -> Callable[[], np.ndarray]:
         model, data = raw_structs(physics)
-        sel = select(model, self._element)
-        element_id = sel.ids[0]
-        pos, mat = (data.xpos, data.xmat) if sel.type == "body" else (data.site_xpos, data.site_xmat)
-        static = model.body_weldid[model.geom_bodyid] == 0
-        group = None if self._scan.geomgroup is None else np.isin(np.arange(6), self._scan.geomgroup).astype(np.uint8)
-        offsets = self._offsets.reshape(-1, 2)
-        scan, shape, miss = self._scan, self.shape, self._miss
+        element_id, pos_field, mat_field = self._frame(model)
+        pos, mat = getattr(data, pos_field), getattr(data, mat_field)
+        terrain = _Terrain(model, self._scan)
         geomid = np.zeros(1, np.int32)
 
-        def cast(start: np.ndarray, vec: np.ndarray) -> float:
-            travelled = 0.0
-            while travelled <= scan.max_distance:
-                dist = mujoco.mj_ray(model, data, start, vec, group, 1, -1, geomid)
-                if dist < 0:
-                    return -1.0
-                if static[geomid[0]]:
-                    travelled += dist
-                    return travelled if travelled <= scan.max_distance else -1.0
-                step = dist + _SEE_THROUGH
-                start = start + step * vec
-                travelled += step
-            return -1.0
+        def cast(starts: np.ndarray, dirs: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            dist, geom = np.full(mask.shape, -1.0), np.full(mask.shape, -1, np.int32)
+            for i in zip(*np.nonzero(mask)):
+                dist[i] = mujoco.mj_ray(model, data, starts[i], dirs[i], terrain.group, 1, -1, geomid)
+                geom[i] = geomid[0]
+            return dist, geom
 
-        def read() -> np.ndarray:
-            origin = pos[element_id].copy()
-            starts, dirs = ray_starts(origin, mat[element_id], offsets, scan.above, scan.alignment)
-            dist = np.array([cast(starts[r], np.ascontiguousarray(dirs[r])) for r in range(len(offsets))])
-            return heights(origin, starts, dirs, dist, miss).reshape(shape)
+        return lambda: self._values(terrain, pos[element_id].copy(), mat[element_id].copy(), cast)
+
+    def batch_reader(self, model: mujoco.MjModel, batch: Any) -> Callable[[np.ndarray], np.ndarray]:
+        """For a `mujoco.batch.Batch` of `model`: the scans of simulations `ids`, (len(ids), *shape), from the
+        frame poses the last rollout left in its bound fields, cast with `Batch.ray` for all of them at once."""
+        element_id, pos_field, mat_field = self._frame(model)
+        nsim = batch.nsim
+        pos = batch.bind(pos_field).reshape(nsim, -1, 3)
+        mat = batch.bind(mat_field).reshape(nsim, -1, 9)
+        terrain = _Terrain(model, self._scan)
+
+        def read(ids: np.ndarray) -> np.ndarray:
+            def cast(starts: np.ndarray, dirs: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                dist, geom = batch.ray(starts, dirs, geomgroup=terrain.group, flg_static=True, bodyexclude=-1,
+                                       ids=ids)
+                return dist, geom
+
+            return self._values(terrain, pos[ids, element_id].copy(), mat[ids, element_id].copy(), cast)
 
         return read
