@@ -3,10 +3,11 @@
 What it measures: rays start `above` metres over points of the pattern around the frame (a body's frame
 or a site) and go down; each reads `origin_z - hit_z`, the height of the frame's origin above the first
 terrain point the ray meets within `max_distance`, or `miss`. Terrain is every geom welded to the world
-(the floor, heightfields, static boxes and stairs) in `geomgroup`; geoms of moving bodies, the robot's own
-among them, are seen through (a ray that meets one goes on from just past it), as Isaac Lab's ray caster
-sees only its terrain mesh. Static geoms do not depend on the simulation's state, so a scan depends only
-on the frame's pose, which is read from MjData as every other sensor reads it.
+(the floor, heightfields, static boxes and stairs) in `geomgroup`; moving bodies, the robot's own among
+them, are not seen, as Isaac Lab's ray caster sees only its terrain mesh. The rays are cast at a model of
+the terrain alone (`terrain_model`), in one `Batch.ray` call on MuJoCo 4 (mj_ray per ray on MuJoCo 3); the
+frame's pose is read from MjData as every other sensor reads it. A batch casts the rays of every due
+simulation in one call from the same function, so one simulation and a batch agree to the bit.
 
 Alignment: 'yaw' turns the pattern with the frame's heading (rays stay vertical), 'full' follows its whole
 orientation (rays along its -z; the value is still a vertical height), 'world' keeps world axes.
@@ -29,9 +30,8 @@ from .observables.base import Observable
 from .physics import raw_structs
 from .selection import select
 
-__all__ = ["HeightScan", "pattern", "ray_starts", "heights"]
+__all__ = ["HeightScan", "heights", "pattern", "ray_starts", "terrain_model"]
 
-_SEE_THROUGH = 1e-6  # a ray that meets a moving geom starts again this far past it (m)
 
 
 def pattern(scan: ScanConfig) -> np.ndarray:
@@ -74,60 +74,67 @@ def heights(pos: np.ndarray, starts: np.ndarray, dirs: np.ndarray, dist: np.ndar
     return np.where(dist >= 0, pos[..., None, 2] - hit_z, miss)
 
 
-class _Terrain:
-    """What a model's rays may hit, and the distance to a terrain geom from a ray's own start.
+def terrain_model(model: mujoco.MjModel) -> mujoco.MjModel:
+    """A model of `model`'s terrain alone: its geoms welded to the world, where they are, with their
+    shapes, heightfields, meshes, groups and colours (mj_ray skips invisible geoms). What moves is gone,
+    so every ray meets terrain first, and rays from one simulation or many are cast by one function."""
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)  # terrain poses do not depend on the state
+    spec = mujoco.MjSpec()
+    for g in np.flatnonzero(model.body_weldid[model.geom_bodyid] == 0):
+        geom = spec.worldbody.add_geom()
+        geom.type = mujoco.mjtGeom(int(model.geom_type[g]))
+        geom.size, geom.pos, geom.group, geom.rgba = model.geom_size[g], data.geom_xpos[g], model.geom_group[g], \
+            model.geom_rgba[g]
+        quat = np.zeros(4)
+        mujoco.mju_mat2Quat(quat, data.geom_xmat[g])
+        geom.quat = quat
+        asset = int(model.geom_dataid[g])
+        if geom.type == mujoco.mjtGeom.mjGEOM_HFIELD:
+            rows, cols, adr = model.hfield_nrow[asset], model.hfield_ncol[asset], model.hfield_adr[asset]
+            spec.add_hfield(name=f"h{g}", size=model.hfield_size[asset], nrow=rows, ncol=cols,
+                            userdata=model.hfield_data[adr:adr + rows * cols])
+            geom.hfieldname = f"h{g}"
+        elif geom.type == mujoco.mjtGeom.mjGEOM_MESH:
+            vadr, nv = model.mesh_vertadr[asset], model.mesh_vertnum[asset]
+            fadr, nf = model.mesh_faceadr[asset], model.mesh_facenum[asset]
+            spec.add_mesh(name=f"m{g}", uservert=model.mesh_vert[vadr:vadr + nv].ravel(),
+                          userface=model.mesh_face[fadr:fadr + nf].ravel())
+            geom.meshname = f"m{g}"
+    return spec.compile()
 
-    A ray's value never depends on the moving geoms it passed through: once the first terrain geom along
-    it is known, its distance is recomputed from the ray's start with that geom's own ray function (the
-    one mj_ray calls), so one simulation (mj_ray per ray, on MjData's kinematics) and a batch
-    (`Batch.ray`, which recomputes kinematics from the state) agree to the bit.
-    """
+
+class _Terrain:
+    """Casts rays (any leading shape) at a model's terrain: `Batch.ray` on MuJoCo 4 (one call for every ray
+    of every simulation), else mj_ray per ray. Returns distances, -1 beyond `max_distance` or on a miss."""
 
     def __init__(self, model: mujoco.MjModel, scan: ScanConfig):
-        self.model = model
-        self.static = np.asarray(model.body_weldid[model.geom_bodyid] == 0)
+        self.model = terrain_model(model)
         self.group = None if scan.geomgroup is None else np.isin(np.arange(6), scan.geomgroup).astype(np.uint8)
         self.max_distance = scan.max_distance
-        self.data = mujoco.MjData(model)  # terrain geoms are welded to the world: their poses are constants
-        mujoco.mj_kinematics(model, self.data)
+        self.data = mujoco.MjData(self.model)
+        mujoco.mj_kinematics(self.model, self.data)
+        self.batch = None
+        if int(mujoco.__version__.split(".")[0]) >= 4:
+            from mujoco import batch
 
-    def snap(self, geom: int, start: np.ndarray, vec: np.ndarray) -> float:
-        m, d, kind = self.model, self.data, int(self.model.geom_type[geom])
-        if kind == int(mujoco.mjtGeom.mjGEOM_HFIELD):
-            return float(mujoco.mj_rayHfield(m, d, geom, start, vec))
-        if kind == int(mujoco.mjtGeom.mjGEOM_MESH):
-            return float(mujoco.mj_rayMesh(m, d, geom, start, vec))
-        return float(mujoco.mju_rayGeom(d.geom_xpos[geom], d.geom_xmat[geom], m.geom_size[geom], start, vec, kind))
+            self.batch = batch.Batch(self.model, 1)
 
-    def resolve(self, starts: np.ndarray, dirs: np.ndarray, cast: Cast) -> np.ndarray:
-        """Distances (..., nray) to the first terrain geom within reach, -1 for none; `cast(starts, dirs,
-        mask)` returns (dist, geomid) of the first geom for the rays in `mask` (others may be anything)."""
-        dist, geom = cast(starts, dirs, np.ones(starts.shape[:-1], bool))
-        out = np.where(geom >= 0, dist, -1.0)
-        moving = (geom >= 0) & ~self.static[np.maximum(geom, 0)]
-        here, travelled = starts.copy(), np.zeros(dist.shape)
-        while moving.any():
-            step = np.where(moving, dist + _SEE_THROUGH, 0.0)
-            here = here + step[..., None] * dirs
-            travelled += step
-            moving &= travelled <= self.max_distance
-            dist, geom = cast(here, dirs, moving)
-            landed = moving & (geom >= 0) & self.static[np.maximum(geom, 0)]
-            for i in zip(*np.nonzero(landed)):
-                out[i] = self.snap(int(geom[i]), starts[i], np.ascontiguousarray(dirs[i]))
-            out[moving & (geom < 0)] = -1.0
-            out[moving & (travelled > self.max_distance)] = -1.0
-            moving &= (geom >= 0) & ~landed
-        return np.where(out <= self.max_distance, out, -1.0)
-
-
-Cast = Callable[[np.ndarray, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
+    def cast(self, starts: np.ndarray, dirs: np.ndarray) -> np.ndarray:
+        flat_starts, flat_dirs = starts.reshape(1, -1, 3), np.ascontiguousarray(dirs).reshape(1, -1, 3)
+        if self.batch is not None:
+            dist = self.batch.ray(flat_starts, flat_dirs, geomgroup=self.group, flg_static=True)[0][0]
+        else:
+            geomid = np.zeros(1, np.int32)
+            dist = np.array([mujoco.mj_ray(self.model, self.data, p, v, self.group, 1, -1, geomid)
+                             for p, v in zip(flat_starts[0], flat_dirs[0])])
+        return np.where(dist <= self.max_distance, dist, -1.0).reshape(starts.shape[:-1])
 
 
 class HeightScan(Observable):
     """A height scan from the frame of `element` ('body:name' or 'site:name'); see the module docstring."""
 
-    per_simulation = True  # a BatchEnvironment samples it per simulation (all due ones at once: batch_reader)
+    per_simulation = True  # a BatchEnvironment samples it per simulation (every due one at once: batch_reader)
 
     def __init__(self, element: str, scan: ScanConfig, update_interval: Any = 1, buffer_size: int | None = None,
                  delay: Any = None, aggregator: Any = None, corruptor: Callable[..., Any] | None = None):
@@ -152,12 +159,11 @@ class HeightScan(Observable):
         sel = select(model, self._element)
         return (sel.ids[0], "xpos", "xmat") if sel.type == "body" else (sel.ids[0], "site_xpos", "site_xmat")
 
-    def _values(self, terrain: _Terrain, pos: np.ndarray, mat: np.ndarray, cast: Cast) -> np.ndarray:
+    def _values(self, terrain: _Terrain, pos: np.ndarray, mat: np.ndarray) -> np.ndarray:
         """Heights for frames at `pos` (..., 3), `mat` (..., 9): the one rule both paths call."""
         scan = self._scan
         starts, dirs = ray_starts(pos, mat, self._offsets.reshape(-1, 2), scan.above, scan.alignment)
-        dirs = np.ascontiguousarray(dirs)
-        dist = terrain.resolve(starts, dirs, cast)
+        dist = terrain.cast(starts, dirs)
         return heights(pos, starts, dirs, dist, self._miss).reshape(pos.shape[:-1] + self.shape)
 
     def _callable(self, physics: Any) -> Callable[[], np.ndarray]:
@@ -165,32 +171,14 @@ class HeightScan(Observable):
         element_id, pos_field, mat_field = self._frame(model)
         pos, mat = getattr(data, pos_field), getattr(data, mat_field)
         terrain = _Terrain(model, self._scan)
-        geomid = np.zeros(1, np.int32)
-
-        def cast(starts: np.ndarray, dirs: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            dist, geom = np.full(mask.shape, -1.0), np.full(mask.shape, -1, np.int32)
-            for i in zip(*np.nonzero(mask)):
-                dist[i] = mujoco.mj_ray(model, data, starts[i], dirs[i], terrain.group, 1, -1, geomid)
-                geom[i] = geomid[0]
-            return dist, geom
-
-        return lambda: self._values(terrain, pos[element_id].copy(), mat[element_id].copy(), cast)
+        return lambda: self._values(terrain, pos[element_id].copy(), mat[element_id].copy())
 
     def batch_reader(self, model: mujoco.MjModel, batch: Any) -> Callable[[np.ndarray], np.ndarray]:
         """For a `mujoco.batch.Batch` of `model`: the scans of simulations `ids`, (len(ids), *shape), from the
-        frame poses the last rollout left in its bound fields, cast with `Batch.ray` for all of them at once."""
+        frame poses its last call left in its bound fields (as one simulation's MjData holds them), every
+        ray of every simulation cast in one call."""
         element_id, pos_field, mat_field = self._frame(model)
-        nsim = batch.nsim
-        pos = batch.bind(pos_field).reshape(nsim, -1, 3)
-        mat = batch.bind(mat_field).reshape(nsim, -1, 9)
+        pos = batch.bind(pos_field).reshape(batch.nsim, -1, 3)
+        mat = batch.bind(mat_field).reshape(batch.nsim, -1, 9)
         terrain = _Terrain(model, self._scan)
-
-        def read(ids: np.ndarray) -> np.ndarray:
-            def cast(starts: np.ndarray, dirs: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-                dist, geom = batch.ray(starts, dirs, geomgroup=terrain.group, flg_static=True, bodyexclude=-1,
-                                       ids=ids)
-                return dist, geom
-
-            return self._values(terrain, pos[ids, element_id].copy(), mat[ids, element_id].copy(), cast)
-
-        return read
+        return lambda ids: self._values(terrain, pos[ids, element_id].copy(), mat[ids, element_id].copy())
