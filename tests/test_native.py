@@ -290,3 +290,25 @@ def test_force_on_an_actuator_is_its_attribute_and_on_a_site_the_sensor() -> Non
     observables = suite.build(model)
     assert observables["a"].kind == "force" and observables["s"].kind == "sensordata"
     assert model.nsensor == 1 and model.sensor_type[0] == mujoco.mjtSensor.mjSENS_FORCE
+
+
+def test_framelinvel_of_a_body_in_its_own_frame_is_zero() -> None:
+    suite = sensorcfg.loads("sensors:\n  v: {kind: framelinvel, element: body:base, frame: body:base}\n"
+                            "  w: {kind: framelinvel, element: body:base}\n")
+    env = sensorcfg.Environment(TERRAIN, suite, seed=0)
+    env.reset()
+    for _ in range(20):
+        obs = env.step(np.ones(2)).observation
+    assert np.all(obs["v"] == 0) and np.any(obs["w"] != 0)
+
+
+def test_a_type_this_mujoco_lacks_is_a_problem_at_the_kind(monkeypatch: pytest.MonkeyPatch) -> None:
+    import dataclasses
+
+    from sensorcfg.native import table
+
+    monkeypatch.setitem(table.NATIVE, "gyro", dataclasses.replace(table.NATIVE["gyro"], sensor="GYRO_OF_THE_FUTURE"))
+    problems = sensorcfg.loads("sensors:\n  g: {kind: gyro, element: site:imu}\n", file="f.yaml").check(TERRAIN)
+    assert [p.format() for p in problems] == [
+        f"f.yaml:2:13: error: sensors.g.kind: this MuJoCo ({mujoco.__version__}) has no gyro sensor "
+        "(mjSENS_GYRO_OF_THE_FUTURE); upgrade MuJoCo or use another kind"]
