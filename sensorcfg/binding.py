@@ -19,6 +19,7 @@ import numpy as np
 
 from .config.loader import LoadedSuite
 from .config.models import ChoiceDraw, SensorConfig, UniformDraw
+from .config.noise import GaussianStage
 from .config.source import Path_
 from .config.tables import GENERIC_KIND, HEIGHTSCAN_KIND, IMAGE_KINDS
 from .config.units import to_steps
@@ -120,7 +121,10 @@ class _Binder:
         observable, shape, dtype = made
         observable.enabled = cfg.enabled is not False
         if cfg.noise and shape is not None:
-            stages = cfg.noise if self.import_callables else tuple(s for s in cfg.noise if s.type != "custom")
+            stages = self.at_rate(name, cfg, observable.update_interval)
+            if stages is None:
+                return None
+            stages = stages if self.import_callables else tuple(s for s in stages if s.type != "custom")
             try:
                 observable.noise = build_noise(stages, shape, dtype, float(self.model.opt.timestep))
             except SuiteError as e:
@@ -130,6 +134,20 @@ class _Binder:
                     self.report(base + rest, p.message)
                 return None
         return observable
+
+    def at_rate(self, name: str, cfg: SensorConfig, interval: Schedule) -> tuple[Any, ...] | None:
+        """The noise stages with a `density` turned into a std per sample at the sensor's nominal rate."""
+        stages = tuple(cfg.noise or ())
+        dense = [i for i, s in enumerate(stages) if getattr(s, "density", None) is not None]
+        if not dense:
+            return stages
+        if not isinstance(interval, int) and interval is not None:
+            for i in dense:
+                self.report(self.origin(name, "noise") + (i, "density"), "a noise density needs a fixed interval "
+                            "(the std per sample follows the sample rate); give std instead, or a fixed interval")
+            return None
+        rate = 1.0 / ((interval or 1) * float(self.model.opt.timestep))
+        return tuple(s.at_rate(rate) if isinstance(s, GaussianStage) else s for s in stages)
 
     def selection(self, name: str, cfg: SensorConfig) -> bool:
         """Whether `element` (and `within`) resolve; problems point at the list entry at fault."""

@@ -175,14 +175,37 @@ def _type(name: str, what: str) -> Any:
 
 
 class GaussianStage(BaseModel):
-    """Additive white noise: every value of every sample gets an independent draw of N(mean, std^2)."""
+    """Additive white noise: every value of every sample gets an independent draw of N(mean, std^2).
+
+    Give `std` (per sample) or `density` (per square-root hertz, as IMU datasheets do): the std per sample
+    is then density * sqrt(sample rate), the sensor's nominal rate, so a suite stays right when a rate
+    changes.
+    """
 
     model_config = _MODEL
     type: Literal["gaussian"] = _type("gaussian", "Additive white noise drawn from N(mean, std^2) per value.")
     mean: Real = Field(0.0, description="Mean of the noise, in the sensor's units. " + _PER_VALUE,
                        examples=[0.0, [0.0, 0.0, 0.01]])
-    std: Std = Field(description="Standard deviation of the noise, in the sensor's units. " + _PER_VALUE,
-                     examples=[0.01, [0.01, 0.01, 0.02]])
+    std: Std | None = Field(None, description="Standard deviation of the noise per sample, in the sensor's units. "
+                            + _PER_VALUE, examples=[0.01, [0.01, 0.01, 0.02]])
+    density: Std | None = Field(None, description="Noise density instead of `std`: units per square-root hertz; "
+                                "std per sample = density * sqrt(the sensor's sample rate). " + _PER_VALUE,
+                                examples=[0.0003])
+
+    @model_validator(mode="after")
+    def _check(self) -> GaussianStage:
+        if (self.std is None) == (self.density is None):
+            raise PydanticCustomError("noise_gaussian", "gaussian takes std (per sample) or density (per "
+                                      "square-root hertz), one of them")
+        return self
+
+    def at_rate(self, rate: float) -> GaussianStage:
+        """This stage with its std per sample for a sensor sampled at `rate` Hz (density given)."""
+        if self.density is None:
+            return self
+        root = math.sqrt(rate)
+        std = tuple(d * root for d in self.density) if isinstance(self.density, tuple) else self.density * root
+        return self.model_copy(update={"std": std, "density": None})
 
 
 class UniformStage(BaseModel):
