@@ -312,3 +312,25 @@ def test_a_type_this_mujoco_lacks_is_a_problem_at_the_kind(monkeypatch: pytest.M
     assert [p.format() for p in problems] == [
         f"f.yaml:2:13: error: sensors.g.kind: this MuJoCo ({mujoco.__version__}) has no gyro sensor "
         "(mjSENS_GYRO_OF_THE_FUTURE); upgrade MuJoCo or use another kind"]
+
+
+@pytest.mark.skipif(not MUJOCO4, reason="mujoco.batch needs MuJoCo 4")
+def test_every_kind_runs_batched_bit_identical_to_single(tmp_path: Path) -> None:
+    from sensorcfg.batch import BatchEnvironment, sim_seed
+
+    plain = tmp_path / "plain.xml"
+    plain.write_text(_model_text())
+    sensors = "\n".join(f"  s{i}: {row}" for i, (row, _) in enumerate(HAND_WRITTEN))
+    suite = sensorcfg.loads(f"options: {{control_interval: 4}}\nsensors:\n{sensors}\n")
+    batch = BatchEnvironment(str(plain), suite, 2, seed=5)
+    singles = [sensorcfg.Environment(str(plain), suite, seed=sim_seed(5, i)) for i in range(2)]
+    batch.reset()
+    for env in singles:
+        env.reset()
+    rng = np.random.default_rng(2)
+    for _ in range(25):
+        actions = rng.uniform(-1, 1, (2, 2))
+        out = batch.step(actions)
+        for i, env in enumerate(singles):
+            for name, value in env.step(actions[i]).observation.items():
+                np.testing.assert_array_equal(out.observation[name][i], value, err_msg=name)
