@@ -279,10 +279,6 @@ class _Binder:
         if not self.selection(name, cfg):
             return None
         assert cfg.scan is not None  # filled in by the loader
-        groups = [g for g in cfg.scan.geomgroup or () if not 0 <= g < 6]
-        if groups:
-            self.report(self.origin(name, "scan") + ("geomgroup",), f"geom groups are 0-5; got {groups}")
-            return None
         scan = HeightScan(cfg.element, cfg.scan, **timing)
         return scan, scan.shape, np.dtype(np.float64)
 

@@ -104,3 +104,21 @@ def test_batched_scans_equal_single_ones() -> None:
         for i, env in enumerate(singles):
             for name, value in env.step(actions[i]).observation.items():
                 np.testing.assert_array_equal(out.observation[name][i], value, err_msg=name)
+
+
+@pytest.mark.parametrize("scan, expected", [
+    pytest.param("{size: [1.0, 1.0], resolution: 0.3}", "f.yaml:2:51: error: sensors.h.scan: size along x (1 m) "
+                 "is not a whole number of 0.3 m steps (3.33); use 0.9 or 1.2, or another resolution", id="grid"),
+    pytest.param("{geomgroup: [7]}", "f.yaml:2:64: error: sensors.h.scan.geomgroup.0: expected a value <= 5; got 7",
+                 id="group"),
+])
+def test_scan_mistakes_are_positioned(scan: str, expected: str) -> None:
+    with pytest.raises(sensorcfg.SuiteError) as info:
+        sensorcfg.loads(f"sensors:\n  h: {{kind: heightscan, element: body:base, scan: {scan}}}\n", file="f.yaml")
+    assert str(info.value) == expected
+
+
+def test_a_scan_reads_one_frame() -> None:
+    problems = sensorcfg.loads("sensors:\n  h: {kind: heightscan, element: geom:FL}\n", file="f.yaml").check(TERRAIN)
+    assert [p.format() for p in problems] == ["f.yaml:2:34: error: sensors.h.element: a height scan is cast from "
+                                              "one frame, 'body:<name>' or 'site:<name>'; got 'geom:FL'"]

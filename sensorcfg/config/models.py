@@ -7,11 +7,12 @@ model (element names, kinds, time in steps) are checked for form here and resolv
 
 from __future__ import annotations
 
+import math
 import re
 from typing import TYPE_CHECKING, Annotated, Any, Literal, TypeAlias
 
 from pydantic import (BaseModel, ConfigDict, Field, PlainSerializer, PlainValidator, StringConstraints,
-                      WithJsonSchema)
+                      WithJsonSchema, model_validator)
 
 from .noise import NoiseStage
 from .tables import GENERIC_KIND, HEIGHTSCAN_KIND, IMAGE_KINDS, aggregator_names
@@ -196,11 +197,13 @@ class ScanConfig(BaseModel):
     pattern: Literal["grid", "ring"] = Field("grid", description="'grid': size[0] x size[1] metres every "
                                              "`resolution`, both ends included; 'ring': `count` rays on each "
                                              "circle of `radii`.", examples=["grid"])
-    size: tuple[float, float] = Field((1.6, 1.0), description="Grid extent along x and y (m), centred on the "
-                                      "frame.", examples=[[1.6, 1.0]])
+    size: tuple[Annotated[float, Field(ge=0)], Annotated[float, Field(ge=0)]] = Field(
+        (1.6, 1.0), description="Grid extent along x and y (m), centred on the frame: whole multiples of "
+        "`resolution`.", examples=[[1.6, 1.0]])
     resolution: float = Field(0.1, gt=0, description="Grid spacing (m): 1.6 x 1.0 at 0.1 is 17 x 11 rays.",
                               examples=[0.1])
-    radii: tuple[float, ...] = Field((0.5,), min_length=1, description="Ring radii (m).", examples=[[0.3, 0.6]])
+    radii: tuple[Annotated[float, Field(gt=0)], ...] = Field((0.5,), min_length=1, description="Ring radii (m).",
+                                                              examples=[[0.3, 0.6]])
     count: int = Field(8, ge=1, strict=True, description="Rays per ring, evenly spaced from the x axis.",
                        examples=[12])
     alignment: Literal["yaw", "full", "world"] = Field(
@@ -212,8 +215,18 @@ class ScanConfig(BaseModel):
                                 examples=[5.0])
     miss: float | None = Field(None, description="The value a miss reads; default: max_distance - above (the "
                                "height above the farthest point a ray reaches).", examples=[0.0])
-    geomgroup: tuple[int, ...] | None = Field(None, description="Geom groups (0-5) the rays see; default all.",
-                                              examples=[[0]])
+    geomgroup: tuple[Annotated[int, Field(ge=0, le=5)], ...] | None = Field(
+        None, description="Geom groups (0-5) the rays see; default all.", examples=[[0]])
+
+    @model_validator(mode="after")
+    def _whole_grid(self) -> ScanConfig:
+        for axis, extent in zip("xy", self.size):
+            steps = extent / self.resolution
+            if abs(steps - round(steps)) > 1e-9 * max(1.0, steps):
+                near = [round(math.floor(steps) * self.resolution, 9), round(math.ceil(steps) * self.resolution, 9)]
+                raise ValueError(f"size along {axis} ({extent:g} m) is not a whole number of {self.resolution:g} m "
+                                 f"steps ({steps:.3g}); use {near[0]:g} or {near[1]:g}, or another resolution")
+        return self
 
 
 # Fields a sensor and `defaults` share: one description each, used by both models.
