@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import sensorcfg
+from conftest import assert_batch_equals_single
 from sensorcfg.heightscan import pattern
 from sensorcfg.config.models import ScanConfig
 from sensorcfg.physics import Physics
@@ -87,23 +88,11 @@ def test_world_alignment_on_the_floor_reads_the_origin_height_and_misses_beyond_
 
 @pytest.mark.skipif(not MUJOCO4, reason="mujoco.batch needs MuJoCo 4")
 def test_batched_scans_equal_single_ones() -> None:
-    from sensorcfg.batch import BatchEnvironment, sim_seed
-
     suite = sensorcfg.loads("options: {control_interval: 10}\nsensors:\n"
                             "  h: {kind: heightscan, element: site:imu, interval: 5, buffer: 2}\n"
+                            "  r: {kind: heightscan, element: body:base, scan: {pattern: ring, alignment: full}}\n"
                             "  v: {kind: velocimeter, element: body:base}\n")
-    batch = BatchEnvironment(TERRAIN, suite, 2, seed=3)
-    singles = [sensorcfg.Environment(TERRAIN, suite, seed=sim_seed(3, i)) for i in range(2)]
-    batch.reset()
-    for env in singles:
-        env.reset()
-    rng = np.random.default_rng(0)
-    for _ in range(15):
-        actions = rng.uniform(-1, 1, (2, 2))
-        out = batch.step(actions)
-        for i, env in enumerate(singles):
-            for name, value in env.step(actions[i]).observation.items():
-                np.testing.assert_array_equal(out.observation[name][i], value, err_msg=name)
+    assert_batch_equals_single(TERRAIN, suite, nsim=2, seed=3, steps=15)
 
 
 @pytest.mark.parametrize("scan, expected", [

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import sensorcfg
+from conftest import assert_batch_equals_single
 from sensorcfg import SuiteError
 from sensorcfg.config.tables import NATIVE_KINDS
 from sensorcfg.native import NATIVE
@@ -213,22 +214,7 @@ def test_a_two_step_touch_inside_a_control_step_is_seen() -> None:
 
 @pytest.mark.skipif(not MUJOCO4, reason="mujoco.batch needs MuJoCo 4")
 def test_the_example_runs_batched_bit_identical_to_single() -> None:
-    from sensorcfg.batch import BatchEnvironment, sim_seed
-
-    suite = sensorcfg.loads(EXAMPLE)
-    batch = BatchEnvironment(TERRAIN, suite, 3, seed=7)
-    singles = [sensorcfg.Environment(TERRAIN, suite, seed=sim_seed(7, i)) for i in range(3)]
-    batch.reset()
-    for env in singles:
-        env.reset()
-    rng = np.random.default_rng(1)
-    for _ in range(30):
-        actions = rng.uniform(-1, 1, (3, 2))
-        out = batch.step(actions)
-        for i, env in enumerate(singles):
-            single = env.step(actions[i]).observation
-            for name, value in single.items():
-                np.testing.assert_array_equal(out.observation[name][i], value, err_msg=name)
+    assert_batch_equals_single(TERRAIN, sensorcfg.loads(EXAMPLE), nsim=3, seed=7, steps=30)
 
 
 def test_a_model_without_the_sensors_is_refused_at_the_kind() -> None:
@@ -316,21 +302,8 @@ def test_a_type_this_mujoco_lacks_is_a_problem_at_the_kind(monkeypatch: pytest.M
 
 @pytest.mark.skipif(not MUJOCO4, reason="mujoco.batch needs MuJoCo 4")
 def test_every_kind_runs_batched_bit_identical_to_single(tmp_path: Path) -> None:
-    from sensorcfg.batch import BatchEnvironment, sim_seed
-
     plain = tmp_path / "plain.xml"
     plain.write_text(_model_text())
     sensors = "\n".join(f"  s{i}: {row}" for i, (row, _) in enumerate(HAND_WRITTEN))
     suite = sensorcfg.loads(f"options: {{control_interval: 4}}\nsensors:\n{sensors}\n")
-    batch = BatchEnvironment(str(plain), suite, 2, seed=5)
-    singles = [sensorcfg.Environment(str(plain), suite, seed=sim_seed(5, i)) for i in range(2)]
-    batch.reset()
-    for env in singles:
-        env.reset()
-    rng = np.random.default_rng(2)
-    for _ in range(25):
-        actions = rng.uniform(-1, 1, (2, 2))
-        out = batch.step(actions)
-        for i, env in enumerate(singles):
-            for name, value in env.step(actions[i]).observation.items():
-                np.testing.assert_array_equal(out.observation[name][i], value, err_msg=name)
+    assert_batch_equals_single(str(plain), suite, nsim=2, seed=5, steps=25)
