@@ -239,7 +239,7 @@ LOAD_MISTAKES = [
         '    element: joint:elbow\n'
         '    noise:\n'
         '      - {type: gausian, std: 1}\n',
-        "6:16: error: sensors.s.noise.0.type: unknown noise stage type 'gausian' (did you mean 'gaussian'?); stage types are gaussian, uniform, bias, scale, random_walk, quantize, clip, dropout, outlier, lowpass, custom",
+        "6:16: error: sensors.s.noise.0.type: unknown noise stage type 'gausian' (did you mean 'gaussian'?); stage types are gaussian, uniform, bias, scale, random_walk, quantize, clip, dropout, outlier, lowpass, misalign, custom",
         id='noise_type'),
     pytest.param(
         'sensors:\n'

@@ -55,13 +55,13 @@ def parse_quantity(value: Any, units: Mapping[str, float], what: str) -> float:
             hint = (f" (did you mean {lowered[unit.lower()]!r}?)" if unit.lower() in lowered
                     else did_you_mean(unit, units))
             raise ValueError(f"unknown unit {unit!r} in {value!r}{hint}; "
-                             f"a {what} takes {', '.join(units)}")
+                             f"{'an' if what[0] in 'aeiou' else 'a'} {what} takes {', '.join(units)}")
     raise ValueError(f"expected a {what} such as {_EXAMPLE[what]!r} or a number "
                      f"({_SI[what]}), got {value!r}")
 
 
-_EXAMPLE = {"duration": "50ms", "frequency": "20Hz"}
-_SI = {"duration": "seconds", "frequency": "Hz"}
+_EXAMPLE = {"duration": "50ms", "frequency": "20Hz", "angle": "0.5deg"}
+_SI = {"duration": "seconds", "frequency": "Hz", "angle": "radians"}
 
 
 @dataclasses.dataclass(frozen=True, eq=False)  # hashed by identity: it sits in type annotations
@@ -366,6 +366,47 @@ class LowpassStage(BaseModel):
                               "Hz. " + _PER_VALUE, examples=["20Hz", 5.0])
 
 
+_ANGLE_UNITS = {"rad": 1.0, "deg": math.pi / 180}
+
+
+def _angle(value: Any) -> float:
+    x = parse_quantity(value, _ANGLE_UNITS, "angle")
+    if not (math.isfinite(x) and x >= 0):
+        raise ValueError(f"the rotation's standard deviation must be >= 0, got {value!r}")
+    return x
+
+
+def _matrix(value: Any) -> tuple[tuple[float, float, float], ...]:
+    rows = value if isinstance(value, (list, tuple)) else None
+    if (rows is None or len(rows) != 3 or not all(isinstance(r, (list, tuple)) and len(r) == 3 for r in rows)
+            or not all(isinstance(x, numbers.Real) and not isinstance(x, bool) and math.isfinite(x)
+                       for r in rows for x in r)):
+        raise ValueError(f"matrix takes 3 rows of 3 numbers, e.g. [[1, 0.01, 0], [0, 1, 0], [0, 0, 1]]; got {value!r}")
+    return tuple(tuple(float(x) for x in r) for r in rows)  # type: ignore[misc]
+
+
+class MisalignStage(BaseModel):
+    """Misaligned axes: each 3-vector x (the observation's last axis) reads R M x, with M a fixed cross-axis
+    matrix and R a small rotation drawn per episode (a rotation vector with N(0, std^2) components)."""
+
+    model_config = _MODEL
+    type: Literal["misalign"] = _type("misalign", "Maps each 3-vector by a cross-axis matrix and a random rotation "
+                                      "drawn per episode.")
+    matrix: Annotated[tuple[tuple[float, float, float], ...] | None, WrapValidator(
+        lambda v, h, i: None if v is None else _matrix(v))] = Field(
+        None, description="Fixed 3x3 cross-axis matrix M (rows): scale factors on the diagonal, cross-coupling "
+        "off it. Default: identity.", examples=[[[1.0, 0.01, 0.0], [0.0, 1.0, 0.02], [0.0, 0.0, 1.0]]])
+    std: Annotated[float | str | None, WrapValidator(lambda v, h, i: None if v is None else _angle(v))] = Field(
+        None, description="Standard deviation of each component of the rotation vector drawn per episode: "
+        "radians, or an angle such as '0.5deg'. Omit for no random rotation.", examples=["0.5deg", 0.01])
+
+    @model_validator(mode="after")
+    def _check(self) -> MisalignStage:
+        if self.matrix is None and self.std is None:
+            raise PydanticCustomError("noise_misalign", "misalign needs matrix, std or both")
+        return self
+
+
 _CALLABLE = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_][\w.]*$")
 
 
@@ -415,6 +456,7 @@ STAGES: dict[str, StageInfo] = {
     "dropout": StageInfo(DropoutStage, images=True),
     "outlier": StageInfo(OutlierStage, images=True),
     "lowpass": StageInfo(LowpassStage, images=False),
+    "misalign": StageInfo(MisalignStage, images=False),
     "custom": StageInfo(CustomStage, images=True, integers=True),
 }
 IMAGE_STAGES = tuple(name for name, info in STAGES.items() if info.images)
@@ -444,7 +486,7 @@ def _dispatch(value: Any, handler: Any, info: Any) -> Any:
 
 if TYPE_CHECKING:  # the union pydantic builds from the table below
     NoiseStage = Union[GaussianStage, UniformStage, BiasStage, ScaleStage, RandomWalkStage, QuantizeStage,
-                       ClipStage, DropoutStage, OutlierStage, LowpassStage, CustomStage]
+                       ClipStage, DropoutStage, OutlierStage, LowpassStage, MisalignStage, CustomStage]
 else:
     NoiseStage = Annotated[
         Union[tuple(info.model for info in STAGES.values())],

@@ -178,6 +178,15 @@ def _clip(s: Any, r: _Resolver) -> rt.Stage:
     return rt.Clip(r.ctx, low, high)
 
 
+def _misalign(s: Any, r: _Resolver) -> rt.Stage:
+    from .misalign import Misalign
+
+    if not r.ctx.shape or r.ctx.shape[-1] != 3:
+        r.problem("type", f"misalign turns 3-vectors: the observation's last axis must hold 3 values; its shape is "
+                          f"{r.ctx.shape}")
+    return Misalign(r.ctx, s.matrix, s.std)
+
+
 def _custom(s: Any, r: _Resolver) -> rt.Stage:
     fn, name = _import(s.callable, r)
     return rt.Custom(r.ctx, fn, name, f"{r.where}.callable")
@@ -227,6 +236,7 @@ BUILDERS: dict[str, Callable[[Any, _Resolver], rt.Stage]] = {
     "dropout": lambda s, r: rt.Dropout(r.ctx, r(s.p, "p"), s.mode, s.per == "value"),
     "outlier": lambda s, r: rt.Outlier(r.ctx, r(s.p, "p"), r(s.scale, "scale")),
     "lowpass": lambda s, r: rt.Lowpass(r.ctx, r(s.cutoff, "cutoff")),
+    "misalign": lambda s, r: _misalign(s, r),
     "custom": _custom,
 }
 
