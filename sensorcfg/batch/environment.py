@@ -59,6 +59,7 @@ import numpy as np
 from ..env.environment import (_BAD_STATE, ControlLoop, action_spec, episode_timing, model_and_observables,
                                random_state_from)
 from ..errors import SuiteError
+from ..noise.level import leveled, set_level
 from ..physics import Physics
 from .updater import BatchUpdater
 
@@ -131,6 +132,8 @@ class BatchEnvironment(ControlLoop):
         if nthread is not None and (not isinstance(nthread, (int, np.integer)) or nthread < 0):
             raise SuiteError(f"nthread must be a non-negative integer (0: every CPU), got {nthread!r}")
         self._model, observables, options = model_and_observables(model, suite)
+        leveled(observables)  # a noise level per simulation (`set_noise_level`), 1 until set
+        self._observables = observables
         self._nsim = int(nsim)
         self._batch_shape = (self._nsim,)
         self._n, self._control_timestep, self._step_limit = episode_timing(
@@ -164,6 +167,11 @@ class BatchEnvironment(ControlLoop):
         self.last_divergence: list[str | None] = [None] * self._nsim
         self._action_spec = action_spec(self._model, (self._nsim,))
         self._observation_spec = self._updater.observation_spec()
+
+    def set_noise_level(self, level: float) -> None:
+        """Scale every sensor's noise from each simulation's next episode on: 0 clean, 1 the suite's (see
+        `sensorcfg.noise.level`); simulation i at level x equals `Environment` at level x."""
+        set_level(self._observables, level)
 
     # -- properties -------------------------------------------------------------------------------
 

@@ -197,6 +197,13 @@ class Environment(ControlLoop, dm_env.Environment):
     def random_state(self) -> np.random.RandomState:
         return self._random_state
 
+    def set_noise_level(self, level: float) -> None:
+        """Scale every sensor's noise from the next episode on: 0 clean, 1 the suite's (see
+        `sensorcfg.noise.level`); for curricula."""
+        from ..noise.level import set_level
+
+        set_level(self._observables, level)
+
     def seed(self, seed: int | np.random.SeedSequence | None) -> None:
         """Restart the episode random stream (the next reset draws from it)."""
         self._random_state = random_state_from(seed)
