@@ -17,7 +17,10 @@ __all__: list[str] = []
 
 class _BatchedKeep(_Batched):
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
-        self.template.blend.batch_raw = src.copy()  # type: ignore[attr-defined]
+        blend_stage = self.template.blend  # type: ignore[attr-defined]
+        levels = getattr(blend_stage, "batch_levels", None)
+        at_one = levels is None or bool(np.all(levels[sims] == 1.0))
+        blend_stage.batch_raw = None if at_one else src.copy()  # level 1 everywhere: nothing to keep
         if dst is not src:
             np.copyto(dst, src)
 
@@ -26,13 +29,19 @@ class _BatchedBlend(_Batched):
     def __init__(self, template: rt.Stage, nsim: int):
         super().__init__(template, nsim)
         self.levels = np.ones(nsim)
+        template.batch_levels = self.levels  # type: ignore[attr-defined]  # read by the pipeline's Keep
 
     def load(self, i: int, stage: rt.Stage) -> None:
         self.levels[i] = stage.level  # type: ignore[attr-defined]
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
+        raw = self.template.batch_raw  # type: ignore[attr-defined]
+        if raw is None:  # every simulation of the call at level 1
+            if dst is not src:
+                np.copyto(dst, src)
+            return
         level = self.levels[sims].reshape((len(sims),) + (1,) * (src.ndim - 1))
-        blend(self.template.batch_raw, src, level, dst)  # type: ignore[attr-defined]
+        blend(raw, src, level, dst)
 
 
 BATCHED[Keep] = _BatchedKeep
