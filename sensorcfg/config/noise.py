@@ -25,10 +25,34 @@ from pydantic_core import InitErrorDetails, PydanticCustomError
 from ..errors import did_you_mean
 from .units import DURATION_UNITS, RATE_UNITS
 
-__all__ = ["NoiseStage", "STAGES", "StageInfo", "IMAGE_STAGES", "parse_quantity"]
+__all__ = ["EpisodeUniform", "NoiseStage", "STAGES", "StageInfo", "IMAGE_STAGES", "parse_quantity"]
 
 _MODEL = ConfigDict(frozen=True, extra="forbid")
-PerValue = Union[float, tuple[float, ...]]  # what a validated numeric parameter holds
+
+
+class EpisodeUniform(BaseModel):
+    """A parameter drawn once per episode, uniformly from [low, high] (one value for every entry)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+    uniform: tuple[float, float] = Field(description="[low, high]: the parameter is drawn from U(low, high) at "
+                                         "each reset.", examples=[[0.01, 0.03]])
+
+    @property
+    def low(self) -> float:
+        return self.uniform[0]
+
+    @property
+    def high(self) -> float:
+        return self.uniform[1]
+
+    def draw(self, rng: Any) -> float:
+        return self.low + (self.high - self.low) * float(rng.random())
+
+    def scaled(self, factor: float) -> EpisodeUniform:
+        return EpisodeUniform(uniform=(self.low * factor, self.high * factor))
+
+
+PerValue = Union[float, tuple[float, ...], EpisodeUniform]  # what a validated numeric parameter holds
 
 # -- numbers, per-value lists and quantities with units -----------------------------------------------
 
@@ -91,7 +115,12 @@ class _Bound:
         return x
 
     def __call__(self, value: Any, handler: Any, info: Any) -> PerValue:
-        """WrapValidator: a number, or a non-empty list of numbers (one per value); a tuple once valid."""
+        """WrapValidator: a number, or a non-empty list of numbers (one per value); a tuple once valid; or
+        `{uniform: [low, high]}`, drawn per episode."""
+        if isinstance(value, EpisodeUniform):
+            return value
+        if isinstance(value, Mapping):
+            return self.episode(value)
         if isinstance(value, (list, tuple)):
             if not value:
                 raise PydanticCustomError("per_value", "an empty list gives no values; give a number or one "
@@ -113,14 +142,31 @@ class _Bound:
             raise PydanticCustomError("per_value", str(e)) from None
 
 
+    def episode(self, value: Mapping[Any, Any]) -> EpisodeUniform:
+        bounds = value.get("uniform") if set(value) == {"uniform"} else None
+        if not isinstance(bounds, (list, tuple)) or len(bounds) != 2:
+            raise PydanticCustomError("per_value", "a parameter drawn per episode is written {uniform: [low, high]}; "
+                                      f"got {dict(value)!r}")
+        try:
+            low, high = self.check(bounds[0]), self.check(bounds[1])
+        except ValueError as e:
+            raise PydanticCustomError("per_value", str(e)) from None
+        if low > high:
+            raise PydanticCustomError("per_value", f"uniform bounds must satisfy low <= high; got [{low:g}, {high:g}]: "
+                                      "swap them")
+        return EpisodeUniform(uniform=(low, high))
+
+
 def _per_value(meaning: str, **bounds: Any) -> Any:
-    """The annotated type of a per-value parameter: schema `number | number[]`, validated by `_Bound`."""
+    """The annotated type of a per-value parameter: schema `number | number[] | {uniform: [lo, hi]}`,
+    validated by `_Bound`."""
     constraints = {k: v for k, v in bounds.items() if k in ("ge", "gt", "le")}
     if "units" in bounds:
         item: Any = Union[float, str]
     else:
         item = Annotated[float, Field(**constraints)]
-    return Annotated[Union[item, Annotated[list[item], Field(min_length=1)]], WrapValidator(_Bound(meaning, **bounds))]
+    return Annotated[Union[item, Annotated[list[item], Field(min_length=1)], EpisodeUniform],
+                     WrapValidator(_Bound(meaning, **bounds))]
 
 
 if TYPE_CHECKING:  # what a validated field holds; pydantic reads the annotated types below
@@ -144,7 +190,7 @@ _PER_VALUE = ("A number, or a list with one entry per value of the observation (
 
 def _ordered(low: PerValue | None, high: PerValue | None, names: tuple[str, str]) -> None:
     """low <= high entry by entry where the two can be compared (equal lengths, or one a number)."""
-    if low is None or high is None:
+    if low is None or high is None or isinstance(low, EpisodeUniform) or isinstance(high, EpisodeUniform):
         return
     lows = low if isinstance(low, tuple) else None
     highs = high if isinstance(high, tuple) else None
@@ -204,7 +250,11 @@ class GaussianStage(BaseModel):
         if self.density is None:
             return self
         root = math.sqrt(rate)
-        std = tuple(d * root for d in self.density) if isinstance(self.density, tuple) else self.density * root
+        std: PerValue
+        if isinstance(self.density, EpisodeUniform):
+            std = self.density.scaled(root)
+        else:
+            std = tuple(d * root for d in self.density) if isinstance(self.density, tuple) else self.density * root
         return self.model_copy(update={"std": std, "density": None})
 
 

@@ -241,6 +241,19 @@ BUILDERS: dict[str, Callable[[Any, _Resolver], rt.Stage]] = {
 }
 
 
+def _build(config: Any, r: _Resolver) -> rt.Stage:
+    """The stage; one with parameters drawn per episode is rebuilt at each reset (`noise.redrawn`), after
+    both ends of every range are checked here."""
+    from .redrawn import Redrawn, drawn_fields
+
+    drawn = drawn_fields(config)
+    if not drawn:
+        return BUILDERS[config.type](config, r)
+    for end in ("low", "high"):
+        BUILDERS[config.type](config.model_copy(update={f: getattr(v, end) for f, v in drawn.items()}), r)
+    return Redrawn(config, lambda concrete: BUILDERS[concrete.type](concrete, _Resolver(r.ctx, 0, [])))
+
+
 def _work_dtype(dtype: np.dtype) -> np.dtype:
     if dtype.kind == "f":
         return np.dtype(np.float64) if dtype.itemsize >= 8 else np.dtype(np.float32)
@@ -297,7 +310,7 @@ def build_noise(stages: Sequence[NoiseStage], shape: tuple[int, ...], dtype: Any
     for i, config in enumerate(configs):
         r = _Resolver(ctx, i, problems)
         if _check_dtype(config, dtype, r):
-            built.append(BUILDERS[config.type](config, r))
+            built.append(_build(config, r))
     if problems:
         raise SuiteError(problems)
     return NoisePipeline(_fuse(built), [c.type for c in configs], ctx)

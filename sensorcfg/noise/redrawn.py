@@ -1,0 +1,46 @@
+"""Noise parameters drawn per episode (`std: {uniform: [0.01, 0.03]}`): the stage is rebuilt at each reset.
+
+`Redrawn` holds a stage's config whose parameters are `EpisodeUniform` ranges; at reset it draws each one
+from its own generator (in the config's field order), builds the stage with those values and resets it
+with a generator spawned from the same stream. A batch keeps one such stage per simulation (each taken
+from the template just reset with that simulation's stream), so simulation i equals one simulation.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from ..config.noise import EpisodeUniform
+from . import stages as rt
+
+__all__ = ["Redrawn", "drawn_fields"]
+
+
+def drawn_fields(config: Any) -> dict[str, EpisodeUniform]:
+    """The parameters of a stage config that are drawn per episode, in field order."""
+    return {f: v for f in type(config).model_fields if isinstance(v := getattr(config, f), EpisodeUniform)}
+
+
+class Redrawn(rt.Stage):
+    """A stage whose parameters are drawn at each reset."""
+
+    needs_rng = True
+
+    def __init__(self, config: Any, build: Callable[[Any], rt.Stage]):
+        self.config, self.build = config, build
+        self.drawn = drawn_fields(config)
+        self.values: dict[str, float] = {f: r.low for f, r in self.drawn.items()}
+        self.inner = build(config.model_copy(update=self.values))
+
+    def reset(self, rng: np.random.Generator | None) -> None:
+        assert rng is not None
+        self.values = {f: r.draw(rng) for f, r in self.drawn.items()}
+        self.inner = self.build(self.config.model_copy(update=self.values))
+        child = np.random.Generator(np.random.PCG64(rng.integers(0, 2**63))) if self.inner.needs_rng else None
+        self.inner.reset(child)
+
+    def __call__(self, src: np.ndarray, dst: np.ndarray, step: int) -> None:
+        self.inner(src, dst, step)
