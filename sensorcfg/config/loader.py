@@ -12,7 +12,6 @@ from __future__ import annotations
 import dataclasses
 import importlib.util
 import os
-import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, cast
@@ -21,9 +20,10 @@ from pydantic import ValidationError
 
 from ..errors import Problem, SuiteError, did_you_mean
 from .locate import describe, problem_at, problems_from
-from .models import SENSOR_NAME_PATTERN, CameraConfig, ScanConfig, SensorConfig, SuiteConfig
+from .models import CameraConfig, ScanConfig, SensorConfig, SuiteConfig
 from .source import Doc, Path_, Pos, compose, dotted
 from .tables import GENERIC_KIND, HEIGHTSCAN_KIND, IMAGE_KINDS, NATIVE_KINDS
+from .twins import with_twins
 
 __all__ = ["LoadedSuite", "load_path", "load_text", "resolve_model_path", "PACKAGE_SCHEME"]
 
@@ -333,7 +333,7 @@ def _finish_valid(config: SuiteConfig, doc: Doc, file: str, dirs: dict[str, Path
     for name, sensor in config.sensors.items():
         sensors[name], found = _effective(name, sensor, config, doc)
         problems.extend(found)
-    sensors, twins = _with_twins(sensors, doc, problems)
+    sensors, twins = with_twins(sensors, doc, problems)
     model = None
     if config.model is not None:
         pos = doc.pos(("model",))
@@ -343,37 +343,6 @@ def _finish_valid(config: SuiteConfig, doc: Doc, file: str, dirs: dict[str, Path
         except ValueError as e:
             problems.append(problem_at(doc, ("model",), str(e)))
     return LoadedSuite(config, sensors, doc, file, model, twins)
-
-
-def _twin_of(cfg: SensorConfig) -> SensorConfig:
-    """The clean twin of a sensor: no noise, no delay; with a buffer of 1 it samples every step, so its one
-    sample is taken at the read; a longer buffer keeps the sensor's interval (its history's spacing)."""
-    interval = 1 if (cfg.buffer or 1) == 1 else cfg.interval
-    return cfg.model_copy(update={"noise": (), "delay": 0, "interval": interval, "twin": None, "enabled": True})
-
-
-def _with_twins(sensors: dict[str, SensorConfig], doc: Doc,
-                problems: list[Problem]) -> tuple[dict[str, SensorConfig], dict[str, str]]:
-    """Each sensor followed by its clean twin, when it has one (`twin:`, or `defaults.twin` with '{name}')."""
-    out: dict[str, SensorConfig] = {}
-    twins: dict[str, str] = {}
-    for name, cfg in sensors.items():
-        out[name] = cfg
-        if cfg.twin is None or cfg.twin is False:
-            continue
-        own = cfg.twin if isinstance(cfg.twin, str) else None
-        where = ("sensors", name, "twin") if doc.pos(("sensors", name, "twin")) else ("defaults", "twin")
-        twin = own.replace("{name}", name) if own is not None else None
-        if twin is None or not re.match(SENSOR_NAME_PATTERN, twin):
-            problems.append(problem_at(doc, where, f"twin takes the name of the clean copy (letters, digits, _ - /; "
-                                       f"'{{name}}' stands for the sensor's name); got {cfg.twin!r}"))
-            continue
-        if twin in sensors or twin in out:
-            problems.append(problem_at(doc, where, f"twin {twin!r} is already a sensor's name; choose another"))
-            continue
-        out[twin] = _twin_of(cfg)
-        twins[twin] = name
-    return out, twins
 
 
 def _sorted(problems: list[Problem]) -> list[Problem]:
