@@ -18,9 +18,8 @@ __all__: list[str] = []
 class _BatchedKeep(_Batched):
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
         blend_stage = self.template.blend  # type: ignore[attr-defined]
-        levels = getattr(blend_stage, "batch_levels", None)
-        at_one = levels is None or bool(np.all(levels[sims] == 1.0))
-        blend_stage.batch_raw = None if at_one else src.copy()  # level 1 everywhere: nothing to keep
+        # every simulation at level 1 (the default): nothing to keep
+        blend_stage.batch_raw = src.copy() if blend_stage.batch_active else None
         if dst is not src:
             np.copyto(dst, src)
 
@@ -29,10 +28,11 @@ class _BatchedBlend(_Batched):
     def __init__(self, template: rt.Stage, nsim: int):
         super().__init__(template, nsim)
         self.levels = np.ones(nsim)
-        template.batch_levels = self.levels  # type: ignore[attr-defined]  # read by the pipeline's Keep
+        template.batch_active = False  # type: ignore[attr-defined]  # some simulation's level is not 1
 
     def load(self, i: int, stage: rt.Stage) -> None:
         self.levels[i] = stage.level  # type: ignore[attr-defined]
+        self.template.batch_active = bool(np.any(self.levels != 1.0))  # type: ignore[attr-defined]
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
         raw = self.template.batch_raw  # type: ignore[attr-defined]
