@@ -25,8 +25,8 @@ class _BatchedKeep(_Batched):
 
 
 class _BatchedBlend(_Batched):
-    def __init__(self, template: rt.Stage, nsim: int):
-        super().__init__(template, nsim)
+    def __init__(self, template: rt.Stage, nsim: int, *stride: int):
+        super().__init__(template, nsim, *stride)  # type: ignore[call-arg]
         self.levels = np.ones(nsim)
         template.batch_active = False  # type: ignore[attr-defined]  # some simulation's level is not 1
 

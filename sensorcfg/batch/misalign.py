@@ -12,8 +12,8 @@ __all__: list[str] = []
 
 
 class _BatchedMisalign(_Batched):
-    def __init__(self, template: rt.Stage, nsim: int):
-        super().__init__(template, nsim)
+    def __init__(self, template: rt.Stage, nsim: int, *stride: int):
+        super().__init__(template, nsim, *stride)  # type: ignore[call-arg]
         self.matrices = np.tile(np.eye(3), (nsim, 1, 1))
 
     def load(self, i: int, stage: rt.Stage) -> None:

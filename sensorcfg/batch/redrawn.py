@@ -19,8 +19,8 @@ __all__: list[str] = []
 
 
 class _BatchedRedrawn(_Batched):
-    def __init__(self, template: rt.Stage, nsim: int):
-        super().__init__(template, nsim)
+    def __init__(self, template: rt.Stage, nsim: int, *stride: int):
+        super().__init__(template, nsim, *stride)  # type: ignore[call-arg]
         self.stages: list[Any] = [None] * nsim
 
     def load(self, i: int, stage: rt.Stage) -> None:

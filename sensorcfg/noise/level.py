@@ -31,6 +31,12 @@ def blend(raw: np.ndarray, noisy: np.ndarray, level: Any, dst: np.ndarray) -> No
 class Blend(rt.Stage):
     """The pipeline's last stage: blends its input with the raw sample the pipeline was given."""
 
+    stateful = False
+    stream = 0
+
+    def reset(self, *args: Any) -> None:
+        """No draws: the level is set by the pipeline at each reset."""
+
     def __init__(self) -> None:
         self.level = 1.0
         self.raw: np.ndarray | None = None
@@ -47,6 +53,8 @@ class Blend(rt.Stage):
 class Keep(rt.Stage):
     """Where a batch, which runs a sensor's stages in place, keeps the raw samples for the `Blend`."""
 
+    stateful = False
+
     def __init__(self, blend: Blend):
         self.blend = blend
 
@@ -61,6 +69,7 @@ class LeveledPipeline(NoisePipeline):
     def __init__(self, pipeline: NoisePipeline):
         ctx = rt.Context(pipeline.shape, pipeline.dtype, pipeline._work.dtype, pipeline.timestep)
         self._blend = Blend()
+        self._blend.stream = len(pipeline.names)  # a stream no other stage uses
         self._keep = Keep(self._blend)
         self.next_level = 1.0
         super().__init__([*pipeline.stages, self._blend], [*pipeline.names, "level"], ctx)
@@ -74,8 +83,8 @@ class LeveledPipeline(NoisePipeline):
     def level(self) -> float:
         return self._blend.level
 
-    def reset(self, rng: np.random.Generator | np.random.RandomState) -> None:
-        super().reset(rng)
+    def reset(self, rng: np.random.Generator | np.random.RandomState, *args: Any) -> None:
+        super().reset(rng, *args)
         if hasattr(self, "_blend"):
             self._blend.level = self.next_level
 

@@ -41,6 +41,9 @@ def turn(src: np.ndarray, matrix: np.ndarray, dst: np.ndarray) -> None:
 class Misalign(rt.Stage):
     """R M x on the last axis; R drawn at each reset when `std` is given."""
 
+    stateful = False
+    stream = 0  # its part of the sensor's streams, where the pipeline keys them by stage
+
     def __init__(self, ctx: rt.Context, matrix: Any, std: float | None):
         self.ctx = ctx
         self.fixed = np.eye(3) if matrix is None else np.asarray(matrix, np.float64)
@@ -48,7 +51,10 @@ class Misalign(rt.Stage):
         self.needs_rng = std is not None
         self.matrix = self.fixed.copy()
 
-    def reset(self, rng: np.random.Generator | None) -> None:
+    def reset(self, rng: Any, stride: int | None = None) -> None:
+        """`rng`: the stage's generator, or the sensor's counter-based streams (its per-episode part)."""
+        if hasattr(rng, "at"):
+            rng = rng.at(self.stream, 0, purpose=1)
         if self.std is None or rng is None:
             self.matrix = self.fixed.copy()
         else:

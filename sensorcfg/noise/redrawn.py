@@ -28,6 +28,7 @@ class Redrawn(rt.Stage):
     """A stage whose parameters are drawn at each reset."""
 
     needs_rng = True
+    stream = 0  # its part of the sensor's streams, where the pipeline keys them by stage
 
     def __init__(self, config: Any, build: Callable[[Any], rt.Stage]):
         self.config, self.build = config, build
@@ -35,10 +36,22 @@ class Redrawn(rt.Stage):
         self.values: dict[str, float] = {f: r.low for f, r in self.drawn.items()}
         self.inner = build(config.model_copy(update=self.values))
 
-    def reset(self, rng: np.random.Generator | None) -> None:
+    @property
+    def stateful(self) -> bool:
+        return bool(getattr(self.inner, "stateful", False))
+
+    def reset(self, rng: Any, stride: int | None = None) -> None:
+        """`rng`: the stage's generator, or the sensor's counter-based streams (parameters drawn from a part
+        no stage uses; the rebuilt stage gets this stage's own part)."""
         assert rng is not None
-        self.values = {f: r.draw(rng) for f, r in self.drawn.items()}
+        streams = rng if hasattr(rng, "at") else None
+        source = streams.at(self.stream, 0, purpose=2) if streams is not None else rng
+        self.values = {f: r.draw(source) for f, r in self.drawn.items()}
         self.inner = self.build(self.config.model_copy(update=self.values))
+        if streams is not None:
+            self.inner.stream = self.stream  # type: ignore[attr-defined]
+            self.inner.reset(streams, stride)  # type: ignore[call-arg]
+            return
         child = np.random.Generator(np.random.PCG64(rng.integers(0, 2**63))) if self.inner.needs_rng else None
         self.inner.reset(child)
 
