@@ -35,10 +35,7 @@ class Redrawn(rt.Stage):
         self.drawn = drawn_fields(config)
         self.values: dict[str, float] = {f: r.low for f, r in self.drawn.items()}
         self.inner = build(config.model_copy(update=self.values))
-
-    @property
-    def stateful(self) -> bool:
-        return bool(getattr(self.inner, "stateful", False))
+        self.stateful = bool(getattr(self.inner, "stateful", False))  # the sensor takes every sample if so
 
     def reset(self, rng: Any, stride: int | None = None) -> None:
         """`rng`: the stage's generator, or the sensor's counter-based streams (parameters drawn from a part
@@ -48,12 +45,12 @@ class Redrawn(rt.Stage):
         source = streams.at(self.stream, 0, purpose=2) if streams is not None else rng
         self.values = {f: r.draw(source) for f, r in self.drawn.items()}
         self.inner = self.build(self.config.model_copy(update=self.values))
+        inner: Any = self.inner  # either reset signature (see `reset`)
         if streams is not None:
-            self.inner.stream = self.stream  # type: ignore[attr-defined]
-            self.inner.reset(streams, stride)  # type: ignore[call-arg]
+            inner.stream = self.stream
+            inner.reset(streams, stride)
             return
-        child = np.random.Generator(np.random.PCG64(rng.integers(0, 2**63))) if self.inner.needs_rng else None
-        self.inner.reset(child)
+        inner.reset(np.random.Generator(np.random.PCG64(rng.integers(0, 2**63))) if inner.needs_rng else None)
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, step: int) -> None:
         self.inner(src, dst, step)
