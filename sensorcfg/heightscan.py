@@ -48,24 +48,31 @@ def pattern(scan: ScanConfig) -> np.ndarray:
 def ray_starts(pos: np.ndarray, mat: np.ndarray, offsets: np.ndarray, above: float,
                alignment: str) -> tuple[np.ndarray, np.ndarray]:
     """Ray starts and unit directions, (..., nray, 3) each, for frames at `pos` (..., 3) with rotation
-    matrices `mat` (..., 9); `offsets` (nray, 2). Vectorised over the leading axes (one rule for one or
-    many simulations)."""
-    local = np.concatenate([offsets, np.full((len(offsets), 1), above)], axis=1)  # (nray, 3)
-    rot = mat.reshape(mat.shape[:-1] + (3, 3))
-    down = np.zeros(pos.shape[:-1] + (1, 3))
-    down[..., 2] = -1.0
+    matrices `mat` (..., 9); `offsets` (nray, 2). Vectorised over the leading axes, elementwise in a fixed
+    order (no matrix products, whose summation order may depend on the shapes): one rule for one or many
+    simulations."""
+    x, y = offsets[:, 0], offsets[:, 1]
+    lead = pos.shape[:-1]
+    starts = np.empty(lead + (len(offsets), 3))
+    dirs = np.zeros(lead + (len(offsets), 3))
+    r = mat[..., None, :]  # (..., 1, 9): row-major R, broadcast over the rays
+    p = pos[..., None, :]
     if alignment == "full":
-        starts = pos[..., None, :] + np.einsum("...ij,rj->...ri", rot, local)
-        return starts, np.broadcast_to(-rot[..., None, :, 2], starts.shape)
+        for i in range(3):
+            starts[..., i] = p[..., i] + r[..., 3 * i] * x + r[..., 3 * i + 1] * y + r[..., 3 * i + 2] * above
+            dirs[..., i] = -r[..., 3 * i + 2]
+        return starts, dirs
+    dirs[..., 2] = -1.0
     if alignment == "yaw":
-        heading = np.arctan2(rot[..., 1, 0], rot[..., 0, 0])[..., None]
+        heading = np.arctan2(r[..., 3], r[..., 0])
         c, s = np.cos(heading), np.sin(heading)
-        turned = np.stack([c * local[:, 0] - s * local[:, 1], s * local[:, 0] + c * local[:, 1],
-                           np.broadcast_to(local[:, 2], c.shape[:-1] + (len(local),))], axis=-1)
-        starts = pos[..., None, :] + turned
+        starts[..., 0] = p[..., 0] + (c * x - s * y)
+        starts[..., 1] = p[..., 1] + (s * x + c * y)
     else:
-        starts = pos[..., None, :] + local
-    return starts, np.broadcast_to(down, starts.shape)
+        starts[..., 0] = p[..., 0] + x
+        starts[..., 1] = p[..., 1] + y
+    starts[..., 2] = p[..., 2] + above
+    return starts, dirs
 
 
 def heights(pos: np.ndarray, starts: np.ndarray, dirs: np.ndarray, dist: np.ndarray, miss: float) -> np.ndarray:
@@ -121,7 +128,7 @@ class _Terrain:
             self.batch = batch.Batch(self.model, 1)
 
     def cast(self, starts: np.ndarray, dirs: np.ndarray) -> np.ndarray:
-        flat_starts, flat_dirs = starts.reshape(1, -1, 3), np.ascontiguousarray(dirs).reshape(1, -1, 3)
+        flat_starts, flat_dirs = starts.reshape(1, -1, 3), dirs.reshape(1, -1, 3)
         if self.batch is not None:
             dist = self.batch.ray(flat_starts, flat_dirs, geomgroup=self.group, flg_static=True)[0][0]
         else:
