@@ -13,7 +13,7 @@ import contextlib
 import dataclasses
 import importlib
 import sys
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any, Literal, cast
 
@@ -22,13 +22,15 @@ import numpy as np
 
 from .config.loader import LoadedSuite
 from .config.models import ChoiceDraw, SensorConfig, UniformDraw
+from .config.noise import GaussianStage
 from .config.source import Path_
-from .config.tables import GENERIC_KIND, IMAGE_KINDS
+from .config.tables import GENERIC_KIND, HEIGHTSCAN_KIND, IMAGE_KINDS
 from .config.units import to_steps
 from .draws import ChoiceSteps, UniformSteps
 from .checks import batch_problems, kind_problems, sensor_problems
 from .errors import Problem, SuiteError, did_you_mean
 from .kinds import kinds_of
+from .native import NATIVE, bind_native, native_row
 from .noise import build_noise
 from .observables import Camera, Feature, Generic, Observable
 from .observables.camera import MAX_SIDE, MODES, SCENE_FLAGS, default_size
@@ -54,19 +56,24 @@ class _Binder:
     import_callables: bool
     call_callables: bool = True  # building (not checking): a generic sensor with noise is called once for its shape
     batch: bool = False  # also check what BatchEnvironment needs
+    refused: Mapping[str, str] = dataclasses.field(default_factory=dict)  # MuJoCo's word per native sensor
     problems: list[Problem] = dataclasses.field(default_factory=list)
+    quiet: bool = False  # binding a clean twin: its source reports the problems they share
 
     # -- where a key came from, and problems there --------------------------------------------
 
     def origin(self, name: str, key: str) -> Path_:
         """`sensors.<name>.<key>` when the sensor wrote it, else `defaults.<key>` (so a bad default is
         reported once, at its own line)."""
-        raw = self.suite.doc.value["sensors"][name]
+        raw = self.suite.doc.value["sensors"].get(self.suite.twins.get(name, name)) or {}
         if key in raw or key not in (self.suite.doc.value.get("defaults") or {}):
             return ("sensors", name, key)
         return ("defaults", key)
 
     def report(self, path: Path_, message: str, *, key: bool = False) -> None:
+        if self.quiet:
+            self.problems.append(Problem(message))
+            return
         pos = self.suite.doc.pos(path, key=key)
         loc = ".".join(map(str, path))
         problem = pos.problem(message, loc) if pos else Problem(message, loc, self.suite.file)
@@ -126,7 +133,8 @@ class _Binder:
         timing = dict(update_interval=self.schedule(name, "interval", cfg.interval, 1),
                       delay=self.schedule(name, "delay", cfg.delay, 0),
                       buffer_size=cfg.buffer, aggregator=cfg.aggregator)
-        builders = {GENERIC_KIND: self.generic, **dict.fromkeys(IMAGE_KINDS, self.camera)}
+        builders = {GENERIC_KIND: self.generic, HEIGHTSCAN_KIND: self.heightscan,
+                    **dict.fromkeys(IMAGE_KINDS, self.camera)}
         if cfg.kind in builders and cfg.constant is not None:
             self.report(("sensors", name, "constant"), f"'constant' is for features of model fields; a sensor of kind "
                         f"{cfg.kind!r} is not one: remove it")
@@ -142,7 +150,10 @@ class _Binder:
         observable = made[0]
         observable.enabled = cfg.enabled is not False
         if cfg.noise and shape is not None:
-            stages = cfg.noise if self.import_callables else tuple(s for s in cfg.noise if s.type != "custom")
+            stages = self.at_rate(name, cfg, observable.update_interval)
+            if stages is None:
+                return None
+            stages = stages if self.import_callables else tuple(s for s in stages if s.type != "custom")
             try:
                 observable.noise = build_noise(stages, shape, dtype, float(self.model.opt.timestep))
             except SuiteError as e:
@@ -165,7 +176,8 @@ class _Binder:
         if cfg.kind in IMAGE_KINDS or cfg.kind == GENERIC_KIND or cfg.element is None:
             return None
         first = cfg.element if isinstance(cfg.element, str) else cfg.element[0]
-        return kinds_of(split_selector(first)[0])[cfg.kind].field
+        spec = kinds_of(split_selector(first)[0]).get(cfg.kind)  # None: a MuJoCo sensor or a height scan
+        return spec.field if spec is not None else None
 
     def within(self, name: str, cfg: SensorConfig) -> bool:
         """Whether every body `within` names exists; problems point at the list entry at fault."""
@@ -177,6 +189,20 @@ class _Binder:
                 self.report_all(path, e)
                 ok = False
         return ok
+
+    def at_rate(self, name: str, cfg: SensorConfig, interval: Schedule) -> tuple[Any, ...] | None:
+        """The noise stages with a `density` turned into a std per sample at the sensor's nominal rate."""
+        stages = tuple(cfg.noise or ())
+        dense = [i for i, s in enumerate(stages) if getattr(s, "density", None) is not None]
+        if not dense:
+            return stages
+        if not isinstance(interval, int) and interval is not None:
+            for i in dense:
+                self.report(self.origin(name, "noise") + (i, "density"), "a noise density needs a fixed interval "
+                            "(the std per sample follows the sample rate); give std instead, or a fixed interval")
+            return None
+        rate = 1.0 / ((interval or 1) * float(self.model.opt.timestep))
+        return tuple(s.at_rate(rate) if isinstance(s, GaussianStage) else s for s in stages)
 
     def selection(self, name: str, cfg: SensorConfig) -> bool:
         """Whether `element` (and `within`) resolve; problems point at the list entry at fault."""
@@ -214,6 +240,17 @@ class _Binder:
         if type_name is None:
             self.within(name, cfg)  # (still a mistake of its own)
             return None
+        if native_row(cfg.kind, type_name) is not None:
+            source = self.suite.twins.get(name, name)  # a twin reads its source's MuJoCo sensors
+            return bind_native(self.model, source, cfg, timing, self.report, self.refused, _index(cfg.index))
+        kinds = kinds_of(type_name)
+        for key in ("frame", "with_", "data", "reduce", "num", "cutoff"):
+            if getattr(cfg, key) is not None and cfg.kind in kinds:
+                article = "an" if type_name[0] in "aeiou" else "a"
+                self.report(("sensors", name, key.rstrip("_")), f"{key.rstrip('_')!r} is an option of MuJoCo's "
+                            f"{cfg.kind} sensor, but on {article} {type_name} {cfg.kind!r} is its attribute "
+                            f"{kinds[cfg.kind].field} (the element type decides): remove it", key=True)
+                return None
         kind_ok = self.kind(name, cfg, type_name)
         if not self.selection(name, cfg) or not kind_ok:
             return None
@@ -230,7 +267,8 @@ class _Binder:
 
     def kind(self, name: str, cfg: SensorConfig, type_name: str) -> bool:
         """Whether `kind` is one the element type offers, and state unless the sensor asks for a constant."""
-        found = kind_problems(type_name, cfg.kind, bool(cfg.constant))
+        native = [k for k, row in NATIVE.items() if type_name in row.objects]
+        found = kind_problems(type_name, cfg.kind, bool(cfg.constant), native)
         for key, message in found:
             self.report(self.origin(name, "constant") if key == ("constant",) else ("sensors", name, "kind"), message)
         return not found
@@ -287,6 +325,22 @@ class _Binder:
                         scene_option=dict(cfg.camera.scene) or None, **timing)
         channels, dtype, _, _ = MODES[cfg.kind]
         return camera, (height, width, channels), dtype
+
+    def heightscan(self, name: str, cfg: SensorConfig, timing: dict[str, Any]) -> tuple[Observable, Any, Any] | None:
+        from .heightscan import HeightScan
+
+        type_name = self.element_type(name, cfg)
+        if type_name is None:
+            return None
+        if type_name not in ("body", "site") or not isinstance(cfg.element, str) or set("*?[") & set(cfg.element):
+            self.report(("sensors", name, "element"), f"a height scan is cast from one frame, 'body:<name>' or "
+                        f"'site:<name>'; got {cfg.element!r}")
+            return None
+        if not self.selection(name, cfg):
+            return None
+        assert cfg.scan is not None  # filled in by the loader
+        scan = HeightScan(cfg.element, cfg.scan, **timing)
+        return scan, scan.shape, np.dtype(np.float64)
 
     def generic(self, name: str, cfg: SensorConfig, timing: dict[str, Any]) -> tuple[Observable, Any, Any] | None:
         assert cfg.callable is not None
@@ -379,16 +433,24 @@ def _index(value: Any) -> Any:
 
 
 def bind(suite: LoadedSuite, model: mujoco.MjModel, *, import_callables: bool, call_callables: bool = True,
-         batch: bool = False) -> tuple[dict[str, Observable], list[Problem]]:
+         batch: bool = False, refused: Mapping[str, str] | None = None) -> tuple[dict[str, Observable], list[Problem]]:
     """Observables for every sensor of `suite` (file order) and every problem found on the way; with
     `batch`, also what BatchEnvironment cannot run.
 
     With `call_callables` false (checking), no user callable is called: a generic sensor's noise, which
-    needs the shape of its value, is then built (and its shape-dependent mistakes found) only by a build."""
-    binder = _Binder(suite, model, import_callables, call_callables, batch)
+    needs the shape of its value, is then built (and its shape-dependent mistakes found) only by a build.
+    `refused`: MuJoCo's message for each native sensor it would not compile (`sensorcfg.native`)."""
+    binder = _Binder(suite, model, import_callables, call_callables, batch, dict(refused or {}))
+    twin_binder = _Binder(suite, model, import_callables, call_callables, batch, dict(refused or {}), quiet=True)
     binder.options()
     observables: dict[str, Observable] = {}
     for name, cfg in suite.sensors.items():
+        if name in suite.twins:  # its source's problems are reported once, at the source's lines
+            if suite.twins[name] in observables:
+                made = twin_binder.bind(name, cfg)
+                if made is not None:
+                    observables[name] = made
+            continue
         try:
             with _suite_folder_first(binder.folder(name)):
                 observable = binder.bind(name, cfg)

@@ -9,6 +9,8 @@ Python, for suites, where a line can be named.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from typing import Any
 
 import mujoco
@@ -29,20 +31,21 @@ _CAMERA_WHAT = {"noise": "noise", "aggregator": "an aggregator", "interval": "a 
                 "delay": "a drawn delay"}
 
 
-def kind_problems(type_name: str, kind: str, constant: bool) -> Found:
+def kind_problems(type_name: str, kind: str, constant: bool, native: Sequence[str] = ()) -> Found:
     """A kind the type does not offer (internal fields included), a constant read without `constant: true`,
-    or `constant: true` on state; "did you mean" prefers state kinds."""
+    or `constant: true` on state; "did you mean" prefers state kinds, then MuJoCo sensor types (`native`)."""
     spec = kinds_of(type_name).get(kind)
     role = spec.role if spec is not None else INTERNAL
     if role == INTERNAL:
         states, constants = offered_kinds(type_name, STATE), offered_kinds(type_name, CONSTANT)
-        hint = did_you_mean(kind, states + (list(IMAGE_KINDS) if type_name == "camera" else []))
+        hint = did_you_mean(kind, states + (list(IMAGE_KINDS) if type_name == "camera" else []) + list(native))
         if not hint and did_you_mean(kind, constants):
             hint = did_you_mean(kind, constants)[:-2] + ", a model constant read with 'constant: true'?)"
         what = f" ({spec.field} is MuJoCo's internal bookkeeping, not a value to sense)" if spec else ""
         extra = f"; a camera image is kind {', '.join(IMAGE_KINDS)}" if type_name == "camera" else ""
+        sensors = f"; MuJoCo sensors on a {type_name}: {', '.join(native)}" if native else ""
         return [(("kind",), f"a {type_name} has no kind {kind!r}{what}{hint}; {type_name} kinds: "
-                 f"{', '.join(states) or '(none that change with the simulation)'}{extra}")]
+                 f"{', '.join(states) or '(none that change with the simulation)'}{sensors}{extra}")]
     assert spec is not None  # only INTERNAL covers a kind the type lacks
     if role == CONSTANT and not constant:
         twin = state_twin(type_name, kind)

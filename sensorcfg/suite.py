@@ -64,15 +64,29 @@ class Suite:
     # -- against a model ------------------------------------------------------------------------
 
     def _mjmodel(self, model: ModelLike) -> mujoco.MjModel:
+        return self._compiled(model)[0]
+
+    def _sources(self) -> dict[str, SensorConfig]:
+        """The sensors that may add MuJoCo sensors: clean twins read their source's."""
+        return {k: v for k, v in self._loaded.sensors.items() if k not in self._loaded.twins}
+
+    def _compiled(self, model: ModelLike) -> tuple[mujoco.MjModel, dict[str, str]]:
+        """The model to bind to, and MuJoCo's message for each native sensor it refused. A path (or the
+        suite's `model:`, or an MjSpec) is compiled with the suite's native sensors; an MjModel is taken
+        as it is (it must carry them)."""
         import mujoco
 
         if isinstance(model, mujoco.MjModel):
-            return model
+            return model, {}
+        if isinstance(model, mujoco.MjSpec):
+            from .native import compile_model
+
+            return compile_model(model, self._sources())
         if model is not None and not isinstance(model, (str, os.PathLike)):
             from .physics import raw_structs
 
             try:
-                return raw_structs(model)[0]
+                return raw_structs(model)[0], {}
             except TypeError as e:
                 raise ArgumentError(f"model: {e}; or pass an MjModel or a path") from None
         if model is None:
@@ -84,9 +98,12 @@ class Suite:
         else:
             path, pos = str(model), None
         try:
+            from .native import compile_model, native_names
             from .physics import read_model
 
-            return read_model(path)
+            if native_names(self._sources()):
+                return compile_model(path, self._sources())
+            return read_model(path), {}
         except (ValueError, OSError) as e:
             message = f"cannot load the model {quote(str(path), 160)}: {str(e).strip()}"
             raise SuiteError(pos.problem(message, "model") if pos else Problem(message, file=str(path))) from None
@@ -95,9 +112,24 @@ class Suite:
             dict[str, Observable], list[Problem]]:
         from .binding import bind
 
-        observables, problems = bind(self._loaded, self._mjmodel(model), import_callables=import_callables,
-                                   call_callables=call_callables, batch=batch)
+        mjmodel, refused = self._compiled(model)
+        observables, problems = bind(self._loaded, mjmodel, import_callables=import_callables,
+                                     call_callables=call_callables, batch=batch, refused=refused)
         return observables, problems + self._too_large(observables)
+
+    def compile(self, model: ModelLike = None) -> mujoco.MjModel:
+        """The model with the MuJoCo sensors (and sites) the suite's native kinds add: `model` is an MJCF
+        path, an `MjSpec` (copied) or None for the suite's `model:`; an MjModel is returned as it is.
+
+        The file is not edited. Raises SuiteError listing every problem of the suite against the model
+        when MuJoCo refuses one of its sensors.
+        """
+        mjmodel, refused = self._compiled(model)
+        if refused:
+            from .binding import bind
+
+            raise SuiteError(bind(self._loaded, mjmodel, import_callables=False, refused=refused)[1])
+        return mjmodel
 
     def _too_large(self, observables: Mapping[str, Observable]) -> list[Problem]:
         """An observation that would hold more than `MAX_OBSERVATION_BYTES` (a deep buffer of large camera
@@ -125,7 +157,9 @@ class Suite:
               batch: bool = False) -> dict[str, Observable]:
         """The observables of every sensor, in file order, with their `enabled` flags set.
 
-        `model` is a `mujoco.MjModel`, a model path, or None for the suite's own `model:`. `generic`
+        `model` is a `mujoco.MjModel`, a model path, an `MjSpec`, or None for the suite's own `model:`; a
+        path or spec is compiled with the suite's MuJoCo sensor kinds, an MjModel must already carry them
+        (`Suite.compile`), and the observables then run only on that model. `generic`
         callables are imported (pass `import_callables=False` to leave them unimported placeholders).
         With `batch`, what BatchEnvironment cannot run is a problem too. Raises SuiteError listing every problem.
         """

@@ -47,3 +47,25 @@ def import_oracle() -> types.SimpleNamespace:
 @pytest.fixture(scope="session")
 def oracle() -> types.SimpleNamespace:
     return import_oracle()
+
+
+def assert_batch_equals_single(model: str, suite: object, nsim: int, seed: int, steps: int) -> None:
+    """Simulation i of a BatchEnvironment equals Environment(seed=sim_seed(seed, i)) to the bit, every step
+    (random actions in [-1, 1])."""
+    import numpy as np
+
+    from sensorcfg import Environment
+    from sensorcfg.batch import BatchEnvironment, sim_seed
+
+    batch = BatchEnvironment(model, suite, nsim, seed=seed)
+    singles = [Environment(model, suite, seed=sim_seed(seed, i)) for i in range(nsim)]
+    batch.reset()
+    for env in singles:
+        env.reset()
+    rng = np.random.default_rng(seed)
+    for _ in range(steps):
+        actions = rng.uniform(-1, 1, (nsim, batch.action_spec().shape[-1]))
+        out = batch.step(actions)
+        for i, env in enumerate(singles):
+            for name, value in env.step(actions[i]).observation.items():
+                np.testing.assert_array_equal(out.observation[name][i], value, err_msg=name)

@@ -510,7 +510,7 @@ def test_results_are_not_reused_between_calls():
                  "image): only a custom stage can", id="gaussian-on-segmentation"),
     pytest.param([{"type": "gausian", "std": 1}], (3,), np.float64,
                  "noise.0.type: unknown noise stage type 'gausian' (did you mean 'gaussian'?); stage types are "
-                 "gaussian, uniform, bias, scale, random_walk, quantize, clip, dropout, outlier, lowpass, custom",
+                 "gaussian, uniform, bias, scale, random_walk, quantize, clip, dropout, outlier, lowpass, misalign, custom",
                  id="unknown-type"),
     pytest.param([{"type": "gaussian", "std": -1}], (3,), np.float64,
                  "noise.0.std: a standard deviation must be >= 0, got -1", id="negative-std"),

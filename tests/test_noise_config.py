@@ -27,7 +27,7 @@ def test_the_table_is_the_union_and_the_runtime():
     assert [info.model for info in STAGES.values()] == list(union)
     assert set(BUILDERS) == set(STAGES)
     assert list(STAGES) == ["gaussian", "uniform", "bias", "scale", "random_walk", "quantize", "clip", "dropout",
-                            "outlier", "lowpass", "custom"]
+                            "outlier", "lowpass", "misalign", "custom"]
 
 
 @pytest.mark.parametrize("name", list(STAGES))
@@ -78,13 +78,13 @@ def test_parse_quantity(text, units, expected):
 BAD = [
     pytest.param({"type": "gausian", "std": 1}, ("type",),
                  "unknown noise stage type 'gausian' (did you mean 'gaussian'?); stage types are gaussian, uniform, "
-                 "bias, scale, random_walk, quantize, clip, dropout, outlier, lowpass, custom", id="unknown-type"),
+                 "bias, scale, random_walk, quantize, clip, dropout, outlier, lowpass, misalign, custom", id="unknown-type"),
     pytest.param({"type": "randomwalk", "std": 1}, ("type",),
                  "unknown noise stage type 'randomwalk' (did you mean 'random_walk'?); stage types are gaussian, "
-                 "uniform, bias, scale, random_walk, quantize, clip, dropout, outlier, lowpass, custom",
+                 "uniform, bias, scale, random_walk, quantize, clip, dropout, outlier, lowpass, misalign, custom",
                  id="unknown-type-2"),
     pytest.param({"std": 1}, (), "a noise stage needs a `type`: one of gaussian, uniform, bias, scale, random_walk, "
-                 "quantize, clip, dropout, outlier, lowpass, custom", id="no-type"),
+                 "quantize, clip, dropout, outlier, lowpass, misalign, custom", id="no-type"),
     pytest.param({"type": "gaussian", "std": -0.1}, ("std",), "a standard deviation must be >= 0, got -0.1",
                  id="negative-std"),
     pytest.param({"type": "gaussian", "std": [0.1, -1]}, ("std", 1), "a standard deviation must be >= 0, got -1",
@@ -145,7 +145,7 @@ def test_bad_stage(stage, loc, message):
 def test_not_a_mapping():
     assert errors(["gaussian"]) == [((0,), "a noise stage is a mapping with a `type` (one of gaussian, uniform, "
                                            "bias, scale, random_walk, quantize, clip, dropout, outlier, lowpass, "
-                                           "custom), got 'gaussian'")]
+                                           "misalign, custom), got 'gaussian'")]
 
 
 def test_every_problem_is_reported_at_once():

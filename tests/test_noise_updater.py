@@ -192,7 +192,7 @@ def test_yaml_config_errors_have_line_and_column():
     assert str(info.value).splitlines() == [
         "arm.yaml:7:16: error: sensors.gyro.noise.0.type: unknown noise stage type 'gausian' (did you mean "
         "'gaussian'?); stage types are gaussian, uniform, bias, scale, random_walk, quantize, clip, dropout, "
-        "outlier, lowpass, custom",
+        "outlier, lowpass, misalign, custom",
         "arm.yaml:9:14: error: sensors.gyro.noise.1.low: low must not exceed high: low is 1 and high is 0; swap them",
         "arm.yaml:11:32: error: sensors.gyro.noise.2.step: a quantisation step must be > 0, got 0",
         "arm.yaml:12:28: error: sensors.gyro.noise.3.p: a probability must be <= 1, got 1.5",

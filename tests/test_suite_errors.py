@@ -90,7 +90,7 @@ LOAD_MISTAKES = [
         '    kind: qpos\n'
         '    element: joint:elbow\n'
         '    intreval: 2\n',
-        "5:5: error: sensors.s.intreval: unknown key 'intreval' (did you mean 'interval'?); allowed keys: kind, element, within, index, constant, camera, callable, interval, delay, buffer, aggregator, enabled, noise",
+        "5:5: error: sensors.s.intreval: unknown key 'intreval' (did you mean 'interval'?); allowed keys: kind, element, within, index, constant, camera, callable, frame, with, data, reduce, num, cutoff, scan, interval, delay, buffer, aggregator, enabled, noise, twin",
         id='sensor_unknown_key'),
     pytest.param(
         'sensors:\n'
@@ -239,7 +239,7 @@ LOAD_MISTAKES = [
         '    element: joint:elbow\n'
         '    noise:\n'
         '      - {type: gausian, std: 1}\n',
-        "6:16: error: sensors.s.noise.0.type: unknown noise stage type 'gausian' (did you mean 'gaussian'?); stage types are gaussian, uniform, bias, scale, random_walk, quantize, clip, dropout, outlier, lowpass, custom",
+        "6:16: error: sensors.s.noise.0.type: unknown noise stage type 'gausian' (did you mean 'gaussian'?); stage types are gaussian, uniform, bias, scale, random_walk, quantize, clip, dropout, outlier, lowpass, misalign, custom",
         id='noise_type'),
     pytest.param(
         'sensors:\n'
@@ -341,7 +341,7 @@ LOAD_MISTAKES = [
         'defaults:\n'
         '  kind: qpos\n'
         'sensors: {}\n',
-        "2:3: error: defaults.kind: unknown key 'kind'; allowed keys: interval, delay, buffer, aggregator, enabled, noise, camera",
+        "2:3: error: defaults.kind: unknown key 'kind'; allowed keys: interval, delay, buffer, aggregator, enabled, noise, twin, camera",
         id='defaults_key'),
     pytest.param(
         'sensors:\n'
@@ -374,8 +374,9 @@ LOAD_MISTAKES = [
         '    element: joint:elbow\n'
         '    noise:\n'
         '      - {type: gaussian, stdd: 1}\n',
-        ["6:9: error: sensors.s.noise.0.std: missing required key 'std'",
-         "6:26: error: sensors.s.noise.0.stdd: unknown key 'stdd' (did you mean 'std'?); allowed keys: type, mean, std"],
+        # std is optional since a gaussian may give `density` instead: the misspelt key is the one problem
+        ["6:26: error: sensors.s.noise.0.stdd: unknown key 'stdd' (did you mean 'std'?); allowed keys: type, mean, "
+         "std, density"],
         id='noise_stage_key'),
     pytest.param(
         'sensors:\n'

@@ -253,7 +253,7 @@ def test_overrides_are_validated_like_the_file() -> None:
                  "target_dist", id="sensor-name"),
     pytest.param("defaults.bufer=2",
                  "override 'defaults.bufer=2':1:1: error: defaults.bufer: unknown key 'bufer' (did you mean "
-                 "'buffer'?); allowed keys: interval, delay, buffer, aggregator, enabled, noise, camera", id="key"),
+                 "'buffer'?); allowed keys: interval, delay, buffer, aggregator, enabled, noise, twin, camera", id="key"),
     pytest.param("sensors.wrist_cam.delay={uniform: [1, 3}",
                  "override 'sensors.wrist_cam.delay={uniform: [1, 3}':1:40: error: invalid YAML: expected ',' or "
                  "']', but got '}' (while parsing a flow sequence)", id="yaml"),

@@ -58,9 +58,10 @@ import mujoco
 import numpy as np
 
 from ..env.episode import episode_end
-from ..env.environment import (_BAD_STATE, ControlLoop, _suite_and_observables, action_spec, episode_timing,
-                               keyframe_index, load_model, random_state_from)
+from ..env.environment import (_BAD_STATE, ControlLoop, action_spec, episode_timing, keyframe_index,
+                               model_and_observables, random_state_from)
 from ..errors import ArgumentError, SuiteError, UnsupportedError
+from ..noise.level import leveled, set_level
 from ..physics import Physics
 from .updater import BatchUpdater
 
@@ -147,10 +148,11 @@ class BatchEnvironment(ControlLoop):
         batch_module = _batch_module()
         _check_arguments(nsim, nthread, reward_fn, termination_fn)
         self._reward_fn, self._termination_fn = reward_fn, termination_fn
-        self._model = load_model(model)
+        self._model, observables, options = model_and_observables(model, suite, batch=True)
+        leveled(observables)  # a noise level per simulation (`set_noise_level`), 1 until set
+        self._observables = observables
         self._nsim = int(nsim)
         self._batch_shape = (self._nsim,)
-        observables, options = _suite_and_observables(suite, self._model, batch=True)
         self._keyframe = keyframe_index(self._model, keyframe, options.pop("keyframe", None))
         self._substeps, self._control_timestep, self._step_limit = episode_timing(
             self._model, physics_steps_per_control_step, control_timestep, time_limit,
@@ -187,6 +189,11 @@ class BatchEnvironment(ControlLoop):
                          [(slot, self._batch.bind(f).reshape(self._nsim, -1)[:, span])
                           for f, (slot, span) in bound.items()])
                 for segment, out, bound in zip(layout.segments, layout.record_out, layout.bound_out)]
+
+    def set_noise_level(self, level: float) -> None:
+        """Scale every sensor's noise from each simulation's next episode on: 0 clean, 1 the suite's (see
+        `sensorcfg.noise.level`); simulation i at level x equals `Environment` at level x."""
+        set_level(self._observables, level)
 
     # -- properties -------------------------------------------------------------------------------
 

@@ -87,6 +87,11 @@ def _camera_stops(ch: FixedChannel, substeps: int) -> set[int]:
     return {k for k in range(1, substeps + 1) for t in range(0, math.lcm(period, substeps), substeps) if (t + k) % period in needed}
 
 
+def _per_simulation(obs: Any) -> bool:
+    """Observables that need a simulation's whole MjData (cameras, height scans): run per simulation."""
+    return hasattr(obs, "camera_id") or getattr(obs, "per_simulation", False)
+
+
 class BatchUpdater:
     """Samples, delays, buffers, aggregates and corrupts observables of nsim simulations of one model.
 
@@ -146,8 +151,8 @@ class BatchUpdater:
     def _arrange(self, entries: list[_Entry], model: Any) -> tuple[list[_Entry], list[_Entry], list[_Entry]]:
         """Cameras, fixed-schedule features and drawn-schedule features, each checked for the batch (a field
         MuJoCo computes on demand cannot be computed between a rollout's substeps)."""
-        cameras = [e for e in entries if hasattr(e.observable, "camera_id")]
-        features = [e for e in entries if not hasattr(e.observable, "camera_id")]
+        cameras = [e for e in entries if _per_simulation(e.observable)]
+        features = [e for e in entries if not _per_simulation(e.observable)]
         for entry in cameras:
             self._check_camera(*entry)
         for entry in features:
@@ -195,7 +200,8 @@ class BatchUpdater:
                 else "an aggregator" if ch.aggregator is not None
                 else "a drawn interval or delay" if not isinstance(ch, FixedChannel) else None)
         if what:
-            raise SuiteError(f"camera {name!r}: a BatchEnvironment renders cameras per simulation and cannot apply "
+            label, does = ("camera", "renders cameras") if hasattr(obs, "camera_id") else ("height scan", "casts height scans")
+            raise SuiteError(f"{label} {name!r}: a BatchEnvironment {does} per simulation and cannot apply "
                              f"{what} to them; remove it, or use the single-simulation Environment")
 
     def _drawers(self, label: str, obs: Any) -> Any:

@@ -20,8 +20,8 @@ from ..errors import Problem, SensorcfgError, SuiteError, printable, quote
 
 __all__ = ["EXIT_OK", "EXIT_INVALID", "EXIT_USAGE", "EXIT_CODES_HELP", "HelpFormatter", "UsageError", "override",
            "positive_int", "positive_float", "writable", "require_matplotlib", "importable_cwd", "add_suite_args",
-           "existing_file", "load_model", "load_suite", "model_path", "user_code_failure", "user_code_problem",
-           "add_common_suite_args", "os_reason", "seed"]
+           "existing_file", "load_model", "load_suite", "model_path", "suite_model", "user_code_failure",
+           "user_code_problem", "add_common_suite_args", "os_reason", "seed"]
 
 EXIT_OK, EXIT_INVALID, EXIT_USAGE = 0, 1, 2
 
@@ -166,6 +166,14 @@ def load_model(path: str) -> Any:
         return read_model(path)
     except (ValueError, OSError) as e:
         raise SuiteError(Problem(f"MuJoCo cannot load this model: {str(e).strip()}", file=str(path))) from None
+
+
+def suite_model(suite: Any, path: str) -> Any:
+    """The model a suite runs on: the file's, compiled with the MuJoCo sensors the suite's kinds add."""
+    from ..native import native_names
+
+    model = load_model(path)
+    return suite.compile(path) if native_names(getattr(suite, "sensors", {})) else model
 
 
 def load_suite(path: str, overrides: Sequence[str] = (), extends_root: str | None = None) -> Any:

@@ -21,7 +21,8 @@ import numpy as np
 from .._version import __version__
 from ..errors import printable
 from .common import (EXIT_INVALID, EXIT_OK, HelpFormatter, UsageError, add_suite_args, importable_cwd, load_model,
-                     load_suite, model_path, positive_float, positive_int, require_matplotlib, seed, writable)
+                     load_suite, model_path, positive_float, positive_int, require_matplotlib, seed, suite_model,
+                     writable)
 from .describe import SensorRow, describe, naive_samples
 from .report import Progress, table
 
@@ -148,7 +149,7 @@ def make_env(suite: Any, model_file: str, settings: Settings, *, record_timing: 
     from . import timing
 
     importable_cwd()
-    model = load_model(model_file)
+    model = suite_model(suite, model_file)
     substeps = control_steps(suite, model, settings)
     if settings.keyframe is not None:
         try:

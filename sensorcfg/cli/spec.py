@@ -12,7 +12,8 @@ from collections.abc import Callable
 from typing import Any, cast
 
 from ..errors import printable
-from .common import EXIT_OK, HelpFormatter, add_suite_args, importable_cwd, load_model, load_suite, model_path
+from .common import (EXIT_OK, HelpFormatter, add_suite_args, importable_cwd, load_suite, model_path,
+                     suite_model)
 from .describe import SensorRow, describe
 from .report import table
 
@@ -59,7 +60,7 @@ def build_spec(suite: Any, model_file: str, control_steps: int | None = None) ->
     """Build the suite on the model and read the specs without taking a sample: no camera renders and no
     noise stage runs (custom noise is never called); a generic callable is called once, on a fresh state,
     because its shape is known only from a value."""
-    model = load_model(model_file)
+    model = suite_model(suite, model_file)
     importable_cwd()
     observables = suite.build(model)
     steps = control_steps or suite.updater_kwargs(model)["physics_steps_per_control_step"]

@@ -25,6 +25,7 @@ from .models import SensorConfig, SuiteConfig
 from .overrides import apply_override
 from .rules import effective
 from .source import Doc, Pos, compose
+from .twins import with_twins
 
 __all__ = ["LoadedSuite", "LoadResult", "load_path", "load_text", "parse_path", "parse_text", "resolve_model_path",
            "PACKAGE_SCHEME"]
@@ -39,6 +40,7 @@ class LoadedSuite:
     doc: Doc
     file: str
     model: str | None  # resolved default model path
+    twins: dict[str, str] = dataclasses.field(default_factory=dict)  # twin name -> the sensor it mirrors
 
 
 @dataclasses.dataclass(frozen=True)
@@ -104,6 +106,7 @@ def _complete(config: SuiteConfig, doc: Doc, file: str, dirs: dict[str, Path]) -
     for name, sensor in config.sensors.items():
         sensors[name], found = effective(name, sensor, config, doc)
         problems.extend(found)
+    sensors, twins = with_twins(sensors, doc, problems)
     model = None
     if config.model is not None:
         pos = doc.pos(("model",))
@@ -112,7 +115,7 @@ def _complete(config: SuiteConfig, doc: Doc, file: str, dirs: dict[str, Path]) -
             model = resolve_model_path(config.model, base)
         except ValueError as e:
             problems.append(problem_at(doc, ("model",), str(e)))
-    return LoadedSuite(config, sensors, doc, file, model), problems
+    return LoadedSuite(config, sensors, doc, file, model, twins), problems
 
 
 def _partial(value: dict[str, Any], error: ValidationError, doc: Doc, file: str, dirs: dict[str, Path],

@@ -95,9 +95,12 @@ def model_at(root: type[BaseModel], path: Path_, value: Any) -> type[BaseModel] 
             in_container = False
         else:
             model = _pick(models, node)
-            if model is None or part not in model.model_fields:
+            if model is None:
                 return None
-            annotation = model.model_fields[part].annotation
+            names = {f.alias or n: n for n, f in model.model_fields.items()}
+            if part not in names:
+                return None
+            annotation = model.model_fields[names[part]].annotation
             models = _models_in(annotation)
             in_container = _is_container(annotation)
             if not models:
@@ -155,7 +158,7 @@ def _message(error: ErrorDetails, path: Path_, root: type[BaseModel], value: Any
         return f"missing required key {quote(name)}{_MISSING.get(str(name), '')}"
     if kind == "extra_forbidden":
         model = model_at(root, path[:-1], value)
-        fields = list(model.model_fields) if model else []
+        fields = [f.alias or n for n, f in model.model_fields.items()] if model else []
         allowed = f"; allowed keys: {', '.join(fields)}" if fields else ""
         return f"unknown key {quote(name)}{did_you_mean(str(name), fields)}{allowed}"
     if kind == "value_error":

@@ -7,20 +7,21 @@ model (element names, kinds, time in steps) are checked for form here and resolv
 
 from __future__ import annotations
 
+import math
 import re
 from typing import TYPE_CHECKING, Annotated, Any, Literal, TypeAlias
 
 from pydantic import (BaseModel, ConfigDict, Field, PlainSerializer, PlainValidator, StringConstraints,
-                      WithJsonSchema)
+                      WithJsonSchema, model_validator)
 
 from .noise import NoiseStage
-from .tables import GENERIC_KIND, IMAGE_KINDS, aggregator_names
+from .tables import GENERIC_KIND, HEIGHTSCAN_KIND, IMAGE_KINDS, aggregator_names
 from ..errors import quote
 from .limits import MAX_BUFFER, MAX_SCHEDULE_STEPS, MAX_SENSORS
 from .units import TIME_PATTERN, parse_time
 
-__all__ = ["CameraConfig", "ChoiceDraw", "DefaultsConfig", "OptionsConfig", "SensorConfig", "SuiteConfig",
-           "UniformDraw", "SENSOR_NAME_PATTERN"]
+__all__ = ["CameraConfig", "ChoiceDraw", "DefaultsConfig", "OptionsConfig", "ScanConfig", "SensorConfig",
+           "SuiteConfig", "UniformDraw", "SENSOR_NAME_PATTERN"]
 
 _FROZEN = ConfigDict(frozen=True, extra="forbid")
 SENSOR_NAME_PATTERN = r"^[A-Za-z_][A-Za-z0-9_\-/]*$"
@@ -213,6 +214,46 @@ class CameraConfig(BaseModel):
         "reflection makes frames much cheaper.", examples=[{"shadow": False, "reflection": False}])
 
 
+class ScanConfig(BaseModel):
+    """Where a height scan casts its rays (kind 'heightscan'): a grid or rings of vertical rays around the
+    frame, each reading the height of the frame's origin above the terrain it hits."""
+
+    model_config = _FROZEN
+    pattern: Literal["grid", "ring"] = Field("grid", description="'grid': size[0] x size[1] metres every "
+                                             "`resolution`, both ends included; 'ring': `count` rays on each "
+                                             "circle of `radii`.", examples=["grid"])
+    size: tuple[Annotated[float, Field(ge=0)], Annotated[float, Field(ge=0)]] = Field(
+        (1.6, 1.0), description="Grid extent along x and y (m), centred on the frame: whole multiples of "
+        "`resolution`.", examples=[[1.6, 1.0]])
+    resolution: float = Field(0.1, gt=0, description="Grid spacing (m): 1.6 x 1.0 at 0.1 is 17 x 11 rays.",
+                              examples=[0.1])
+    radii: tuple[Annotated[float, Field(gt=0)], ...] = Field((0.5,), min_length=1, description="Ring radii (m).",
+                                                              examples=[[0.3, 0.6]])
+    count: int = Field(8, ge=1, strict=True, description="Rays per ring, evenly spaced from the x axis.",
+                       examples=[12])
+    alignment: Literal["yaw", "full", "world"] = Field(
+        "yaw", description="'yaw': the pattern turns with the frame's heading, rays point down; 'full': it "
+        "follows the frame's whole orientation, rays along its -z; 'world': world axes.", examples=["yaw"])
+    above: float = Field(1.0, ge=0, description="Rays start this far above the frame's origin (m), so terrain "
+                         "above the origin is seen.", examples=[1.0])
+    max_distance: float = Field(5.0, gt=0, description="Longest ray (m) from its start; beyond is a miss.",
+                                examples=[5.0])
+    miss: float | None = Field(None, description="The value a miss reads; default: max_distance - above (the "
+                               "height above the farthest point a ray reaches).", examples=[0.0])
+    geomgroup: tuple[Annotated[int, Field(ge=0, le=5)], ...] | None = Field(
+        None, description="Geom groups (0-5) the rays see; default all.", examples=[[0]])
+
+    @model_validator(mode="after")
+    def _whole_grid(self) -> ScanConfig:
+        for axis, extent in zip("xy", self.size):
+            steps = extent / self.resolution
+            if abs(steps - round(steps)) > 1e-9 * max(1.0, steps):
+                near = [round(math.floor(steps) * self.resolution, 9), round(math.ceil(steps) * self.resolution, 9)]
+                raise ValueError(f"size along {axis} ({extent:g} m) is not a whole number of {self.resolution:g} m "
+                                 f"steps ({steps:.3g}); use {near[0]:g} or {near[1]:g}, or another resolution")
+        return self
+
+
 # Fields a sensor and `defaults` share: one description each, used by both models.
 _SHARED: dict[str, dict[str, Any]] = {
     "interval": dict(description="Time between samples: integer physics steps, a duration ('4ms', '0.02s', "
@@ -230,6 +271,10 @@ _SHARED: dict[str, dict[str, Any]] = {
                     examples=[True, False]),
     "noise": dict(description="Noise stages applied in order to each raw sample before it is buffered.",
                   examples=[[{"type": "gaussian", "std": 0.01}]]),
+    "twin": dict(description="Also deliver this sensor clean under another key: no noise, no delay, sampled at "
+                 "every read (a privileged observation for a critic). In `defaults`, '{name}' stands for each "
+                 "sensor's name; `false` turns off a twin that `defaults` gives.",
+                 examples=["base_lin_vel_clean", "{name}_clean", False]),
 }
 
 
@@ -248,6 +293,7 @@ class DefaultsConfig(BaseModel):
     aggregator: AggregatorName | None = _shared("aggregator")
     enabled: bool | None = _shared("enabled")
     noise: tuple[NoiseStage, ...] | None = _shared("noise")
+    twin: str | bool | None = _shared("twin")
     camera: CameraConfig | None = Field(
         None, description="Camera settings for every image sensor that does not give its own.",
         examples=[{"width": 64, "height": 48}])
@@ -260,8 +306,11 @@ class SensorConfig(BaseModel):
     kind: str = Field(
         pattern=r"^[A-Za-z_][A-Za-z0-9_]*$",
         description="What to read: an attribute of the element as dm_control's `physics.bind(element).<kind>` "
-        f"names it (qpos, xpos, sensordata, ...); {', '.join(IMAGE_KINDS)} for a camera; "
-        f"'{GENERIC_KIND}' for a Python callable.", examples=["qpos", "sensordata", "rgb", "generic"])
+        "names it (qpos, xpos, sensordata, ...); a MuJoCo sensor type that the suite adds to the model "
+        "(velocimeter, gyro, framepos, contact, ...; where an element type has an attribute of that name, "
+        f"the attribute); {', '.join(IMAGE_KINDS)} for a camera; '{HEIGHTSCAN_KIND}' for a terrain height "
+        f"scan; '{GENERIC_KIND}' for a Python callable.",
+        examples=["qpos", "velocimeter", "framepos", "contact", "sensordata", "rgb", "heightscan", "generic"])
     element: Element | None = Field(
         None, description="Which elements: 'type:name' or 'type:#id' (one element, unbatched shape), a glob "
         "('joint:*': every joint, unnamed ones included; 'site:finger_*') or a list of selectors (batched shape, "
@@ -284,12 +333,33 @@ class SensorConfig(BaseModel):
         None, pattern=_CALLABLE.pattern.replace(r"\A", "^").replace(r"\Z", "$"),
         description="For kind 'generic': 'module:function', called with the physics handle; imported when the "
         "suite is built, not when it is checked.", examples=["my_pkg.sensors:distance_to_target"])
+    frame: str | None = Field(
+        None, pattern=_SELECTOR.pattern.replace(r"\A", "^").replace(r"\Z", "$"),
+        description="For MuJoCo's frame sensors (framepos, framelinvel, ...): the reference frame the value is "
+        "relative to and expressed in (MuJoCo's reftype/refname); a body means its frame.",
+        examples=["body:base"])
+    with_: str | None = Field(
+        None, alias="with", pattern=_SELECTOR.pattern.replace(r"\A", "^").replace(r"\Z", "$"),
+        description="The second object of a MuJoCo sensor: what a contact is matched against, the site of "
+        "insidesite, the other geom of geomdist, the camera of camprojection.", examples=["geom:floor"])
+    data: tuple[str, ...] | None = Field(
+        None, min_length=1, description="Which values a contact (or rangefinder) sensor reports, in MuJoCo's "
+        "order: found, force, torque, dist, pos, normal, tangent, ...", examples=[["found", "force"]])
+    reduce: str | None = Field(None, description="How a contact sensor combines the contacts it matches: none, "
+                               "mindist, maxforce, netforce.", examples=["netforce"])
+    num: int | None = Field(None, ge=1, strict=True, description="Contacts a contact sensor reports (default 1).",
+                            examples=[1])
+    cutoff: float | None = Field(None, gt=0, description="Largest distance geomdist/geomnormal/geomfromto look "
+                                 "for (m); default 10.", examples=[1.0])
+    scan: ScanConfig | None = Field(None, description="The ray pattern of a 'heightscan' sensor.",
+                                    examples=[{"pattern": "grid", "size": [1.6, 1.0], "resolution": 0.1}])
     interval: Interval | None = _shared("interval")
     delay: Delay | None = _shared("delay")
     buffer: int | None = _shared("buffer")
     aggregator: AggregatorName | None = _shared("aggregator")
     enabled: bool | None = _shared("enabled")
     noise: tuple[NoiseStage, ...] | None = _shared("noise")
+    twin: str | bool | None = _shared("twin")
 
 
 class OptionsConfig(BaseModel):

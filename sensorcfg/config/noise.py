@@ -25,10 +25,34 @@ from pydantic_core import InitErrorDetails, PydanticCustomError
 from ..errors import did_you_mean, quote
 from .units import DURATION_UNITS, RATE_UNITS
 
-__all__ = ["NoiseStage", "STAGES", "StageInfo", "IMAGE_STAGES", "parse_quantity"]
+__all__ = ["EpisodeUniform", "NoiseStage", "STAGES", "StageInfo", "IMAGE_STAGES", "parse_quantity"]
 
 _MODEL = ConfigDict(frozen=True, extra="forbid")
-PerValue = Union[float, tuple[float, ...]]  # what a validated numeric parameter holds
+
+
+class EpisodeUniform(BaseModel):
+    """A parameter drawn once per episode, uniformly from [low, high] (one value for every entry)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+    uniform: tuple[float, float] = Field(description="[low, high]: the parameter is drawn from U(low, high) at "
+                                         "each reset.", examples=[[0.01, 0.03]])
+
+    @property
+    def low(self) -> float:
+        return self.uniform[0]
+
+    @property
+    def high(self) -> float:
+        return self.uniform[1]
+
+    def draw(self, rng: Any) -> float:
+        return self.low + (self.high - self.low) * float(rng.random())
+
+    def scaled(self, factor: float) -> EpisodeUniform:
+        return EpisodeUniform(uniform=(self.low * factor, self.high * factor))
+
+
+PerValue = Union[float, tuple[float, ...], EpisodeUniform]  # what a validated numeric parameter holds
 
 # -- numbers, per-value lists and quantities with units -----------------------------------------------
 
@@ -55,13 +79,13 @@ def parse_quantity(value: Any, units: Mapping[str, float], what: str) -> float:
             hint = (f" (did you mean {lowered[unit.lower()]!r}?)" if unit.lower() in lowered
                     else did_you_mean(unit, units))
             raise ValueError(f"unknown unit {quote(unit)} in {quote(value)}{hint}; "
-                             f"a {what} takes {', '.join(units)}")
+                             f"{'an' if what[0] in 'aeiou' else 'a'} {what} takes {', '.join(units)}")
     raise ValueError(f"expected a {what} such as {_EXAMPLE[what]!r} or a number "
                      f"({_SI[what]}), got {quote(value)}")
 
 
-_EXAMPLE = {"duration": "50ms", "frequency": "20Hz"}
-_SI = {"duration": "seconds", "frequency": "Hz"}
+_EXAMPLE = {"duration": "50ms", "frequency": "20Hz", "angle": "0.5deg"}
+_SI = {"duration": "seconds", "frequency": "Hz", "angle": "radians"}
 
 
 @dataclasses.dataclass(frozen=True, eq=False)  # hashed by identity: it sits in type annotations
@@ -91,7 +115,12 @@ class _Bound:
         return x
 
     def __call__(self, value: Any, handler: Any, info: Any) -> PerValue:
-        """WrapValidator: a number, or a non-empty list of numbers (one per value); a tuple once valid."""
+        """WrapValidator: a number, or a non-empty list of numbers (one per value); a tuple once valid; or
+        `{uniform: [low, high]}`, drawn per episode."""
+        if isinstance(value, EpisodeUniform):
+            return value
+        if isinstance(value, Mapping):
+            return self.episode(value)
         if isinstance(value, (list, tuple)):
             if not value:
                 raise PydanticCustomError("per_value", "an empty list gives no values; give a number or one "
@@ -113,14 +142,31 @@ class _Bound:
             raise PydanticCustomError("per_value", str(e)) from None
 
 
+    def episode(self, value: Mapping[Any, Any]) -> EpisodeUniform:
+        bounds = value.get("uniform") if set(value) == {"uniform"} else None
+        if not isinstance(bounds, (list, tuple)) or len(bounds) != 2:
+            raise PydanticCustomError("per_value", "a parameter drawn per episode is written {uniform: [low, high]}; "
+                                      f"got {dict(value)!r}")
+        try:
+            low, high = self.check(bounds[0]), self.check(bounds[1])
+        except ValueError as e:
+            raise PydanticCustomError("per_value", str(e)) from None
+        if low > high:
+            raise PydanticCustomError("per_value", f"uniform bounds must satisfy low <= high; got [{low:g}, {high:g}]: "
+                                      "swap them")
+        return EpisodeUniform(uniform=(low, high))
+
+
 def _per_value(meaning: str, **bounds: Any) -> Any:
-    """The annotated type of a per-value parameter: schema `number | number[]`, validated by `_Bound`."""
+    """The annotated type of a per-value parameter: schema `number | number[] | {uniform: [lo, hi]}`,
+    validated by `_Bound`."""
     constraints = {k: v for k, v in bounds.items() if k in ("ge", "gt", "le")}
     if "units" in bounds:
         item: Any = Union[float, str]
     else:
         item = Annotated[float, Field(**constraints)]
-    return Annotated[Union[item, Annotated[list[item], Field(min_length=1)]], WrapValidator(_Bound(meaning, **bounds))]
+    return Annotated[Union[item, Annotated[list[item], Field(min_length=1)], EpisodeUniform],
+                     WrapValidator(_Bound(meaning, **bounds))]
 
 
 if TYPE_CHECKING:  # what a validated field holds; pydantic reads the annotated types below
@@ -144,7 +190,7 @@ _PER_VALUE = ("A number, or a list with one entry per value of the observation (
 
 def _ordered(low: PerValue | None, high: PerValue | None, names: tuple[str, str]) -> None:
     """low <= high entry by entry where the two can be compared (equal lengths, or one a number)."""
-    if low is None or high is None:
+    if low is None or high is None or isinstance(low, EpisodeUniform) or isinstance(high, EpisodeUniform):
         return
     lows = low if isinstance(low, tuple) else None
     highs = high if isinstance(high, tuple) else None
@@ -175,14 +221,41 @@ def _type(name: str, what: str) -> Any:
 
 
 class GaussianStage(BaseModel):
-    """Additive white noise: every value of every sample gets an independent draw of N(mean, std^2)."""
+    """Additive white noise: every value of every sample gets an independent draw of N(mean, std^2).
+
+    Give `std` (per sample) or `density` (per square-root hertz, as IMU datasheets do): the std per sample
+    is then density * sqrt(sample rate), the sensor's nominal rate, so a suite stays right when a rate
+    changes.
+    """
 
     model_config = _MODEL
     type: Literal["gaussian"] = _type("gaussian", "Additive white noise drawn from N(mean, std^2) per value.")
     mean: Real = Field(0.0, description="Mean of the noise, in the sensor's units. " + _PER_VALUE,
                        examples=[0.0, [0.0, 0.0, 0.01]])
-    std: Std = Field(description="Standard deviation of the noise, in the sensor's units. " + _PER_VALUE,
-                     examples=[0.01, [0.01, 0.01, 0.02]])
+    std: Std | None = Field(None, description="Standard deviation of the noise per sample, in the sensor's units. "
+                            + _PER_VALUE, examples=[0.01, [0.01, 0.01, 0.02]])
+    density: Std | None = Field(None, description="Noise density instead of `std`: units per square-root hertz; "
+                                "std per sample = density * sqrt(the sensor's sample rate). " + _PER_VALUE,
+                                examples=[0.0003])
+
+    @model_validator(mode="after")
+    def _check(self) -> GaussianStage:
+        if (self.std is None) == (self.density is None):
+            raise PydanticCustomError("noise_gaussian", "gaussian takes std (per sample) or density (per "
+                                      "square-root hertz), one of them")
+        return self
+
+    def at_rate(self, rate: float) -> GaussianStage:
+        """This stage with its std per sample for a sensor sampled at `rate` Hz (density given)."""
+        if self.density is None:
+            return self
+        root = math.sqrt(rate)
+        std: PerValue
+        if isinstance(self.density, EpisodeUniform):
+            std = self.density.scaled(root)
+        else:
+            std = tuple(d * root for d in self.density) if isinstance(self.density, tuple) else self.density * root
+        return self.model_copy(update={"std": std, "density": None})
 
 
 class UniformStage(BaseModel):
@@ -343,6 +416,47 @@ class LowpassStage(BaseModel):
                               "Hz. " + _PER_VALUE, examples=["20Hz", 5.0])
 
 
+_ANGLE_UNITS = {"rad": 1.0, "deg": math.pi / 180}
+
+
+def _angle(value: Any) -> float:
+    x = parse_quantity(value, _ANGLE_UNITS, "angle")
+    if not (math.isfinite(x) and x >= 0):
+        raise ValueError(f"the rotation's standard deviation must be >= 0, got {value!r}")
+    return x
+
+
+def _matrix(value: Any) -> tuple[tuple[float, float, float], ...]:
+    rows = value if isinstance(value, (list, tuple)) else None
+    if (rows is None or len(rows) != 3 or not all(isinstance(r, (list, tuple)) and len(r) == 3 for r in rows)
+            or not all(isinstance(x, numbers.Real) and not isinstance(x, bool) and math.isfinite(x)
+                       for r in rows for x in r)):
+        raise ValueError(f"matrix takes 3 rows of 3 numbers, e.g. [[1, 0.01, 0], [0, 1, 0], [0, 0, 1]]; got {value!r}")
+    return tuple(tuple(float(x) for x in r) for r in rows)  # type: ignore[misc]
+
+
+class MisalignStage(BaseModel):
+    """Misaligned axes: each 3-vector x (the observation's last axis) reads R M x, with M a fixed cross-axis
+    matrix and R a small rotation drawn per episode (a rotation vector with N(0, std^2) components)."""
+
+    model_config = _MODEL
+    type: Literal["misalign"] = _type("misalign", "Maps each 3-vector by a cross-axis matrix and a random rotation "
+                                      "drawn per episode.")
+    matrix: Annotated[tuple[tuple[float, float, float], ...] | None, WrapValidator(
+        lambda v, h, i: None if v is None else _matrix(v))] = Field(
+        None, description="Fixed 3x3 cross-axis matrix M (rows): scale factors on the diagonal, cross-coupling "
+        "off it. Default: identity.", examples=[[[1.0, 0.01, 0.0], [0.0, 1.0, 0.02], [0.0, 0.0, 1.0]]])
+    std: Annotated[float | str | None, WrapValidator(lambda v, h, i: None if v is None else _angle(v))] = Field(
+        None, description="Standard deviation of each component of the rotation vector drawn per episode: "
+        "radians, or an angle such as '0.5deg'. Omit for no random rotation.", examples=["0.5deg", 0.01])
+
+    @model_validator(mode="after")
+    def _check(self) -> MisalignStage:
+        if self.matrix is None and self.std is None:
+            raise PydanticCustomError("noise_misalign", "misalign needs matrix, std or both")
+        return self
+
+
 _CALLABLE = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_][\w.]*$")
 
 
@@ -392,6 +506,7 @@ STAGES: dict[str, StageInfo] = {
     "dropout": StageInfo(DropoutStage, images=True),
     "outlier": StageInfo(OutlierStage, images=True),
     "lowpass": StageInfo(LowpassStage, images=False),
+    "misalign": StageInfo(MisalignStage, images=False),
     "custom": StageInfo(CustomStage, images=True, integers=True),
 }
 IMAGE_STAGES = tuple(name for name, info in STAGES.items() if info.images)
@@ -421,7 +536,7 @@ def _dispatch(value: Any, handler: Any, info: Any) -> Any:
 
 if TYPE_CHECKING:  # the union pydantic builds from the table below
     NoiseStage = Union[GaussianStage, UniformStage, BiasStage, ScaleStage, RandomWalkStage, QuantizeStage,
-                       ClipStage, DropoutStage, OutlierStage, LowpassStage, CustomStage]
+                       ClipStage, DropoutStage, OutlierStage, LowpassStage, MisalignStage, CustomStage]
 else:
     NoiseStage = Annotated[
         Union[tuple(info.model for info in STAGES.values())],

@@ -11,15 +11,22 @@ from typing import Any
 
 from ..errors import Problem
 from .locate import problem_at
-from .models import CameraConfig, SensorConfig, SuiteConfig
+from .models import CameraConfig, ScanConfig, SensorConfig, SuiteConfig
 from .source import Doc, Path_, dotted
-from .tables import GENERIC_KIND, IMAGE_KINDS
+from .tables import GENERIC_KIND, HEIGHTSCAN_KIND, IMAGE_KINDS, NATIVE_KINDS
 
 __all__ = ["effective"]
 
 
 def _is_feature(kind: str) -> bool:
-    return kind not in IMAGE_KINDS and kind != GENERIC_KIND
+    return kind not in IMAGE_KINDS and kind not in (GENERIC_KIND, HEIGHTSCAN_KIND)
+
+
+def _is_native(kind: str) -> bool:
+    return kind in NATIVE_KINDS
+
+
+_NATIVE_ONLY = "MuJoCo sensor kinds (velocimeter, framepos, contact, ...)"
 
 
 # key -> (which kinds may have it, what to call them in a message)
@@ -29,6 +36,13 @@ _ONLY_FOR = {
     "index": (_is_feature, "sensors that read an attribute of model elements"),
     "camera": (lambda k: k in IMAGE_KINDS, "image sensors (kind rgb, depth or segmentation)"),
     "callable": (lambda k: k == GENERIC_KIND, "kind 'generic'"),
+    "frame": (_is_native, _NATIVE_ONLY),
+    "with_": (_is_native, _NATIVE_ONLY),
+    "data": (_is_native, _NATIVE_ONLY),
+    "reduce": (_is_native, _NATIVE_ONLY),
+    "num": (_is_native, _NATIVE_ONLY),
+    "cutoff": (_is_native, _NATIVE_ONLY),
+    "scan": (lambda k: k == HEIGHTSCAN_KIND, f"kind {HEIGHTSCAN_KIND!r}"),
 }
 # key -> (which kinds need it, an example)
 _NEEDS = {
@@ -36,7 +50,7 @@ _NEEDS = {
     "callable": (lambda k: k == GENERIC_KIND, "callable: 'my_pkg.sensors:distance'"),
 }
 _IMAGE_EXAMPLE = "element: 'camera:wrist'"
-_FROM_DEFAULTS = ("interval", "delay", "buffer", "aggregator", "enabled", "noise")
+_FROM_DEFAULTS = ("interval", "delay", "buffer", "aggregator", "enabled", "noise", "twin")
 
 
 def effective(name: str, sensor: SensorConfig, config: SuiteConfig, doc: Doc) -> tuple[SensorConfig, list[Problem]]:
@@ -45,8 +59,9 @@ def effective(name: str, sensor: SensorConfig, config: SuiteConfig, doc: Doc) ->
     here = ("sensors", name)
     for key, (allowed, who) in _ONLY_FOR.items():
         if getattr(sensor, key) is not None and not allowed(sensor.kind):
-            problems.append(problem_at(doc, here + (key,), f"{key!r} is only for {who}; this sensor's kind is "
-                                       f"{sensor.kind!r}: remove it or change the kind", key=True))
+            label = key.rstrip("_")
+            problems.append(problem_at(doc, here + (label,), f"{label!r} is only for {who}; this sensor's kind "
+                                       f"is {sensor.kind!r}: remove it or change the kind", key=True))
     for key, (needed, example) in _NEEDS.items():
         if getattr(sensor, key) is None and needed(sensor.kind):
             example = _IMAGE_EXAMPLE if sensor.kind in IMAGE_KINDS and key == "element" else example
@@ -59,6 +74,8 @@ def effective(name: str, sensor: SensorConfig, config: SuiteConfig, doc: Doc) ->
             update[field] = getattr(defaults, field)
     if sensor.kind in IMAGE_KINDS:
         update["camera"] = _merge_camera(defaults.camera, sensor.camera)
+    if sensor.kind == HEIGHTSCAN_KIND and sensor.scan is None:
+        update["scan"] = ScanConfig.model_validate({})
     if update.get("enabled", sensor.enabled) is None:
         update["enabled"] = True
     if update.get("noise", sensor.noise) is None:

@@ -9,10 +9,19 @@ from __future__ import annotations
 
 from ..observables.aggregators import AGGREGATORS
 
-__all__ = ["IMAGE_KINDS", "GENERIC_KIND", "aggregator_names"]
+__all__ = ["IMAGE_KINDS", "GENERIC_KIND", "HEIGHTSCAN_KIND", "NATIVE_KINDS", "aggregator_names"]
 
 IMAGE_KINDS: tuple[str, ...] = ("rgb", "depth", "segmentation")  # == tuple(camera.MODES), tested
 GENERIC_KIND = "generic"
+HEIGHTSCAN_KIND = "heightscan"
+# MuJoCo sensor types a suite adds to the model: the rows of `sensorcfg.native.table.NATIVE` (tested).
+NATIVE_KINDS: tuple[str, ...] = (
+    "accelerometer", "velocimeter", "gyro", "force", "torque", "magnetometer", "touch", "rangefinder",
+    "camprojection", "jointpos", "jointvel", "jointactfrc", "jointlimitpos", "jointlimitvel", "jointlimitfrc",
+    "ballquat", "ballangvel", "tendonpos", "tendonvel", "tendonactfrc", "tendonlimitpos", "tendonlimitvel",
+    "tendonlimitfrc", "actuatorpos", "actuatorvel", "actuatorfrc", "framepos", "framequat", "framexaxis",
+    "frameyaxis", "framezaxis", "framelinvel", "frameangvel", "framelinacc", "frameangacc", "subtreecom",
+    "subtreelinvel", "subtreeangmom", "insidesite", "contact", "tactile", "geomdist", "geomnormal", "geomfromto")
 
 
 def aggregator_names() -> tuple[str, ...]:

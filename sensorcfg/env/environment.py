@@ -109,18 +109,25 @@ def action_spec(model: mujoco.MjModel, leading: tuple[int, ...] = ()) -> specs.B
                               minimum=np.where(limited, lo, -np.inf), maximum=np.where(limited, hi, np.inf))
 
 
-def _suite_and_observables(suite: Any, model: mujoco.MjModel,
-                           batch: bool = False) -> tuple[dict[str, Any], dict[str, Any]]:
-    """Observables and Updater keyword arguments from a Suite, a suite path, or a dict of observables;
-    the suite's `options.keyframe` too, under "keyframe" (the environment pops it)."""
+def model_and_observables(model: Any, suite: Any, batch: bool = False
+                          ) -> tuple[mujoco.MjModel, dict[str, Any], dict[str, Any]]:
+    """The model (a path or an MjSpec compiled with the suite's MuJoCo sensor kinds), its observables and
+    the Updater's keyword arguments, from a Suite, a suite path, or a dict of observables; the suite's
+    `options.keyframe` too, under "keyframe" (the environment pops it). With `batch`, what a
+    BatchEnvironment cannot run is a problem too."""
     if isinstance(suite, Mapping):
-        return dict(suite), {}
+        return load_model(model), dict(suite), {}
     if isinstance(suite, (str, os.PathLike)):
         from .. import load
 
         suite = load(suite)
+    if isinstance(model, (str, os.PathLike, mujoco.MjSpec)):
+        if not isinstance(model, mujoco.MjSpec):
+            load_model(model)  # a missing or broken file: the same error as without a suite
+        model = suite.compile(model)
+    model = load_model(model)
     observables = suite.build(model, batch=True) if batch else suite.build(model)
-    return observables, {**suite.updater_kwargs(model), "keyframe": getattr(suite.options, "keyframe", None)}
+    return model, observables, {**suite.updater_kwargs(model), "keyframe": getattr(suite.options, "keyframe", None)}
 
 
 def keyframe_index(model: mujoco.MjModel, keyframe: int | str | None, suite_keyframe: int | str | None) -> int | None:
@@ -178,16 +185,15 @@ class Environment(ControlLoop, dm_env.Environment):
     `options.control_interval`, else one physics step.
     """
 
-    def __init__(self, model: mujoco.MjModel | str | os.PathLike, suite: Any, *,
+    def __init__(self, model: mujoco.MjModel | mujoco.MjSpec | str | os.PathLike, suite: Any, *,
                  physics_steps_per_control_step: int | None = None, control_timestep: float | None = None,
                  time_limit: float | None = None,
                  seed: int | np.random.SeedSequence | np.random.RandomState | None = None,
                  reward_fn: RewardFn | None = None, termination_fn: TerminationFn | None = None,
                  initialize_episode: InitializeFn | None = None, keyframe: int | str | None = None):
-        self._model = load_model(model)
+        self._model, observables, kwargs = model_and_observables(model, suite)
         self._physics = Physics(self._model)
         self._warning_counts = self._physics.data.warning.number  # a live view of MjData's counters
-        observables, kwargs = _suite_and_observables(suite, self._model)
         suite_keyframe = kwargs.pop("keyframe", None)
         self._n, self._control_timestep, self._step_limit = episode_timing(
             self._model, physics_steps_per_control_step, control_timestep, time_limit,
@@ -219,6 +225,13 @@ class Environment(ControlLoop, dm_env.Environment):
     @property
     def random_state(self) -> np.random.RandomState:
         return self._random_state
+
+    def set_noise_level(self, level: float) -> None:
+        """Scale every sensor's noise from the next episode on: 0 clean, 1 the suite's (see
+        `sensorcfg.noise.level`); for curricula."""
+        from ..noise.level import set_level
+
+        set_level(self._observables, level)
 
     def seed(self, seed: int | np.random.SeedSequence | None) -> None:
         """Restart the episode random stream (the next reset draws from it)."""

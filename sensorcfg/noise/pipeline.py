@@ -179,6 +179,15 @@ def _clip(s: Any, r: _Resolver) -> rt.Stage:
     return rt.Clip(r.ctx, low, high)
 
 
+def _misalign(s: Any, r: _Resolver) -> rt.Stage:
+    from .misalign import Misalign
+
+    if not r.ctx.shape or r.ctx.shape[-1] != 3:
+        r.problem("type", f"misalign turns 3-vectors: the observation's last axis must hold 3 values; its shape is "
+                          f"{r.ctx.shape}")
+    return Misalign(r.ctx, s.matrix, s.std)
+
+
 def _custom(s: Any, r: _Resolver) -> rt.Stage:
     fn, name = _import(s.callable, r)
     return rt.Custom(r.ctx, fn, name, f"{r.where}.callable")
@@ -228,8 +237,22 @@ BUILDERS: dict[str, Callable[[Any, _Resolver], rt.Stage]] = {
     "dropout": lambda s, r: rt.Dropout(r.ctx, r(s.p, "p"), s.mode, s.per == "value"),
     "outlier": lambda s, r: rt.Outlier(r.ctx, r(s.p, "p"), r(s.scale, "scale")),
     "lowpass": lambda s, r: rt.Lowpass(r.ctx, r(s.cutoff, "cutoff")),
+    "misalign": lambda s, r: _misalign(s, r),
     "custom": _custom,
 }
+
+
+def _build(config: Any, r: _Resolver) -> rt.Stage:
+    """The stage; one with parameters drawn per episode is rebuilt at each reset (`noise.redrawn`), after
+    both ends of every range are checked here."""
+    from .redrawn import Redrawn, drawn_fields
+
+    drawn = drawn_fields(config)
+    if not drawn:
+        return BUILDERS[config.type](config, r)
+    for end in ("low", "high"):
+        BUILDERS[config.type](config.model_copy(update={f: getattr(v, end) for f, v in drawn.items()}), r)
+    return Redrawn(config, lambda concrete: BUILDERS[concrete.type](concrete, _Resolver(r.ctx, 0, [])))
 
 
 def _work_dtype(dtype: np.dtype) -> np.dtype:
@@ -288,7 +311,7 @@ def build_noise(stages: Sequence[NoiseStage], shape: tuple[int, ...], dtype: Any
     for i, config in enumerate(configs):
         r = _Resolver(ctx, i, problems)
         if _check_dtype(config, dtype, r):
-            built.append(BUILDERS[config.type](config, r))
+            built.append(_build(config, r))
     if problems:
         raise SuiteError(problems)
     for i, stage in enumerate(built):

@@ -1,0 +1,27 @@
+"""`misalign` across simulations: each simulation's matrix of the episode, applied with the same `turn`."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..noise import stages as rt
+from ..noise.misalign import Misalign, turn
+from .noise import BATCHED, _Batched
+
+__all__: list[str] = []
+
+
+class _BatchedMisalign(_Batched):
+    def __init__(self, template: rt.Stage, nsim: int, *stride: int):
+        super().__init__(template, nsim, *stride)  # type: ignore[call-arg]
+        self.matrices = np.tile(np.eye(3), (nsim, 1, 1))
+
+    def load(self, i: int, stage: rt.Stage) -> None:
+        self.matrices[i] = stage.matrix  # type: ignore[attr-defined]
+
+    def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
+        lead = (len(sims),) + (1,) * (src.ndim - 2)
+        turn(src, self.matrices[sims].reshape(lead + (3, 3)), dst)
+
+
+BATCHED[Misalign] = _BatchedMisalign

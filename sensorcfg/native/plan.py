@@ -1,0 +1,199 @@
+"""Which MuJoCo sensors (and sites) a suite's native kinds add to a model: resolved, checked, positioned.
+
+`plan_sensor` resolves one suite sensor against a model (the plain robot, or one that already carries
+the suite's sensors: resolution is the same, since only sensors and sites are added) into `Added` records,
+one per selected element, reporting every mistake at the key it is about. `sensorcfg.native.compile`
+writes the records into an `MjSpec`; `sensorcfg.native.bind` reads them back from the compiled model.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from typing import Any, cast
+
+import mujoco
+
+from ..config.models import SensorConfig
+from ..errors import SuiteError, did_you_mean
+from ..kinds import kinds_of
+from ..selection import Selection, select, split_selector
+from .table import NATIVE, OBJ, REDUCE, NativeType, available, data_fields
+
+__all__ = ["Added", "native_row", "plan_sensor", "sensor_name"]
+
+Report = Callable[[tuple[Any, ...], str], None]  # (path in the suite, message)
+
+
+@dataclasses.dataclass(frozen=True)
+class Added:
+    """One MuJoCo sensor a suite sensor adds for one of its elements (and the site it may need)."""
+
+    name: str  # the sensor's name in the model (and the added site's, when `site_body` is set)
+    sensor: str  # mjtSensor member without its prefix
+    objtype: str  # mjtObj member without its prefix
+    objname: str
+    reftype: str | None = None
+    refname: str | None = None
+    intprm: tuple[int, int, int] = (0, 0, 0)
+    cutoff: float = 0.0
+    site_body: str | None = None  # add a site named `name` at this body's frame, and read it
+
+
+def sensor_name(suite_sensor: str, i: int) -> str:
+    """The model name of the MuJoCo sensor a suite sensor adds for its i-th element."""
+    return f"sensorcfg:{suite_sensor}:{i}"
+
+
+def native_row(kind: str, type_name: str | None) -> NativeType | None:
+    """The native type a kind means on an element type; None where the element type has that attribute
+    (the element type decides: an actuator's `force` is `actuator_force`) or the kind is not native."""
+    row = NATIVE.get(kind)
+    if row is None or (type_name is not None and kind in kinds_of(type_name)):
+        return None
+    return row
+
+
+def _a(word: str) -> str:
+    return "an" if word[0] in "aeiou" else "a"
+
+
+def _one(model: mujoco.MjModel, text: str, allowed: tuple[str, ...], what: str) -> tuple[str, str]:
+    """(element type, name) of a `frame:` / `with:` that names one element of an allowed type."""
+    type_name, _ = split_selector(text)
+    if type_name not in allowed:
+        raise SuiteError(f"{what} takes {' or '.join(t + ':<name>' for t in allowed)}; got {text!r}")
+    sel = select(model, text)
+    if sel.batched:
+        raise SuiteError(f"{what} names one element; {text!r} is a pattern")
+    if not sel.names[0]:
+        raise SuiteError(f"{text!r} has no name in the model; MuJoCo's sensors refer to elements by name")
+    return type_name, sel.names[0]
+
+
+def _mask(kind: str, data: tuple[str, ...], report: Report, here: tuple[Any, ...]) -> int | None:
+    fields = data_fields(kind)
+    if not fields:
+        report(here + ("data",), f"this MuJoCo ({mujoco.__version__}) has no `data` fields for {kind}")
+        return None
+    bad = [d for d in data if d not in fields]
+    for d in bad:
+        report(here + ("data", data.index(d)),
+               f"{kind} has no data field {d!r}{did_you_mean(d, fields)}; fields: {', '.join(fields)}")
+    if bad:
+        return None
+    if len(set(data)) != len(data) or list(data) != sorted(data, key=fields.index):
+        report(here + ("data",), f"list each data field once, in MuJoCo's order (the order of the values): "
+               f"{', '.join(sorted(set(data), key=fields.index))}")
+        return None
+    return sum(1 << fields.index(d) for d in data)
+
+
+def _intprm(row: NativeType, cfg: SensorConfig, report: Report, here: tuple[Any, ...]) -> tuple[int, int, int] | None:
+    """MuJoCo's intprm from `data`, `reduce`, `num`; a key the type does not take is a problem."""
+    ok = True
+    for key in ("data", "reduce", "num", "cutoff"):
+        if getattr(cfg, key) is not None and key not in row.options:
+            takes = f"; {row.kind} takes {', '.join(row.options)}" if row.options else ""
+            report(here + (key,), f"{key!r} is not an option of {row.kind}{takes}")
+            ok = False
+    mask = 0
+    if cfg.data is not None:
+        found = _mask(row.kind, cfg.data, report, here)
+        ok = ok and found is not None
+        mask = found or 0
+    elif "data" in row.options:
+        mask = 1  # MuJoCo's default: the first field (contact: found; rangefinder: dist)
+    reduce = REDUCE.get(cfg.reduce or "none")
+    if reduce is None:
+        report(here + ("reduce",), f"reduce is one of {', '.join(REDUCE)}; got {cfg.reduce!r}"
+               f"{did_you_mean(str(cfg.reduce), REDUCE)}")
+        ok = False
+    if not ok:
+        return None
+    num = (cfg.num or 1) if row.kind == "contact" else 0
+    return (mask, reduce or 0, num)
+
+
+def _objects(model: mujoco.MjModel, row: NativeType, sel: Selection, name: str) -> list[tuple[str, str, str | None]]:
+    """(objtype, objname, body to add a site to) per selected element."""
+    out: list[tuple[str, str, str | None]] = []
+    for i, (element_id, element_name) in enumerate(zip(sel.ids, sel.names)):
+        if sel.type == "body" and row.body_site:
+            body = element_name or ("world" if element_id == 0 else "")
+            out.append(("SITE", sensor_name(name, i), body))
+        elif sel.type == "body":
+            out.append((row.body_obj, element_name or ("world" if element_id == 0 else ""), None))
+        elif row.kind == "tactile":
+            mesh = int(model.geom_dataid[element_id]) if int(model.geom_type[element_id]) == int(
+                mujoco.mjtGeom.mjGEOM_MESH) else -1
+            if mesh < 0:
+                raise SuiteError(f"tactile reads a mesh geom; {element_name!r} is not one")
+            out.append(("MESH", mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_MESH, mesh) or "", None))
+        else:
+            out.append((OBJ[sel.type], element_name, None))
+    unnamed = [i for i, (_, objname, body) in enumerate(out) if not (body if body is not None else objname)]
+    if unnamed:
+        raise SuiteError(f"MuJoCo's sensors refer to elements by name; element {unnamed[0]} of this selection "
+                         "has none: name it in the model")
+    return out
+
+
+def plan_sensor(model: mujoco.MjModel, name: str, cfg: SensorConfig, report: Report) -> list[Added] | None:
+    """The sensors suite sensor `name` adds, or None after reporting why it cannot."""
+    here: tuple[Any, ...] = ("sensors", name)
+    first = cfg.element if isinstance(cfg.element, str) else (cfg.element or ("",))[0]
+    try:
+        type_name = split_selector(first)[0]
+    except SuiteError as e:
+        for p in e.problems:
+            report(here + ("element",), p.message)
+        return None
+    row = NATIVE[cfg.kind]
+    if not available(row):
+        report(here + ("kind",), f"this MuJoCo ({mujoco.__version__}) has no {cfg.kind} sensor "
+               f"(mjSENS_{row.sensor}); upgrade MuJoCo or use another kind")
+        return None
+    if type_name not in row.objects:
+        report(here + ("element",), f"{_a(cfg.kind)} {cfg.kind} sensor reads {' or '.join(t + ':<name>' for t in row.objects)}; "
+               f"got {first!r}")
+        return None
+    ok = True
+    ref: tuple[str | None, str | None] = (None, None)
+    for key, allowed, required in (("frame", (row.frame and ("body", "geom", "site", "camera")) or (), False),
+                                   ("with_", row.with_, row.with_required)):
+        value = getattr(cfg, key)
+        label = key.rstrip("_")
+        if value is None:
+            if required:
+                report(here + ("kind",), f"{_a(cfg.kind)} {cfg.kind} sensor needs `{label}:`, one of "
+                       f"{' or '.join(t + ':<name>' for t in allowed)}")
+                ok = False
+            continue
+        if not allowed:
+            report(here + (label,), f"{_a(cfg.kind)} {cfg.kind} sensor takes no `{label}:`")
+            ok = False
+            continue
+        try:
+            ref_type, ref_name = _one(model, value, cast(tuple[str, ...], allowed), label)
+        except SuiteError as e:
+            for p in e.problems:
+                report(here + (label,), p.message)
+            ok = False
+            continue
+        body_ref = "BODY" if row.kind in ("contact", "geomdist", "geomnormal", "geomfromto") else "XBODY"
+        ref = (body_ref if ref_type == "body" else OBJ[ref_type], ref_name)
+    intprm = _intprm(row, cfg, report, here)
+    try:
+        sel = select(model, cast("str | tuple[str, ...]", cfg.element), cfg.within)
+        objects = _objects(model, row, sel, name)
+    except SuiteError as e:
+        for p in e.problems:
+            report(here + ("element",), p.message)
+        return None
+    if not ok or intprm is None:
+        return None
+    cutoff = float(cfg.cutoff) if cfg.cutoff is not None else (10.0 if "cutoff" in row.options else 0.0)
+    refs = [("GEOM", sel.names[i]) if row.kind == "tactile" else ref for i in range(len(objects))]
+    return [Added(sensor_name(name, i), row.sensor, objtype, objname, refs[i][0], refs[i][1], intprm, cutoff, body)
+            for i, (objtype, objname, body) in enumerate(objects)]
