@@ -27,7 +27,7 @@ __all__ = ["ArgumentError", "Problem", "SensorcfgError", "SuiteError", "Unsuppor
            "printable", "quote", "QUOTE_LIMIT", "MESSAGE_LIMIT"]
 
 QUOTE_LIMIT = 40  # characters of an input value a message quotes (then '...')
-MESSAGE_LIMIT = 600  # characters of one printed message (a safety net: messages are written far shorter)
+MESSAGE_LIMIT = 2000  # characters of one printed message (a safety net: the longest, a list of kinds, is ~1000)
 
 _ESCAPES = {"\n": "\\n", "\r": "\\r", "\t": "\\t"}
 # A quoted literal ('...', as repr writes it) longer than this in a message is cut when printed: a safety net

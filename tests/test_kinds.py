@@ -9,7 +9,13 @@ import numpy as np
 import pytest
 
 import sensorcfg
+from sensorcfg.native import NATIVE
 from sensorcfg.kinds import CONSTANT, INTERNAL, STATE, kinds_of, offered_kinds, state_twin
+
+def native_on(type_name: str) -> list[str]:
+    """The MuJoCo sensor kinds an element type takes (listed after its own kinds in a message)."""
+    return [kind for kind, row in NATIVE.items() if type_name in row.objects]
+
 
 MODEL = Path(__file__).parent / "models" / "menagerie_like.xml"
 
@@ -39,13 +45,14 @@ def _problems(sensor: str) -> list[str]:
                  "bookkeeping, not a value to sense) (did you mean 'qpos'?); joint kinds: cdof, cdof_dot, qacc, "
                  "qacc_smooth, qfrc_actuator, qfrc_adhesion, qfrc_applied, qfrc_bias, qfrc_constraint, qfrc_damper, "
                  "qfrc_fluid, qfrc_gravcomp, qfrc_inverse, qfrc_passive, qfrc_smooth, qfrc_spring, qpos, qvel, "
-                 "xanchor, xaxis", id="qposadr-internal"),
+                 "xanchor, xaxis; MuJoCo sensors on a joint: " + ", ".join(native_on("joint")), id="qposadr-internal"),
     pytest.param("{kind: xpos, element: body:base, constant: true}",
                  "s.yaml:2:49: error: sensors.s.constant: 'xpos' changes with the simulation; 'constant: true' is for "
                  "model constants: remove it", id="constant-on-state"),
     pytest.param("{kind: pso, element: body:base}",
                  "s.yaml:2:13: error: sensors.s.kind: a body has no kind 'pso' (did you mean 'pos', a model constant "
-                 "read with 'constant: true'?); body kinds: " + ", ".join(offered_kinds("body", STATE)),
+                 "read with 'constant: true'?); body kinds: " + ", ".join(offered_kinds("body", STATE))
+                 + "; MuJoCo sensors on a body: " + ", ".join(native_on("body")),
                  id="constant-hint-last"),  # (the list depends on the MuJoCo release: 3.17 has no xiquat)
 ])
 def test_constants_and_internals_are_mistakes_at_the_kind(sensor: str, message: str) -> None:

@@ -215,8 +215,8 @@ def _check_slices(index: Any, shape: tuple[int, ...], kind: str, element: Any, c
     """numpy clips a slice to its axis silently; a suite's slice must lie within the value's axis instead
     (`3:6` of 4 elements is a mistake, not 1 element)."""
     parts = index if isinstance(index, tuple) else (index,)
-    if Ellipsis in parts:
-        at = parts.index(Ellipsis)
+    at = next((i for i, part in enumerate(parts) if part is Ellipsis), None)  # (`in` would compare arrays)
+    if at is not None:
         parts = parts[:at] + (slice(None),) * (len(shape) - len(parts) + 1) + parts[at + 1:]
     for axis, part in enumerate(parts[:len(shape)]):
         if not isinstance(part, slice):
