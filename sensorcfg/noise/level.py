@@ -83,8 +83,8 @@ class LeveledPipeline(NoisePipeline):
     def level(self) -> float:
         return self._blend.level
 
-    def reset(self, rng: np.random.Generator | np.random.RandomState, *args: Any) -> None:
-        super().reset(rng, *args)
+    def reset(self, key: np.ndarray | np.random.Generator | np.random.RandomState, stride: int = 1) -> None:
+        super().reset(key, stride)
         if hasattr(self, "_blend"):
             self._blend.level = self.next_level
 
