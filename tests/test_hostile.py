@@ -522,7 +522,13 @@ def test_validate_a_folder_nested_deeper_than_the_recursion_limit(tmp_path: Path
     (path / "s.yaml").write_text(OK)
     (deep / "a.yaml").write_text(OK)
     (deep / "z.yaml").write_text(OK)
-    code, out, _ = run_main(capsys, "validate", str(deep), "--format", "json")
+    try:
+        code, out, _ = run_main(capsys, "validate", str(deep), "--format", "json")
+    finally:  # pytest's own clean-up recurses and cannot remove a tree this deep
+        os.remove(path / "s.yaml")
+        while path != deep:
+            os.rmdir(path)
+            path = path.parent
     assert code == 0
     names = [f["path"][len(str(deep)) + 1:] for f in json.loads(out)["files"]]
     assert names == ["a.yaml", "d/" * 1200 + "s.yaml", "z.yaml"]  # path order, as before
