@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import copy
 from pathlib import Path
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -45,17 +46,23 @@ def _episode(model: mujoco.MjModel, steps: int = 60, overrides: list[str] | None
         yield env, ts.observation
 
 
-def test_on_demand_fields_equal_mujocos_own_functions() -> None:
-    """Each value equals MuJoCo's function called on the state the last step computed (its kinematics and
-    the velocity it started from), and is not zero: the feet stand on the floor."""
+def _crouched_updater() -> tuple[mujoco.MjModel, Any, sensorcfg.Updater]:
+    """The on-demand suite's Updater, reset on the model standing in its crouch keyframe."""
     model = mujoco.MjModel.from_xml_path(str(MODEL))
     suite = sensorcfg.loads(ON_DEMAND_SUITE)
     physics = sensorcfg.Physics(model)
-    data = physics.data
-    mujoco.mj_resetDataKeyframe(model, data, model.key("crouch").id)
-    mujoco.mj_forward(model, data)
+    mujoco.mj_resetDataKeyframe(model, physics.data, model.key("crouch").id)
+    mujoco.mj_forward(model, physics.data)
     updater = sensorcfg.Updater(suite.build(model), **suite.updater_kwargs(model))
     updater.reset(physics, np.random.RandomState(0))
+    return model, physics, updater
+
+
+def test_on_demand_fields_equal_mujocos_own_functions() -> None:
+    """Each value equals MuJoCo's function called on the state the last step computed (its kinematics and
+    the velocity it started from), and is not zero: the feet stand on the floor."""
+    model, physics, updater = _crouched_updater()
+    data = physics.data
     calves = [model.body(n.partition(":")[2]).id for n in CALVES]
     base = model.body("base").id
     rng = np.random.default_rng(0)
@@ -165,14 +172,8 @@ def test_batch_records_them_truly_when_the_models_sensors_compute_them() -> None
 
 def test_a_forward_pass_after_the_step_is_read_as_it_left_the_data() -> None:
     """After mj_forward the kinematics match the velocity the step ended with: no remembered velocity."""
-    model = mujoco.MjModel.from_xml_path(str(MODEL))
-    suite = sensorcfg.loads(ON_DEMAND_SUITE)
-    physics = sensorcfg.Physics(model)
+    model, physics, updater = _crouched_updater()
     data = physics.data
-    mujoco.mj_resetDataKeyframe(model, data, model.key("crouch").id)
-    mujoco.mj_forward(model, data)
-    updater = sensorcfg.Updater(suite.build(model), **suite.updater_kwargs(model))
-    updater.reset(physics, np.random.RandomState(0))
     base = model.body("base").id
     for _ in range(5):
         updater.prepare_for_next_control_step()

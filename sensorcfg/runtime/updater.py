@@ -164,16 +164,8 @@ class Updater:
 
     def _build_plan(self) -> None:
         """One table over the common period: which sampling tasks run at each step's phase."""
-        tasks = self._tasks()
+        tasks = [*self._tasks(), *self._before_tasks()]
         self._random = [(order, ch) for order, ch in enumerate(self._channels) if isinstance(ch, RandomChannel)]
-        last = len(self._channels)  # after every sampler of the step
-        for ch in self._channels:  # a field computed on demand from the velocity a step starts from:
-            before = getattr(ch.sampler, "before_step", None)  # remember it one step before each sample
-            if isinstance(ch, FixedChannel) and before is not None:
-                period = ch.period()
-                tasks.append(PlanTask(period, [(p - 1) % period for p in ch.needed_phases()], last, before))
-            elif before is not None:  # a drawn schedule: at every step
-                tasks.append(PlanTask(1, [0], last, before))
         period = math.lcm(*(task.period for task in tasks)) if tasks else 1
         if period > _MAX_PLAN_PERIOD:  # pathological interval mixes: each task checks its own phase
             self._period, self._plan, self._orders = 1, [()], [()]
@@ -195,6 +187,22 @@ class Updater:
                  if isinstance(ch, FixedChannel) and id(ch) not in banked]
         if bank:
             tasks[:0] = [*self._sync_tasks(bank), *(PlanTask(p, phases, BANK_ORDER, run) for p, phases, run in bank.tasks())]
+        return tasks
+
+    def _before_tasks(self) -> list[PlanTask]:
+        """A field computed on demand from the velocity a step starts from is remembered one step before
+        each sample (at every step for a drawn schedule), after every sampler of that step."""
+        last = len(self._channels)
+        tasks = []
+        for ch in self._channels:
+            before = getattr(ch.sampler, "before_step", None)
+            if before is None:
+                continue
+            if isinstance(ch, FixedChannel):
+                period = ch.period()
+                tasks.append(PlanTask(period, [(p - 1) % period for p in ch.needed_phases()], last, before))
+            else:
+                tasks.append(PlanTask(1, [0], last, before))
         return tasks
 
     @staticmethod
