@@ -51,77 +51,26 @@ class _Stateless(_Batched):
         self.template(src, dst, 0)
 
 
-def _chunkable(stage: Any) -> bool:
-    """Whether the first samples of a block can be drawn alone (the same numbers: draws fill one array in
-    order); an outlier draws two arrays per block (hits, then jumps)."""
-    if isinstance(stage, rt.Sum):
-        return all(_chunkable(part) or isinstance(part, rt.EpisodeDraw) for part in stage.parts)
-    return isinstance(stage, (rt.Gaussian, rt.Uniform, rt.RandomWalk, rt.Dropout))
-
-
-class _Blocks(_Batched):
-    """Per-sample numbers of each simulation, stored a part of a block at a time.
-
-    Sample j lives in block j // B; the store holds, per simulation, one `part` of `sub` samples of its
-    current block (sub = B unless that would exceed `_BLOCK_BYTES` across simulations and the stage can
-    draw the first samples of a block alone; then a part is drawn as the block's prefix up to its end).
-    """
+class _Drawn(_Batched):
+    """Per-sample numbers: each call draws those of the samples taken, of every simulation at once (the
+    counter-based numbers are a function of the simulation's episode key and the sample index only)."""
 
     def __init__(self, template: Any, nsim: int, stride: int):
         super().__init__(template, nsim, stride)
-        self.block = block = template.ctx.block
-        sub = block
-        if _chunkable(template):
-            per_sample = 8 * max(1, math.prod(template.ctx.shape)) * nsim
-            while sub > 1 and sub * per_sample > _BLOCK_BYTES:
-                sub //= 2
-        self.sub = sub
         self.keys = np.zeros((nsim, 2), np.uint64)
-        self.part = np.full(nsim, -1, np.int64)  # the part (block * parts + q) each simulation holds
-        self.rows: np.ndarray | None = None  # (nsim, sub, *shape)
 
     def load(self, i: int, stage: Any) -> None:
         self.keys[i] = stage.streams.key
-        self.part[i] = -1
 
-    def draw(self, sims: np.ndarray, parts: np.ndarray) -> np.ndarray:
-        """The rows of part `parts[m]` of simulation `sims[m]`, (m, sub, *shape)."""
-        per_block = self.block // self.sub
-        out = []
-        for i, part in zip(sims.tolist(), parts.tolist()):
-            block, q = divmod(part, per_block)
-            drawn = self.numbers(i, block, (q + 1) * self.sub)
-            out.append(drawn[q * self.sub:])
-        return np.stack(out)
-
-    def numbers(self, i: int, block: int, count: int) -> np.ndarray:
-        return cast(np.ndarray, self.template.numbers(block, self.keys[i], count))
-
-    def first_rows(self, sims: np.ndarray) -> np.ndarray:
-        """The reset samples' rows (sample 0), drawn alone where the stream allows: a reset does not draw
-        the rest of the first block (the first step does, when it needs it)."""
-        count = 1 if _chunkable(self.template) else self.block
-        return np.stack([self.numbers(i, 0, count)[0] for i in sims.tolist()])
+    def numbers(self, sims: np.ndarray, samples: np.ndarray) -> np.ndarray:
+        return cast(np.ndarray, self.template.numbers(samples, self.keys[sims]))
 
     def take(self, sims: np.ndarray, steps: np.ndarray) -> np.ndarray:
-        """This sample's rows for `sims` at their `steps`, (m, ...) (refilling the parts that ran out)."""
-        if not steps.any():  # reset samples
-            return self.first_rows(sims)
-        part, j = np.divmod(steps // self.stride, self.sub)
-        stale = part != self.part[sims]
-        if stale.any():
-            fresh = self.draw(sims[stale], part[stale])
-            if self.rows is None:
-                self.rows = np.zeros((self.nsim, *fresh.shape[1:]), fresh.dtype)
-            self.rows[sims[stale]] = fresh
-            self.part[sims[stale]] = part[stale]
-        rows = cast(np.ndarray, self.rows)
-        if sims.size == self.nsim and (j == j[0]).all():  # every simulation (sims is sorted), in step: a view
-            return rows[:, j[0]]
-        return rows[sims, j]
+        """This sample's rows for `sims` at their `steps`, (m, ...)."""
+        return self.numbers(sims, steps // self.stride)
 
 
-class _Additive(_Blocks):
+class _Additive(_Drawn):
     """White noise, outliers, and the fused sum of additive stages: one addition per sample."""
 
     def __init__(self, template: Any, nsim: int, stride: int):
@@ -138,29 +87,53 @@ class _Additive(_Blocks):
             for values, value in zip(self.values, drawn):
                 values[i] = value
 
-    def numbers(self, i: int, block: int, count: int) -> np.ndarray:
+    def numbers(self, sims: np.ndarray, samples: np.ndarray) -> np.ndarray:
         if self.values:
-            return cast(np.ndarray, self.template.numbers(block, self.keys[i], count, [v[i] for v in self.values]))
-        return super().numbers(i, block, count)
+            return cast(np.ndarray, self.template.numbers(samples, self.keys[sims], [v[sims] for v in self.values]))
+        return super().numbers(sims, samples)
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
         ar.add(src, self.take(sims, steps), dst)
 
 
 class _RandomWalk(_Additive):
-    """The walk's states over every index, one part at a time per simulation (walked together)."""
+    """The walk's states over every index, one part of `sub` indices at a time per simulation (walked
+    together): part p holds indices [p sub, (p + 1) sub); sub is the block unless that would exceed
+    `_BLOCK_BYTES` across simulations."""
 
     def __init__(self, template: rt.RandomWalk, nsim: int, stride: int):
         super().__init__(template, nsim, stride)
         self.carry = np.zeros((nsim, *template.carry.shape), template.carry.dtype)
+        sub = template.ctx.block
+        per_sample = 8 * max(1, math.prod(template.ctx.shape)) * nsim
+        while sub > 1 and sub * per_sample > _BLOCK_BYTES:
+            sub //= 2
+        self.sub = sub
+        self.part = np.full(nsim, -1, np.int64)  # the part each simulation holds
+        self.rows: np.ndarray | None = None  # (nsim, sub, *shape)
 
     def load(self, i: int, stage: Any) -> None:
         super().load(i, stage)
         self.carry[i] = stage.start
+        self.part[i] = -1
 
-    def first_rows(self, sims: np.ndarray) -> np.ndarray:
-        """The walk at sample 0 is its start: nothing to draw."""
-        return self.carry[sims]
+    def take(self, sims: np.ndarray, steps: np.ndarray) -> np.ndarray:
+        """The walk's states at `steps`, (m, ...): the start at sample 0, else from the held parts (walking
+        on to the parts that are due)."""
+        if not steps.any():  # reset samples: the walk at sample 0 is its start
+            return self.carry[sims]
+        part, j = np.divmod(steps // self.stride, self.sub)
+        stale = part != self.part[sims]
+        if stale.any():
+            fresh = self.draw(sims[stale], part[stale])
+            if self.rows is None:
+                self.rows = np.zeros((self.nsim, *fresh.shape[1:]), fresh.dtype)
+            self.rows[sims[stale]] = fresh
+            self.part[sims[stale]] = part[stale]
+        rows = cast(np.ndarray, self.rows)
+        if sims.size == self.nsim and (j == j[0]).all():  # every simulation (sims is sorted), in step: a view
+            return rows[:, j[0]]
+        return rows[sims, j]
 
     def draw(self, sims: np.ndarray, parts: np.ndarray) -> np.ndarray:
         """Walk each simulation from its held part to `parts` (every part in between, in order)."""
@@ -170,11 +143,14 @@ class _RandomWalk(_Additive):
             raise ValueError("a batched random walk was asked for an earlier sample")
         out = np.empty((sims.size, self.sub, *self.template.ctx.shape), self.template.ctx.work)
         at = held + 1
+        offsets = np.arange(self.sub)
         while True:
             moving = np.flatnonzero(at <= parts)
             if not moving.size:
                 return out
-            z = super().draw(sims[moving], at[moving])  # (m, sub, ...)
+            samples = (at[moving, None] * self.sub + offsets).ravel()
+            z = self.template.numbers(samples, np.repeat(self.keys[sims[moving]], self.sub, axis=0))
+            z = z.reshape(moving.size, self.sub, *self.template.ctx.shape)
             carry = self.carry[sims[moving]]
             for first in (True, False):  # the episode's first part starts at the drawn start itself
                 rows = np.flatnonzero((at[moving] == 0) == first)
@@ -238,7 +214,7 @@ class _Lowpass(_Batched):
         np.copyto(dst, state)
 
 
-class _Dropout(_Blocks):
+class _Dropout(_Drawn):
     def __init__(self, template: rt.Dropout, nsim: int, stride: int):
         super().__init__(template, nsim, stride)
         self.per_value = template.per_value

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..errors import Problem, SuiteError
 from .arithmetic import add, clip, dropout, lowpass, multiply, quantize, walk
-from .streams import Streams, stream_key
+from .streams import Draw, Streams, numbers, stream_key
 
 __all__ = ["Context", "Streams", "Stage", "Sum", "Gaussian", "Uniform", "Outlier", "EpisodeDraw", "RandomWalk",
            "Lowpass", "Quantize", "Clip", "Dropout", "Custom", "stream_key"]
@@ -79,19 +79,32 @@ class Stage:
 
 
 class _PerSample(Stage):
-    """A stage with fresh random numbers for every sample: block j // B of sample j's numbers at a time."""
+    """A stage with fresh random numbers for every sample (`streams.numbers`: any samples, any keys, at
+    once). The per-sample path draws a block of B samples at a time (`Context.block`, a matter of speed
+    only: a sample's numbers do not depend on the block)."""
 
     needs_rng = True
+    lanes = (True,)  # per lane: normals (True) or uniforms; lane l's numbers are (m, size) (see `sizes`)
 
     def __init__(self, ctx: Context):
         self.ctx = ctx
+        self.size = math.prod(ctx.shape)
         self.streams: Streams | None = None
         self.stride = 1
         self.block_id = -1
         self.rows: Any = []
 
-    def draw(self, rng: np.random.Generator, count: int) -> Any:
-        """Random numbers for `count` samples (an array with a leading axis of `count`)."""
+    def sizes(self) -> tuple[int, ...]:
+        """Values per sample of each lane."""
+        return (self.size,) * len(self.lanes)
+
+    def draws(self, samples: np.ndarray, keys: np.ndarray) -> list[Draw]:
+        """What `shape` needs for samples `samples` of keys `keys` (m, 2)."""
+        return [Draw(keys, samples, self.stream, lane, size, normal)
+                for lane, (size, normal) in enumerate(zip(self.sizes(), self.lanes))]
+
+    def shape(self, raw: list[np.ndarray], m: int) -> Any:
+        """The rows (m, *shape) from the drawn numbers of each lane."""
         raise NotImplementedError
 
     def reset(self, streams: Streams | None, stride: int) -> None:
@@ -100,16 +113,19 @@ class _PerSample(Stage):
         self.block_id = -1
         self.rows = []
 
-    def numbers(self, block: int, key: np.ndarray | None = None, count: int | None = None,
+    def numbers(self, samples: np.ndarray, keys: np.ndarray | None = None,
                 values: list[np.ndarray] | None = None) -> np.ndarray:
-        """The per-sample numbers of one block (block, *shape), of another episode key when given, its first
-        `count` samples only when given (the same numbers: draws fill arrays in order)."""
-        rng = self.streams.at(self.stream, block, 0, key)  # type: ignore[union-attr]
-        return np.asarray(self.draw(rng, self.ctx.block if count is None else count))
+        """The per-sample numbers of samples `samples` (m, *shape), of the episode keys `keys` ((m, 2) or
+        (1, 2); this episode's when None)."""
+        samples = np.asarray(samples, np.int64)
+        keys = self.streams.keys if keys is None else keys  # type: ignore[union-attr]
+        keys = np.broadcast_to(keys, (samples.size, 2))
+        return np.asarray(self.shape(numbers(self.draws(samples, keys)), samples.size))
 
     def block_rows(self, block: int) -> np.ndarray:
         """What each sample of `block` uses (block, *shape); subclasses with state override it."""
-        return self.numbers(block)
+        size = self.ctx.block
+        return self.numbers(np.arange(block * size, (block + 1) * size))
 
     def row(self, step: int) -> Any:
         """This sample's row (a view into the current block)."""
@@ -122,18 +138,8 @@ class _PerSample(Stage):
         return self.rows[j]
 
     def rows_at(self, indices: np.ndarray) -> np.ndarray:
-        """The rows of samples `indices` (increasing), (len, *shape): the bank draws a chunk ahead. Every
-        block from the first to the last index is made, in order (a random walk needs them all)."""
-        size = self.ctx.block
-        first, last = int(indices[0]) // size, int(indices[-1]) // size
-        blocks = []
-        for block in range(first, last + 1):
-            if block != self.block_id:
-                self.rows = self.block_rows(block)
-                self.block_id = block
-            blocks.append(np.asarray(self.rows))
-        stacked = blocks[0] if len(blocks) == 1 else np.concatenate(blocks)
-        return stacked[indices - first * size]
+        """The rows of samples `indices` (increasing), (len, *shape): the bank draws a chunk ahead."""
+        return self.numbers(indices)
 
 
 class _Additive(_PerSample):
@@ -154,26 +160,45 @@ class Sum(_Additive):
         super().__init__(ctx)
         self.parts = parts
         self.width = len(parts)
+        self.drawing = [p for p in parts if isinstance(p, _PerSample)]
+        self.lanes = tuple(lane for p in self.drawing for lane in p.lanes)
 
     def reset(self, streams: Streams | None, stride: int) -> None:
         for part in self.parts:
             part.reset(streams, stride)
         super().reset(streams, stride)
 
-    def numbers(self, block: int, key: np.ndarray | None = None, count: int | None = None,
+    def draws(self, samples: np.ndarray, keys: np.ndarray) -> list[Draw]:
+        return [d for part in self.drawing for d in part.draws(samples, keys)]
+
+    def numbers(self, samples: np.ndarray, keys: np.ndarray | None = None,
                 values: list[np.ndarray] | None = None) -> np.ndarray:
-        """The parts' numbers added in order; `values` replaces the episode draws of the bias parts (one
-        simulation's, in the batch)."""
+        """The parts' numbers added in order; `values` replaces the episode draws of the bias parts (each
+        sample's, (m, *shape), in the batch)."""
+        samples = np.asarray(samples, np.int64)
+        keys = np.broadcast_to(self.streams.keys if keys is None else keys, (samples.size, 2))  # type: ignore[union-attr]
+        return self.shape(numbers(self.draws(samples, keys)), samples.size, values)
+
+    def shape(self, raw: list[np.ndarray], m: int, values: list[np.ndarray] | None = None) -> np.ndarray:
         total: np.ndarray | None = None
         episode = iter(values if values is not None else [p.value for p in self.parts if isinstance(p, EpisodeDraw)])
+        at = 0
         for part in self.parts:
-            term = next(episode) if isinstance(part, EpisodeDraw) else part.numbers(block, key, count)  # type: ignore[attr-defined]
+            if isinstance(part, _PerSample):
+                term = part.shape(raw[at:at + len(part.lanes)], m)
+                at += len(part.lanes)
+            else:
+                term = next(episode)
             if total is None:  # the first part's numbers (a fresh array), or zeros plus the first episode draw
-                total = term if term.ndim > len(self.ctx.shape) else np.zeros(
-                    (self.ctx.block if count is None else count, *self.ctx.shape), self.ctx.work) + term
+                total = term if isinstance(part, _PerSample) else np.zeros((m, *self.ctx.shape), self.ctx.work) + term
             else:
                 total += term
         return cast(np.ndarray, total)
+
+
+def _fresh(raw: np.ndarray, m: int, ctx: Context) -> np.ndarray:
+    """Drawn numbers as a new (m, *shape) array of the work dtype."""
+    return np.array(raw.reshape(m, *ctx.shape), dtype=ctx.work)
 
 
 class Gaussian(_Additive):
@@ -182,8 +207,8 @@ class Gaussian(_Additive):
         self.mean, self.std = ctx.cast(mean), ctx.cast(std)
         self.centred = not np.any(self.mean)
 
-    def draw(self, rng: np.random.Generator, count: int) -> np.ndarray:
-        z = rng.standard_normal((count, *self.ctx.shape), dtype=self.ctx.work)
+    def shape(self, raw: list[np.ndarray], m: int) -> np.ndarray:
+        z = _fresh(raw[0], m, self.ctx)
         z *= self.std
         if not self.centred:
             z += self.mean
@@ -191,26 +216,29 @@ class Gaussian(_Additive):
 
 
 class Uniform(_Additive):
+    lanes = (False,)
+
     def __init__(self, ctx: Context, low: Any, high: Any):
         super().__init__(ctx)
         self.low, self.width = ctx.cast(low), ctx.cast(np.subtract(high, low))
 
-    def draw(self, rng: np.random.Generator, count: int) -> np.ndarray:
-        u = rng.random((count, *self.ctx.shape), dtype=self.ctx.work)
+    def shape(self, raw: list[np.ndarray], m: int) -> np.ndarray:
+        u = _fresh(raw[0], m, self.ctx)
         u *= self.width
         u += self.low
         return u
 
 
 class Outlier(_Additive):
+    lanes = (False, True)  # hits, jumps
+
     def __init__(self, ctx: Context, p: Any, scale: Any):
         super().__init__(ctx)
         self.p, self.scale = p, ctx.cast(scale)
 
-    def draw(self, rng: np.random.Generator, count: int) -> np.ndarray:
-        shape = (count, *self.ctx.shape)
-        hit = rng.random(shape) < self.p
-        jump = rng.standard_normal(shape, dtype=self.ctx.work)
+    def shape(self, raw: list[np.ndarray], m: int) -> np.ndarray:
+        hit = raw[0].reshape(m, *self.ctx.shape) < self.p
+        jump = _fresh(raw[1], m, self.ctx)
         jump *= self.scale
         jump[~hit] = 0
         return jump
@@ -280,8 +308,8 @@ class RandomWalk(_Additive):
         c = np.multiply(self.std, np.sqrt(-np.expm1(-2.0 * dt / np.asarray(self.tau))))
         return self.ctx.cast(a), self.ctx.cast(c)
 
-    def draw(self, rng: np.random.Generator, count: int) -> np.ndarray:
-        return rng.standard_normal((count, *self.ctx.shape), dtype=self.ctx.work)
+    def shape(self, raw: list[np.ndarray], m: int) -> np.ndarray:
+        return _fresh(raw[0], m, self.ctx)
 
     def reset(self, streams: Streams | None, stride: int) -> None:
         assert streams is not None
@@ -303,8 +331,21 @@ class RandomWalk(_Additive):
         states = np.empty(0)
         while self.last < block:  # every index is walked, whether or not its samples are taken
             self.last += 1
-            states = walk(self.carry, self.numbers(self.last), a, c, self.last == 0)
+            states = walk(self.carry, super().block_rows(self.last), a, c, self.last == 0)
         return states
+
+    def rows_at(self, indices: np.ndarray) -> np.ndarray:
+        """Every block from the first index's to the last's is walked, in order (a walk needs them all)."""
+        size = self.ctx.block
+        first, last = int(indices[0]) // size, int(indices[-1]) // size
+        blocks = []
+        for block in range(first, last + 1):
+            if block != self.block_id:
+                self.rows = self.block_rows(block)
+                self.block_id = block
+            blocks.append(np.asarray(self.rows))
+        stacked = blocks[0] if len(blocks) == 1 else np.concatenate(blocks)
+        return stacked[indices - first * size]
 
     def row(self, step: int) -> Any:
         if step < self.newest:
@@ -374,10 +415,15 @@ class Dropout(_PerSample):
         self.stateful = mode == "hold"  # holding needs the previous sample, whichever it was
         self.fresh = True
 
-    def draw(self, rng: np.random.Generator, count: int) -> np.ndarray:
+    lanes = (False,)
+
+    def sizes(self) -> tuple[int, ...]:
+        return (self.size if self.per_value else 1,)
+
+    def shape(self, raw: list[np.ndarray], m: int) -> np.ndarray:
         if self.per_value:
-            return rng.random((count, *self.ctx.shape)) < self.p
-        return rng.random(count) < self.p
+            return raw[0].reshape(m, *self.ctx.shape) < self.p
+        return raw[0][:, 0] < self.p
 
     def reset(self, streams: Streams | None, stride: int) -> None:
         super().reset(streams, stride)

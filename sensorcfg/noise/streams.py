@@ -1,31 +1,146 @@
 """Counter-based random numbers: each sensor's noise streams for one episode. Numpy only.
 
-A sample's numbers depend on the seed, the sensor, the stage and the sample's index only: numpy's Philox
-keyed by the sensor's episode key (`draws.sensor_key`), with the counter (position, purpose, block,
-stage). Per-sample numbers of sample j come from block j // B (`stages.Context.block`); purpose 1 holds
-per-episode draws (bias, scale, a random walk's start, a custom stage's seed).
+Per-sample numbers are a function of (episode key, sample index, stage, lane, value index) alone:
+Philox4x32-10 (Salmon et al. 2011, as in Random123), written with numpy array arithmetic so that one call
+produces the numbers of any set of samples, of any keys (sensors, simulations) at once, without the
+numbers before them (random access). For value v of sample j of stage s, lane l (a stage with two kinds of
+numbers, as an outlier's hits and jumps, uses lanes 0 and 1), with the sensor's 128-bit episode key
+(k0, k1) (`draws.sensor_key`):
+
+    counter = (j mod 2^32, s << 24 | l << 22 | v // 4, lo32(k1), hi32(k1)),  key = (lo32(k0), hi32(k0))
+
+gives four 32-bit words w0..w3 for values 4(v // 4) .. 4(v // 4) + 3. A uniform is w 2^-32 (in [0, 1),
+32 bits); normals come in pairs by Box-Muller: (w0, w1) give values 0 and 1 of the four, (w2, w3) values
+2 and 3, as r cos t and r sin t with r = sqrt(-2 ln((w_a + 1) 2^-32)), t = 2 pi w_b 2^-32 (|z| <= 6.66).
+
+Per-episode draws (bias, scale, a random walk's start, a custom stage's seed, drawn parameters) come from
+numpy's Philox generator keyed by the same key (`Streams.at`), counter (0, purpose, 0, stage).
 """
 
 from __future__ import annotations
 
-from typing import Any
+import sys
+from collections.abc import Sequence
+from typing import Any, NamedTuple
 
 import numpy as np
 
-__all__ = ["Streams", "stream_key"]
+__all__ = ["Draw", "Streams", "numbers", "philox", "stream_key"]
+
+_M0, _M1 = np.uint64(0xD2511F53), np.uint64(0xCD9E8D57)  # Philox4x32 multipliers
+_W0, _W1 = np.uint32(0x9E3779B9), np.uint32(0xBB67AE85)  # its key schedule's increments
+_ROUNDS = 10
+_LOW, _HIGH = (0, 1) if sys.byteorder == "little" else (1, 0)  # 32-bit halves of a uint64, as a view
+_TWO_PI_2_32 = 2.0 * np.pi * 2.0 ** -32
+_2_32 = 2.0 ** -32
+_MAX_LANE_VALUES = 1 << 22  # values per (sample, stage, lane): four per counter, 2^20 counters
+
+
+def philox(counter: Sequence[np.ndarray], key: Sequence[np.ndarray]) -> list[np.ndarray]:
+    """Philox4x32-10 of n counters: four uint32 arrays of the counter words, two of the key words (each
+    (n,) or broadcasting to it); returns the four output words, uint32 arrays (n,)."""
+    x0, x1, x2, x3 = (np.array(np.broadcast_to(c, np.shape(counter[0])), np.uint32) for c in counter)
+    k0 = np.array(key[0], np.uint32)
+    k1 = np.array(key[1], np.uint32)
+    n = x0.size
+    p0, p1 = np.empty(n, np.uint64), np.empty(n, np.uint64)
+    half0, half1 = p0.view(np.uint32), p1.view(np.uint32)
+    lo0, hi0, lo1, hi1 = half0[_LOW::2], half0[_HIGH::2], half1[_LOW::2], half1[_HIGH::2]
+    for r in range(_ROUNDS):
+        if r:
+            k0 += _W0
+            k1 += _W1
+        np.multiply(x0, _M0, out=p0)
+        np.multiply(x2, _M1, out=p1)
+        # (x0, x1, x2, x3) <- (hi1 ^ x1 ^ k0, lo1, hi0 ^ x3 ^ k1, lo0), in the arrays x1 and x3 first
+        np.bitwise_xor(x1, hi1, out=x1)
+        np.bitwise_xor(x1, k0, out=x1)
+        np.bitwise_xor(x3, hi0, out=x3)
+        np.bitwise_xor(x3, k1, out=x3)
+        np.copyto(x0, lo1)
+        np.copyto(x2, lo0)
+        x0, x1, x2, x3 = x1, x0, x3, x2
+    return [x0, x1, x2, x3]
+
+
+class Draw(NamedTuple):
+    """The per-sample numbers of one stage and lane for m samples: `size` values each."""
+
+    keys: np.ndarray  # (m, 2) uint64: each sample's episode key (its sensor's, its simulation's)
+    samples: np.ndarray  # (m,) sample indices
+    stage: int
+    lane: int
+    size: int
+    normal: bool  # standard normals, else uniforms in [0, 1)
+
+
+def _counters(draw: Draw) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """The counter and key words of a draw: (m, q) each, q = ceil(size / 4) counters per sample."""
+    q = -(-draw.size // 4)
+    if q > _MAX_LANE_VALUES // 4 or draw.stage >= 256 or draw.lane >= 4:
+        raise ValueError(f"a noise stage draws at most {_MAX_LANE_VALUES} values per sample, from stages < 256")
+    keys = np.asarray(draw.keys, np.uint64).reshape(-1, 2)
+    samples = np.asarray(draw.samples, np.int64).reshape(-1, 1)
+    m = samples.shape[0]
+    tag = np.arange(q, dtype=np.uint32) | np.uint32(draw.stage << 24 | draw.lane << 22)
+    shape = (m, q)
+    halves = keys.view(np.uint32).reshape(-1, 2, 2)  # (m, key word, 32-bit half)
+    counter = [np.broadcast_to((samples & 0xFFFFFFFF).astype(np.uint32), shape), np.broadcast_to(tag, shape),
+               np.broadcast_to(halves[:, 1, _LOW:_LOW + 1], shape), np.broadcast_to(halves[:, 1, _HIGH:_HIGH + 1], shape)]
+    key = [np.broadcast_to(halves[:, 0, _LOW:_LOW + 1], shape), np.broadcast_to(halves[:, 0, _HIGH:_HIGH + 1], shape)]
+    return [c.ravel() for c in counter], [k.ravel() for k in key]
+
+
+def _normals(words: list[np.ndarray]) -> np.ndarray:
+    """Box-Muller on (w0, w1) and (w2, w3): (n, 4) float64 normals."""
+    out = np.empty((words[0].size, 4))
+    for a, b, col in ((words[0], words[1], 0), (words[2], words[3], 2)):
+        r = np.add(a, 1.0)
+        r *= _2_32
+        np.log(r, out=r)
+        r *= -2.0
+        np.sqrt(r, out=r)
+        t = np.multiply(b, _TWO_PI_2_32)
+        out[:, col] = np.cos(t)
+        out[:, col] *= r
+        np.sin(t, out=t)
+        t *= r
+        out[:, col + 1] = t
+    return out
+
+
+def numbers(draws: Sequence[Draw]) -> list[np.ndarray]:
+    """Each draw's numbers, (m, size) float64, from one Philox call over all of them."""
+    if not draws:
+        return []
+    parts = [_counters(d) for d in draws]
+    counter = [np.concatenate([p[0][i] for p in parts]) for i in range(4)]
+    key = [np.concatenate([p[1][i] for p in parts]) for i in range(2)]
+    words = philox(counter, key)
+    normal = [d.normal for d in draws]
+    values: dict[bool, np.ndarray] = {}
+    if any(normal):
+        values[True] = _normals(words)
+    if not all(normal):
+        values[False] = np.stack(words, axis=1) * _2_32
+    out, at = [], 0
+    for d, (c, _) in zip(draws, parts):
+        count = c[0].size
+        m = count // max(1, -(-d.size // 4))
+        out.append(values[d.normal][at:at + count].reshape(m, -1)[:, :d.size])
+        at += count
+    return out
 
 
 class Streams:
-    """Counter-based random numbers of one sensor's episode: Philox keyed by the sensor's episode key.
+    """A sensor's episode key and its per-episode generator: numpy's Philox keyed by that key, positioned
+    at (stage, purpose) by `at` (one generator object, repositioned)."""
 
-    The counter is (position, purpose, block, stage): purpose 0 holds per-sample numbers (block j // B of
-    sample j), purpose 1 the per-episode draws. `at` repositions one generator (no new object per block).
-    """
-
-    __slots__ = ("key", "bitgen", "generator", "_state", "_counter")
+    __slots__ = ("key", "keys", "bitgen", "generator", "_state", "_counter")
 
     def __init__(self, key: np.ndarray):
         self.key = np.asarray(key, np.uint64)
+        self.keys = self.key.reshape(1, 2)
         self.bitgen = np.random.Philox(key=self.key)
         self.generator = np.random.Generator(self.bitgen)
         self._counter = np.zeros(4, np.uint64)
@@ -36,6 +151,7 @@ class Streams:
     def rekey(self, key: np.ndarray) -> None:
         """A new episode's key (the generator is kept)."""
         self.key = np.asarray(key, np.uint64)
+        self.keys = self.key.reshape(1, 2)
         self._state["state"]["key"] = self.key
 
     def at(self, stage: int, block: int, purpose: int = 0, key: np.ndarray | None = None) -> np.random.Generator:
