@@ -19,6 +19,7 @@ numpy's Philox generator keyed by the same key (`Streams.at`), counter (0, purpo
 
 from __future__ import annotations
 
+import math
 import sys
 from collections.abc import Sequence
 from typing import Any, NamedTuple
@@ -91,21 +92,80 @@ def _counters(draw: Draw) -> tuple[list[np.ndarray], list[np.ndarray]]:
     return [c.ravel() for c in counter], [k.ravel() for k in key]
 
 
-def _normals(words: list[np.ndarray]) -> np.ndarray:
-    """Box-Muller on (w0, w1) and (w2, w3): (n, 4) float64 normals."""
+def _ziggurat_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Marsaglia and Tsang's (2000) 128-layer tables for 32-bit words: kn (uint32), wn, fn."""
+    m1, dn, vn = 2147483648.0, 3.442619855899, 9.91256303526217e-3
+    tn = dn
+    kn, wn, fn = [0.0] * 128, [0.0] * 128, [0.0] * 128
+    q = vn / math.exp(-0.5 * dn * dn)
+    kn[0], kn[1] = (dn / q) * m1, 0.0
+    wn[0], wn[127] = q / m1, dn / m1
+    fn[0], fn[127] = 1.0, math.exp(-0.5 * dn * dn)
+    for i in range(126, 0, -1):
+        dn = math.sqrt(-2.0 * math.log(vn / dn + math.exp(-0.5 * dn * dn)))
+        kn[i + 1] = (dn / tn) * m1
+        tn = dn
+        fn[i] = math.exp(-0.5 * dn * dn)
+        wn[i] = dn / m1
+    return np.array(kn, np.uint32), np.array(wn), np.array(fn)
+
+
+_KN, _WN, _FN = _ziggurat_tables()
+_R = 3.442620  # the start of the tail
+
+
+def _normals(words: list[np.ndarray], counter: list[np.ndarray], key: list[np.ndarray]) -> np.ndarray:
+    """Standard normals (n, 4) from the words by the ziggurat (one 32-bit word each). The few words it
+    rejects (about 1 in 100) go on with words of their own: Philox at the same counter with lane 3 and
+    the key's second word xor (1 + word + 16 attempt), so every value stays a function of its counter."""
     out = np.empty((words[0].size, 4))
-    for a, b, col in ((words[0], words[1], 0), (words[2], words[3], 2)):
-        r = np.add(a, 1.0)
-        r *= _2_32
-        np.log(r, out=r)
-        r *= -2.0
-        np.sqrt(r, out=r)
-        t = np.multiply(b, _TWO_PI_2_32)
-        out[:, col] = np.cos(t)
-        out[:, col] *= r
-        np.sin(t, out=t)
-        t *= r
-        out[:, col + 1] = t
+    redo: list[tuple[np.ndarray, int, np.ndarray]] = []
+    for k, w in enumerate(words):
+        hz = w.view(np.int32)
+        iz = w & np.uint32(127)
+        np.multiply(hz, _WN.take(iz), out=out[:, k])
+        rejected = np.flatnonzero(np.abs(hz).view(np.uint32) >= _KN.take(iz))
+        if rejected.size:
+            redo.append((rejected, k, hz[rejected].astype(np.int64)))
+    for rejected, k, hz in redo:
+        out[rejected, k] = _fallback(hz, [c[rejected] for c in counter], [c[rejected] for c in key], k)
+    return out
+
+
+def _fallback(hz: np.ndarray, counter: list[np.ndarray], key: list[np.ndarray], word: int) -> np.ndarray:
+    """Marsaglia and Tsang's `nfix` for rejected words `hz`, vectorised: each attempt draws four words per
+    value (wedge test, next word, two for the tail)."""
+    out = np.empty(hz.size)
+    todo = np.arange(hz.size)
+    counter = [counter[0], counter[1] | np.uint32(3 << 22), counter[2], counter[3]]
+    attempt = 0
+    while todo.size:
+        w = philox([c[todo] for c in counter], [key[0][todo], key[1][todo] ^ np.uint32(1 + word + 16 * attempt)])
+        u = [(x + 0.5) * _2_32 for x in w]
+        h = hz[todo]
+        iz = h & 127
+        x = h * _WN[iz]
+        done = np.zeros(todo.size, bool)
+        tail = iz == 0
+        if tail.any():  # beyond the base layer: x from the exponential tail
+            t = -np.log(u[2][tail]) / _R
+            ok = -2.0 * np.log(u[3][tail]) >= t * t
+            value = np.where(h[tail] > 0, _R + t, -_R - t)
+            out[todo[tail][ok]] = value[ok]
+            done[np.flatnonzero(tail)[ok]] = True
+        wedge = ~tail
+        inside = wedge & (_FN[iz] + u[0] * (_FN[iz - 1] - _FN[iz]) < np.exp(-0.5 * x * x))
+        out[todo[inside]] = x[inside]
+        done |= inside
+        # the others take the next word; accepted at once when it falls inside its layer
+        again = wedge & ~inside
+        nh = w[1][again].view(np.int32).astype(np.int64)
+        niz = nh & 127
+        fast = np.abs(nh) < _KN[niz]
+        out[todo[again][fast]] = nh[fast] * _WN[niz[fast]]
+        done[np.flatnonzero(again)[fast]] = True
+        hz[todo[again]] = nh
+        todo, attempt = todo[~done], attempt + 1
     return out
 
 
@@ -120,7 +180,7 @@ def numbers(draws: Sequence[Draw]) -> list[np.ndarray]:
     normal = [d.normal for d in draws]
     values: dict[bool, np.ndarray] = {}
     if any(normal):
-        values[True] = _normals(words)
+        values[True] = _normals(words, counter, key)
     if not all(normal):
         values[False] = np.stack(words, axis=1) * _2_32
     out, at = [], 0
