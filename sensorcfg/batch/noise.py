@@ -15,7 +15,8 @@ A stage type without a batched form here (a custom callable) makes `BatchPipelin
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections import deque
+from collections.abc import Callable, Sequence
 from typing import Any, cast
 
 import numpy as np
@@ -23,8 +24,9 @@ import numpy as np
 from ..errors import SuiteError
 from ..noise import arithmetic as ar
 from ..noise import stages as rt
+from ..noise.streams import Draw, numbers
 
-__all__ = ["BatchPipeline", "BATCHED"]
+__all__ = ["BatchPipeline", "BATCHED", "prefetch"]
 
 _BLOCK_BYTES = 8 << 20  # stored per-sample numbers per stage, across simulations, at most (when chunkable)
 
@@ -58,16 +60,23 @@ class _Drawn(_Batched):
     def __init__(self, template: Any, nsim: int, stride: int):
         super().__init__(template, nsim, stride)
         self.keys = np.zeros((nsim, 2), np.uint64)
+        self.ready: deque[np.ndarray] = deque()  # rows drawn ahead (`prefetch`), in the order of the calls
 
     def load(self, i: int, stage: Any) -> None:
         self.keys[i] = stage.streams.key
+        self.ready.clear()
 
-    def numbers(self, sims: np.ndarray, samples: np.ndarray) -> np.ndarray:
-        return cast(np.ndarray, self.template.numbers(samples, self.keys[sims]))
+    def draws(self, sims: np.ndarray, steps: np.ndarray) -> list[Draw]:
+        return cast(list[Draw], self.template.draws(steps // self.stride, self.keys[sims]))
+
+    def shape(self, sims: np.ndarray, raw: list[np.ndarray]) -> np.ndarray:
+        return cast(np.ndarray, self.template.shape(raw, sims.size))
 
     def take(self, sims: np.ndarray, steps: np.ndarray) -> np.ndarray:
-        """This sample's rows for `sims` at their `steps`, (m, ...)."""
-        return self.numbers(sims, steps // self.stride)
+        """This sample's rows for `sims` at their `steps`, (m, ...): drawn ahead, or now."""
+        if self.ready:
+            return self.ready.popleft()
+        return self.shape(sims, numbers(self.draws(sims, steps)))
 
 
 class _Additive(_Drawn):
@@ -87,10 +96,10 @@ class _Additive(_Drawn):
             for values, value in zip(self.values, drawn):
                 values[i] = value
 
-    def numbers(self, sims: np.ndarray, samples: np.ndarray) -> np.ndarray:
+    def shape(self, sims: np.ndarray, raw: list[np.ndarray]) -> np.ndarray:
         if self.values:
-            return cast(np.ndarray, self.template.numbers(samples, self.keys[sims], [v[sims] for v in self.values]))
-        return super().numbers(sims, samples)
+            return cast(np.ndarray, self.template.shape(raw, sims.size, [v[sims] for v in self.values]))
+        return super().shape(sims, raw)
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
         ar.add(src, self.take(sims, steps), dst)
@@ -300,3 +309,20 @@ class BatchPipeline:
             stage(src, dst, sims, steps)
             src = dst
         return dst
+
+
+def prefetch(calls: Sequence[tuple[BatchPipeline, np.ndarray, np.ndarray]]) -> None:
+    """Draw ahead the per-sample numbers of the pipeline calls (pipeline, sims, steps) that follow, in
+    that order, from one Philox call over every sensor, stage and simulation (`streams.numbers`). A
+    random walk walks its own parts."""
+    jobs: list[tuple[_Drawn, np.ndarray, int, int]] = []
+    draws: list[Draw] = []
+    for pipeline, sims, steps in calls:
+        for stage in pipeline.batched:
+            if isinstance(stage, _Drawn) and not isinstance(stage, _RandomWalk):
+                drawn = stage.draws(sims, steps)
+                jobs.append((stage, sims, len(draws), len(drawn)))
+                draws.extend(drawn)
+    raw = numbers(draws)
+    for stage, sims, at, count in jobs:
+        stage.ready.append(stage.shape(sims, raw[at:at + count]))

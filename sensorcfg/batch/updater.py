@@ -35,7 +35,7 @@ from ..runtime.bank import _reader
 from ..runtime.channels import Channel, FixedChannel, RandomChannel, make_channel
 from ..runtime.updater import observation_spec
 from .layout import Layout
-from .noise import BatchPipeline
+from .noise import BatchPipeline, prefetch
 from .random_schedules import Timelines
 
 __all__ = ["BatchUpdater"]
@@ -264,23 +264,11 @@ class BatchUpdater:
         source, target = self.layout.snapshot(gp, self.t)
         self.flat.put(target, self.flat.take(source), "clip")
         everyone = bool(active.all())
-        plan = self._plan(gp)
-        if self.timelines.specs:
-            taken = self.timelines.taken_now()
-        for k in range(1, substeps + 1):
-            row = self.history[gp + k - 1]
-            for c, sims in plan[k - 1]:
-                if not everyone:
-                    sims = sims[active[sims]]
-                self._corrupt(row, c, sims, self.t[sims] + k)
-            for r in range(len(self.timelines.specs)):
-                c = self.nfixed + r
-                if c not in self.noise:
-                    continue
-                mask = taken[:, r, k - 1] & active
-                sims = np.flatnonzero(mask)
-                if sims.size:
-                    self._corrupt(row, c, sims, self.t[sims] + k)
+        if self.noisy:
+            calls = self._noise_calls(gp, active, everyone)
+            prefetch([(self.noise[c], sims, steps) for _, c, sims, steps in calls])
+            for k, c, sims, steps in calls:
+                self._corrupt(self.history[gp + k - 1], c, sims, steps)
         self.G += substeps
         if everyone:
             self.t += substeps
@@ -290,6 +278,25 @@ class BatchUpdater:
             self.control_steps[active] += 1
         if self.timelines.specs:
             self.timelines.advance(np.flatnonzero(active))
+
+    def _noise_calls(self, gp: int, active: np.ndarray, everyone: bool) -> list[tuple[int, int, np.ndarray, np.ndarray]]:
+        """(substep k, channel, sims, steps) of this control step's noisy samples, in order."""
+        plan = self._plan(gp)
+        taken = self.timelines.taken_now() if self.timelines.specs else None
+        calls = []
+        for k in range(1, self.substeps + 1):
+            for c, sims in plan[k - 1]:
+                if not everyone:
+                    sims = sims[active[sims]]
+                if sims.size:
+                    calls.append((k, c, sims, self.t[sims] + k))
+            for r in range(len(self.timelines.specs)):
+                c = self.nfixed + r
+                if c in self.noise:
+                    sims = np.flatnonzero(cast(np.ndarray, taken)[:, r, k - 1] & active)
+                    if sims.size:
+                        calls.append((k, c, sims, self.t[sims] + k))
+        return calls
 
     def _corrupt(self, row: np.ndarray, c: int, sims: np.ndarray, steps: np.ndarray) -> None:
         """Noise on channel c's samples of `sims` in history row `row` (nsim, width), in place."""

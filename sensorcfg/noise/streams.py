@@ -40,7 +40,7 @@ _MAX_LANE_VALUES = 1 << 22  # values per (sample, stage, lane): four per counter
 def philox(counter: Sequence[np.ndarray], key: Sequence[np.ndarray]) -> list[np.ndarray]:
     """Philox4x32-10 of n counters: four uint32 arrays of the counter words, two of the key words (each
     (n,) or broadcasting to it); returns the four output words, uint32 arrays (n,)."""
-    x0, x1, x2, x3 = (np.array(np.broadcast_to(c, np.shape(counter[0])), np.uint32) for c in counter)
+    x0, x1, x2, x3 = (np.array(c, np.uint32) for c in counter)
     k0 = np.array(key[0], np.uint32)
     k1 = np.array(key[1], np.uint32)
     n = x0.size
@@ -75,21 +75,24 @@ class Draw(NamedTuple):
     normal: bool  # standard normals, else uniforms in [0, 1)
 
 
-def _counters(draw: Draw) -> tuple[list[np.ndarray], list[np.ndarray]]:
-    """The counter and key words of a draw: (m, q) each, q = ceil(size / 4) counters per sample."""
-    q = -(-draw.size // 4)
-    if q > _MAX_LANE_VALUES // 4 or draw.stage >= 256 or draw.lane >= 4:
+def _counters(draws: Sequence[Draw]) -> tuple[list[np.ndarray], list[np.ndarray], np.ndarray]:
+    """The counter and key words of every draw, concatenated (q = ceil(size / 4) counters per sample,
+    draw after draw), and each draw's q."""
+    q = np.array([-(-d.size // 4) for d in draws], np.int64)
+    if q.max() > _MAX_LANE_VALUES // 4 or max(d.stage for d in draws) >= 256 or max(d.lane for d in draws) >= 3:
         raise ValueError(f"a noise stage draws at most {_MAX_LANE_VALUES} values per sample, from stages < 256")
-    keys = np.asarray(draw.keys, np.uint64).reshape(-1, 2)
-    samples = np.asarray(draw.samples, np.int64).reshape(-1, 1)
-    m = samples.shape[0]
-    tag = np.arange(q, dtype=np.uint32) | np.uint32(draw.stage << 24 | draw.lane << 22)
-    shape = (m, q)
-    halves = keys.view(np.uint32).reshape(-1, 2, 2)  # (m, key word, 32-bit half)
-    counter = [np.broadcast_to((samples & 0xFFFFFFFF).astype(np.uint32), shape), np.broadcast_to(tag, shape),
-               np.broadcast_to(halves[:, 1, _LOW:_LOW + 1], shape), np.broadcast_to(halves[:, 1, _HIGH:_HIGH + 1], shape)]
-    key = [np.broadcast_to(halves[:, 0, _LOW:_LOW + 1], shape), np.broadcast_to(halves[:, 0, _HIGH:_HIGH + 1], shape)]
-    return [c.ravel() for c in counter], [k.ravel() for k in key]
+    m = np.array([np.size(d.samples) for d in draws], np.int64)
+    per_row = np.repeat(q, m)  # counters per sample row
+    samples = np.concatenate([np.asarray(d.samples, np.int64).ravel() for d in draws])
+    keys = np.concatenate([np.asarray(d.keys, np.uint64).reshape(-1, 2) for d in draws])
+    halves = np.ascontiguousarray(keys).view(np.uint32).reshape(-1, 4)[:, [_LOW, _HIGH, 2 + _LOW, 2 + _HIGH]]  # k0 lo, hi, k1 lo, hi
+    tags = np.repeat(np.array([d.stage << 24 | d.lane << 22 for d in draws], np.uint32), m)
+    start = np.cumsum(per_row) - per_row
+    index = np.arange(int(per_row.sum()), dtype=np.int64) - np.repeat(start, per_row)  # v // 4 within a row
+    counter = [np.repeat((samples & 0xFFFFFFFF).astype(np.uint32), per_row),
+               np.repeat(tags, per_row) | index.astype(np.uint32)]
+    words = np.repeat(halves, per_row, axis=0)
+    return [*counter, words[:, 2], words[:, 3]], [words[:, 0], words[:, 1]], q
 
 
 def _ziggurat_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -173,9 +176,7 @@ def numbers(draws: Sequence[Draw]) -> list[np.ndarray]:
     """Each draw's numbers, (m, size) float64, from one Philox call over all of them."""
     if not draws:
         return []
-    parts = [_counters(d) for d in draws]
-    counter = [np.concatenate([p[0][i] for p in parts]) for i in range(4)]
-    key = [np.concatenate([p[1][i] for p in parts]) for i in range(2)]
+    counter, key, q = _counters(draws)
     words = philox(counter, key)
     normal = [d.normal for d in draws]
     values: dict[bool, np.ndarray] = {}
@@ -184,11 +185,10 @@ def numbers(draws: Sequence[Draw]) -> list[np.ndarray]:
     if not all(normal):
         values[False] = np.stack(words, axis=1) * _2_32
     out, at = [], 0
-    for d, (c, _) in zip(draws, parts):
-        count = c[0].size
-        m = count // max(1, -(-d.size // 4))
-        out.append(values[d.normal][at:at + count].reshape(m, -1)[:, :d.size])
-        at += count
+    for d, per in zip(draws, q.tolist()):
+        m = int(np.size(d.samples))
+        out.append(values[d.normal][at:at + m * per].reshape(m, -1)[:, :d.size])
+        at += m * per
     return out
 
 
