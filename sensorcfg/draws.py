@@ -25,7 +25,7 @@ import numpy as np
 
 from .errors import SuiteError
 
-__all__ = ["UniformSteps", "ChoiceSteps", "takes_random_state", "drawer", "episode_entropy", "sensor_key",
+__all__ = ["UniformSteps", "ChoiceSteps", "takes_random_state", "drawer", "episode_entropy", "sensor_key", "sensor_keys",
            "as_draw", "DEFAULT_UPDATE_INTERVAL", "DEFAULT_DELAY", "DEFAULT_BUFFER_SIZE"]
 
 DEFAULT_BUFFER_SIZE = 1
@@ -77,8 +77,14 @@ def sensor_key(entropy: Sequence[int], name: str) -> np.ndarray:
     """A sensor's own episode key (two 64-bit words, the key of its counter-based noise streams): a hash of
     the episode's entropy and the sensor's name. Adding, removing or reordering other sensors leaves it
     unchanged."""
-    digest = hashlib.blake2b(np.asarray(list(entropy), np.uint64).tobytes() + name.encode(), digest_size=16).digest()
-    return np.frombuffer(digest, np.uint64).copy()
+    return sensor_keys(entropy, [name])[0]
+
+
+def sensor_keys(entropy: Sequence[int], names: Sequence[str]) -> np.ndarray:
+    """`sensor_key` of several sensors of one episode, (len(names), 2)."""
+    prefix = np.asarray(list(entropy), np.uint64).tobytes()
+    digests = b"".join(hashlib.blake2b(prefix + name.encode(), digest_size=16).digest() for name in names)
+    return np.frombuffer(digests, np.uint64).reshape(len(names), 2).copy()
 
 
 def episode_entropy(random_state: Any) -> list[int]:

@@ -16,6 +16,8 @@ __all__: list[str] = []
 
 
 class _BatchedKeep(_Batched):
+    keyed = True
+
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
         blend_stage = self.template.blend  # type: ignore[attr-defined]
         # every simulation at level 1 (the default): nothing to keep
@@ -25,6 +27,8 @@ class _BatchedKeep(_Batched):
 
 
 class _BatchedBlend(_Batched):
+    keyed = True
+
     def __init__(self, template: rt.Stage, nsim: int, *stride: int):
         super().__init__(template, nsim, *stride)  # type: ignore[call-arg]
         self.levels = np.ones(nsim)

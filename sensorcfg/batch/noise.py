@@ -32,7 +32,12 @@ _BLOCK_BYTES = 8 << 20  # stored per-sample numbers per stage, across simulation
 
 
 class _Batched:
-    """One stage across simulations; `template` is the sensor's own stage (its parameters are shared)."""
+    """One stage across simulations; `template` is the sensor's own stage (its parameters are shared).
+
+    `keyed`: the stage draws nothing at reset (its episode start is its key, and a state that is the
+    same for every episode), so `load` may take many simulations at once (`BatchPipeline.start`)."""
+
+    keyed = False
 
     def __init__(self, template: Any, nsim: int, stride: int):
         self.template = template
@@ -49,6 +54,8 @@ class _Batched:
 class _Stateless(_Batched):
     """Elementwise stages (quantize, clip): the single-simulation stage broadcasts over the leading axis."""
 
+    keyed = True
+
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
         self.template(src, dst, 0)
 
@@ -56,6 +63,8 @@ class _Stateless(_Batched):
 class _Drawn(_Batched):
     """Per-sample numbers: each call draws those of the samples taken, of every simulation at once (the
     counter-based numbers are a function of the simulation's episode key and the sample index only)."""
+
+    keyed = True
 
     def __init__(self, template: Any, nsim: int, stride: int):
         super().__init__(template, nsim, stride)
@@ -88,6 +97,7 @@ class _Additive(_Drawn):
         if isinstance(template, rt.Sum):
             self.values = [np.zeros((nsim, *p.value.shape), p.value.dtype)
                            for p in template.parts if isinstance(p, rt.EpisodeDraw)]
+        self.keyed = type(self).keyed and not self.values
 
     def load(self, i: int, stage: Any) -> None:
         super().load(i, stage)
@@ -109,6 +119,8 @@ class _RandomWalk(_Additive):
     """The walk's states over every index, one part of `sub` indices at a time per simulation (walked
     together): part p holds indices [p sub, (p + 1) sub); sub is the block unless that would exceed
     `_BLOCK_BYTES` across simulations."""
+
+    keyed = False
 
     def __init__(self, template: rt.RandomWalk, nsim: int, stride: int):
         super().__init__(template, nsim, stride)
@@ -194,6 +206,8 @@ def _by_gap(gaps: np.ndarray) -> list[tuple[int, np.ndarray]]:
 
 
 class _Lowpass(_Batched):
+    keyed = True
+
     def __init__(self, template: rt.Lowpass, nsim: int, stride: int):
         super().__init__(template, nsim, stride)
         self.state = np.zeros((nsim, *template.state.shape), template.state.dtype)
@@ -298,6 +312,20 @@ class BatchPipeline:
         self.pipeline.reset(key, self.stride)
         for stage, batched in zip(self.stages, self.batched):
             batched.load(i, stage)
+
+    def start(self, ids: np.ndarray, keys: np.ndarray) -> None:
+        """Start the episodes of simulations `ids` with their sensor keys (m, 2): at once when no stage
+        draws at reset (the pipeline, reset once, gives every episode's start but the keys), else one
+        simulation after another."""
+        if not all(batched.keyed for batched in self.batched):
+            for i, key in zip(ids.tolist(), keys):
+                self.reset(i, key)
+            return
+        self.pipeline.reset(keys[-1], self.stride)
+        for stage, batched in zip(self.stages, self.batched):
+            batched.load(ids, stage)
+            if isinstance(batched, _Drawn):
+                batched.keys[ids] = keys
 
     def __call__(self, value: np.ndarray, sims: np.ndarray, steps: np.ndarray,
                  out: np.ndarray | None = None) -> np.ndarray:

@@ -27,7 +27,7 @@ import numpy as np
 from dm_env import specs
 
 from ..draws import (DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, ChoiceSteps, UniformSteps, as_draw, drawer,
-                     episode_entropy, sensor_key)
+                     episode_entropy, sensor_keys)
 from ..errors import ArgumentError, SuiteError
 from ..observables.aggregators import AGGREGATORS, builtin
 from ..observables.feature import batch_on_demand_problem
@@ -222,16 +222,18 @@ class BatchUpdater:
         ids = np.asarray(ids, np.intp)
         if not ids.size:
             return
-        for i in ids:
-            i = int(i)
+        noisy = list(self.noise)
+        keys = np.zeros((len(noisy), ids.size, 2), np.uint64)  # per noisy channel, each simulation's key
+        for m, i in enumerate(ids.tolist()):
             rs = random_states[i]
             if self.started[i]:
                 self.timelines.finish(i, int(self.control_steps[i]))
-            entropy = episode_entropy(rs) if self.noisy else None
-            for c, pipeline in self.noise.items():
-                pipeline.reset(i, sensor_key(entropy or [], self.labels[c]))
+            if noisy:
+                keys[:, m] = sensor_keys(episode_entropy(rs), [self.labels[c] for c in noisy])
             if self.timelines.specs:
                 self.timelines.start(i, rs)
+        for c, channel_keys in zip(noisy, keys):
+            self.noise[c].start(ids, channel_keys)
         self.started[ids] = True
         values = self.flat.take(self.layout.reset_index[ids])  # (m, width): the reset sample
         zeros = np.zeros(ids.size, np.int64)
