@@ -21,6 +21,7 @@ import numpy as np
 
 from ..noise import arithmetic as ar
 from ..noise import stages as rt
+from ..noise.streams import Draw, numbers
 
 __all__ = ["BankNoise", "program"]
 
@@ -134,19 +135,30 @@ class BankNoise:
         self.fill(0)
 
     def fill(self, step: int) -> None:
-        """Write the per-sample terms of every noisy member's samples in steps [step, step + chunk)."""
+        """Write the per-sample terms of every noisy member's samples in steps [step, step + chunk): the
+        numbers of the samples taken only, of every member, from one Philox call (`streams.numbers`); a
+        random walk walks every index (`rows_at`)."""
+        jobs: list[tuple[Any, tuple[Any, ...], int, int]] = []
+        draws: list[Draw] = []
         for i, ops in enumerate(self.programs):
             if not ops:
                 continue
             steps = step + self.offsets[i]
             if step == 0 and (len(steps) == 0 or steps[0] != 0):
                 steps = np.concatenate(([0], steps))  # the reset sample is always taken
-            rows = (steps % self.rows)[:, None]
-            span = np.arange(self.cols[i], self.cols[i + 1])[None, :]
+            where = ((steps % self.rows)[:, None], np.arange(self.cols[i], self.cols[i + 1])[None, :])
             indices = steps // self.strides[i]
             terms = [stage for kind, stage in ops if kind == "term"]
             for j, stage in enumerate(terms):
-                self.fields[j][rows, span] = stage.rows_at(indices).reshape(len(steps), -1)
+                if isinstance(stage, rt.RandomWalk):
+                    self.fields[j][where] = stage.rows_at(indices).reshape(len(steps), -1)
+                    continue
+                drawn = stage.draws(indices, np.broadcast_to(stage.streams.keys, (len(indices), 2)))
+                jobs.append((stage, (j, *where), len(draws), len(drawn)))
+                draws.extend(drawn)
+        raw = numbers(draws)
+        for stage, (j, rows, span), at, count in jobs:
+            self.fields[j][rows, span] = stage.shape(raw[at:at + count], len(rows)).reshape(len(rows), -1)
 
     # -- reads ------------------------------------------------------------------------------------
 
