@@ -119,57 +119,77 @@ _R = 3.442620  # the start of the tail
 
 def _normals(words: list[np.ndarray], counter: list[np.ndarray], key: list[np.ndarray]) -> np.ndarray:
     """Standard normals (n, 4) from the words by the ziggurat (one 32-bit word each). The few words it
-    rejects (about 1 in 100) go on with words of their own: Philox at the same counter with lane 3 and
-    the key's second word xor (1 + word + 16 attempt), so every value stays a function of its counter."""
+    rejects (about 1 in 100) go on with words of their own (`_fallback`), so every value stays a function
+    of its counter."""
     out = np.empty((words[0].size, 4))
-    redo: list[tuple[np.ndarray, int, np.ndarray]] = []
+    rows, cols = [], []
     for k, w in enumerate(words):
         hz = w.view(np.int32)
         iz = w & np.uint32(127)
         np.multiply(hz, _WN.take(iz), out=out[:, k])
         rejected = np.flatnonzero(np.abs(hz).view(np.uint32) >= _KN.take(iz))
-        if rejected.size:
-            redo.append((rejected, k, hz[rejected].astype(np.int64)))
-    for rejected, k, hz in redo:
-        out[rejected, k] = _fallback(hz, [c[rejected] for c in counter], [c[rejected] for c in key], k)
+        rows.append(rejected)
+        cols.append(np.full(rejected.size, k))
+    row, col = np.concatenate(rows), np.concatenate(cols)
+    if row.size:
+        hz = np.stack(words, axis=1)[row, col].view(np.int32).astype(np.int64)
+        out[row, col] = _fallback(hz, [c[row] for c in counter], [c[row] for c in key], col)
     return out
 
 
-def _fallback(hz: np.ndarray, counter: list[np.ndarray], key: list[np.ndarray], word: int) -> np.ndarray:
-    """Marsaglia and Tsang's `nfix` for rejected words `hz`, vectorised: each attempt draws four words per
-    value (wedge test, next word, two for the tail)."""
+_ATTEMPTS = 4  # fallback attempts drawn per Philox call
+
+
+def _fallback(hz: np.ndarray, counter: list[np.ndarray], key: list[np.ndarray], word: np.ndarray) -> np.ndarray:
+    """Marsaglia and Tsang's `nfix` for rejected words `hz` (word `word` of their counter), vectorised.
+    Attempt a of a value draws four words (wedge test, next word, two for the tail): Philox at its counter
+    with lane 3 and the key's second word xor (1 + word + 16 a)."""
     out = np.empty(hz.size)
     todo = np.arange(hz.size)
     counter = [counter[0], counter[1] | np.uint32(3 << 22), counter[2], counter[3]]
     attempt = 0
     while todo.size:
-        w = philox([c[todo] for c in counter], [key[0][todo], key[1][todo] ^ np.uint32(1 + word + 16 * attempt)])
-        u = [(x + 0.5) * _2_32 for x in w]
-        h = hz[todo]
-        iz = h & 127
-        x = h * _WN[iz]
-        done = np.zeros(todo.size, bool)
-        tail = iz == 0
-        if tail.any():  # beyond the base layer: x from the exponential tail
-            t = -np.log(u[2][tail]) / _R
-            ok = -2.0 * np.log(u[3][tail]) >= t * t
-            value = np.where(h[tail] > 0, _R + t, -_R - t)
-            out[todo[tail][ok]] = value[ok]
-            done[np.flatnonzero(tail)[ok]] = True
-        wedge = ~tail
-        inside = wedge & (_FN[iz] + u[0] * (_FN[iz - 1] - _FN[iz]) < np.exp(-0.5 * x * x))
-        out[todo[inside]] = x[inside]
-        done |= inside
-        # the others take the next word; accepted at once when it falls inside its layer
-        again = wedge & ~inside
-        nh = w[1][again].view(np.int32).astype(np.int64)
-        niz = nh & 127
-        fast = np.abs(nh) < _KN[niz]
-        out[todo[again][fast]] = nh[fast] * _WN[niz[fast]]
-        done[np.flatnonzero(again)[fast]] = True
-        hz[todo[again]] = nh
-        todo, attempt = todo[~done], attempt + 1
+        tries = np.arange(attempt, attempt + _ATTEMPTS, dtype=np.uint32)
+        tweak = (1 + word[todo, None].astype(np.uint32) + 16 * tries).ravel()
+        drawn = philox([np.repeat(c[todo], _ATTEMPTS) for c in counter],
+                       [np.repeat(key[0][todo], _ATTEMPTS), np.repeat(key[1][todo], _ATTEMPTS) ^ tweak])
+        drawn = [w.reshape(todo.size, _ATTEMPTS) for w in drawn]
+        pending = np.arange(todo.size)  # rows of `todo` still rejected
+        for a in range(_ATTEMPTS):
+            rows = todo[pending]
+            accepted, value, hz[rows] = _attempt(hz[rows], [w[pending, a] for w in drawn])
+            out[rows[accepted]] = value[accepted]
+            pending = pending[~accepted]
+            if not pending.size:
+                break
+        todo, attempt = todo[pending], attempt + _ATTEMPTS
     return out
+
+
+def _attempt(hz: np.ndarray, w: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One `nfix` step for words `hz` with four fresh words each: (accepted, value, the word to go on with)."""
+    u = [(x + 0.5) * _2_32 for x in w]
+    iz = hz & 127
+    value = hz * _WN[iz]
+    tail = iz == 0
+    accepted = np.zeros(hz.size, bool)
+    if tail.any():  # beyond the base layer: x from the exponential tail
+        t = -np.log(u[2][tail]) / _R
+        value[tail] = np.where(hz[tail] > 0, _R + t, -_R - t)
+        accepted[tail] = -2.0 * np.log(u[3][tail]) >= t * t
+    wedge = ~tail
+    inside = wedge & (_FN[iz] + u[0] * (_FN[iz - 1] - _FN[iz]) < np.exp(-0.5 * value * value))
+    accepted |= inside
+    # the others take the next word; accepted at once when it falls inside its layer
+    again = wedge & ~inside
+    nh = w[1][again].view(np.int32).astype(np.int64)
+    niz = nh & 127
+    fast = np.abs(nh) < _KN[niz]
+    value[again] = nh * _WN[niz]
+    accepted[again] = fast
+    following = hz.copy()
+    following[again] = nh
+    return accepted, value, following
 
 
 def numbers(draws: Sequence[Draw]) -> list[np.ndarray]:
