@@ -109,6 +109,26 @@ def test_on_demand_fields_equal_those_mujoco_fills_for_its_own_sensors(overrides
             np.testing.assert_array_equal(a[name], b[name], err_msg=name)
 
 
+def _with_sensors() -> mujoco.MjModel:
+    """The model with sensors that make MuJoCo fill both families of on-demand fields at every step."""
+    spec = mujoco.MjSpec.from_file(str(MODEL))
+    spec.add_sensor(type=mujoco.mjtSensor.mjSENS_SUBTREELINVEL, objtype=mujoco.mjtObj.mjOBJ_BODY, objname="base")
+    spec.body("base").add_site(name="imu")
+    spec.add_sensor(type=mujoco.mjtSensor.mjSENS_ACCELEROMETER, objtype=mujoco.mjtObj.mjOBJ_SITE, objname="imu")
+    return spec.compile()
+
+
+@pytest.mark.skipif(not hasattr(mujoco.MjData, "flg_rnepost"), reason="MuJoCo 3.17 has no flags to tell")
+def test_a_field_the_models_sensors_fill_is_read_as_it_is() -> None:
+    """No computation and no remembered velocity where MuJoCo's own step fills the field (the reads join the
+    feature bank like any other field); the values are the same either way (the test above)."""
+    for model, computed in ((mujoco.MjModel.from_xml_path(str(MODEL)), True), (_with_sensors(), False)):
+        physics = sensorcfg.Physics(model)
+        for kind in ("cfrc_ext", "subtree_linvel"):
+            reader = sensorcfg.Feature(kind, "body:base").reader(physics)
+            assert (reader.compute is not None) == computed, (kind, computed)
+
+
 def test_computed_only_at_sampled_steps() -> None:
     """Interval 3 with 10 steps per control step: the last step of a control step samples nothing."""
     model = mujoco.MjModel.from_xml_path(str(MODEL))
@@ -148,11 +168,7 @@ def test_batch_refuses_on_demand_fields_it_cannot_compute() -> None:
 def test_batch_records_them_truly_when_the_models_sensors_compute_them() -> None:
     if int(mujoco.__version__.split(".")[0]) < 4:
         pytest.skip("BatchEnvironment needs MuJoCo 4")
-    spec = mujoco.MjSpec.from_file(str(MODEL))
-    spec.add_sensor(type=mujoco.mjtSensor.mjSENS_SUBTREELINVEL, objtype=mujoco.mjtObj.mjOBJ_BODY, objname="base")
-    spec.body("base").add_site(name="imu")
-    spec.add_sensor(type=mujoco.mjtSensor.mjSENS_ACCELEROMETER, objtype=mujoco.mjtObj.mjOBJ_SITE, objname="imu")
-    model = spec.compile()
+    model = _with_sensors()
     suite = sensorcfg.loads(ON_DEMAND_SUITE, ["options.keyframe=crouch"])
     batch = sensorcfg.BatchEnvironment(model, suite, 2, seed=0)
     singles = [sensorcfg.Environment(model, suite, seed=sensorcfg.batch.sim_seed(0, i)) for i in range(2)]
