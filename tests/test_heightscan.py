@@ -95,6 +95,18 @@ def test_batched_scans_equal_single_ones() -> None:
     assert_batch_equals_single(TERRAIN, suite, nsim=2, seed=3, steps=15)
 
 
+@pytest.mark.skipif(not MUJOCO4, reason="mujoco.batch needs MuJoCo 4")
+def test_noisy_batched_scans_equal_single_ones() -> None:
+    """Noise on a height scan runs per simulation, stateful stages included, keyed as the single simulation."""
+    suite = sensorcfg.loads("options: {control_interval: 10}\nsensors:\n"
+                            "  h: {kind: heightscan, element: site:imu, interval: 5, buffer: 2,\n"
+                            "      noise: [{type: gaussian, std: 0.01}, {type: lowpass, cutoff: 20Hz}]}\n"
+                            "  r: {kind: heightscan, element: body:base, scan: {pattern: ring},\n"
+                            "      noise: [{type: bias, std: 0.05}, {type: dropout, p: 0.2, mode: hold}]}\n"
+                            "  v: {kind: velocimeter, element: body:base, noise: [{type: gaussian, std: 0.1}]}\n")
+    assert_batch_equals_single(TERRAIN, suite, nsim=3, seed=5, steps=12)
+
+
 @pytest.mark.parametrize("scan, expected", [
     pytest.param("{size: [1.0, 1.0], resolution: 0.3}", "f.yaml:2:51: error: sensors.h.scan: size along x (1 m) "
                  "is not a whole number of 0.3 m steps (3.33); use 0.9 or 1.2, or another resolution", id="grid"),
