@@ -124,7 +124,7 @@ def model_and_observables(model: Any, suite: Any, batch: bool = False
     if isinstance(model, (str, os.PathLike, mujoco.MjSpec)):
         if not isinstance(model, mujoco.MjSpec):
             load_model(model)  # a missing or broken file: the same error as without a suite
-        model = suite.compile(model)
+        model = suite.compile(model, batch=batch)
     model = load_model(model)
     observables = suite.build(model, batch=True) if batch else suite.build(model)
     return model, observables, {**suite.updater_kwargs(model), "keyframe": getattr(suite.options, "keyframe", None)}

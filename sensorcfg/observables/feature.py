@@ -135,9 +135,10 @@ def batch_on_demand_problem(model: mujoco.MjModel, field: str) -> str | None:
     if spec is None or computed_by_model(model, spec):
         return None
     return (f"{field} is filled by {spec.function} only when something asks for it, and a BatchEnvironment's "
-            "rollout cannot call it between substeps (it would read zeros); use the single-simulation "
-            "Environment, or give the model a sensor that needs it (an accelerometer or force sensor for "
-            "cacc/cfrc_*, a subtreelinvel or subtreeangmom sensor for subtree_*)")
+            "rollout cannot call it between substeps (it would read zeros); give BatchEnvironment the model's "
+            "file (it then adds a sensor that makes MuJoCo fill it), give the model a sensor that needs it "
+            "(an accelerometer or force sensor for cacc/cfrc_*, a subtreelinvel sensor for subtree_*), or use "
+            "the single-simulation Environment")
 
 
 class SyncingFieldReader(FieldReader):
