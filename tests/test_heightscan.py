@@ -123,3 +123,18 @@ def test_a_scan_reads_one_frame() -> None:
     problems = sensorcfg.loads("sensors:\n  h: {kind: heightscan, element: geom:FL}\n", file="f.yaml").check(TERRAIN)
     assert [p.format() for p in problems] == ["f.yaml:2:34: error: sensors.h.element: a height scan is cast from "
                                               "one frame, 'body:<name>' or 'site:<name>'; got 'geom:FL'"]
+
+
+@pytest.mark.parametrize("scan, expected", [
+    pytest.param("{resolution: 5e-324}", "1.6 x 1 m every 4.94066e-324 m makes inf rays", id="subnormal-resolution"),
+    pytest.param("{size: [100, 100], resolution: 0.01}", "100 x 100 m every 0.01 m makes 1e+08 rays", id="huge-grid"),
+    pytest.param("{pattern: ring, radii: [1], count: 100000000000}", "1 ring of 100000000000 rays makes 1e+11 rays",
+                 id="huge-ring"),
+])
+def test_a_scan_has_at_most_100000_rays(scan: str, expected: str) -> None:
+    """Found by the fuzz test: a subnormal resolution raised OverflowError; a huge scan would fill memory."""
+    with pytest.raises(sensorcfg.SuiteError) as e:
+        sensorcfg.loads(f"sensors:\n  h: {{kind: heightscan, element: body:base, scan: {scan}}}\n", file="f.yaml")
+    assert [(p.loc, p.message) for p in e.value.problems] == [
+        ("sensors.h.scan", f"{expected}; a scan casts at most 100,000: use a coarser resolution, a smaller size or "
+                           "fewer rays")]
