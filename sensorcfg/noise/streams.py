@@ -44,23 +44,26 @@ def philox(counter: Sequence[np.ndarray], key: Sequence[np.ndarray]) -> list[np.
     k0 = np.array(key[0], np.uint32)
     k1 = np.array(key[1], np.uint32)
     n = x0.size
-    p0, p1 = np.empty(n, np.uint64), np.empty(n, np.uint64)
-    half0, half1 = p0.view(np.uint32), p1.view(np.uint32)
-    lo0, hi0, lo1, hi1 = half0[_LOW::2], half0[_HIGH::2], half1[_LOW::2], half1[_HIGH::2]
+    # two pairs of products, used in turn: a round's x1 and x3 are halves of the previous round's
+    products = [(np.empty(n, np.uint64), np.empty(n, np.uint64)) for _ in range(2)]
+    spare = [np.empty(n, np.uint32), np.empty(n, np.uint32)]
     for r in range(_ROUNDS):
         if r:
             k0 += _W0
             k1 += _W1
+        p0, p1 = products[r % 2]
         np.multiply(x0, _M0, out=p0)
         np.multiply(x2, _M1, out=p1)
-        # (x0, x1, x2, x3) <- (hi1 ^ x1 ^ k0, lo1, hi0 ^ x3 ^ k1, lo0), in the arrays x1 and x3 first
-        np.bitwise_xor(x1, hi1, out=x1)
-        np.bitwise_xor(x1, k0, out=x1)
-        np.bitwise_xor(x3, hi0, out=x3)
-        np.bitwise_xor(x3, k1, out=x3)
-        np.copyto(x0, lo1)
-        np.copyto(x2, lo0)
-        x0, x1, x2, x3 = x1, x0, x3, x2
+        half0, half1 = p0.view(np.uint32), p1.view(np.uint32)
+        # (x0, x1, x2, x3) <- (hi1 ^ x1 ^ k0, lo1, hi0 ^ x3 ^ k1, lo0)
+        new0, new2 = spare
+        np.bitwise_xor(half1[_HIGH::2], x1, out=new0)
+        new0 ^= k0
+        np.bitwise_xor(half0[_HIGH::2], x3, out=new2)
+        new2 ^= k1
+        spare = [x0, x2] if r else [np.empty(n, np.uint32), np.empty(n, np.uint32)]
+        x0, x1, x2, x3 = new0, half1[_LOW::2], new2, half0[_LOW::2]
+    x1, x3 = x1.copy(), x3.copy()
     return [x0, x1, x2, x3]
 
 
@@ -122,7 +125,7 @@ def _normals(words: list[np.ndarray], counter: list[np.ndarray], key: list[np.nd
     rejects (about 1 in 100) go on with words of their own (`_fallback`), so every value stays a function
     of its counter."""
     out = np.empty((words[0].size, 4))
-    rows, cols = [], []
+    rows, cols, rejected_words = [], [], []
     for k, w in enumerate(words):
         hz = w.view(np.int32)
         iz = w & np.uint32(127)
@@ -130,14 +133,15 @@ def _normals(words: list[np.ndarray], counter: list[np.ndarray], key: list[np.nd
         rejected = np.flatnonzero(np.abs(hz).view(np.uint32) >= _KN.take(iz))
         rows.append(rejected)
         cols.append(np.full(rejected.size, k))
+        rejected_words.append(hz[rejected])
     row, col = np.concatenate(rows), np.concatenate(cols)
     if row.size:
-        hz = np.stack(words, axis=1)[row, col].view(np.int32).astype(np.int64)
+        hz = np.concatenate(rejected_words).astype(np.int64)
         out[row, col] = _fallback(hz, [c[row] for c in counter], [c[row] for c in key], col)
     return out
 
 
-_ATTEMPTS = 4  # fallback attempts drawn per Philox call
+_ATTEMPTS = 2  # fallback attempts drawn per Philox call
 
 
 def _fallback(hz: np.ndarray, counter: list[np.ndarray], key: list[np.ndarray], word: np.ndarray) -> np.ndarray:
