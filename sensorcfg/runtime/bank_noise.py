@@ -92,6 +92,12 @@ class BankNoise:
         self.shapes = [ch.shape for ch in channels]
         self.strides = [ch.interval for ch in channels]  # sample j of member i is taken at step j * stride
         self.offsets = sample_offsets  # per member: its sample steps within one chunk, relative
+        # per member: the flat positions (in a noise field) of its values at those steps, from a chunk's
+        # first row; with the reset sample first when the chunk starts an episode and it is not among them
+        self.places = [self._places(i, offsets) for i, offsets in enumerate(sample_offsets)]
+        self.first = [offsets if len(offsets) and offsets[0] == 0 else np.concatenate(([0], offsets)).astype(np.intp)
+                      for offsets in sample_offsets]
+        self.first_places = [self._places(i, offsets) for i, offsets in enumerate(self.first)]
         groups: dict[tuple[str, ...], list[int]] = {}
         for i, ops in enumerate(programs):
             if ops:
@@ -134,31 +140,34 @@ class BankNoise:
                         per_op[q][0][self.cols[i]:self.cols[i + 1]] = self.programs[i][q][1].value.ravel()
         self.fill(0)
 
+    def _places(self, i: int, offsets: np.ndarray) -> np.ndarray:
+        return (offsets[:, None] * self.width + np.arange(self.cols[i], self.cols[i + 1])[None, :]).ravel()
+
     def fill(self, step: int) -> None:
         """Write the per-sample terms of every noisy member's samples in steps [step, step + chunk): the
         numbers of the samples taken only, of every member, from one Philox call (`streams.numbers`); a
-        random walk walks every index (`rows_at`)."""
-        jobs: list[tuple[Any, tuple[Any, ...], int, int]] = []
+        random walk walks every index (`rows_at`). `step` is a multiple of the chunk, which divides the
+        rows, so a chunk's rows do not wrap."""
+        jobs: list[tuple[Any, int, np.ndarray, int, int]] = []
         draws: list[Draw] = []
+        start = (step % self.rows) * self.width
         for i, ops in enumerate(self.programs):
             if not ops:
                 continue
-            steps = step + self.offsets[i]
-            if step == 0 and (len(steps) == 0 or steps[0] != 0):
-                steps = np.concatenate(([0], steps))  # the reset sample is always taken
-            where = ((steps % self.rows)[:, None], np.arange(self.cols[i], self.cols[i + 1])[None, :])
-            indices = steps // self.strides[i]
+            offsets, places = (self.first[i], self.first_places[i]) if step == 0 else (self.offsets[i], self.places[i])
+            places = places + start
+            indices = (step + offsets) // self.strides[i]
             terms = [stage for kind, stage in ops if kind == "term"]
             for j, stage in enumerate(terms):
                 if isinstance(stage, rt.RandomWalk):
-                    self.fields[j][where] = stage.rows_at(indices).reshape(len(steps), -1)
+                    self.flat_fields[j].put(places, stage.rows_at(indices))
                     continue
                 drawn = stage.draws(indices, np.broadcast_to(stage.streams.keys, (len(indices), 2)))
-                jobs.append((stage, (j, *where), len(draws), len(drawn)))
+                jobs.append((stage, j, places, len(draws), len(drawn)))
                 draws.extend(drawn)
         raw = numbers(draws)
-        for stage, (j, rows, span), at, count in jobs:
-            self.fields[j][rows, span] = stage.shape(raw[at:at + count], len(rows)).reshape(len(rows), -1)
+        for stage, j, places, at, count in jobs:
+            self.flat_fields[j].put(places, stage.shape(raw[at:at + count], len(places) // stage.size))
 
     # -- reads ------------------------------------------------------------------------------------
 
