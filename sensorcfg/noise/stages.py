@@ -36,8 +36,8 @@ from .streams import Draw, Streams, numbers, stream_key
 __all__ = ["Context", "Streams", "Stage", "Sum", "Gaussian", "Uniform", "Outlier", "EpisodeDraw", "RandomWalk",
            "Lowpass", "Quantize", "Clip", "Dropout", "Custom", "stream_key"]
 
-_BLOCK_VALUES = 1 << 10  # random values drawn per generator call (per stage), at most
-_MAX_BLOCK = 64  # samples per block, at most (a power of two)
+_BLOCK_VALUES = 1 << 13  # per-sample numbers drawn at a time on the per-sample path (per stage), at most
+_MAX_BLOCK = 1024  # samples per block, at most (a power of two)
 _MAX_INTERVALS = 64  # distinct sample intervals whose coefficients are cached
 
 
