@@ -4,9 +4,11 @@ A sensor's single-simulation `NoisePipeline` stays the authority on randomness: 
 is reset with that simulation's sensor stream, and what the reset decided (the episode key of the
 counter-based numbers, bias and gain draws, a random walk's start) is kept for simulation i. On the
 per-step path a batched stage applies to the simulations that sample at this step, all at once, with the
-stages' own array arithmetic (`noise.stages`). Per-sample numbers come from the stage's own `numbers`
-(block j // B of sample j, keyed by simulation i's episode key), so sample j of simulation i gets exactly
-the numbers the single simulation gives it; only a block refill, once per block, loops over simulations.
+stages' own array arithmetic (`noise.stages`). Per-sample numbers are counter-based (`noise.streams`): a
+function of simulation i's episode key and the sample's index, so each control step draws those of the
+samples taken, of every sensor and simulation, in one call (`prefetch`), and sample j of simulation i gets
+exactly the numbers the single simulation gives it. A reset whose stages draw nothing per episode starts
+every simulation at once (`BatchPipeline.start`).
 Stateful stages (random walk, low-pass, dropout with hold) keep their state as (nsim, ...) arrays.
 
 A stage type without a batched form here (a custom callable) makes `BatchPipeline` raise before stepping.
@@ -28,7 +30,7 @@ from ..noise.streams import Draw, numbers
 
 __all__ = ["BatchPipeline", "BATCHED", "prefetch"]
 
-_BLOCK_BYTES = 8 << 20  # stored per-sample numbers per stage, across simulations, at most (when chunkable)
+_BLOCK_BYTES = 8 << 20  # a random walk's stored states per stage, across simulations, at most
 
 
 class _Batched:

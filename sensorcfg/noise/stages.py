@@ -10,12 +10,14 @@ any leading axes (one sample, samples, or simulations x samples), and the same n
 Truthful noise: a sample's value is a function of the seed, the sensor and the sample's time, never of
 which other samples were taken.
 
-- Random numbers are counter-based (`noise.streams.Streams`): sample j's numbers of a stage come from numpy's Philox
-  keyed by the sensor's episode key, with the counter (stage, block j // B, position); a block holds B
-  samples (`Context.block`, fixed by the observation's size). Skipping samples skips nothing else.
+- Random numbers are counter-based (`noise.streams`): value v of sample j of a stage is a function of the
+  sensor's episode key, j, the stage and v alone (Philox4x32-10 at a counter made of them), so any set of
+  samples, of any keys, is drawn in one call without the others (`streams.numbers`): the bank and the
+  batch draw only the samples taken; the per-sample path draws a block of B samples ahead
+  (`Context.block`, a matter of speed only).
 - A sample's index is `step // stride`: `stride` is the sensor's interval when it is constant (sample j is
   the sensor's j-th nominal sample), else 1 (the physics step).
-- A random walk's state is advanced over every index (one block at a time), whether or not its samples
+- A random walk's state is advanced over every index (a block at a time), whether or not its samples
   are taken: it depends on draws only, not on the signal.
 - Stages that need the raw value of every nominal sample (`stateful`: low-pass, dropout holding the last
   value, a custom callable with its own random state) make their sensor take every nominal sample.
@@ -50,7 +52,8 @@ class Context:
         self.work = work  # the stages' arithmetic: float64, or float32 for float32 / uint8 observations
         self.timestep = timestep
         size = math.prod(shape)
-        # samples per block of counter-based numbers: a power of two (the batch may split it in halves)
+        # samples drawn at a time on the per-sample path and walked at a time by a random walk: a power of two
+        # (the batch may walk it in halves); a sample's numbers do not depend on it
         self.block = 1 << (max(1, min(_MAX_BLOCK, _BLOCK_VALUES // max(size, 1))).bit_length() - 1)
 
     def cast(self, value: Any) -> np.ndarray:
