@@ -34,7 +34,7 @@ class _BatchedBlend(_Batched):
         self.levels = np.ones(nsim)
         template.batch_active = False  # type: ignore[attr-defined]  # some simulation's level is not 1
 
-    def load(self, i: int, stage: rt.Stage) -> None:
+    def load(self, i: int | np.ndarray, stage: rt.Stage) -> None:
         self.levels[i] = stage.level  # type: ignore[attr-defined]
         self.template.batch_active = bool(np.any(self.levels != 1.0))  # type: ignore[attr-defined]
 

@@ -16,7 +16,7 @@ class _BatchedMisalign(_Batched):
         super().__init__(template, nsim, *stride)  # type: ignore[call-arg]
         self.matrices = np.tile(np.eye(3), (nsim, 1, 1))
 
-    def load(self, i: int, stage: rt.Stage) -> None:
+    def load(self, i: int | np.ndarray, stage: rt.Stage) -> None:
         self.matrices[i] = stage.matrix  # type: ignore[attr-defined]
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:

@@ -46,8 +46,9 @@ class _Batched:
         self.nsim = nsim
         self.stride = stride
 
-    def load(self, i: int, stage: Any) -> None:
-        """Take simulation i's episode start from `stage`, the template just reset with i's stream."""
+    def load(self, i: int | np.ndarray, stage: Any) -> None:
+        """Take simulation i's episode start from `stage`, the template just reset with i's stream (i: an index
+        array for a keyed stage: every episode start but the key is the same)."""
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
         raise NotImplementedError
@@ -73,7 +74,7 @@ class _Drawn(_Batched):
         self.keys = np.zeros((nsim, 2), np.uint64)
         self.ready: deque[np.ndarray] = deque()  # rows drawn ahead (`prefetch`), in the order of the calls
 
-    def load(self, i: int, stage: Any) -> None:
+    def load(self, i: int | np.ndarray, stage: Any) -> None:
         self.keys[i] = stage.streams.key
         self.ready.clear()
 
@@ -101,7 +102,7 @@ class _Additive(_Drawn):
                            for p in template.parts if isinstance(p, rt.EpisodeDraw)]
         self.keyed = type(self).keyed and not self.values
 
-    def load(self, i: int, stage: Any) -> None:
+    def load(self, i: int | np.ndarray, stage: Any) -> None:
         super().load(i, stage)
         if self.values:
             drawn = [p.value for p in stage.parts if isinstance(p, rt.EpisodeDraw)]
@@ -135,7 +136,7 @@ class _RandomWalk(_Additive):
         self.part = np.full(nsim, -1, np.int64)  # the part each simulation holds
         self.rows: np.ndarray | None = None  # (nsim, sub, *shape)
 
-    def load(self, i: int, stage: Any) -> None:
+    def load(self, i: int | np.ndarray, stage: Any) -> None:
         super().load(i, stage)
         self.carry[i] = stage.start
         self.part[i] = -1
@@ -193,7 +194,7 @@ class _Episode(_Batched):
         super().__init__(template, nsim, stride)
         self.values = np.zeros((nsim, *template.value.shape), template.value.dtype)
 
-    def load(self, i: int, stage: Any) -> None:
+    def load(self, i: int | np.ndarray, stage: Any) -> None:
         self.values[i] = stage.value
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
@@ -216,7 +217,7 @@ class _Lowpass(_Batched):
         self.fresh = np.ones(nsim, bool)
         self.last = np.zeros(nsim, np.int64)
 
-    def load(self, i: int, stage: Any) -> None:
+    def load(self, i: int | np.ndarray, stage: Any) -> None:
         self.fresh[i] = stage.fresh
         self.state[i] = stage.state
         self.last[i] = stage.last
@@ -247,7 +248,7 @@ class _Dropout(_Drawn):
         self.held = None if template.held is None else np.zeros((nsim, *template.held.shape), template.held.dtype)
         self.fresh = np.ones(nsim, bool)
 
-    def load(self, i: int, stage: Any) -> None:
+    def load(self, i: int | np.ndarray, stage: Any) -> None:
         super().load(i, stage)
         self.fresh[i] = stage.fresh
         if self.held is not None:

@@ -23,7 +23,7 @@ class _BatchedRedrawn(_Batched):
         super().__init__(template, nsim, *stride)  # type: ignore[call-arg]
         self.stages: list[Any] = [None] * nsim
 
-    def load(self, i: int, stage: rt.Stage) -> None:
+    def load(self, i: int | np.ndarray, stage: rt.Stage) -> None:
         self.stages[i] = copy.deepcopy(stage.inner)  # type: ignore[attr-defined]
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:

@@ -222,20 +222,8 @@ class BatchUpdater:
         ids = np.asarray(ids, np.intp)
         if not ids.size:
             return
-        noisy = list(self.noise)
-        keys = np.zeros((len(noisy), ids.size, 2), np.uint64)  # per noisy channel, each simulation's key
-        for m, i in enumerate(ids.tolist()):
-            rs = random_states[i]
-            if self.started[i]:
-                self.timelines.finish(i, int(self.control_steps[i]))
-            entropy = episode_entropy(rs) if self.noisy else None
-            if noisy:
-                keys[:, m] = sensor_keys(entropy or [], [self.labels[c] for c in noisy])
-            if self.timelines.specs:
-                self.timelines.start(i, rs)
-            if self.cameras is not None:
-                self.cameras.reset_noise(i, entropy or [])
-        for c, channel_keys in zip(noisy, keys):
+        keys = self._start_episodes(ids, random_states)
+        for c, channel_keys in zip(self.noise, keys):
             self.noise[c].start(ids, channel_keys)
         self.started[ids] = True
         values = self.flat.take(self.layout.reset_index[ids])  # (m, width): the reset sample
@@ -255,6 +243,24 @@ class BatchUpdater:
             self.cameras.reset(ids)
         self.layout.clear()
         self._noise_plans.clear()
+
+    def _start_episodes(self, ids: np.ndarray, random_states: list[np.random.RandomState]) -> np.ndarray:
+        """Each simulation's draws at reset, in the Updater's order; returns the noisy channels' keys
+        (channel, simulation, 2), in the order of `self.noise`."""
+        labels = [self.labels[c] for c in self.noise]
+        keys = np.zeros((len(labels), ids.size, 2), np.uint64)
+        for m, i in enumerate(ids.tolist()):
+            rs = random_states[i]
+            if self.started[i]:
+                self.timelines.finish(i, int(self.control_steps[i]))
+            entropy = episode_entropy(rs) if self.noisy else None
+            if labels:
+                keys[:, m] = sensor_keys(entropy or [], labels)
+            if self.timelines.specs:
+                self.timelines.start(i, rs)
+            if self.cameras is not None:
+                self.cameras.reset_noise(i, entropy or [])
+        return keys
 
     # -- the physics loop -------------------------------------------------------------------------
 

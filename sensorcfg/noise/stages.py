@@ -87,7 +87,7 @@ class _PerSample(Stage):
     only: a sample's numbers do not depend on the block)."""
 
     needs_rng = True
-    lanes = (True,)  # per lane: normals (True) or uniforms; lane l's numbers are (m, size) (see `sizes`)
+    lanes: tuple[bool, ...] = (True,)  # per lane: normals (True) or uniforms; (m, size) numbers each (`sizes`)
 
     def __init__(self, ctx: Context):
         self.ctx = ctx

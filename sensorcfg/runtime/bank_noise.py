@@ -92,12 +92,7 @@ class BankNoise:
         self.shapes = [ch.shape for ch in channels]
         self.strides = [ch.interval for ch in channels]  # sample j of member i is taken at step j * stride
         self.offsets = sample_offsets  # per member: its sample steps within one chunk, relative
-        # per member: the flat positions (in a noise field) of its values at those steps, from a chunk's
-        # first row; with the reset sample first when the chunk starts an episode and it is not among them
-        self.places = [self._places(i, offsets) for i, offsets in enumerate(sample_offsets)]
-        self.first = [offsets if len(offsets) and offsets[0] == 0 else np.concatenate(([0], offsets)).astype(np.intp)
-                      for offsets in sample_offsets]
-        self.first_places = [self._places(i, offsets) for i, offsets in enumerate(self.first)]
+        self.places, self.first, self.first_places = self._layout(sample_offsets)
         groups: dict[tuple[str, ...], list[int]] = {}
         for i, ops in enumerate(programs):
             if ops:
@@ -140,8 +135,17 @@ class BankNoise:
                         per_op[q][0][self.cols[i]:self.cols[i + 1]] = self.programs[i][q][1].value.ravel()
         self.fill(0)
 
-    def _places(self, i: int, offsets: np.ndarray) -> np.ndarray:
-        return (offsets[:, None] * self.width + np.arange(self.cols[i], self.cols[i + 1])[None, :]).ravel()
+    def _layout(self, sample_offsets: list[np.ndarray]) -> tuple[list[np.ndarray], ...]:
+        """Per member: the flat positions (in a noise field, from a chunk's first row) of its values at its
+        sample steps; the steps of an episode's first chunk (the reset sample first, when it is not among
+        them) and their positions."""
+        def places(i: int, offsets: np.ndarray) -> np.ndarray:
+            return (offsets[:, None] * self.width + np.arange(self.cols[i], self.cols[i + 1])[None, :]).ravel()
+
+        first = [offsets if len(offsets) and offsets[0] == 0 else np.concatenate(([0], offsets)).astype(np.intp)
+                 for offsets in sample_offsets]
+        return ([places(i, o) for i, o in enumerate(sample_offsets)], first,
+                [places(i, o) for i, o in enumerate(first)])
 
     def fill(self, step: int) -> None:
         """Write the per-sample terms of every noisy member's samples in steps [step, step + chunk): the
