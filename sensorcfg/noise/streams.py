@@ -124,20 +124,15 @@ def _normals(words: list[np.ndarray], counter: list[np.ndarray], key: list[np.nd
     """Standard normals (n, 4) from the words by the ziggurat (one 32-bit word each). The few words it
     rejects (about 1 in 100) go on with words of their own (`_fallback`), so every value stays a function
     of its counter."""
-    out = np.empty((words[0].size, 4))
-    rows, cols, rejected_words = [], [], []
-    for k, w in enumerate(words):
-        hz = w.view(np.int32)
-        iz = w & np.uint32(127)
-        np.multiply(hz, _WN.take(iz), out=out[:, k])
-        rejected = np.flatnonzero(np.abs(hz).view(np.uint32) >= _KN.take(iz))
-        rows.append(rejected)
-        cols.append(np.full(rejected.size, k))
-        rejected_words.append(hz[rejected])
-    row, col = np.concatenate(rows), np.concatenate(cols)
-    if row.size:
-        hz = np.concatenate(rejected_words).astype(np.int64)
-        out[row, col] = _fallback(hz, [c[row] for c in counter], [c[row] for c in key], col)
+    both = np.stack(words, axis=1)  # (n, 4): value 4q + k from word k of counter q
+    hz = both.view(np.int32)
+    iz = both & np.uint32(127)
+    out = hz * _WN.take(iz)
+    rejected = np.flatnonzero(np.abs(hz).view(np.uint32) >= _KN.take(iz))
+    if rejected.size:
+        row, col = rejected >> 2, rejected & 3
+        out.ravel()[rejected] = _fallback(hz.ravel()[rejected].astype(np.int64), [c[row] for c in counter],
+                                          [c[row] for c in key], col)
     return out
 
 
