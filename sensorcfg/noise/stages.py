@@ -31,54 +31,13 @@ from typing import Any, cast
 
 import numpy as np
 
-from ..errors import Problem, SuiteError
-from .arithmetic import add, clip, dropout, lowpass, multiply, quantize, walk
+from .arithmetic import add, dropout, multiply, walk
+from .base import Context, Stage, _Timed
+from .filters import Clip, Custom, Lowpass, Quantize
 from .streams import Draw, Streams, numbers, stream_key
 
 __all__ = ["Context", "Streams", "Stage", "Sum", "Gaussian", "Uniform", "Outlier", "EpisodeDraw", "RandomWalk",
            "Lowpass", "Quantize", "Clip", "Dropout", "Custom", "stream_key"]
-
-_BLOCK_VALUES = 1 << 13  # per-sample numbers drawn at a time on the per-sample path (per stage), at most
-_MAX_BLOCK = 1024  # samples per block, at most (a power of two)
-_MAX_INTERVALS = 64  # distinct sample intervals whose coefficients are cached
-
-
-class Context:
-    """What every stage is built against: the observation and the arithmetic it is noised in."""
-
-    def __init__(self, shape: tuple[int, ...], dtype: np.dtype, work: np.dtype, timestep: float):
-        self.shape = shape
-        self.dtype = dtype  # the observation's
-        self.work = work  # the stages' arithmetic: float64, or float32 for float32 / uint8 observations
-        self.timestep = timestep
-        size = math.prod(shape)
-        # samples drawn at a time on the per-sample path and walked at a time by a random walk: a power of two
-        # (the batch may walk it in halves); a sample's numbers do not depend on it
-        self.block = 1 << (max(1, min(_MAX_BLOCK, _BLOCK_VALUES // max(size, 1))).bit_length() - 1)
-
-    def cast(self, value: Any) -> np.ndarray:
-        """A parameter as an array of the work dtype (0-d for a number): ufuncs take arrays faster than
-        Python floats, which they convert on every call."""
-        return np.array(value, dtype=self.work)
-
-
-# -- stages ---------------------------------------------------------------------------------------
-
-class Stage:
-    """One stage at run time."""
-
-    needs_rng = False
-    # True when the stage needs the raw value of every nominal sample (its sensor then takes them all)
-    stateful = False
-    # how many configured stages this one carries out (see `Sum`); Uniform reuses the name for high - low
-    width: int | np.ndarray = 1
-    stream = 0  # the stage's position in its pipeline: its part of the counter
-
-    def reset(self, streams: Streams | None, stride: int) -> None:
-        """Start an episode: per-episode draws, cleared state."""
-
-    def __call__(self, src: np.ndarray, dst: np.ndarray, step: int) -> None:
-        raise NotImplementedError
 
 
 class _PerSample(Stage):
@@ -271,26 +230,6 @@ class EpisodeDraw(Stage):
     def __call__(self, src: np.ndarray, dst: np.ndarray, step: int) -> None:
         (add if self.op is np.add else multiply)(src, self.value, dst)
 
-
-class _Timed:
-    """Coefficients that depend on the number of physics steps since the previous sample, cached."""
-
-    def __init__(self, ctx: Context, make: Callable[[float], Any]):
-        self.timestep, self.make = ctx.timestep, make
-        self.cache: dict[int, Any] = {}
-
-    def __call__(self, steps: int) -> Any:
-        coef = self.cache.get(steps)
-        if coef is None:
-            if steps < 0:
-                raise ValueError(f"noise pipeline called at an earlier step ({steps} steps back); "
-                                 "call reset() at the start of an episode")
-            if len(self.cache) >= _MAX_INTERVALS:
-                self.cache.clear()
-            coef = self.cache[steps] = self.make(steps * self.timestep)
-        return coef
-
-
 class RandomWalk(_Additive):
     """b_j = a b_(j-1) + c z_j over every sample index j, a = exp(-dt/tau), c = std sqrt(1 - a^2) with dt the
     stride's time; Brownian: a = 1, c = std sqrt(dt). The state at a sample's index is added to it."""
@@ -357,56 +296,6 @@ class RandomWalk(_Additive):
         self.newest = step
         return super().row(step)
 
-
-class Lowpass(Stage):
-    """y <- y + alpha (x - y), alpha = 1 - exp(-2 pi cutoff dt); starts settled at the first sample.
-
-    A NaN input (a `dropout` with mode nan placed before it) stays in the state for the rest of the episode,
-    as it would in a real filter fed NaN: put such a dropout after the filter.
-    """
-
-    stateful = True
-
-    def __init__(self, ctx: Context, cutoff: Any):
-        omega = np.multiply(2.0 * math.pi, cutoff)
-        self.alpha = _Timed(ctx, lambda dt: ctx.cast(-np.expm1(-dt * omega)))
-        self.state = np.zeros(ctx.shape, ctx.work)
-        self.fresh = True
-        self.last = 0
-
-    def reset(self, streams: Streams | None, stride: int) -> None:
-        self.fresh = True
-
-    def __call__(self, src: np.ndarray, dst: np.ndarray, step: int) -> None:
-        state = self.state
-        if self.fresh:
-            self.fresh = False
-            np.copyto(state, src, casting="unsafe")
-        else:
-            steps = step - self.last
-            if steps:
-                lowpass(state, src, self.alpha(steps), dst)
-        self.last = step
-        np.copyto(dst, state)
-
-
-class Quantize(Stage):
-    def __init__(self, ctx: Context, step: Any):
-        self.step = ctx.cast(step)
-
-    def __call__(self, src: np.ndarray, dst: np.ndarray, step: int) -> None:
-        quantize(src, self.step, dst)
-
-
-class Clip(Stage):
-    def __init__(self, ctx: Context, low: Any, high: Any):
-        self.low = None if low is None else ctx.cast(low)
-        self.high = None if high is None else ctx.cast(high)
-
-    def __call__(self, src: np.ndarray, dst: np.ndarray, step: int) -> None:
-        clip(src, self.low, self.high, dst)
-
-
 class Dropout(_PerSample):
     """Lost samples (or values): hold the last delivered one, or give 0 or NaN."""
 
@@ -442,34 +331,3 @@ class Dropout(_PerSample):
         dropout(src, lost, held if held is not None else self.fill, dst)
         if held is not None:
             np.copyto(held, dst)
-
-
-class Custom(Stage):
-    """A dm_control corruptor `f(value, random_state=...)`, given values in the observation's dtype.
-
-    Its random state is sequential, so its sensor takes every nominal sample (`stateful`)."""
-
-    needs_rng = True
-    stateful = True
-
-    def __init__(self, ctx: Context, fn: Callable[..., Any], name: str, loc: str):
-        self.ctx, self.fn, self.name, self.loc = ctx, fn, name, loc
-        self.convert = ctx.work != ctx.dtype
-        self.random_state = np.random.RandomState(0)
-
-    def reset(self, streams: Streams | None, stride: int) -> None:
-        assert streams is not None
-        words = streams.at(self.stream, 0, purpose=1).integers(0, 2**32, size=4)
-        self.random_state = np.random.RandomState(np.random.MT19937(words))
-
-    def __call__(self, src: np.ndarray, dst: np.ndarray, step: int) -> None:
-        value = src
-        if self.convert:
-            if self.ctx.dtype == np.uint8:
-                value = np.clip(np.rint(src), 0, 255)
-            value = value.astype(self.ctx.dtype)
-        result = np.asarray(self.fn(value, random_state=self.random_state))
-        if result.shape != self.ctx.shape:
-            raise SuiteError(Problem(f"{self.name} returned a value of shape {result.shape}; the observation's "
-                                     f"shape is {self.ctx.shape}", loc=self.loc))
-        np.copyto(dst, result, casting="unsafe")
