@@ -27,7 +27,7 @@ __all__ = ["FeatureBank", "BankMember", "GroupMember", "PlainRead", "ReadPlan", 
            "fields_of", "read_plan"]
 
 _PLANS_BUDGET = 4 << 20  # bytes of read plans kept, at least (4 x the history's size when that is more)
-_CHUNK_STEPS = 256  # physics steps of noise drawn at a time (rounded up to the sampling period)
+_CHUNK_STEPS = 1024  # physics steps of noise drawn at a time (rounded up to the sampling period): one Philox call each
 
 
 def buffer_view(data: Any, fields: list[str]) -> tuple[np.ndarray, dict[str, int]] | None:
