@@ -15,20 +15,20 @@ from typing import Any, NamedTuple, Union, cast
 import numpy as np
 from dm_env import specs
 
-from ..draws import episode_entropy
+from ..draws import episode_entropy, planned
 from ..errors import ArgumentError, SuiteError
 from ..observables.aggregators import preserves_bounds
 from ..noise.bounds import noisy_bounds
 from .mujoco_structs import structs_of as raw_structs
 from .bank import BankMember, FeatureBank, buffer_view, fields_of, qualifies
-from .channels import FixedChannel, RandomChannel, make_channel
+from .channels import DrawnChannel, FixedChannel, RandomChannel, make_channel
 
 __all__ = ["Updater", "observation_spec"]
 
 _MAX_PLAN_PERIOD = 1 << 16
 
 _Task = Callable[[int], None]  # one sampling task of the plan, called with the step
-_Reader = Union[FixedChannel, RandomChannel, BankMember]  # what the layout holds per observable
+_Reader = Union[FixedChannel, RandomChannel, DrawnChannel, BankMember]  # what the layout holds per observable
 
 SYNC_ORDER = -2  # `PlanTask.order` of bringing a dirty dm_control physics up to date: before anything
 BANK_ORDER = -1  # of the bank's snapshots and noise draws: pure reads of the state, before any sampler
@@ -69,10 +69,10 @@ class Updater:
     """Samples, delays, buffers, aggregates and corrupts observables inside the physics loop."""
 
     # set by `reset` (and `_build_plan`)
-    _channels: list[FixedChannel | RandomChannel]
+    _channels: list[FixedChannel | RandomChannel | DrawnChannel]
     _bank: FeatureBank | None
     _reads: list[tuple[type, list[Read]]]
-    _random: list[tuple[int, RandomChannel]]
+    _random: list[tuple[int, RandomChannel | DrawnChannel]]
     _period: int
     _plan: list[tuple[_Task, ...]]
     _orders: list[tuple[int, ...]]
@@ -120,11 +120,13 @@ class Updater:
                             and [read.position for read in first_reads] == list(range(len(first_reads))))
         self._dict_type, self._names = first_kind, [read.name for read in first_reads]
 
-    def _bind(self, physics: Any, random_state: Any) -> list[tuple[type, list[tuple[str, FixedChannel | RandomChannel]]]]:
-        """Per observables dict: its type and (name, channel) of each enabled observable, in order."""
+    def _bind(self, physics: Any, random_state: Any) -> list[tuple[type, list[tuple[str, Any]]]]:
+        """Per observables dict: its type and (name, channel) of each enabled observable, in order. The
+        episode entropy keys noise streams and planned schedules (drawn when some sensor has either)."""
         dicts = list(self._observables) if self._nested else [self._observables]
-        noisy = any(getattr(o, "noise", None) is not None for d in dicts for o in d.values() if o.enabled)
-        entropy = episode_entropy(random_state) if noisy else None
+        keyed = any(getattr(o, "noise", None) is not None or planned(o.update_interval, o.delay)
+                    for d in dicts for o in d.values() if o.enabled)
+        entropy = episode_entropy(random_state) if keyed else None
         layout = []
         for index, obs_dict in enumerate(dicts):
             entries = [(name, make_channel(f"{index}/{name}" if self._nested else str(name), observable, physics,
@@ -165,7 +167,8 @@ class Updater:
     def _build_plan(self) -> None:
         """One table over the common period: which sampling tasks run at each step's phase."""
         tasks = [*self._tasks(), *self._before_tasks()]
-        self._random = [(order, ch) for order, ch in enumerate(self._channels) if isinstance(ch, RandomChannel)]
+        self._random = [(order, ch) for order, ch in enumerate(self._channels)
+                        if isinstance(ch, (RandomChannel, DrawnChannel))]
         period = math.lcm(*(task.period for task in tasks)) if tasks else 1
         if period > _MAX_PLAN_PERIOD:  # pathological interval mixes: each task checks its own phase
             self._period, self._plan, self._orders = 1, [()], [()]
