@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import sensorcfg
+from sensorcfg import assets
 from sensorcfg.draws import ChoiceSteps, UniformSteps, episode_entropy, sensor_key
 from sensorcfg.noise import build_noise
 from sensorcfg.runtime.drawn import PURPOSE, SAMPLE_BLOCK
@@ -82,3 +83,57 @@ def test_updater_follows_the_stream_rule(interval, delay, buffer, substeps) -> N
             seen.append(updater.get_observation()["clock"].ravel())
         for read, (got, want) in enumerate(zip(seen, expected)):
             np.testing.assert_array_equal(got, np.array(want) + 1, err_msg=f"read {read} ({list(observables)})")
+
+
+def _noisy_suite(seed: int) -> dict[str, sensorcfg.Observable]:
+    rng = np.random.default_rng(seed)
+    model = mujoco.MjModel.from_xml_path(str(assets.path("robot.xml")))
+    physics = sensorcfg.Physics(model)
+    stages = [[{"type": "gaussian", "std": 0.01}], [{"type": "bias", "std": 0.1}, {"type": "quantize", "step": 0.01}],
+              [{"type": "random_walk", "std": 0.01, "correlation_time": 0.05}, {"type": "clip", "min": -0.2, "max": 0.2}],
+              None]
+    out = {}
+    for j, (kind, element) in enumerate([("qpos", "joint:*"), ("qvel", "joint:*"), ("xpos", "site:fingertip"),
+                                          ("qpos", "joint:wrist")] * 2):
+        interval = [1, UniformSteps(1, 4), ChoiceSteps((2, 5))][int(rng.integers(3))]
+        delay = [UniformSteps(0, 3), ChoiceSteps((1, 7), (0.7, 0.3)), 2][int(rng.integers(3))]
+        obs = sensorcfg.Feature(kind, element, update_interval=interval, delay=delay,
+                                buffer_size=int(rng.integers(1, 5)),
+                                aggregator=[None, "mean", "max", "sum"][int(rng.integers(4))])
+        obs.reader(physics)
+        noise = stages[int(rng.integers(len(stages)))]
+        if noise:
+            obs.noise = build_noise(noise, obs.array_spec.shape, np.float64, physics.timestep)
+        obs.enabled = True
+        out[f"s{j}"] = obs
+    return out
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_the_bank_reads_what_the_per_sample_path_reads(seed, monkeypatch) -> None:
+    from sensorcfg.runtime import updater as updater_module
+
+    model = mujoco.MjModel.from_xml_path(str(assets.path("robot.xml")))
+    runs = []
+    for banked in (True, False):
+        if not banked:
+            monkeypatch.setattr(updater_module, "joins", lambda ch: False)
+        physics = sensorcfg.Physics(model)
+        updater = sensorcfg.Updater(_noisy_suite(seed), 3, pad_with_initial_value=bool(seed % 2))
+        updater.reset(physics, np.random.RandomState(seed))
+        assert (updater._drawn is not None) == banked
+        controls = np.random.default_rng(seed).uniform(-1, 1, (400, model.nu))
+        seen = [updater.get_observation()]
+        for control in controls:
+            physics.data.ctrl[:] = control
+            updater.prepare_for_next_control_step()
+            for _ in range(3):
+                mujoco.mj_step(model, physics.data)
+                updater.update()
+            seen.append(updater.get_observation())
+        runs.append((seen, updater.samples_taken()))
+    (a_seen, a_taken), (b_seen, b_taken) = runs
+    assert a_taken == b_taken
+    for s, (a, b) in enumerate(zip(a_seen, b_seen)):
+        for name in a:
+            np.testing.assert_array_equal(a[name], b[name], err_msg=f"step {s} {name}")

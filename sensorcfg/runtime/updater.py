@@ -22,13 +22,14 @@ from ..noise.bounds import noisy_bounds
 from .mujoco_structs import structs_of as raw_structs
 from .bank import BankMember, FeatureBank, buffer_view, fields_of, qualifies
 from .channels import DrawnChannel, FixedChannel, RandomChannel, make_channel
+from .planned import DrawnBank, DrawnMember, joins
 
 __all__ = ["Updater", "observation_spec"]
 
 _MAX_PLAN_PERIOD = 1 << 16
 
 _Task = Callable[[int], None]  # one sampling task of the plan, called with the step
-_Reader = Union[FixedChannel, RandomChannel, DrawnChannel, BankMember]  # what the layout holds per observable
+_Reader = Union[FixedChannel, RandomChannel, DrawnChannel, BankMember, DrawnMember]  # what the layout holds per observable
 
 SYNC_ORDER = -2  # `PlanTask.order` of bringing a dirty dm_control physics up to date: before anything
 BANK_ORDER = -1  # of the bank's snapshots and noise draws: pure reads of the state, before any sampler
@@ -71,6 +72,7 @@ class Updater:
     # set by `reset` (and `_build_plan`)
     _channels: list[FixedChannel | RandomChannel | DrawnChannel]
     _bank: FeatureBank | None
+    _drawn: DrawnBank | None
     _reads: list[tuple[type, list[Read]]]
     _random: list[tuple[int, RandomChannel | DrawnChannel]]
     _period: int
@@ -108,7 +110,9 @@ class Updater:
         layout = self._bind(physics, random_state)
         self._channels = [ch for _, entries in layout for _, ch in entries]
         self._bank = self._make_bank(physics)
-        members = {id(m.channel): m for m in self._bank.members()} if self._bank else {}
+        self._drawn = self._make_drawn_bank(physics)
+        members: dict[int, Any] = {id(m.channel): m for m in self._bank.members()} if self._bank else {}
+        members.update({id(m.channel): m for m in self._drawn.members()} if self._drawn else {})
         self._layout = [(kind, [(name, members.get(id(ch), ch)) for name, ch in entries]) for kind, entries in layout]
         self._reads = [(kind, [Read(name, m.position if isinstance(m, BankMember) else NOT_BANKED, m)
                                for name, m in entries]) for kind, entries in self._layout]
@@ -135,7 +139,7 @@ class Updater:
             layout.append((type(obs_dict), entries))
         return layout
 
-    def _start(self, members: Mapping[int, BankMember]) -> None:
+    def _start(self, members: Mapping[int, Any]) -> None:
         """The reset samples, in dm_control's order: per observable, its delay draw then its sample."""
         synced = False
         for ch in self._channels:
@@ -146,6 +150,8 @@ class Updater:
                 synced = True
         if self._bank:
             self._bank.start()
+        if self._drawn:
+            self._drawn.start()
 
     def _make_bank(self, physics: Any) -> FeatureBank | None:
         members = [ch for ch in self._channels if qualifies(ch)]
@@ -164,11 +170,23 @@ class Updater:
         self._bank_cache = (key, bank)
         return bank
 
+    def _make_drawn_bank(self, physics: Any) -> DrawnBank | None:
+        """The planned-schedule features that join one bank (`runtime/planned.py`)."""
+        members = [ch for ch in self._channels if joins(ch)]
+        if not members:
+            return None
+        data = raw_structs(physics)[1]
+        view = buffer_view(data, fields_of(members))  # type: ignore[arg-type]
+        if view is None or any(getattr(ch.sampler, "sync", None) is not None for ch in members):
+            return None  # fields outside MjData's main buffer, or a dm_control physics: per sample
+        return DrawnBank(cast(list[DrawnChannel], members), data, self._substeps, self._pad, view)
+
     def _build_plan(self) -> None:
         """One table over the common period: which sampling tasks run at each step's phase."""
         tasks = [*self._tasks(), *self._before_tasks()]
+        drawn = {id(m.channel) for m in self._drawn.members()} if self._drawn else set()
         self._random = [(order, ch) for order, ch in enumerate(self._channels)
-                        if isinstance(ch, (RandomChannel, DrawnChannel))]
+                        if isinstance(ch, (RandomChannel, DrawnChannel)) and id(ch) not in drawn]
         period = math.lcm(*(task.period for task in tasks)) if tasks else 1
         if period > _MAX_PLAN_PERIOD:  # pathological interval mixes: each task checks its own phase
             self._period, self._plan, self._orders = 1, [()], [()]
@@ -225,11 +243,16 @@ class Updater:
             raise RuntimeError("`reset` must be called before `prepare_for_next_control_step`.")
         for _, ch in self._random:
             ch.plan(self._step)
+        if self._drawn is not None:
+            self._drawn.plan(self._step)
 
     def update(self) -> None:
         if self._layout is None:
             raise RuntimeError("`reset` must be called before `update`.")
         step = self._step = self._step + 1
+        drawn = self._drawn
+        if drawn is not None and drawn.need[step % drawn.rows]:  # a pure read of the state: first
+            drawn.snapshot(step)
         tasks = self._plan[step % self._period]
         if self._slow or self._random:
             tasks = self._merge_irregular(step, tasks)
