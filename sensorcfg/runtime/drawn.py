@@ -33,7 +33,7 @@ __all__ = ["Drawn", "Planner", "Round", "SAMPLE_BLOCK", "PURPOSE", "chunk_steps"
 
 SAMPLE_BLOCK = 256  # samples per counter block of a schedule's stream
 PURPOSE = 2  # the counter's purpose word of schedules (noise uses 0 and 1)
-_MIN_CHUNK = 256  # steps per planning round, at least
+_MIN_CHUNK = 1024  # steps per planning round, at least
 
 
 def _largest(value: Any) -> int:
@@ -63,7 +63,7 @@ class Drawn(NamedTuple):
 
 
 def chunk_steps(schedules: list[Drawn], substeps: int) -> int:
-    """Steps per planning round: a multiple of substeps and of every constant interval, at least 256 and at
+    """Steps per planning round: a multiple of substeps and of every constant interval, at least 1024 and at
     least the largest delay plus substeps (a sample is decided one round after its own)."""
     unit = math.lcm(substeps, *(d.stride for d in schedules))
     least = max([_MIN_CHUNK] + [_largest(d.delay) + substeps for d in schedules])

@@ -120,9 +120,16 @@ class Updater:
         self._start(members)
         self._build_plan()
         first_kind, first_reads = self._reads[0] if self._reads else (dict, [])  # Updater([]): no dicts at all
-        self._all_banked = (not self._nested and self._bank is not None
-                            and [read.position for read in first_reads] == list(range(len(first_reads))))
+        self._whole = None if self._nested else self._single_bank([read.reader for read in first_reads])
         self._dict_type, self._names = first_kind, [read.name for read in first_reads]
+
+    @staticmethod
+    def _single_bank(readers: list[Any]) -> FeatureBank | DrawnBank | None:
+        """The bank that reads every observation, in order, when one does."""
+        for kind in (BankMember, DrawnMember):
+            if readers and all(isinstance(r, kind) and r.position == i for i, r in enumerate(readers)):
+                return cast(Any, readers[0]).bank
+        return None
 
     def _bind(self, physics: Any, random_state: Any) -> list[tuple[type, list[tuple[str, Any]]]]:
         """Per observables dict: its type and (name, channel) of each enabled observable, in order. The
@@ -272,8 +279,8 @@ class Updater:
         if self._layout is None:
             raise RuntimeError("`reset` must be called before `get_observation`.")
         step = self._step
-        if self._all_banked:  # the common case: one gather, then a dict in file order
-            return self._dict_type(zip(self._names, cast(FeatureBank, self._bank).read(step)))
+        if self._whole is not None:  # the common case: one gather, then a dict in file order
+            return self._dict_type(zip(self._names, self._whole.read(step)))
         banked = self._bank.read(step) if self._bank else ()
         out = [kind((read.name, banked[read.position] if read.position != NOT_BANKED else read.reader.read(step))
                     for read in entries) for kind, entries in self._reads]
