@@ -47,16 +47,15 @@ class Timelines:
     def _codes(self, windows: np.ndarray) -> np.ndarray:
         return np.where(windows >= 0, windows + 1, 1 if self.pad else 0)
 
-    def start(self, i: int, entropy: list[int]) -> None:
-        """Simulation i's episode starts (its episode entropy keys every sensor's schedule)."""
-        self.taken[i] = False
-        self.control[i] = 0
-        sims = np.array([i], np.intp)
+    def start(self, sims: np.ndarray, entropies: list[list[int]]) -> None:
+        """Episodes of simulations `sims` start (each one's episode entropy keys every sensor's schedule)."""
+        self.taken[sims] = False
+        self.control[sims] = 0
         for c, ((label, _), planner) in enumerate(zip(self.specs, self.planners)):
-            first = planner.start(i, sensor_key(entropy, label))
-            self.last[c][i] = self._codes(first.windows[0, 0])
-        self._plan(sims, np.zeros(1, np.int64))
-        self._plan(sims, np.full(1, self.chunk, np.int64))
+            first = planner.start(sims, [sensor_key(entropy, label) for entropy in entropies])
+            self.last[c][sims] = self._codes(first.windows[:, 0])
+        self._plan(sims, np.zeros(len(sims), np.int64))
+        self._plan(sims, np.full(len(sims), self.chunk, np.int64))
 
     def _plan(self, sims: np.ndarray, base: np.ndarray) -> None:
         """The round (base, base + chunk] of simulations `sims`, into the rings."""
@@ -70,9 +69,6 @@ class Timelines:
             steps = plan.take_step
             control = (steps - 1) // n  # sample at step s is taken in control step (s - 1) // n
             self.taken[sims[plan.take_sim], control % self.slots, c, (steps - 1) % n] = True
-
-    def finish(self, i: int, control_steps: int) -> None:
-        """Simulation i's episode ended (nothing to rewind: planning draws no episode random state)."""
 
     def ensure(self, sims: np.ndarray, control_steps: np.ndarray) -> None:
         """Before the control step: simulations at a round's start plan the round after next."""

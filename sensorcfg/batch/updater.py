@@ -218,16 +218,14 @@ class BatchUpdater:
         ids = np.asarray(ids, np.intp)
         if not ids.size:
             return
-        for i in ids:
-            i = int(i)
-            rs = random_states[i]
-            if self.started[i]:
-                self.timelines.finish(i, int(self.control_steps[i]))
-            entropy = episode_entropy(rs) if self.noisy or self.timelines.specs else None
+        entropies = []
+        for i in ids.tolist():
+            entropy = episode_entropy(random_states[i]) if self.noisy or self.timelines.specs else None
             for c, pipeline in self.noise.items():
                 pipeline.reset(i, sensor_key(entropy or [], self.labels[c]))
-            if self.timelines.specs:
-                self.timelines.start(i, entropy or [])
+            entropies.append(entropy or [])
+        if self.timelines.specs:
+            self.timelines.start(ids, entropies)
         self.started[ids] = True
         values = self.flat.take(self.layout.reset_index[ids])  # (m, width): the reset sample
         zeros = np.zeros(ids.size, np.int64)

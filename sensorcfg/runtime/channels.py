@@ -284,7 +284,7 @@ class DrawnChannel(Channel):
 
     def start(self, step: int) -> None:
         self.need[:] = False
-        first = self.planner.start(0, self.key)
+        first = self.planner.start(_ZERO, [self.key])
         self.store(first, [self.planner.round(_ZERO, self.chunk) for _ in range(2)], 0)
         value = np.array(self.value(step), dtype=self.dtype)
         self.fill = value if self.pad else np.zeros(self.shape, self.dtype)

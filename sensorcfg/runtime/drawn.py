@@ -128,13 +128,17 @@ class Planner:
         self.end = np.full(nsim, -1, np.int64)
         self.flight = np.zeros((3, 0), np.int64)  # rows: simulation, time, arrival
 
-    def start(self, i: int, key: np.ndarray) -> Round:
-        """Simulation i's episode starts (its sensor key): the round of step 0 (the reset sample and read)."""
-        self.samples[i] = _Samples(key)
-        self.tail[i] = -1
-        self.end[i] = -1
-        self.flight = self.flight[:, self.flight[0] != i]
-        return self.round(np.array([i], np.intp), 0)
+    def start(self, sims: np.ndarray, keys: list[np.ndarray]) -> Round:
+        """Episodes of simulations `sims` start (their sensor keys): the round of step 0 (the reset sample and
+        read)."""
+        for i, key in zip(sims.tolist(), keys):
+            self.samples[i] = _Samples(key)
+        self.tail[sims] = -1
+        self.end[sims] = -1
+        restarted = np.zeros(len(self.end), bool)
+        restarted[sims] = True
+        self.flight = self.flight[:, ~restarted[self.flight[0]]]
+        return self.round(sims, 0)
 
     def round(self, sims: np.ndarray, length: int) -> Round:
         """Plan the next `length` steps of simulations `sims` (0 after `start`: step 0 only)."""

@@ -149,7 +149,7 @@ class DrawnBank:
                 self._apply_noise(self.pad_values, np.arange(self.width))
         else:
             self.pad_values = np.zeros(self.width)
-        first = [p.start(0, ch.key) for p, ch in zip(self.planners, self.channels)]
+        first = [p.start(_ZERO, [ch.key]) for p, ch in zip(self.planners, self.channels)]
         self._store(first, 0, 0)
         for base in (0, self.chunk):
             self._plan_round(base)
