@@ -4,9 +4,9 @@ The rule (README, Semantics): a schedule drawn by sensorcfg's own draws (`{unifo
 counter-based stream, numpy's Philox keyed by the sensor's episode key (`draws.sensor_key`, as its noise),
 counter (position 0, purpose 2, block q, stage 0 for intervals / 1 for delays). Sample j (j = 0 is the reset
 sample, at step 0) is taken at step t_j = I_1 + ... + I_j (j * interval when it is constant) and delivered
-at a_j = t_j + D_j, where I_j and D_j are entry j % 256 of block j // 256 of the interval and delay streams.
+at a_j = t_j + D_j, where I_j and D_j are entry j % 1024 of block j // 1024 of the interval and delay streams.
 So a sample's time and delay are functions of the seed, the sensor and j alone: other sensors, buffers,
-reads and which samples were taken change nothing, and a block of 256 is drawn in one call.
+reads and which samples were taken change nothing, and a block of 1024 is drawn in one call.
 
 A read at step R (every `substeps` steps) shows the last `buffer` samples delivered by R, in order of
 (arrival, time), padded before the first ones. A sample that no read shows is not taken (unless the sensor's
@@ -31,7 +31,7 @@ from ..noise.streams import Streams
 
 __all__ = ["Drawn", "Planner", "Round", "SAMPLE_BLOCK", "PURPOSE", "chunk_steps"]
 
-SAMPLE_BLOCK = 256  # samples per counter block of a schedule's stream
+SAMPLE_BLOCK = 1024  # samples per counter block of a schedule's stream
 PURPOSE = 2  # the counter's purpose word of schedules (noise uses 0 and 1)
 _MIN_CHUNK = 1024  # steps per planning round, at least
 
@@ -159,8 +159,11 @@ class Planner:
         keep = self.flight[:, ~mine]
         self.flight = np.concatenate((keep, np.stack((sims[g[~due]], t[~due], a[~due]))), axis=1)
         g, t, a = g[due], t[due], a[due]
-        order = np.lexsort((t, a, g))
-        g, t, a = g[order], t[order], a[order]
+        # delivery order per simulation: by arrival (after the round's start), ties by time (longer delay first)
+        w1, w2 = length + 2, _largest(drawn.delay) + 1
+        rel = a - prev[g]
+        order = np.argsort((g * w1 + rel) * w2 + (w2 - 1 - (a - t)))
+        g, t, rel = g[order], t[order], rel[order]
         m = len(sims)
         delivered = np.bincount(g, minlength=m)
         dstart = np.concatenate(([0], np.cumsum(delivered)[:-1]))
@@ -170,8 +173,8 @@ class Planner:
         seq[offset[g] + b + np.arange(len(t)) - dstart[g]] = t
         first = prev + n - prev % n if length else np.zeros(m, np.int64)  # the first read after prev
         reads = first[:, None] + n * np.arange(max(1, length // n) if length else 1)
-        big = int(end.max()) + 2
-        k = np.searchsorted(g * big + a, np.arange(m)[:, None] * big + reads, side="right") - dstart[:, None]
+        k = (np.searchsorted(g * w1 + rel, (np.arange(m) * w1 - prev)[:, None] + reads, side="right")
+             - dstart[:, None])
         windows = seq[(offset[:, None] + k)[..., None] + np.arange(b)]
         self.tail[sims] = seq[offset[:, None] + delivered[:, None] + np.arange(b)]
         self.end[sims] = end
