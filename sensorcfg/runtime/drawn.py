@@ -162,7 +162,7 @@ class Planner:
         # delivery order per simulation: by arrival (after the round's start), ties by time (longer delay first)
         w1, w2 = length + 2, _largest(drawn.delay) + 1
         rel = a - prev[g]
-        order = np.argsort((g * w1 + rel) * w2 + (w2 - 1 - (a - t)))
+        order = np.argsort((g * w1 + rel) * w2 + (w2 - 1 - (a - t)), kind="stable")  # nearly sorted: runs
         g, t, rel = g[order], t[order], rel[order]
         m = len(sims)
         delivered = np.bincount(g, minlength=m)
