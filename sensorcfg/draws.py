@@ -162,7 +162,7 @@ def planned(interval: Any, delay: Any) -> bool:
     if not any(isinstance(v, (UniformSteps, ChoiceSteps)) for v, _ in settings):
         return False
     return all((isinstance(v, (UniformSteps, ChoiceSteps)) and v.minimum >= lowest)
-               or (isinstance(v, numbers.Integral) and not isinstance(v, bool) and v >= lowest)
+               or (isinstance(v, numbers.Integral) and not isinstance(v, bool) and int(v) >= lowest)
                for v, lowest in settings)
 
 

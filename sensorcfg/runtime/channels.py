@@ -358,10 +358,17 @@ def make_channel(label: str, observable: Any, physics: Any, random_state: Any, e
     channel = ChannelSpec(label, sampler, getattr(sampler, "read_into", None), tuple(shape), np.dtype(dtype),
                           int(buffer_size), strip, pad, substeps, aggregator, builtin(aggregator) is not None,
                           noise)
-    if planned(observable.update_interval, observable.delay):  # sensorcfg's draws: the planned stream rule
+    return _scheduled(channel, observable, interval, delay, sensor_key(entropy or [], label))
+
+
+def _scheduled(channel: ChannelSpec, observable: Any, interval: int | Callable[[], int],
+               delay: int | Callable[[], int], key: np.ndarray) -> FixedChannel | RandomChannel | DrawnChannel:
+    """The channel type of a schedule: sensorcfg's draws follow the planned stream rule (`runtime/drawn.py`),
+    other callables dm_control's planning, constants the closed form."""
+    if planned(observable.update_interval, observable.delay):
         drawn = Drawn(observable.update_interval or DEFAULT_UPDATE_INTERVAL, observable.delay or DEFAULT_DELAY,
-                      int(buffer_size), substeps)
-        return DrawnChannel(channel, drawn=drawn, key=sensor_key(entropy or [], label))
+                      channel.buffer_size, channel.substeps)
+        return DrawnChannel(channel, drawn=drawn, key=key)
     if callable(interval) or callable(delay):
         return RandomChannel(channel, interval=as_draw(interval), delay=as_draw(delay))
     return FixedChannel(channel, interval=interval, delay=delay)

@@ -10,7 +10,7 @@ fixed-schedule bank does (`bank.read_plan` gives the layout).
 
 from __future__ import annotations
 
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 
@@ -98,7 +98,7 @@ class DrawnBank:
         self.taken: list[tuple[int, list[np.ndarray]]] = []  # per member: samples of past rounds, recent takes
         layout = [_Layout(1, _Window(ch.buffer_size), ch.aggregator, ch.buffer_size, ch.buffered_shape, ch.shape)
                   for ch in channels]
-        plan: ReadPlan = read_plan(layout, self.cols, max(ch.buffer_size for ch in channels), 0)
+        plan: ReadPlan = read_plan(cast(Any, layout), self.cols, max(ch.buffer_size for ch in channels), 0)
         self.groups, self.plain = plan.groups, plan.plain
         # each gathered value: (member's first window entry + window position, column)
         starts = np.cumsum([0] + [ch.buffer_size for ch in channels])
@@ -115,9 +115,9 @@ class DrawnBank:
             strides = [_Stride(ch.shape, ch.drawn.stride) for ch in channels]
             offsets_in_chunk = [np.arange(0, self.chunk, s.interval, dtype=np.intp) for s in strides]
             self.noise = BankNoise(strides, list(programs), self.cols, self.rows, self.chunk, offsets_in_chunk)
-            self.terms: list[np.ndarray] = []
+            self.terms: list[tuple[np.ndarray, np.ndarray]] = []
             self.noise_plan = self._noise_plan(plan.gather)
-        self._read_step, self._outputs = -1, []
+        self._read_step, self._outputs = -1, cast(list[Any], [])
 
     def _noise_plan(self, gather: np.ndarray) -> list[Any]:
         """BankNoise's plan, whose per-sample terms are looked up at each read's own gather positions

@@ -111,8 +111,7 @@ class Updater:
         self._channels = [ch for _, entries in layout for _, ch in entries]
         self._bank = self._make_bank(physics)
         self._drawn = self._make_drawn_bank(physics)
-        members: dict[int, Any] = {id(m.channel): m for m in self._bank.members()} if self._bank else {}
-        members.update({id(m.channel): m for m in self._drawn.members()} if self._drawn else {})
+        members = self._members()
         self._layout = [(kind, [(name, members.get(id(ch), ch)) for name, ch in entries]) for kind, entries in layout]
         self._reads = [(kind, [Read(name, m.position if isinstance(m, BankMember) else NOT_BANKED, m)
                                for name, m in entries]) for kind, entries in self._layout]
@@ -122,6 +121,12 @@ class Updater:
         first_kind, first_reads = self._reads[0] if self._reads else (dict, [])  # Updater([]): no dicts at all
         self._whole = None if self._nested else self._single_bank([read.reader for read in first_reads])
         self._dict_type, self._names = first_kind, [read.name for read in first_reads]
+
+    def _members(self) -> dict[int, BankMember | DrawnMember]:
+        """The banks' members, by the id of their channel."""
+        members: list[BankMember | DrawnMember] = [*(self._bank.members() if self._bank else ()),
+                                                   *(self._drawn.members() if self._drawn else ())]
+        return {id(m.channel): m for m in members}
 
     @staticmethod
     def _single_bank(readers: list[Any]) -> FeatureBank | DrawnBank | None:
