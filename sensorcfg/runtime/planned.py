@@ -14,7 +14,7 @@ from typing import Any, NamedTuple, cast
 
 import numpy as np
 
-from .bank import ReadPlan, _reader, read_plan
+from .bank import BankMember, ReadPlan, _reader, read_plan
 from .bank_noise import _APPLY, BankNoise, program
 from .channels import DrawnChannel
 from .drawn import Planner, Round, chunk_steps
@@ -52,27 +52,10 @@ class _Layout(NamedTuple):
     shape: tuple[int, ...]
 
 
-class DrawnMember:
-    """Stands in for a member's channel in the Updater's layout: reads come from the bank's shared read."""
+class DrawnMember(BankMember):
+    """A member of the drawn-schedule bank in the Updater's layout (`BankMember`'s reads, of a `DrawnBank`)."""
 
-    __slots__ = ("name", "bank", "position", "channel")
-
-    def __init__(self, bank: DrawnBank, position: int, channel: DrawnChannel):
-        self.name, self.bank, self.position, self.channel = channel.name, bank, position, channel
-
-    @property
-    def buffered_shape(self) -> tuple[int, ...]:
-        return self.channel.buffered_shape
-
-    @property
-    def dtype(self) -> np.dtype:
-        return self.channel.dtype
-
-    def samples_at(self, step: int) -> int:
-        return self.bank.samples(self.position, step)
-
-    def read(self, step: int) -> Any:
-        return self.bank.read(step)[self.position]
+    __slots__ = ()
 
 
 class DrawnBank:
@@ -131,7 +114,7 @@ class DrawnBank:
         return out
 
     def members(self) -> list[DrawnMember]:
-        return [DrawnMember(self, i, ch) for i, ch in enumerate(self.channels)]
+        return [DrawnMember(cast(Any, self), i, cast(Any, ch)) for i, ch in enumerate(self.channels)]
 
     # -- episodes and rounds ----------------------------------------------------------------------
 

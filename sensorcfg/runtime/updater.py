@@ -113,7 +113,7 @@ class Updater:
         self._drawn = self._make_drawn_bank(physics)
         members = self._members()
         self._layout = [(kind, [(name, members.get(id(ch), ch)) for name, ch in entries]) for kind, entries in layout]
-        self._reads = [(kind, [Read(name, m.position if isinstance(m, BankMember) else NOT_BANKED, m)
+        self._reads = [(kind, [Read(name, m.position if type(m) is BankMember else NOT_BANKED, m)
                                for name, m in entries]) for kind, entries in self._layout]
         self._step = 0
         self._start(members)
@@ -132,7 +132,7 @@ class Updater:
     def _single_bank(readers: list[Any]) -> FeatureBank | DrawnBank | None:
         """The bank that reads every observation, in order, when one does."""
         for kind in (BankMember, DrawnMember):
-            if readers and all(isinstance(r, kind) and r.position == i for i, r in enumerate(readers)):
+            if readers and all(type(r) is kind and r.position == i for i, r in enumerate(readers)):
                 return cast(Any, readers[0]).bank
         return None
 
