@@ -185,3 +185,29 @@ def test_a_forward_pass_after_the_step_is_read_as_it_left_the_data() -> None:
         reference = copy.copy(data)
         mujoco.mj_rnePostConstraint(model, reference)
         np.testing.assert_array_equal(updater.get_observation()["base_cacc"][0], reference.cacc[base])
+
+
+def test_fields_the_models_sensors_fill_are_read_as_any_field() -> None:
+    """With sensors that make every step fill them, on-demand fields need no computation of ours: they join
+    the Updater's feature bank (no per-step velocity copies) and read MuJoCo's own values."""
+    spec = mujoco.MjSpec.from_file(str(MODEL))
+    spec.add_sensor(type=mujoco.mjtSensor.mjSENS_SUBTREELINVEL, objtype=mujoco.mjtObj.mjOBJ_BODY, objname="base")
+    site = spec.body("base").add_site(name="imu")
+    spec.add_sensor(type=mujoco.mjtSensor.mjSENS_ACCELEROMETER, objtype=mujoco.mjtObj.mjOBJ_SITE, objname=site.name)
+    model = spec.compile()
+    suite = sensorcfg.loads(ON_DEMAND_SUITE)
+    physics = sensorcfg.Physics(model)
+    mujoco.mj_forward(model, physics.data)
+    updater = sensorcfg.Updater(suite.build(model), **suite.updater_kwargs(model))
+    updater.reset(physics, np.random.RandomState(0))
+    assert updater._bank is not None
+    assert {m.name for m in updater._bank.members()} == {*FIELDS, "feet_cfrc_ext", "base_xpos"}
+    for _ in range(3 * updater.physics_steps_per_control_step):
+        mujoco.mj_step(model, physics.data)
+        updater.update()
+    obs = updater.get_observation()
+    np.testing.assert_array_equal(obs["base_cacc"][0], physics.data.cacc[model.body("base").id])
+    assert np.any(obs["base_cacc"] != 0)
+    # the same model without those sensors computes them itself, one step before each sample
+    _, _, plain = _crouched_updater()
+    assert plain._bank is not None and "base_cacc" not in {m.name for m in plain._bank.members()}

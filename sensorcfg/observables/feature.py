@@ -105,10 +105,28 @@ class OnDemandCompute:
             self.function(self.model, data)
 
 
+# per model: (flag, disableflags, enableflags) -> whether a forward pass leaves the flag set
+_FILLED_BY_SENSORS: weakref.WeakKeyDictionary[mujoco.MjModel, dict[tuple[str, int, int], bool]] = (
+    weakref.WeakKeyDictionary())
+
+
+def filled_every_step(model: mujoco.MjModel, spec: OnDemand) -> bool:
+    """Whether the model's own sensors make every forward pass (so every step) fill the fields of `spec`:
+    mj_forward leaves MuJoCo's flag set. Checked once per model and option flags, on data of its own."""
+    key = (spec.flag, int(model.opt.disableflags), int(model.opt.enableflags))
+    known = _FILLED_BY_SENSORS.setdefault(model, {})
+    if key not in known:
+        data = mujoco.MjData(model)
+        mujoco.mj_forward(model, data)
+        known[key] = bool(getattr(data, spec.flag, False))
+    return known[key]
+
+
 def on_demand(model: mujoco.MjModel, data: mujoco.MjData, field: str) -> OnDemandCompute | None:
-    """The computation a field MuJoCo fills only on demand needs before it is read; None for other fields."""
+    """The computation a field MuJoCo fills only on demand needs before it is read; None for other fields
+    and where the model's own sensors fill it at every step (then it is read as any field, as in a batch)."""
     spec = ON_DEMAND.get(field)
-    return None if spec is None else OnDemandCompute(model, data, spec)
+    return None if spec is None or filled_every_step(model, spec) else OnDemandCompute(model, data, spec)
 
 
 def batch_on_demand_problem(model: mujoco.MjModel, field: str) -> str | None:
@@ -116,11 +134,7 @@ def batch_on_demand_problem(model: mujoco.MjModel, field: str) -> str | None:
     simulation in C and records after each substep, so a field MuJoCo computes on demand is recorded as
     zeros unless the model's own sensors make every step compute it (mj_forward then leaves the flag set)."""
     spec = ON_DEMAND.get(field)
-    if spec is None:
-        return None
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
-    if getattr(data, spec.flag, False):
+    if spec is None or filled_every_step(model, spec):
         return None
     return (f"{field} is filled by {spec.function} only when something asks for it, and a BatchEnvironment's "
             "rollout cannot call it between substeps (it would read zeros); use the single-simulation "
