@@ -21,6 +21,7 @@ import numpy as np
 from ..observables.aggregators import AGGREGATORS, builtin
 from .cache import BoundedCache
 from .bank_noise import BankNoise, Program, program
+from .bank_read import CompiledRead, compile_read
 from .channels import Channel, FixedChannel
 
 __all__ = ["FeatureBank", "BankMember", "GroupMember", "PlainRead", "ReadPlan", "ReductionGroup", "buffer_view",
@@ -220,36 +221,40 @@ class FeatureBank:
         """Samples member `position` has taken by `step`: the reset sample plus its needed steps so far."""
         return self.channels[position].schedule.samples_taken(self.phases[position][2], step)
 
-    def _plan_read(self, phase: int) -> tuple[np.ndarray, list[Any], list[Any], list[Any]]:
-        index, groups, plain = read_plan(self.channels, self.cols, self.rows, phase)
-        return index, groups, plain, (self.noise.plan(index) if self.noise is not None else [])
+    def _compile(self, phase: int) -> CompiledRead:
+        return compile_read(self.channels, read_plan(self.channels, self.cols, self.rows, phase),
+                            self.noise.plan if self.noise is not None else None)
 
-    def read(self, step: int) -> list[np.ndarray]:
-        """Every member's observation at `step`: fresh arrays (views of this read's own gather)."""
+    def read(self, step: int) -> list[Any]:
+        """Every member's observation at `step`: fresh arrays (views of this read's own copy)."""
         phase = step % self.rows
         plan = self._gathers.get(phase)
         if plan is None:
-            plan = self._plan_read(phase)
-            self._gathers.put(phase, plan, 3 * plan[0].nbytes)  # the index, its noise positions, the groups
-        index, groups, plain, noise = plan
-        gathered = self.flat.take(index, None, None, "clip")
-        if noise:  # a noise plan: the bank has noise
-            cast(BankNoise, self.noise).apply(gathered, noise)
-            if step < self.rows:  # early in an episode: windows reach before the reset sample
-                early = self._early.get(step)
-                if early is None:
-                    early = self._early.put(step, np.flatnonzero(index // self.width > step))
-                if len(early):
-                    gathered[early] = self.pad_values.take(index[early] % self.width)
-        outputs: list[Any] = [None] * len(self.channels)
-        for i, part, shape in plain:
-            outputs[i] = gathered[part].reshape(shape)
-        for reduce, part, block, members in groups:
-            reduced = reduce(gathered[part].reshape(block))
-            for i, sub, shape in members:
-                # numpy reductions of scalar samples give numpy scalars (dm_control's type), not 0-d arrays
-                outputs[i] = reduced[sub].reshape(shape) if shape else reduced[sub][0]
-        return outputs
+            plan = self._gathers.put(phase, self._compile(phase), None)
+        self.flat.take(plan.source, None, plan.gathered, "clip")
+        if plan.noise:  # a noise plan: the bank has noise
+            self._apply_noise(step, plan)
+        if plan.stack is not None:
+            source, index, blocks = plan.stack
+            source.take(index, None, blocks, "clip")
+        for reduce, window, out in plan.reductions:
+            reduce(window, out)
+        for out, counts in plan.divisions:
+            np.true_divide(out, counts, out)
+        values = list(plan.cut(plan.shown.copy()))
+        for i, shape in plan.reshapes:
+            values[i] = values[i].reshape(shape)
+        return values
+
+    def _apply_noise(self, step: int, plan: CompiledRead) -> None:
+        gathered, index = plan.gathered, plan.source
+        cast(BankNoise, self.noise).apply(gathered, plan.noise)
+        if step < self.rows:  # early in an episode: windows reach before the reset sample
+            early = self._early.get(step)
+            if early is None:
+                early = self._early.put(step, np.flatnonzero(index // self.width > step))
+            if len(early):
+                gathered[early] = self.pad_values.take(index[early] % self.width)
 
 
 def _snapshot_rows(phases: list[tuple[int, int, list[int]]], rows: int) -> list[bool]:

@@ -1,0 +1,180 @@
+"""A feature bank's read of one phase, compiled onto a work buffer of its own: a fixed number of numpy calls.
+
+`runtime.bank.read_plan` says which history positions each read gathers and how they are cut and reduced.
+Compiled, a read is: one `take` of every window into the work buffer; one `take` that stacks the windows of
+reductions of one family (`observables.aggregators.family`: sums, means and medians of one or two samples;
+maxima; minima), each padded to the family's longest buffer with a value that changes no result; one
+reduction per family (and per reduction that runs alone); one division for the means; one copy of the
+values the observations show; one `itemgetter` cutting every observation from that copy. The copy is the
+read's own: each observation is a fresh array, as dm_control's are.
+
+Work buffer, one row: [reduced values | plain windows | reduced windows | pads | family blocks]; the copy
+takes the first two parts.
+"""
+
+from __future__ import annotations
+
+import math
+import operator
+from collections.abc import Callable, Sequence
+from typing import Any, NamedTuple, cast
+
+import numpy as np
+
+from ..observables.aggregators import AGGREGATORS, FAMILIES, Family, family
+from .channels import FixedChannel
+
+__all__ = ["CompiledRead", "Reduction", "compile_read"]
+
+_PADS = [f.pad for f in FAMILIES.values()]
+
+
+class Reduction(NamedTuple):
+    """`reduce(window, out)`: both views of the work buffer."""
+
+    reduce: Callable[..., np.ndarray]
+    window: np.ndarray  # (buffer, width)
+    out: np.ndarray  # (width,)
+
+
+class CompiledRead(NamedTuple):
+    """One phase's read (see the module's doc)."""
+
+    source: np.ndarray  # the history positions gathered, in the order of `gathered`
+    gathered: np.ndarray  # the windows' part of the work buffer
+    stack: tuple[np.ndarray, np.ndarray, np.ndarray] | None  # (source, index, blocks) of the families' take
+    reductions: list[Reduction]
+    divisions: list[tuple[np.ndarray, np.ndarray]]  # (reduced values, their counts): the means
+    shown: np.ndarray  # the part of the work buffer the observations show, (1, n)
+    cut: Callable[[np.ndarray], tuple[Any, ...]]  # a copy of `shown` -> every member's value
+    reshapes: list[tuple[int, tuple[int, ...]]]  # members whose cut needs a reshape: (member, shape)
+    noise: list[Any]  # the bank noise's plan for `index` ([] without noise)
+
+
+class _Cuts:
+    """Per member, the index into a (1, n) copy that gives its value in one step where its shape allows
+    ((1, k) and (k,) arrays, numpy scalars), else a flat cut and a reshape."""
+
+    def __init__(self, count: int):
+        self.keys: list[Any] = [None] * count
+        self.reshapes: list[tuple[int, tuple[int, ...]]] = []
+
+    def place(self, i: int, start: int, shape: tuple[int, ...], scalar: bool) -> None:
+        span = slice(start, start + math.prod(shape))
+        if not shape and scalar:  # numpy reductions of scalar samples give numpy scalars (dm_control's type)
+            self.keys[i] = (0, start)
+        elif len(shape) == 2 and shape[0] == 1:
+            self.keys[i] = (slice(None), span)
+        else:
+            self.keys[i] = (0, span)
+            if len(shape) != 1:
+                self.reshapes.append((i, shape))
+
+    def getter(self) -> Callable[[np.ndarray], tuple[Any, ...]]:
+        if len(self.keys) == 1:
+            key = self.keys[0]
+            return lambda values: (values[key],)
+        return operator.itemgetter(*self.keys)
+
+
+class _Group(NamedTuple):
+    """A reduction group of the read plan: its window's positions in the plan's gather, and its family."""
+
+    positions: np.ndarray  # (buffer, width)
+    members: list[Any]  # GroupMember
+    reduce: Callable[..., np.ndarray]
+    family: tuple[Family, int] | None  # (family, divisor); None: reduced alone
+
+
+def compile_read(channels: Sequence[FixedChannel], plan: Any, noise_plan: Callable[[np.ndarray], list[Any]] | None
+                 ) -> CompiledRead:
+    """`plan`: `read_plan(...)` of one phase; `noise_plan`: the bank noise's `plan` (None without noise)."""
+    index, groups, plain = plan
+    families, alone = _families(channels, groups)
+    ordered = [g for members in families.values() for g in members] + alone  # as their reduced values lie
+    nreduced = sum(g.positions.shape[1] for g in ordered)
+    windows = [np.arange(p.part.start, p.part.stop) for p in plain] + [g.positions.ravel() for g in ordered]
+    order = np.concatenate([*windows, np.zeros(0, np.intp)]).astype(np.intp)
+    starts = nreduced + np.cumsum([0] + [len(w) for w in windows])  # each window's start in the work row
+    nblocks = sum(max(g.positions.shape[0] for g in gs) * sum(g.positions.shape[1] for g in gs)
+                  for gs in families.values())
+    work = np.empty((1, nreduced + len(index) + len(_PADS) + nblocks))
+    row = work[0]
+    row[nreduced + len(index):nreduced + len(index) + len(_PADS)] = _PADS
+    cuts = _Cuts(len(channels))
+    for p, start in zip(plain, starts):
+        cuts.place(p.member, int(start), p.shape, scalar=False)
+    stacked = _Stacked(row, nreduced, len(index), order)
+    for gs in families.values():
+        stacked.add(gs)
+    for g, start in zip(alone, starts[len(plain) + len(ordered) - len(alone):]):
+        window = row[start:start + g.positions.size].reshape(g.positions.shape)
+        stacked.reductions.append(Reduction(g.reduce, window, row[stacked.at:stacked.at + g.positions.shape[1]]))
+        stacked.at += g.positions.shape[1]
+    at = 0
+    for g in ordered:
+        for m in g.members:
+            cuts.place(m.member, at + m.columns.start, m.shape, scalar=True)
+        at += g.positions.shape[1]
+    source = index[order]
+    return CompiledRead(source, row[nreduced:nreduced + len(index)], stacked.take(), stacked.reductions,
+                        stacked.divisions, work[:, :int(starts[len(plain)])], cuts.getter(), cuts.reshapes,
+                        noise_plan(source) if noise_plan else [])
+
+
+def _families(channels: Sequence[FixedChannel], groups: list[Any]) -> tuple[dict[str, list[_Group]], list[_Group]]:
+    """The plan's reduction groups by family (`observables.aggregators.family`), and those reduced alone."""
+    families: dict[str, list[_Group]] = {}
+    alone = []
+    for g in groups:
+        found = family(cast(Any, channels[g.members[0].member].aggregator).name, *g.block)
+        group = _Group(np.arange(g.part.start, g.part.stop).reshape(g.block), g.members, g.reduce, found)
+        if found is None:
+            alone.append(group)
+        else:
+            families.setdefault(found[0].reduce, []).append(group)
+    return families, alone
+
+
+class _Stacked:
+    """The families' blocks in the work buffer: one take from the gathered values and pads fills them."""
+
+    def __init__(self, row: np.ndarray, nreduced: int, ngathered: int, order: np.ndarray):
+        self.row = row
+        self.where = np.empty(ngathered, np.intp)  # a read-plan position -> its place among the gathered values
+        self.where[order] = np.arange(len(order))
+        self.source = row[nreduced:nreduced + ngathered + len(_PADS)]  # gathered values, then the pads
+        self.pad_at = ngathered
+        self.block_at = nreduced + ngathered + len(_PADS)
+        self.first_block = self.block_at
+        self.at = 0  # the next reduced value
+        self.index: list[np.ndarray] = []
+        self.reductions: list[Reduction] = []
+        self.divisions: list[tuple[np.ndarray, np.ndarray]] = []
+
+    def add(self, groups: list[_Group]) -> None:
+        """One family: its groups' windows side by side, each padded to the longest."""
+        fam = cast("tuple[Family, int]", groups[0].family)[0]
+        buffer = max(g.positions.shape[0] for g in groups)
+        width = sum(g.positions.shape[1] for g in groups)
+        source = np.full((buffer, width), self.pad_at + _PADS.index(fam.pad), np.intp)
+        counts = np.empty(width)
+        col = 0
+        for g in groups:
+            b, w = g.positions.shape
+            source[:b, col:col + w] = self.where[g.positions]
+            counts[col:col + w] = cast("tuple[Family, int]", g.family)[1]
+            col += w
+        block = self.row[self.block_at:self.block_at + source.size].reshape(source.shape)
+        out = self.row[self.at:self.at + width]
+        self.reductions.append(Reduction(AGGREGATORS[fam.reduce].reduce, block, out))
+        if (counts != 1).any():
+            self.divisions.append((out, counts))
+        self.index.append(source.ravel())
+        self.block_at += source.size
+        self.at += width
+
+    def take(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        if not self.index:
+            return None
+        return self.source, np.concatenate(self.index), self.row[self.first_block:self.block_at]
