@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import ctypes
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple, Protocol, TypeGuard, cast
 
 import numpy as np
@@ -21,7 +21,7 @@ import numpy as np
 from ..observables.aggregators import AGGREGATORS, builtin
 from .cache import BoundedCache
 from .bank_noise import BankNoise, Program, program
-from .bank_read import CompiledRead, compile_read
+from .bank_read import PADS, CompiledRead, compile_read
 from .channels import Channel, FixedChannel
 
 __all__ = ["FeatureBank", "BankMember", "GroupMember", "PlainRead", "ReadPlan", "ReductionGroup", "buffer_view",
@@ -154,8 +154,10 @@ class FeatureBank:
         self.chunk = period * -(-_CHUNK_STEPS // period) if noisy else 0
         unit = self.chunk or period
         self.rows = unit * -(-(span + self.chunk) // unit)  # a multiple of every sampling period
-        self.history = np.zeros((self.rows, self.width))
-        self.flat = self.history.reshape(-1)
+        # the history, then the values reductions of different buffers are padded with (`bank_read.PADS`)
+        self.flat = np.zeros(self.rows * self.width + len(PADS))
+        self.flat[self.rows * self.width:] = PADS
+        self.history = self.flat[:self.rows * self.width].reshape(self.rows, self.width)
         self.history_rows = list(self.history)
         self.phases = [(ch.period(), len(phases), phases) for ch in channels for phases in [ch.needed_phases()]]
         self.snap_rows = _snapshot_rows(self.phases, self.rows)
@@ -222,10 +224,12 @@ class FeatureBank:
         return self.channels[position].schedule.samples_taken(self.phases[position][2], step)
 
     def _compile(self, phase: int) -> CompiledRead:
-        return compile_read(self.channels, read_plan(self.channels, self.cols, self.rows, phase),
-                            self.noise.plan if self.noise is not None else None)
+        plan = read_plan(self.channels, self.cols, self.rows, phase)
+        if self.noise is None:  # gather the families' blocks straight from the history
+            return compile_read(self.channels, plan, None, self.rows * self.width)
+        return compile_read(self.channels, plan, self.noise.plan, None)  # noise applies to the windows first
 
-    def read(self, step: int) -> list[Any]:
+    def read(self, step: int) -> Sequence[Any]:
         """Every member's observation at `step`: fresh arrays (views of this read's own copy)."""
         phase = step % self.rows
         plan = self._gathers.get(phase)
@@ -241,10 +245,13 @@ class FeatureBank:
             reduce(window, out)
         for out, counts in plan.divisions:
             np.true_divide(out, counts, out)
-        values = list(plan.cut(plan.shown.copy()))
+        values = plan.cut(plan.shown.copy())
+        if not plan.reshapes:
+            return values
+        cut = list(values)
         for i, shape in plan.reshapes:
-            values[i] = values[i].reshape(shape)
-        return values
+            cut[i] = cut[i].reshape(shape)
+        return cut
 
     def _apply_noise(self, step: int, plan: CompiledRead) -> None:
         gathered, index = plan.gathered, plan.source

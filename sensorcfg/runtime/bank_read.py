@@ -24,9 +24,9 @@ import numpy as np
 from ..observables.aggregators import AGGREGATORS, FAMILIES, Family, family
 from .channels import FixedChannel
 
-__all__ = ["CompiledRead", "Reduction", "compile_read"]
+__all__ = ["PADS", "CompiledRead", "Reduction", "compile_read"]
 
-_PADS = [f.pad for f in FAMILIES.values()]
+PADS = [f.pad for f in FAMILIES.values()]  # what the families' blocks are padded with
 
 
 class Reduction(NamedTuple):
@@ -51,13 +51,30 @@ class CompiledRead(NamedTuple):
     noise: list[Any]  # the bank noise's plan for `index` ([] without noise)
 
 
+class _Group(NamedTuple):
+    """A reduction group of the read plan: its window's positions in the plan's gather, and its family."""
+
+    positions: np.ndarray  # (buffer, width)
+    members: list[Any]  # GroupMember
+    reduce: Callable[..., np.ndarray]
+    family: tuple[Family, int] | None  # (family, divisor); None: reduced alone
+
+
 class _Cuts:
     """Per member, the index into a (1, n) copy that gives its value in one step where its shape allows
     ((1, k) and (k,) arrays, numpy scalars), else a flat cut and a reshape."""
 
-    def __init__(self, count: int):
-        self.keys: list[Any] = [None] * count
+    def __init__(self, channels: Sequence[FixedChannel], plain: list[Any], ordered: list[_Group], starts: np.ndarray):
+        """Plain members' windows start at `starts`; reduced values lie first, in the groups' `ordered` order."""
+        self.keys: list[Any] = [None] * len(channels)
         self.reshapes: list[tuple[int, tuple[int, ...]]] = []
+        for p, start in zip(plain, starts):
+            self.place(p.member, int(start), p.shape, scalar=False)
+        at = 0
+        for g in ordered:
+            for m in g.members:
+                self.place(m.member, at + m.columns.start, m.shape, scalar=True)
+            at += g.positions.shape[1]
 
     def place(self, i: int, start: int, shape: tuple[int, ...], scalar: bool) -> None:
         span = slice(start, start + math.prod(shape))
@@ -77,48 +94,46 @@ class _Cuts:
         return operator.itemgetter(*self.keys)
 
 
-class _Group(NamedTuple):
-    """A reduction group of the read plan: its window's positions in the plan's gather, and its family."""
-
-    positions: np.ndarray  # (buffer, width)
-    members: list[Any]  # GroupMember
-    reduce: Callable[..., np.ndarray]
-    family: tuple[Family, int] | None  # (family, divisor); None: reduced alone
-
-
-def compile_read(channels: Sequence[FixedChannel], plan: Any, noise_plan: Callable[[np.ndarray], list[Any]] | None
-                 ) -> CompiledRead:
-    """`plan`: `read_plan(...)` of one phase; `noise_plan`: the bank noise's `plan` (None without noise)."""
+def compile_read(channels: Sequence[FixedChannel], plan: Any, noise_plan: Callable[[np.ndarray], list[Any]] | None,
+                 pads_at: int | None) -> CompiledRead:
+    """`plan`: `read_plan(...)` of one phase; `noise_plan`: the bank noise's `plan` (None without noise);
+    `pads_at`: where the history's source holds the families' pads (`PADS`), or None: noise applies to the
+    gathered windows, and a second take stacks them."""
     index, groups, plain = plan
     families, alone = _families(channels, groups)
     ordered = [g for members in families.values() for g in members] + alone  # as their reduced values lie
     nreduced = sum(g.positions.shape[1] for g in ordered)
-    windows = [np.arange(p.part.start, p.part.stop) for p in plain] + [g.positions.ravel() for g in ordered]
+    windows = [np.arange(p.part.start, p.part.stop) for p in plain] + [g.positions.ravel() for g in alone]
+    if pads_at is None:
+        windows += [g.positions.ravel() for g in ordered[:len(ordered) - len(alone)]]
     order = np.concatenate([*windows, np.zeros(0, np.intp)]).astype(np.intp)
     starts = nreduced + np.cumsum([0] + [len(w) for w in windows])  # each window's start in the work row
     nblocks = sum(max(g.positions.shape[0] for g in gs) * sum(g.positions.shape[1] for g in gs)
                   for gs in families.values())
-    work = np.empty((1, nreduced + len(index) + len(_PADS) + nblocks))
+    work = np.empty((1, int(starts[-1]) + (0 if pads_at is not None else len(PADS)) + nblocks))
     row = work[0]
-    row[nreduced + len(index):nreduced + len(index) + len(_PADS)] = _PADS
-    cuts = _Cuts(len(channels))
-    for p, start in zip(plain, starts):
-        cuts.place(p.member, int(start), p.shape, scalar=False)
-    stacked = _Stacked(row, nreduced, len(index), order)
+    if pads_at is None:  # the windows gathered, then the pads: what the families' take reads
+        where = np.empty(len(index), np.intp)
+        where[order] = np.arange(len(order))
+        row[starts[-1]:starts[-1] + len(PADS)] = PADS
+        stacked = _Stacked(row, int(starts[-1]) + len(PADS), where, len(order))
+    else:
+        stacked = _Stacked(row, int(starts[-1]), index, pads_at)
     for gs in families.values():
         stacked.add(gs)
-    for g, start in zip(alone, starts[len(plain) + len(ordered) - len(alone):]):
+    for g, start in zip(alone, starts[len(plain):]):
         window = row[start:start + g.positions.size].reshape(g.positions.shape)
         stacked.reductions.append(Reduction(g.reduce, window, row[stacked.at:stacked.at + g.positions.shape[1]]))
         stacked.at += g.positions.shape[1]
-    at = 0
-    for g in ordered:
-        for m in g.members:
-            cuts.place(m.member, at + m.columns.start, m.shape, scalar=True)
-        at += g.positions.shape[1]
+    cuts = _Cuts(channels, plain, ordered, starts)
     source = index[order]
-    return CompiledRead(source, row[nreduced:nreduced + len(index)], stacked.take(), stacked.reductions,
-                        stacked.divisions, work[:, :int(starts[len(plain)])], cuts.getter(), cuts.reshapes,
+    if pads_at is not None and stacked.index:  # the gather fills the blocks too
+        source = np.concatenate([source, *stacked.index])
+    gathered = row[nreduced:nreduced + len(source)]
+    stack = None if pads_at is not None or not stacked.index else (
+        row[nreduced:stacked.first_block], np.concatenate(stacked.index), row[stacked.first_block:stacked.block_at])
+    return CompiledRead(source, gathered, stack, stacked.reductions, stacked.divisions,
+                        work[:, :int(starts[len(plain)])], cuts.getter(), cuts.reshapes,
                         noise_plan(source) if noise_plan else [])
 
 
@@ -137,16 +152,13 @@ def _families(channels: Sequence[FixedChannel], groups: list[Any]) -> tuple[dict
 
 
 class _Stacked:
-    """The families' blocks in the work buffer: one take from the gathered values and pads fills them."""
+    """The families' blocks in the work buffer, from `first_block` on: where each block value comes from in
+    the source of the take that fills them (`lookup`: a read-plan position -> its place there; the pads
+    from `pad_at`), and each family's reduction into its reduced values."""
 
-    def __init__(self, row: np.ndarray, nreduced: int, ngathered: int, order: np.ndarray):
-        self.row = row
-        self.where = np.empty(ngathered, np.intp)  # a read-plan position -> its place among the gathered values
-        self.where[order] = np.arange(len(order))
-        self.source = row[nreduced:nreduced + ngathered + len(_PADS)]  # gathered values, then the pads
-        self.pad_at = ngathered
-        self.block_at = nreduced + ngathered + len(_PADS)
-        self.first_block = self.block_at
+    def __init__(self, row: np.ndarray, first_block: int, lookup: np.ndarray, pad_at: int):
+        self.row, self.lookup, self.pad_at = row, lookup, pad_at
+        self.first_block = self.block_at = first_block
         self.at = 0  # the next reduced value
         self.index: list[np.ndarray] = []
         self.reductions: list[Reduction] = []
@@ -157,12 +169,12 @@ class _Stacked:
         fam = cast("tuple[Family, int]", groups[0].family)[0]
         buffer = max(g.positions.shape[0] for g in groups)
         width = sum(g.positions.shape[1] for g in groups)
-        source = np.full((buffer, width), self.pad_at + _PADS.index(fam.pad), np.intp)
+        source = np.full((buffer, width), self.pad_at + PADS.index(fam.pad), np.intp)
         counts = np.empty(width)
         col = 0
         for g in groups:
             b, w = g.positions.shape
-            source[:b, col:col + w] = self.where[g.positions]
+            source[:b, col:col + w] = self.lookup[g.positions]
             counts[col:col + w] = cast("tuple[Family, int]", g.family)[1]
             col += w
         block = self.row[self.block_at:self.block_at + source.size].reshape(source.shape)
@@ -173,8 +185,3 @@ class _Stacked:
         self.index.append(source.ravel())
         self.block_at += source.size
         self.at += width
-
-    def take(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-        if not self.index:
-            return None
-        return self.source, np.concatenate(self.index), self.row[self.first_block:self.block_at]
