@@ -97,44 +97,55 @@ class _Cuts:
 def compile_read(channels: Sequence[FixedChannel], plan: Any, noise_plan: Callable[[np.ndarray], list[Any]] | None,
                  pads_at: int | None) -> CompiledRead:
     """`plan`: `read_plan(...)` of one phase; `noise_plan`: the bank noise's `plan` (None without noise);
-    `pads_at`: where the history's source holds the families' pads (`PADS`), or None: noise applies to the
-    gathered windows, and a second take stacks them."""
+    `pads_at`: where the history's source holds the families' pads (`PADS`): the gather fills the families'
+    blocks too; or None: noise applies to the gathered windows first, and a second take stacks them."""
     index, groups, plain = plan
     families, alone = _families(channels, groups)
-    ordered = [g for members in families.values() for g in members] + alone  # as their reduced values lie
+    stacked_groups = [g for members in families.values() for g in members]
+    ordered = stacked_groups + alone  # as their reduced values lie
     nreduced = sum(g.positions.shape[1] for g in ordered)
-    windows = [np.arange(p.part.start, p.part.stop) for p in plain] + [g.positions.ravel() for g in alone]
-    if pads_at is None:
-        windows += [g.positions.ravel() for g in ordered[:len(ordered) - len(alone)]]
+    # the windows gathered: plain, reduced alone, and the families' unless the gather stacks them itself
+    windows = _windows(plain, alone + (stacked_groups if pads_at is None else []))
     order = np.concatenate([*windows, np.zeros(0, np.intp)]).astype(np.intp)
     starts = nreduced + np.cumsum([0] + [len(w) for w in windows])  # each window's start in the work row
-    nblocks = sum(max(g.positions.shape[0] for g in gs) * sum(g.positions.shape[1] for g in gs)
-                  for gs in families.values())
-    work = np.empty((1, int(starts[-1]) + (0 if pads_at is not None else len(PADS)) + nblocks))
-    row = work[0]
-    if pads_at is None:  # the windows gathered, then the pads: what the families' take reads
-        where = np.empty(len(index), np.intp)
-        where[order] = np.arange(len(order))
-        row[starts[-1]:starts[-1] + len(PADS)] = PADS
-        stacked = _Stacked(row, int(starts[-1]) + len(PADS), where, len(order))
-    else:
-        stacked = _Stacked(row, int(starts[-1]), index, pads_at)
+    work = np.empty((1, int(starts[-1]) + (0 if pads_at is not None else len(PADS)) + _block_values(families)))
+    stacked = _stacker(work[0], index, order, int(starts[-1]), pads_at)
     for gs in families.values():
         stacked.add(gs)
     for g, start in zip(alone, starts[len(plain):]):
-        window = row[start:start + g.positions.size].reshape(g.positions.shape)
-        stacked.reductions.append(Reduction(g.reduce, window, row[stacked.at:stacked.at + g.positions.shape[1]]))
-        stacked.at += g.positions.shape[1]
-    cuts = _Cuts(channels, plain, ordered, starts)
+        stacked.alone(g, int(start))
     source = index[order]
-    if pads_at is not None and stacked.index:  # the gather fills the blocks too
+    if pads_at is not None:  # the gather fills the blocks too
         source = np.concatenate([source, *stacked.index])
-    gathered = row[nreduced:nreduced + len(source)]
     stack = None if pads_at is not None or not stacked.index else (
-        row[nreduced:stacked.first_block], np.concatenate(stacked.index), row[stacked.first_block:stacked.block_at])
-    return CompiledRead(source, gathered, stack, stacked.reductions, stacked.divisions,
-                        work[:, :int(starts[len(plain)])], cuts.getter(), cuts.reshapes,
+        work[0, nreduced:stacked.first_block], np.concatenate(stacked.index),
+        work[0, stacked.first_block:stacked.block_at])
+    cuts = _Cuts(channels, plain, ordered, starts)
+    return CompiledRead(source, work[0, nreduced:nreduced + len(source)], stack, stacked.reductions,
+                        stacked.divisions, work[:, :int(starts[len(plain)])], cuts.getter(), cuts.reshapes,
                         noise_plan(source) if noise_plan else [])
+
+
+def _windows(plain: list[Any], groups: list[_Group]) -> list[np.ndarray]:
+    """Read-plan positions of each window, in the order the work row holds them."""
+    return [np.arange(p.part.start, p.part.stop) for p in plain] + [g.positions.ravel() for g in groups]
+
+
+def _block_values(families: dict[str, list[_Group]]) -> int:
+    """Values in the families' blocks: per family, its longest buffer times its width."""
+    return sum(max(g.positions.shape[0] for g in gs) * sum(g.positions.shape[1] for g in gs)
+               for gs in families.values())
+
+
+def _stacker(row: np.ndarray, index: np.ndarray, order: np.ndarray, end: int, pads_at: int | None) -> _Stacked:
+    """Blocks after the windows (which end at `end`) that a take fills from the history (`pads_at` given)
+    or from the gathered windows followed by the pads (stored there)."""
+    if pads_at is not None:
+        return _Stacked(row, end, index, pads_at)
+    where = np.empty(len(index), np.intp)  # a read-plan position -> its place among the gathered values
+    where[order] = np.arange(len(order))
+    row[end:end + len(PADS)] = PADS
+    return _Stacked(row, end + len(PADS), where, len(order))
 
 
 def _families(channels: Sequence[FixedChannel], groups: list[Any]) -> tuple[dict[str, list[_Group]], list[_Group]]:
@@ -184,4 +195,11 @@ class _Stacked:
             self.divisions.append((out, counts))
         self.index.append(source.ravel())
         self.block_at += source.size
+        self.at += width
+
+    def alone(self, group: _Group, start: int) -> None:
+        """A group reduced on its own, from its window at `start` in the work row."""
+        buffer, width = group.positions.shape
+        window = self.row[start:start + buffer * width].reshape(buffer, width)
+        self.reductions.append(Reduction(group.reduce, window, self.row[self.at:self.at + width]))
         self.at += width
