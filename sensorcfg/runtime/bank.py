@@ -194,9 +194,10 @@ class FeatureBank:
     def snapshot_steps(self) -> list[int]:
         return [t for t, snap in enumerate(self.snap_rows) if snap]
 
-    def tasks(self) -> list[tuple[int, list[int], Any]]:
-        """(period, phases, task(step)) for the Updater's plan: snapshots, and noise drawn a chunk ahead."""
-        out = [(self.rows, self.snapshot_steps(), self.snapshot)]
+    def tasks(self, sync: Callable[[], None] | None = None) -> list[tuple[int, list[int], Any]]:
+        """(period, phases, task(step)) for the Updater's plan: snapshots (each calling `sync` first when
+        given), and noise drawn a chunk ahead."""
+        out = [(self.rows, self.snapshot_steps(), self._snapshot_task(sync))]
         if self.noise is not None:
             out.append((self.chunk, [0], self.noise.fill))
         return out
@@ -214,6 +215,23 @@ class FeatureBank:
                 first = np.arange(self.width)
                 self.pad_values = self.history[0].copy()
                 self.noise.apply(self.pad_values, self.noise.plan(first))
+
+    def _snapshot_task(self, sync: Callable[[], None] | None) -> Callable[[int], None]:
+        """`snapshot` as a closure over what it uses (the plan calls it at every sampled step)."""
+        take, source, rows, count = self.raw.take, self.source, self.history_rows, self.rows
+
+        def snapshot(step: int) -> None:
+            take(source, None, rows[step % count], "clip")
+
+        if sync is None:
+            return snapshot
+        bring_up_to_date = sync
+
+        def synced(step: int) -> None:
+            bring_up_to_date()
+            take(source, None, rows[step % count], "clip")
+
+        return synced
 
     def snapshot(self, step: int) -> None:
         # mode="clip": indices are valid by construction, and "raise" would buffer the output
