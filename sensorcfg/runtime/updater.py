@@ -115,10 +115,16 @@ class Updater:
         self._step = 0
         self._start(members)
         self._build_plan()
+        self._fast_path()
+
+    def _fast_path(self) -> None:
+        """The common case: one dict whose every observable the bank reads, in order (one read, one dict)."""
         first_kind, first_reads = self._reads[0] if self._reads else (dict, [])  # Updater([]): no dicts at all
-        self._all_banked = (not self._nested and self._bank is not None
+        bank = self._bank
+        self._all_banked = (not self._nested and bank is not None
                             and [read.position for read in first_reads] == list(range(len(first_reads))))
         self._dict_type, self._names = first_kind, [read.name for read in first_reads]
+        self._bank_read: Callable[[int], Sequence[Any]] = bank.read if bank is not None else (lambda step: ())
 
     def _bind(self, physics: Any, random_state: Any) -> list[tuple[type, list[tuple[str, FixedChannel | RandomChannel]]]]:
         """Per observables dict: its type and (name, channel) of each enabled observable, in order."""
@@ -249,8 +255,8 @@ class Updater:
         if self._layout is None:
             raise RuntimeError("`reset` must be called before `get_observation`.")
         step = self._step
-        if self._all_banked:  # the common case: one gather, then a dict in file order
-            return self._dict_type(zip(self._names, cast(FeatureBank, self._bank).read(step)))
+        if self._all_banked:  # the common case: one compiled read, then a dict in file order
+            return self._dict_type(zip(self._names, self._bank_read(step)))
         banked = self._bank.read(step) if self._bank else ()
         out = [kind((read.name, banked[read.position] if read.position != NOT_BANKED else read.reader.read(step))
                     for read in entries) for kind, entries in self._reads]
