@@ -58,6 +58,7 @@ class _Binder:
     batch: bool = False  # also check what BatchEnvironment needs
     refused: Mapping[str, str] = dataclasses.field(default_factory=dict)  # MuJoCo's word per native sensor
     problems: list[Problem] = dataclasses.field(default_factory=list)
+    seen: set[Problem] = dataclasses.field(default_factory=set)  # `problems` as a set: each reported once
     quiet: bool = False  # binding a clean twin: its source reports the problems they share
 
     # -- where a key came from, and problems there --------------------------------------------
@@ -77,7 +78,8 @@ class _Binder:
         pos = self.suite.doc.pos(path, key=key)
         loc = ".".join(map(str, path))
         problem = pos.problem(message, loc) if pos else Problem(message, loc, self.suite.file)
-        if problem not in self.problems:
+        if problem not in self.seen:
+            self.seen.add(problem)
             self.problems.append(problem)
 
     def report_all(self, path: Path_, error: SuiteError) -> None:

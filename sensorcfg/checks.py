@@ -17,7 +17,7 @@ import mujoco
 import numpy as np
 
 from .config.models import ChoiceDraw, SensorConfig, UniformDraw
-from .config.tables import GENERIC_KIND, IMAGE_KINDS
+from .config.tables import GENERIC_KIND, HEIGHTSCAN_KIND, IMAGE_KINDS
 from .errors import did_you_mean
 from .kinds import CONSTANT, INTERNAL, STATE, kinds_of, offered_kinds, state_twin
 from .observables.feature import batch_on_demand_problem
@@ -27,8 +27,7 @@ __all__ = ["kind_problems", "sensor_problems", "batch_problems"]
 Found = list[tuple[tuple[str | int, ...], str]]  # (key path inside the sensor, message)
 
 _SINGLE = "remove it, or use the single-simulation Environment"
-_CAMERA_WHAT = {"noise": "noise", "aggregator": "an aggregator", "interval": "a drawn interval",
-                "delay": "a drawn delay"}
+_PER_SIMULATION_WHAT = {"aggregator": "an aggregator", "interval": "a drawn interval", "delay": "a drawn delay"}
 
 
 def kind_problems(type_name: str, kind: str, constant: bool, native: Sequence[str] = ()) -> Found:
@@ -81,12 +80,13 @@ def _drawn(value: Any) -> bool:
 def batch_problems(cfg: SensorConfig, dtype: Any, field: str | None, model: mujoco.MjModel) -> Found:
     """What `BatchEnvironment` cannot run, by key."""
     found: Found = []
-    if cfg.kind in IMAGE_KINDS:
-        for key, present in (("noise", bool(cfg.noise)), ("aggregator", cfg.aggregator is not None),
+    if cfg.kind in IMAGE_KINDS or cfg.kind == HEIGHTSCAN_KIND:  # sampled per simulation; noise runs per simulation
+        does = "renders cameras" if cfg.kind in IMAGE_KINDS else "casts height scans"
+        for key, present in (("aggregator", cfg.aggregator is not None),
                              ("interval", _drawn(cfg.interval)), ("delay", _drawn(cfg.delay))):
             if present:
-                found.append(((key,), f"a BatchEnvironment renders cameras per simulation and cannot apply "
-                              f"{_CAMERA_WHAT[key]} to them; {_SINGLE}"))
+                found.append(((key,), f"a BatchEnvironment {does} per simulation and cannot apply "
+                              f"{_PER_SIMULATION_WHAT[key]} to them; {_SINGLE}"))
         return found
     if cfg.kind == GENERIC_KIND:
         return [(("kind",), "a generic callable runs Python per sample and simulation, which a BatchEnvironment "

@@ -70,10 +70,11 @@ class Suite:
         """The sensors that may add MuJoCo sensors: clean twins read their source's."""
         return {k: v for k, v in self._loaded.sensors.items() if k not in self._loaded.twins}
 
-    def _compiled(self, model: ModelLike) -> tuple[mujoco.MjModel, dict[str, str]]:
+    def _compiled(self, model: ModelLike, batch: bool = False) -> tuple[mujoco.MjModel, dict[str, str]]:
         """The model to bind to, and MuJoCo's message for each native sensor it refused. A path (or the
-        suite's `model:`, or an MjSpec) is compiled with the suite's native sensors; an MjModel is taken
-        as it is (it must carry them)."""
+        suite's `model:`, or an MjSpec) is compiled with the suite's native sensors (for a batch, also with
+        sensors that make MuJoCo fill the on-demand fields the suite reads); an MjModel is taken as it is
+        (it must carry them)."""
         import mujoco
 
         if isinstance(model, mujoco.MjModel):
@@ -81,7 +82,7 @@ class Suite:
         if isinstance(model, mujoco.MjSpec):
             from .native import compile_model
 
-            return compile_model(model, self._sources())
+            return compile_model(model, self._sources(), batch)
         if model is not None and not isinstance(model, (str, os.PathLike)):
             from .physics import raw_structs
 
@@ -98,11 +99,11 @@ class Suite:
         else:
             path, pos = str(model), None
         try:
-            from .native import compile_model, native_names
+            from .native import compile_model, native_names, reads_on_demand
             from .physics import read_model
 
-            if native_names(self._sources()):
-                return compile_model(path, self._sources())
+            if native_names(self._sources()) or (batch and reads_on_demand(self._sources())):
+                return compile_model(path, self._sources(), batch)
             return read_model(path), {}
         except (ValueError, OSError) as e:
             message = f"cannot load the model {quote(str(path), 160)}: {str(e).strip()}"
@@ -112,19 +113,21 @@ class Suite:
             dict[str, Observable], list[Problem]]:
         from .binding import bind
 
-        mjmodel, refused = self._compiled(model)
+        mjmodel, refused = self._compiled(model, batch)
         observables, problems = bind(self._loaded, mjmodel, import_callables=import_callables,
                                      call_callables=call_callables, batch=batch, refused=refused)
         return observables, problems + self._too_large(observables)
 
-    def compile(self, model: ModelLike = None) -> mujoco.MjModel:
+    def compile(self, model: ModelLike = None, *, batch: bool = False) -> mujoco.MjModel:
         """The model with the MuJoCo sensors (and sites) the suite's native kinds add: `model` is an MJCF
         path, an `MjSpec` (copied) or None for the suite's `model:`; an MjModel is returned as it is.
+        With `batch` (what `BatchEnvironment` compiles), on-demand fields the suite reads (cfrc_ext, cacc,
+        subtree_linvel, ...) get a sensor that makes every step fill them.
 
         The file is not edited. Raises SuiteError listing every problem of the suite against the model
         when MuJoCo refuses one of its sensors.
         """
-        mjmodel, refused = self._compiled(model)
+        mjmodel, refused = self._compiled(model, batch)
         if refused:
             from .binding import bind
 

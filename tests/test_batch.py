@@ -515,7 +515,22 @@ def test_cameras_render_only_frames_a_read_can_see(monkeypatch):
 
 
 @needs_batch
-def test_noisy_cameras_are_rejected():
+def test_noisy_cameras_run_per_simulation_as_the_single_environment():
+    """Image noise (a stateful low-pass included) runs per simulation, keyed as each simulation's Environment."""
+    from conftest import assert_batch_equals_single
+
+    suite = sensorcfg.loads("""
+defaults: {camera: {width: 16, height: 12}}
+sensors:
+  rgb: {kind: rgb, element: camera:overview, interval: 2, buffer: 2, noise: [{type: gaussian, std: 8}]}
+  depth: {kind: depth, element: camera:overview, noise: [{type: gaussian, std: 0.01}, {type: lowpass, cutoff: 30Hz}]}
+  joints: {kind: qpos, element: "joint:*", noise: [{type: gaussian, std: 0.01}]}
+""")
+    assert_batch_equals_single(ROBOT, suite, nsim=2, seed=4, steps=6)
+
+
+@needs_batch
+def test_cameras_with_aggregators_are_rejected():
     obs = {"cam": sensorcfg.Camera("overview", height=8, width=8, buffer_size=2, aggregator="mean")}
     obs["cam"].enabled = True
     with pytest.raises(SuiteError, match=r"camera 'cam': a BatchEnvironment renders cameras per simulation and "

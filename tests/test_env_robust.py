@@ -176,11 +176,23 @@ def _envs():
 def test_copies_and_pickles_raise_a_clear_error(name, make, how):
     env = make()
     env.reset()
-    with pytest.raises(TypeError, match=rf"a {name} cannot be copied or pickled: its sensors are bound to its own "
+    article = "an" if name == "Environment" else "a"
+    with pytest.raises(TypeError, match=rf"{article} {name} cannot be copied or pickled: its sensors are bound to its own "
                                         r"MjData and renderers, so a copy would read the original's physics; build "
                                         rf"another {name} from the same model and suite"):
         how(env)
     env.step(np.zeros(env.action_spec().shape))  # the original is untouched
+
+
+@pytest.mark.parametrize("seed", [-1, 2**40, 1.5, "0", True], ids=["negative", "too-large", "float", "text", "bool"])
+def test_a_bad_seed_is_an_argument_error(seed):
+    with pytest.raises(sensorcfg.ArgumentError, match="seed must be None, an integer from 0 to 2\\*\\*32 - 1"):
+        sensorcfg.Environment(ROBOT, suite(), seed=seed)
+    if MUJOCO4 and seed != 2**40:  # a batch's root seed is a SeedSequence's entropy: any non-negative integer
+        from sensorcfg.batch import BatchEnvironment
+
+        with pytest.raises(sensorcfg.ArgumentError, match="seed must be None, a non-negative integer"):
+            BatchEnvironment(ROBOT, suite(), 2, seed=seed)
 
 
 def test_the_physics_copies_independently_both_ways():

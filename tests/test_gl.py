@@ -156,7 +156,7 @@ def test_without_gl_everything_but_cameras_works(tmp_path: Path) -> None:
             assert proc.returncode == 0, (label, args, proc.stderr)
             assert "Traceback" not in proc.stderr, (label, proc.stderr)
         proc = _cli(tmp_path, "run", VISION, "--steps", "5", gl=gl)
-        assert proc.returncode == 1, (label, proc.stderr)
+        assert proc.returncode == 2, (label, proc.stderr)  # the machine lacks something, not the suite
         lines = proc.stderr.strip().splitlines()
         assert len(lines) == 1, (label, proc.stderr)
         assert "cameras need OpenGL" in lines[0] and install in lines[0], (label, lines[0])
@@ -172,7 +172,7 @@ def test_without_gl_the_python_api_runs_camera_free_environments(tmp_path: Path)
             env.step(np.zeros(env.action_spec().shape))
         try:
             sensorcfg.make_env({VISION!r}, seed=0)
-        except sensorcfg.SuiteError as e:
+        except sensorcfg.UnsupportedError as e:  # not a mistake in the suite: the machine lacks a library
             print("camera:", e)
         import os
         print("MUJOCO_GL", os.environ["MUJOCO_GL"])

@@ -95,6 +95,18 @@ def test_batched_scans_equal_single_ones() -> None:
     assert_batch_equals_single(TERRAIN, suite, nsim=2, seed=3, steps=15)
 
 
+@pytest.mark.skipif(not MUJOCO4, reason="mujoco.batch needs MuJoCo 4")
+def test_noisy_batched_scans_equal_single_ones() -> None:
+    """Noise on a height scan runs per simulation, stateful stages included, keyed as the single simulation."""
+    suite = sensorcfg.loads("options: {control_interval: 10}\nsensors:\n"
+                            "  h: {kind: heightscan, element: site:imu, interval: 5, buffer: 2,\n"
+                            "      noise: [{type: gaussian, std: 0.01}, {type: lowpass, cutoff: 20Hz}]}\n"
+                            "  r: {kind: heightscan, element: body:base, scan: {pattern: ring},\n"
+                            "      noise: [{type: bias, std: 0.05}, {type: dropout, p: 0.2, mode: hold}]}\n"
+                            "  v: {kind: velocimeter, element: body:base, noise: [{type: gaussian, std: 0.1}]}\n")
+    assert_batch_equals_single(TERRAIN, suite, nsim=3, seed=5, steps=12)
+
+
 @pytest.mark.parametrize("scan, expected", [
     pytest.param("{size: [1.0, 1.0], resolution: 0.3}", "f.yaml:2:51: error: sensors.h.scan: size along x (1 m) "
                  "is not a whole number of 0.3 m steps (3.33); use 0.9 or 1.2, or another resolution", id="grid"),
@@ -111,3 +123,18 @@ def test_a_scan_reads_one_frame() -> None:
     problems = sensorcfg.loads("sensors:\n  h: {kind: heightscan, element: geom:FL}\n", file="f.yaml").check(TERRAIN)
     assert [p.format() for p in problems] == ["f.yaml:2:34: error: sensors.h.element: a height scan is cast from "
                                               "one frame, 'body:<name>' or 'site:<name>'; got 'geom:FL'"]
+
+
+@pytest.mark.parametrize("scan, expected", [
+    pytest.param("{resolution: 5e-324}", "1.6 x 1 m every 4.94066e-324 m makes inf rays", id="subnormal-resolution"),
+    pytest.param("{size: [100, 100], resolution: 0.01}", "100 x 100 m every 0.01 m makes 1e+08 rays", id="huge-grid"),
+    pytest.param("{pattern: ring, radii: [1], count: 100000000000}", "1 ring of 100000000000 rays makes 1e+11 rays",
+                 id="huge-ring"),
+])
+def test_a_scan_has_at_most_100000_rays(scan: str, expected: str) -> None:
+    """Found by the fuzz test: a subnormal resolution raised OverflowError; a huge scan would fill memory."""
+    with pytest.raises(sensorcfg.SuiteError) as e:
+        sensorcfg.loads(f"sensors:\n  h: {{kind: heightscan, element: body:base, scan: {scan}}}\n", file="f.yaml")
+    assert [(p.loc, p.message) for p in e.value.problems] == [
+        ("sensors.h.scan", f"{expected}; a scan casts at most 100,000: use a coarser resolution, a smaller size or "
+                           "fewer rays")]

@@ -109,6 +109,26 @@ def test_on_demand_fields_equal_those_mujoco_fills_for_its_own_sensors(overrides
             np.testing.assert_array_equal(a[name], b[name], err_msg=name)
 
 
+def _with_sensors() -> mujoco.MjModel:
+    """The model with sensors that make MuJoCo fill both families of on-demand fields at every step."""
+    spec = mujoco.MjSpec.from_file(str(MODEL))
+    spec.add_sensor(type=mujoco.mjtSensor.mjSENS_SUBTREELINVEL, objtype=mujoco.mjtObj.mjOBJ_BODY, objname="base")
+    spec.body("base").add_site(name="imu")
+    spec.add_sensor(type=mujoco.mjtSensor.mjSENS_ACCELEROMETER, objtype=mujoco.mjtObj.mjOBJ_SITE, objname="imu")
+    return spec.compile()
+
+
+@pytest.mark.skipif(not hasattr(mujoco.MjData, "flg_rnepost"), reason="MuJoCo 3.17 has no flags to tell")
+def test_a_field_the_models_sensors_fill_is_read_as_it_is() -> None:
+    """No computation and no remembered velocity where MuJoCo's own step fills the field (the reads join the
+    feature bank like any other field); the values are the same either way (the test above)."""
+    for model, computed in ((mujoco.MjModel.from_xml_path(str(MODEL)), True), (_with_sensors(), False)):
+        physics = sensorcfg.Physics(model)
+        for kind in ("cfrc_ext", "subtree_linvel"):
+            reader = sensorcfg.Feature(kind, "body:base").reader(physics)
+            assert (reader.compute is not None) == computed, (kind, computed)
+
+
 def test_computed_only_at_sampled_steps() -> None:
     """Interval 3 with 10 steps per control step: the last step of a control step samples nothing."""
     model = mujoco.MjModel.from_xml_path(str(MODEL))
@@ -127,18 +147,37 @@ sensors:
     assert not data.flg_rnepost and data.flg_subtreevel
 
 
-def test_batch_refuses_on_demand_fields_it_cannot_compute() -> None:
+def test_batch_from_the_file_adds_the_sensors_that_fill_them() -> None:
+    """A BatchEnvironment given the model's file compiles it with one sensor per on-demand family the suite
+    reads (MuJoCo then fills the fields at every step): each simulation equals its Environment to the bit,
+    and `validate --batch` (Suite.check) finds nothing to report."""
     pytest.importorskip("mujoco.batch")
     if int(mujoco.__version__.split(".")[0]) < 4:
         pytest.skip("BatchEnvironment needs MuJoCo 4")
+    from conftest import assert_batch_equals_single
+
+    suite = sensorcfg.loads(ON_DEMAND_SUITE, ["options.keyframe=crouch"])
+    assert suite.check(str(MODEL), batch=True) == []
+    compiled = suite.compile(str(MODEL), batch=True)
+    assert {compiled.sensor(i).name for i in range(compiled.nsensor)} == {"sensorcfg-flg_rnepost",
+                                                                        "sensorcfg-flg_subtreevel"}
+    assert suite.compile(str(MODEL)).nsensor == 0  # the single simulation computes them on demand instead
+    assert_batch_equals_single(str(MODEL), suite, nsim=2, seed=0, steps=20)
+
+
+def test_batch_refuses_them_on_a_compiled_model_that_cannot_fill_them() -> None:
+    pytest.importorskip("mujoco.batch")
+    if int(mujoco.__version__.split(".")[0]) < 4:
+        pytest.skip("BatchEnvironment needs MuJoCo 4")
+    model = mujoco.MjModel.from_xml_path(str(MODEL))
     suite = sensorcfg.loads(ON_DEMAND_SUITE)
     with pytest.raises(SuiteError) as e:  # a suite: each sensor at its `kind`
-        sensorcfg.BatchEnvironment(str(MODEL), suite, 2)
+        sensorcfg.BatchEnvironment(model, suite, 2)
     assert [p.loc for p in e.value.problems] == [f"sensors.{name}.kind" for name in (
         "calf_cfrc_ext", "feet_cfrc_ext", "base_cfrc_int", "base_cacc", "base_subtree_linvel", "base_subtree_angmom")]
     assert e.value.problems[0].message.startswith("cfrc_ext is filled by mj_rnePostConstraint only when something "
                                                   "asks for it, and a BatchEnvironment's rollout cannot call it")
-    model = mujoco.MjModel.from_xml_path(str(MODEL))
+    assert "give BatchEnvironment the model's file" in e.value.problems[0].message
     feature = sensorcfg.Feature("cfrc_ext", "body:fl_calf")
     feature.enabled = True  # (observables start disabled, as dm_control's do)
     with pytest.raises(SuiteError, match=r"sensor 'ext': cfrc_ext is filled by mj_rnePostConstraint"):  # Python
@@ -148,11 +187,7 @@ def test_batch_refuses_on_demand_fields_it_cannot_compute() -> None:
 def test_batch_records_them_truly_when_the_models_sensors_compute_them() -> None:
     if int(mujoco.__version__.split(".")[0]) < 4:
         pytest.skip("BatchEnvironment needs MuJoCo 4")
-    spec = mujoco.MjSpec.from_file(str(MODEL))
-    spec.add_sensor(type=mujoco.mjtSensor.mjSENS_SUBTREELINVEL, objtype=mujoco.mjtObj.mjOBJ_BODY, objname="base")
-    spec.body("base").add_site(name="imu")
-    spec.add_sensor(type=mujoco.mjtSensor.mjSENS_ACCELEROMETER, objtype=mujoco.mjtObj.mjOBJ_SITE, objname="imu")
-    model = spec.compile()
+    model = _with_sensors()
     suite = sensorcfg.loads(ON_DEMAND_SUITE, ["options.keyframe=crouch"])
     batch = sensorcfg.BatchEnvironment(model, suite, 2, seed=0)
     singles = [sensorcfg.Environment(model, suite, seed=sensorcfg.batch.sim_seed(0, i)) for i in range(2)]
@@ -185,29 +220,3 @@ def test_a_forward_pass_after_the_step_is_read_as_it_left_the_data() -> None:
         reference = copy.copy(data)
         mujoco.mj_rnePostConstraint(model, reference)
         np.testing.assert_array_equal(updater.get_observation()["base_cacc"][0], reference.cacc[base])
-
-
-def test_fields_the_models_sensors_fill_are_read_as_any_field() -> None:
-    """With sensors that make every step fill them, on-demand fields need no computation of ours: they join
-    the Updater's feature bank (no per-step velocity copies) and read MuJoCo's own values."""
-    spec = mujoco.MjSpec.from_file(str(MODEL))
-    spec.add_sensor(type=mujoco.mjtSensor.mjSENS_SUBTREELINVEL, objtype=mujoco.mjtObj.mjOBJ_BODY, objname="base")
-    site = spec.body("base").add_site(name="imu")
-    spec.add_sensor(type=mujoco.mjtSensor.mjSENS_ACCELEROMETER, objtype=mujoco.mjtObj.mjOBJ_SITE, objname=site.name)
-    model = spec.compile()
-    suite = sensorcfg.loads(ON_DEMAND_SUITE)
-    physics = sensorcfg.Physics(model)
-    mujoco.mj_forward(model, physics.data)
-    updater = sensorcfg.Updater(suite.build(model), **suite.updater_kwargs(model))
-    updater.reset(physics, np.random.RandomState(0))
-    assert updater._bank is not None
-    assert {m.name for m in updater._bank.members()} == {*FIELDS, "feet_cfrc_ext", "base_xpos"}
-    for _ in range(3 * updater.physics_steps_per_control_step):
-        mujoco.mj_step(model, physics.data)
-        updater.update()
-    obs = updater.get_observation()
-    np.testing.assert_array_equal(obs["base_cacc"][0], physics.data.cacc[model.body("base").id])
-    assert np.any(obs["base_cacc"] != 0)
-    # the same model without those sensors computes them itself, one step before each sample
-    _, _, plain = _crouched_updater()
-    assert plain._bank is not None and "base_cacc" not in {m.name for m in plain._bank.members()}

@@ -408,7 +408,7 @@ def test_names_with_slashes_and_subtrees_on_an_attached_model() -> None:
 def test_alias_bombs_are_cut_short() -> None:
     lists = ["a0: &a0 [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]"]
     lists += [f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 10)}]" for i in range(1, 9)]  # 10**9 values
-    with pytest.raises(SuiteError, match="expands to more than 100000 values"):
+    with pytest.raises(SuiteError, match="expands to more than 100,000 values"):
         sensorcfg.loads("defaults:\n  x:\n" + "".join(f"    {line}\n" for line in lists) + "sensors: {}\n")
 
 

@@ -38,6 +38,15 @@ def text(physics):
     return "hello"
 
 
+_CALLS = [0]
+
+
+def grows_after_two_calls(physics):
+    """The shape changes between the environment's construction (two calls) and its first episode."""
+    _CALLS[0] += 1
+    return np.zeros(1 if _CALLS[0] <= 2 else 2)
+
+
 def ragged(physics):
     return [[1.0], [1.0, 2.0]]
 
@@ -82,6 +91,8 @@ sensors:
 @pytest.mark.parametrize("fn,message", [
     pytest.param("growing", r"generic sensor 'probe': returned shape \(3,\), but its first value had shape \(1,\); "
                             r"a sensor's value keeps one shape", id="changes-shape"),
+    pytest.param("grows_after_two_calls", r"generic sensor 'probe': returned shape \(2,\), but its first value had "
+                                          r"shape \(1,\)", id="changes-shape-before-the-first-episode"),
     pytest.param("text", r"generic sensor 'probe': returned 'hello' \(<U5 values\); a sensor returns numbers",
                  id="string"),
     pytest.param("ragged", r"generic sensor 'probe': returned \[\[1.0\], \[1.0, 2.0\]\], which is not an array of "
@@ -100,8 +111,8 @@ def test_a_generic_sensor_returning_a_bad_value_is_named_at_its_line(sensors_mod
             made[0].step(np.zeros(3))
     (problem,) = info.value.problems
     assert (problem.file, problem.line, problem.col, problem.loc) == ("suite.yaml", 8, 15, "sensors.probe.callable")
-    if made:  # a value that goes bad mid-episode ends the episode
-        assert made[0].step(np.zeros(3)).first()
+    if made and fn != "grows_after_two_calls":  # a value that goes bad mid-episode ends the episode
+        assert made[0].step(np.zeros(3)).first()  # (one that is bad from the start stays bad: each reset raises)
 
 
 def test_a_generic_observable_from_python_names_its_callable() -> None:

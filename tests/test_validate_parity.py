@@ -78,8 +78,6 @@ def test_validate_batch_reports_every_batch_problem_at_its_line(tmp_path: Path) 
     suite.write_text(BATCH_SUITE)
     assert validate(suite).returncode == 0  # the single-simulation Environment runs all of it
     assert validate(suite, "--batch").stdout.splitlines() == [
-        "s.yaml:6:12: error: sensors.cam.noise: a BatchEnvironment renders cameras per simulation and cannot apply "
-        "noise to them; remove it, or use the single-simulation Environment",
         "s.yaml:7:15: error: sensors.cam.interval: a BatchEnvironment renders cameras per simulation and cannot "
         "apply a drawn interval to them; remove it, or use the single-simulation Environment",
         "s.yaml:8:52: error: sensors.mass.constant: a BatchEnvironment reads mjData fields across simulations, not "
@@ -89,7 +87,7 @@ def test_validate_batch_reports_every_batch_problem_at_its_line(tmp_path: Path) 
         "s.yaml:10:54: error: sensors.custom.noise.0: a custom noise stage runs Python once per sample and "
         "simulation, which a BatchEnvironment cannot vectorise; express it with built-in stages, or use the "
         "single-simulation Environment",
-        "5 problems in 1 of 1 suite"]
+        "4 problems in 1 of 1 suite"]
 
 
 def test_batch_environment_on_a_suite_raises_the_same_positioned_problems(tmp_path: Path) -> None:
@@ -101,7 +99,7 @@ def test_batch_environment_on_a_suite_raises_the_same_positioned_problems(tmp_pa
     with pytest.raises(SuiteError) as e:
         sensorcfg.BatchEnvironment(str(MODELS / "arm.xml"), sensorcfg.load(suite), 2)
     assert [(p.line, p.loc) for p in e.value.problems] == [
-        (6, "sensors.cam.noise"), (7, "sensors.cam.interval"), (8, "sensors.mass.constant"), (9, "sensors.gen.kind"),
+        (7, "sensors.cam.interval"), (8, "sensors.mass.constant"), (9, "sensors.gen.kind"),
         (10, "sensors.custom.noise.0")]
 
 

@@ -8,16 +8,20 @@ the single-simulation channel's periodic plan (`FixedChannel.needed_phases`), so
 see is never rendered; a camera sampling every step with a buffer of 1 renders once per control step.
 
 Frames wait in a per-simulation ring laid out as `FixedChannel`'s, read with one fancy index for all
-simulations. Cameras with noise, corruptors, aggregators or drawn intervals or delays are rejected.
+simulations. Noise runs per simulation too, through a copy of the sensor's own pipeline keyed as the
+single simulation keys it (`draws.sensor_key`), so simulation i is that simulation's `Environment` to the
+bit. Corruptors, aggregators and drawn intervals or delays are rejected.
 """
 
 from __future__ import annotations
 
+import copy
 from typing import Any
 
 import mujoco
 import numpy as np
 
+from ..draws import sensor_key
 from ..physics import Physics
 from ..runtime.channels import FixedChannel
 
@@ -31,8 +35,14 @@ class _Camera:
         self.observable = observable  # one with `batch_reader` samples every due simulation in one call
         self.many: Any = None
         self.ring = np.zeros((nsim, channel.capacity, *channel.shape), channel.dtype)
+        self.noise = [copy.deepcopy(channel.noise) for _ in range(nsim)] if channel.noise is not None else None
         self.needed = np.zeros(channel.schedule.period, bool)
         self.needed[channel.schedule.needed_phases()] = True
+
+
+def _noisy(camera: _Camera, i: int | np.integer, frame: np.ndarray, step: int) -> np.ndarray:
+    """Simulation i's sample after its noise (the sample taken at `step`)."""
+    return frame if camera.noise is None else camera.noise[int(i)](np.asarray(frame), step)
 
 
 class BatchCameras:
@@ -80,16 +90,29 @@ class BatchCameras:
             ch = camera.ch
             due = np.flatnonzero(camera.needed[(t + k) % camera.needed.size] & active)
             if camera.many is not None and due.size:  # all due simulations at once (height scans)
-                camera.ring[due, ch.schedule.slot((t[due] + k) // ch.interval)] = camera.many(due)
+                frames = camera.many(due)
+                if camera.noise is None:
+                    camera.ring[due, ch.schedule.slot((t[due] + k) // ch.interval)] = frames
+                    continue
+                for row, i in enumerate(due):
+                    step = int(t[i]) + k
+                    camera.ring[i, ch.schedule.slot(step // ch.interval)] = _noisy(camera, i, frames[row], step)
                 continue
             for i in due:  # one get_data and one render per simulation: the documented cost
-                camera.ring[i, ch.schedule.slot((t[i] + k) // ch.interval)] = self._frame(i, camera)
+                step = int(t[i]) + k
+                camera.ring[i, ch.schedule.slot(step // ch.interval)] = _noisy(camera, i, self._frame(i, camera), step)
+
+    def reset_noise(self, i: int, entropy: list[int]) -> None:
+        """Simulation i's new episode keys for the noisy sensors, as the Updater keys them."""
+        for camera in self.cameras:
+            if camera.noise is not None:
+                camera.noise[i].reset(sensor_key(entropy, camera.ch.name), camera.ch.interval)
 
     def reset(self, ids: np.ndarray) -> None:
         """The reset frames of simulations `ids` (rendered after their physics reset)."""
         for camera in self.cameras:
             for i in ids:
-                frame = self._frame(i, camera)
+                frame = _noisy(camera, i, self._frame(i, camera), 0)
                 camera.ring[i] = frame if self.pad else 0
                 camera.ring[i, 0] = frame
 

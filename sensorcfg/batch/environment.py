@@ -110,12 +110,21 @@ def _check_arguments(nsim: Any, nthread: Any, reward_fn: Any, termination_fn: An
         raise ArgumentError(f"nthread must be a non-negative integer (0: every CPU), got {nthread!r}")
 
 
+def root_seed(seed: int | np.random.SeedSequence | None) -> np.random.SeedSequence:
+    """A batch's root seed as a SeedSequence (an integer is its entropy: any non-negative integer)."""
+    if isinstance(seed, np.random.SeedSequence):
+        return seed
+    if not (seed is None or (isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and seed >= 0)):
+        raise ArgumentError(f"seed must be None, a non-negative integer or a numpy SeedSequence; got {seed!r}")
+    return np.random.SeedSequence(seed)
+
+
 def sim_seed(seed: int | np.random.SeedSequence | None, i: int) -> np.random.SeedSequence:
     """Simulation i's seed in a batch seeded with `seed`: the SeedSequence child with spawn key i.
 
     `Environment(model, suite, seed=sim_seed(seed, i))` reproduces simulation i of the batch.
     """
-    root = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+    root = root_seed(seed)
     return np.random.SeedSequence(root.entropy, spawn_key=(*root.spawn_key, int(i)), pool_size=root.pool_size)
 
 
@@ -174,7 +183,7 @@ class BatchEnvironment(ControlLoop):
         # Reset samples come from each reset simulation's own MjData (get_data, then mj_forward unless the
         # batch is persistent), not from bound derived fields (only those read after a segment are bound).
         self._scratch = mujoco.MjData(self._model)
-        self._seed = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+        self._seed = root_seed(seed)
         self._random_states = [random_state_from(sim_seed(self._seed, i)) for i in range(self._nsim)]
         self._needs_reset = np.ones(self._nsim, bool)
         self._bad = np.zeros(self._nsim, np.int64)
@@ -217,7 +226,7 @@ class BatchEnvironment(ControlLoop):
 
     def seed(self, seed: int | np.random.SeedSequence | None) -> None:
         """Reseed every simulation (simulation i from `sim_seed(seed, i)`); the next step resets them all."""
-        self._seed = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+        self._seed = root_seed(seed)
         self._random_states = [random_state_from(sim_seed(self._seed, i)) for i in range(self._nsim)]
         self._updater.started[:] = False  # no episode to rewind in the new streams
         self._needs_reset[:] = True

@@ -123,7 +123,7 @@ class BatchUpdater:
         self.channels = [e.channel for e in ordered]
         self.noise = {i: BatchPipeline(e.channel.noise, self.nsim, e.name)
                       for i, e in enumerate(ordered) if e.channel.noise is not None}
-        self.noisy = bool(self.noise)
+        self.noisy = bool(self.noise) or any(e.channel.noise is not None for e in cameras)  # as the Updater draws
         fields = _fields(physics, self.channels)
         span = max((_random_span(e, substeps) for e in drawn), default=0)  # how long a drawn sample may wait
         stops = set().union(*(_camera_stops(cast(FixedChannel, e.channel), substeps) for e in cameras))
@@ -196,7 +196,7 @@ class BatchUpdater:
 
     @staticmethod
     def _check_camera(name: str, obs: Any, ch: Channel) -> None:
-        what = ("noise" if ch.noise is not None else "a corruptor" if getattr(obs, "corruptor", None) is not None
+        what = ("a corruptor" if getattr(obs, "corruptor", None) is not None
                 else "an aggregator" if ch.aggregator is not None
                 else "a drawn interval or delay" if not isinstance(ch, FixedChannel) else None)
         if what:
@@ -232,6 +232,8 @@ class BatchUpdater:
                 pipeline.reset(i, sensor_key(entropy or [], self.labels[c]))
             if self.timelines.specs:
                 self.timelines.start(i, rs)
+            if self.cameras is not None:
+                self.cameras.reset_noise(i, entropy or [])
         self.started[ids] = True
         values = self.flat.take(self.layout.reset_index[ids])  # (m, width): the reset sample
         zeros = np.zeros(ids.size, np.int64)

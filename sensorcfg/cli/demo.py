@@ -24,7 +24,7 @@ PREFIX = "sensorcfg-demo"
 EXAMPLES = """examples:
   sensorcfg demo                              spec, run and plot into the current folder
   sensorcfg demo --steps 500 --zero-actions
-  sensorcfg demo --prefix out/arm my_suite.yaml
+  sensorcfg demo --prefix arm my_suite.yaml
 
 The robot is driven by uniform random controls (seeded: --seed) so the signals move; --zero-actions
 lets it settle instead. Writes PREFIX.npz, PREFIX.json and PREFIX.png (PREFIX defaults to

@@ -8,7 +8,7 @@ Each is reported as the problem it is, at the line that passes it. docs/cli.md l
 from __future__ import annotations
 
 __all__ = ["MAX_FILE_BYTES", "MAX_DEPTH", "MAX_NODES", "MAX_INT_DIGITS", "MAX_SENSORS", "MAX_BUFFER", "MAX_OBSERVATION_BYTES",
-           "MAX_SCHEDULE_STEPS", "MAX_EXTENDS", "MAX_OVERRIDE_BYTES"]
+           "MAX_SCHEDULE_STEPS", "MAX_EXTENDS", "MAX_OVERRIDE_BYTES", "MAX_RAYS"]
 
 MAX_FILE_BYTES = 1 << 20  # one suite file (1 MiB)
 MAX_OVERRIDE_BYTES = 64 << 10  # one --set KEY=VALUE
@@ -20,3 +20,4 @@ MAX_BUFFER = 10_000  # samples a sensor's buffer keeps
 MAX_OBSERVATION_BYTES = 1 << 30  # one observation: buffer x one sample (a camera's frames), 1 GiB
 MAX_SCHEDULE_STEPS = 1_000_000  # physics steps of an interval, a delay or a control step
 MAX_EXTENDS = 32  # files in one chain of `extends`
+MAX_RAYS = 100_000  # rays of one height scan (a 1.6 x 1.0 m grid at 1 cm has 16,261)

@@ -17,7 +17,7 @@ from pydantic import (BaseModel, ConfigDict, Field, PlainSerializer, PlainValida
 from .noise import NoiseStage
 from .tables import GENERIC_KIND, HEIGHTSCAN_KIND, IMAGE_KINDS, aggregator_names
 from ..errors import quote
-from .limits import MAX_BUFFER, MAX_SCHEDULE_STEPS, MAX_SENSORS
+from .limits import MAX_BUFFER, MAX_RAYS, MAX_SCHEDULE_STEPS, MAX_SENSORS
 from .units import TIME_PATTERN, parse_time
 
 __all__ = ["CameraConfig", "ChoiceDraw", "DefaultsConfig", "OptionsConfig", "ScanConfig", "SensorConfig",
@@ -245,6 +245,15 @@ class ScanConfig(BaseModel):
 
     @model_validator(mode="after")
     def _whole_grid(self) -> ScanConfig:
+        per_axis = [extent / self.resolution + 1 for extent in self.size]
+        rays = per_axis[0] * per_axis[1] if self.pattern == "grid" else float(len(self.radii)) * self.count
+        if not rays <= MAX_RAYS:  # (also inf and nan: a resolution of 1e-300)
+            what = (f"{self.size[0]:g} x {self.size[1]:g} m every {self.resolution:g} m" if self.pattern == "grid"
+                    else f"{len(self.radii)} ring{'s' if len(self.radii) > 1 else ''} of {self.count} rays")
+            raise ValueError(f"{what} makes {rays:.3g} rays; a scan casts at most {MAX_RAYS:,}: use a coarser "
+                             "resolution, a smaller size or fewer rays")
+        if self.pattern != "grid":
+            return self
         for axis, extent in zip("xy", self.size):
             steps = extent / self.resolution
             if abs(steps - round(steps)) > 1e-9 * max(1.0, steps):

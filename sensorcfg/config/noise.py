@@ -16,201 +16,19 @@ import math
 import numbers
 import re
 from collections.abc import Callable, Mapping
-from typing import TYPE_CHECKING, Annotated, Any, ClassVar, Literal, TypeAlias, Union
+from typing import TYPE_CHECKING, Annotated, Any, ClassVar, Literal, Union
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, WrapValidator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, WrapValidator, model_validator
 from pydantic.json_schema import SkipJsonSchema
-from pydantic_core import InitErrorDetails, PydanticCustomError
+from pydantic_core import PydanticCustomError
 
 from ..errors import did_you_mean, quote
-from .units import DURATION_UNITS, RATE_UNITS
+from .parameters import (PER_VALUE, Duration, EpisodeUniform, Frequency, PerValue, Probability, Real, Std, Step,
+                         error_at, ordered, parse_quantity)
 
 __all__ = ["EpisodeUniform", "NoiseStage", "STAGES", "StageInfo", "IMAGE_STAGES", "parse_quantity"]
 
 _MODEL = ConfigDict(frozen=True, extra="forbid")
-
-
-class EpisodeUniform(BaseModel):
-    """A parameter drawn once per episode, uniformly from [low, high] (one value for every entry)."""
-
-    model_config = ConfigDict(frozen=True, extra="forbid")
-    uniform: tuple[float, float] = Field(description="[low, high]: the parameter is drawn from U(low, high) at "
-                                         "each reset.", examples=[[0.01, 0.03]])
-
-    @property
-    def low(self) -> float:
-        return self.uniform[0]
-
-    @property
-    def high(self) -> float:
-        return self.uniform[1]
-
-    def draw(self, rng: Any) -> float:
-        return self.low + (self.high - self.low) * float(rng.random())
-
-    def scaled(self, factor: float) -> EpisodeUniform:
-        return EpisodeUniform(uniform=(self.low * factor, self.high * factor))
-
-
-PerValue = Union[float, tuple[float, ...], EpisodeUniform]  # what a validated numeric parameter holds
-
-# -- numbers, per-value lists and quantities with units -----------------------------------------------
-
-_QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([^\d\s.+-][^\s]*)?\s*$", re.ASCII)
-
-
-def parse_quantity(value: Any, units: Mapping[str, float], what: str) -> float:
-    """A number in SI units from a number (already SI) or a string such as '50ms' or '20 Hz'.
-
-    Unit names come from the suite's units table (`config.units`); signs are accepted here so that a negative
-    duration is reported as out of range rather than as unreadable. Raises ValueError with the fix.
-    """
-    if isinstance(value, numbers.Real) and not isinstance(value, bool):
-        return float(value)
-    if isinstance(value, str):
-        match = _QUANTITY.match(value)
-        if match:
-            number, unit = match.groups()
-            if unit is None:
-                return float(number)
-            if unit in units:
-                return float(number) * units[unit]
-            lowered = {u.lower(): u for u in units}
-            hint = (f" (did you mean {lowered[unit.lower()]!r}?)" if unit.lower() in lowered
-                    else did_you_mean(unit, units))
-            raise ValueError(f"unknown unit {quote(unit)} in {quote(value)}{hint}; "
-                             f"{'an' if what[0] in 'aeiou' else 'a'} {what} takes {', '.join(units)}")
-    raise ValueError(f"expected a {what} such as {_EXAMPLE[what]!r} or a number "
-                     f"({_SI[what]}), got {quote(value)}")
-
-
-_EXAMPLE = {"duration": "50ms", "frequency": "20Hz", "angle": "0.5deg"}
-_SI = {"duration": "seconds", "frequency": "Hz", "angle": "radians"}
-
-
-@dataclasses.dataclass(frozen=True, eq=False)  # hashed by identity: it sits in type annotations
-class _Bound:
-    """What a numeric parameter accepts: its meaning (for messages), bounds, and units if a quantity."""
-
-    meaning: str
-    ge: float | None = None
-    gt: float | None = None
-    le: float | None = None
-    units: Mapping[str, float] | None = None
-    quantity: str = ""
-
-    def check(self, value: Any) -> float:
-        if self.units is not None:
-            x = parse_quantity(value, self.units, self.quantity)
-        elif isinstance(value, numbers.Real) and not isinstance(value, bool):
-            x = float(value)
-        else:
-            raise ValueError(f"expected a number, got {quote(value)}")
-        if not math.isfinite(x):
-            raise ValueError(f"expected a finite number, got {quote(value)}")
-        for bound, ok, op in ((self.gt, lambda b: x > b, ">"), (self.ge, lambda b: x >= b, ">="),
-                              (self.le, lambda b: x <= b, "<=")):
-            if bound is not None and not ok(bound):
-                raise ValueError(f"{self.meaning} must be {op} {bound:g}, got {quote(value)}")
-        return x
-
-    def __call__(self, value: Any, handler: Any, info: Any) -> PerValue:
-        """WrapValidator: a number, or a non-empty list of numbers (one per value); a tuple once valid; or
-        `{uniform: [low, high]}`, drawn per episode."""
-        if isinstance(value, EpisodeUniform):
-            return value
-        if isinstance(value, Mapping):
-            return self.episode(value)
-        if isinstance(value, (list, tuple)):
-            if not value:
-                raise PydanticCustomError("per_value", "an empty list gives no values; give a number or one "
-                                                       "entry per value of the observation")
-            errors = []
-            out = []
-            for i, item in enumerate(value):
-                try:
-                    out.append(self.check(item))
-                except ValueError as e:
-                    errors.append(InitErrorDetails(type=PydanticCustomError("per_value", str(e)), loc=(i,),
-                                                   input=item))
-            if errors:
-                raise ValidationError.from_exception_data("per-value parameter", errors)
-            return tuple(out)
-        try:
-            return self.check(value)
-        except ValueError as e:
-            raise PydanticCustomError("per_value", str(e)) from None
-
-
-    def episode(self, value: Mapping[Any, Any]) -> EpisodeUniform:
-        bounds = value.get("uniform") if set(value) == {"uniform"} else None
-        if not isinstance(bounds, (list, tuple)) or len(bounds) != 2:
-            raise PydanticCustomError("per_value", "a parameter drawn per episode is written {uniform: [low, high]}; "
-                                      f"got {dict(value)!r}")
-        try:
-            low, high = self.check(bounds[0]), self.check(bounds[1])
-        except ValueError as e:
-            raise PydanticCustomError("per_value", str(e)) from None
-        if low > high:
-            raise PydanticCustomError("per_value", f"uniform bounds must satisfy low <= high; got [{low:g}, {high:g}]: "
-                                      "swap them")
-        return EpisodeUniform(uniform=(low, high))
-
-
-def _per_value(meaning: str, **bounds: Any) -> Any:
-    """The annotated type of a per-value parameter: schema `number | number[] | {uniform: [lo, hi]}`,
-    validated by `_Bound`."""
-    constraints = {k: v for k, v in bounds.items() if k in ("ge", "gt", "le")}
-    if "units" in bounds:
-        item: Any = Union[float, str]
-    else:
-        item = Annotated[float, Field(**constraints)]
-    return Annotated[Union[item, Annotated[list[item], Field(min_length=1)], EpisodeUniform],
-                     WrapValidator(_Bound(meaning, **bounds))]
-
-
-if TYPE_CHECKING:  # what a validated field holds; pydantic reads the annotated types below
-    Real: TypeAlias = PerValue
-    Std: TypeAlias = PerValue
-    Probability: TypeAlias = PerValue
-    Step: TypeAlias = PerValue
-    Duration: TypeAlias = PerValue
-    Frequency: TypeAlias = PerValue
-else:
-    Real = _per_value("the value")
-    Std = _per_value("a standard deviation", ge=0)
-    Probability = _per_value("a probability", ge=0, le=1)
-    Step = _per_value("a quantisation step", gt=0, ge=1e-100)  # smaller: value / step overflows to inf
-    Duration = _per_value("a correlation time", gt=0, units=DURATION_UNITS, quantity="duration")
-    Frequency = _per_value("a cutoff frequency", gt=0, units=RATE_UNITS, quantity="frequency")
-
-_PER_VALUE = ("A number, or a list with one entry per value of the observation (or one per entry of its last "
-              "axis, e.g. per colour channel).")
-
-
-def _ordered(low: PerValue | None, high: PerValue | None, names: tuple[str, str]) -> None:
-    """low <= high entry by entry where the two can be compared (equal lengths, or one a number)."""
-    if low is None or high is None or isinstance(low, EpisodeUniform) or isinstance(high, EpisodeUniform):
-        return
-    lows = low if isinstance(low, tuple) else None
-    highs = high if isinstance(high, tuple) else None
-    if lows is not None and highs is not None and len(lows) != len(highs):
-        return  # may broadcast differently (per value vs per last axis); checked at binding time
-    n = len(lows or highs or (0,))
-    for i in range(n):
-        lo = lows[i] if lows is not None else low
-        hi = highs[i] if highs is not None else high
-        if lo > hi:  # type: ignore[operator]
-            at = f" (entry {i})" if n > 1 or lows is not None or highs is not None else ""
-            a, b = names
-            raise _at(a, "noise_order", f"{a} must not exceed {b}{at}: {a} is {lo:g} and {b} is {hi:g}; "
-                      "swap them", lo)
-
-
-def _at(field: str, kind: str, message: str, value: Any) -> ValidationError:
-    """A stage-level check reported at one of the stage's fields (so the YAML position is that key's)."""
-    detail = InitErrorDetails(type=PydanticCustomError(kind, message), loc=(field,), input=value)
-    return ValidationError.from_exception_data("NoiseStage", [detail])
 
 
 def _type(name: str, what: str) -> Any:
@@ -230,12 +48,12 @@ class GaussianStage(BaseModel):
 
     model_config = _MODEL
     type: Literal["gaussian"] = _type("gaussian", "Additive white noise drawn from N(mean, std^2) per value.")
-    mean: Real = Field(0.0, description="Mean of the noise, in the sensor's units. " + _PER_VALUE,
+    mean: Real = Field(0.0, description="Mean of the noise, in the sensor's units. " + PER_VALUE,
                        examples=[0.0, [0.0, 0.0, 0.01]])
     std: Std | None = Field(None, description="Standard deviation of the noise per sample, in the sensor's units. "
-                            + _PER_VALUE, examples=[0.01, [0.01, 0.01, 0.02]])
+                            + PER_VALUE, examples=[0.01, [0.01, 0.01, 0.02]])
     density: Std | None = Field(None, description="Noise density instead of `std`: units per square-root hertz; "
-                                "std per sample = density * sqrt(the sensor's sample rate). " + _PER_VALUE,
+                                "std per sample = density * sqrt(the sensor's sample rate). " + PER_VALUE,
                                 examples=[0.0003])
 
     @model_validator(mode="after")
@@ -263,12 +81,12 @@ class UniformStage(BaseModel):
 
     model_config = _MODEL
     type: Literal["uniform"] = _type("uniform", "Additive white noise drawn from U(low, high) per value.")
-    low: Real = Field(description="Lower end of the noise, in the sensor's units. " + _PER_VALUE, examples=[-0.05])
-    high: Real = Field(description="Upper end of the noise, in the sensor's units. " + _PER_VALUE, examples=[0.05])
+    low: Real = Field(description="Lower end of the noise, in the sensor's units. " + PER_VALUE, examples=[-0.05])
+    high: Real = Field(description="Upper end of the noise, in the sensor's units. " + PER_VALUE, examples=[0.05])
 
     @model_validator(mode="after")
     def _check(self) -> UniformStage:
-        _ordered(self.low, self.high, ("low", "high"))
+        ordered(self.low, self.high, ("low", "high"))
         return self
 
 
@@ -278,12 +96,12 @@ class _EpisodeDraw(BaseModel):
     model_config = _MODEL
     _centre: ClassVar[float] = 0.0
     mean: Real | None = Field(None, description="Mean of the normal draw (give `std` too, or alone for a "
-                              "constant). " + _PER_VALUE, examples=[0.0])
-    std: Std | None = Field(None, description="Standard deviation of the normal draw. " + _PER_VALUE,
+                              "constant). " + PER_VALUE, examples=[0.0])
+    std: Std | None = Field(None, description="Standard deviation of the normal draw. " + PER_VALUE,
                             examples=[0.02])
-    low: Real | None = Field(None, description="Lower end of the uniform draw (with `high`). " + _PER_VALUE,
+    low: Real | None = Field(None, description="Lower end of the uniform draw (with `high`). " + PER_VALUE,
                              examples=[-0.05])
-    high: Real | None = Field(None, description="Upper end of the uniform draw (with `low`). " + _PER_VALUE,
+    high: Real | None = Field(None, description="Upper end of the uniform draw (with `low`). " + PER_VALUE,
                               examples=[0.05])
 
     @model_validator(mode="after")
@@ -291,7 +109,7 @@ class _EpisodeDraw(BaseModel):
         normal = self.mean is not None or self.std is not None
         uniform = self.low is not None or self.high is not None
         if normal and uniform:
-            raise _at("low" if self.low is not None else "high", "noise_draw", "give either mean/std (a normal "
+            raise error_at("low" if self.low is not None else "high", "noise_draw", "give either mean/std (a normal "
                       "draw) or low/high (a uniform draw), not both", self.low)
         if not normal and not uniform:
             raise PydanticCustomError("noise_draw", "give std (with an optional mean) for a normal draw, or low "
@@ -300,7 +118,7 @@ class _EpisodeDraw(BaseModel):
             missing = "high" if self.high is None else "low"
             raise PydanticCustomError("noise_draw", f"a uniform draw needs both low and high; {missing} is "
                                       "missing")
-        _ordered(self.low, self.high, ("low", "high"))
+        ordered(self.low, self.high, ("low", "high"))
         return self
 
     @property
@@ -337,11 +155,11 @@ class RandomWalkStage(BaseModel):
     model_config = _MODEL
     type: Literal["random_walk"] = _type("random_walk", "A drifting additive bias (Gauss-Markov or Brownian).")
     std: Std = Field(description="Stationary standard deviation of the bias with `correlation_time`; without "
-                     "it, the Brownian walk's standard deviation per square-root second. " + _PER_VALUE,
+                     "it, the Brownian walk's standard deviation per square-root second. " + PER_VALUE,
                      examples=[0.01])
     correlation_time: Duration | None = Field(
         None, description="Correlation time of the Gauss-Markov process: a duration such as '2s' or '500ms', "
-        "or a number of seconds. Omit for a Brownian walk. " + _PER_VALUE, examples=["2s", 0.5])
+        "or a number of seconds. Omit for a Brownian walk. " + PER_VALUE, examples=["2s", 0.5])
 
 
 class QuantizeStage(BaseModel):
@@ -349,7 +167,7 @@ class QuantizeStage(BaseModel):
 
     model_config = _MODEL
     type: Literal["quantize"] = _type("quantize", "Rounds each value to the nearest multiple of `step`.")
-    step: Step = Field(description="Resolution, in the sensor's units (> 0). " + _PER_VALUE,
+    step: Step = Field(description="Resolution, in the sensor's units (> 0). " + PER_VALUE,
                        examples=[0.001, [0.01, 0.01, 0.05]])
 
 
@@ -358,14 +176,14 @@ class ClipStage(BaseModel):
 
     model_config = _MODEL
     type: Literal["clip"] = _type("clip", "Saturates each value to [min, max].")
-    min: Real | None = Field(None, description="Lowest value the sensor reports. " + _PER_VALUE, examples=[-10.0])
-    max: Real | None = Field(None, description="Highest value the sensor reports. " + _PER_VALUE, examples=[10.0])
+    min: Real | None = Field(None, description="Lowest value the sensor reports. " + PER_VALUE, examples=[-10.0])
+    max: Real | None = Field(None, description="Highest value the sensor reports. " + PER_VALUE, examples=[10.0])
 
     @model_validator(mode="after")
     def _check(self) -> ClipStage:
         if self.min is None and self.max is None:
             raise PydanticCustomError("noise_clip", "clip needs min, max or both")
-        _ordered(self.min, self.max, ("min", "max"))
+        ordered(self.min, self.max, ("min", "max"))
         return self
 
 
@@ -387,7 +205,7 @@ class DropoutStage(BaseModel):
     @model_validator(mode="after")
     def _check(self) -> DropoutStage:
         if isinstance(self.p, tuple) and self.per == "sample":
-            raise _at("p", "noise_dropout", "a list of p (one per value) needs `per: value`; a whole "
+            raise error_at("p", "noise_dropout", "a list of p (one per value) needs `per: value`; a whole "
                       "sample is lost with one probability", self.p)
         return self
 
@@ -397,10 +215,10 @@ class OutlierStage(BaseModel):
 
     model_config = _MODEL
     type: Literal["outlier"] = _type("outlier", "Adds N(0, scale^2) to a value with probability p.")
-    p: Probability = Field(description="Probability that a value is an outlier, in [0, 1]. " + _PER_VALUE,
+    p: Probability = Field(description="Probability that a value is an outlier, in [0, 1]. " + PER_VALUE,
                            examples=[0.001])
     scale: Std = Field(description="Standard deviation of an outlier's error, in the sensor's units. "
-                       + _PER_VALUE, examples=[1.0])
+                       + PER_VALUE, examples=[1.0])
 
 
 class LowpassStage(BaseModel):
@@ -413,7 +231,7 @@ class LowpassStage(BaseModel):
     model_config = _MODEL
     type: Literal["lowpass"] = _type("lowpass", "First-order low-pass filter with cutoff frequency `cutoff`.")
     cutoff: Frequency = Field(description="Cutoff (-3 dB) frequency: a frequency such as '20Hz' or a number of "
-                              "Hz. " + _PER_VALUE, examples=["20Hz", 5.0])
+                              "Hz. " + PER_VALUE, examples=["20Hz", 5.0])
 
 
 _ANGLE_UNITS = {"rad": 1.0, "deg": math.pi / 180}
@@ -529,7 +347,7 @@ def _dispatch(value: Any, handler: Any, info: Any) -> Any:
     row = STAGES.get(kind) if isinstance(kind, str) else None
     if row is None:
         hint = did_you_mean(kind, STAGES) if isinstance(kind, str) else ""
-        raise _at("type", "noise_type", f"unknown noise stage type {quote(kind)}{hint}; stage types are "
+        raise error_at("type", "noise_type", f"unknown noise stage type {quote(kind)}{hint}; stage types are "
                   f"{', '.join(STAGES)}", kind)
     return row.model.model_validate(value, context=info.context)
 

@@ -181,7 +181,7 @@ class _Builder:
         if self.count > limits.MAX_NODES:
             if self.count == limits.MAX_NODES + 1:
                 self.problems.append(self.pos(node).problem(
-                    f"the file expands to more than {limits.MAX_NODES} values (through aliases); write it out plainly",
+                    f"the file expands to more than {limits.MAX_NODES:,} values (through aliases); write it out plainly",
                     dotted(path)))
             return None
         if len(path) > limits.MAX_DEPTH:  # aliases inside aliases nest deeper than the text does

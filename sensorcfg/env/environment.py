@@ -35,9 +35,18 @@ TerminationFn = Callable[[Physics], bool]
 InitializeFn = Callable[[Physics, np.random.RandomState], None]
 # copy.copy, copy.deepcopy and pickle: sensors hold their own physics' MjData (and GL renderers), so a copy
 # would read the original's physics; say so instead of returning one.
-NOT_COPYABLE = ("a {0} cannot be copied or pickled: its sensors are bound to its own MjData and renderers, so a "
-                "copy would read the original's physics; build another {0} from the same model and suite (and "
-                "copy the state with mujoco.mj_copyData(new.physics.data, model, old.physics.data) if needed)")
+NOT_COPYABLE = ("{0} cannot be copied or pickled: its sensors are bound to its own MjData and renderers, so a "
+                "copy would read the original's physics; build another {1} from the same model and suite{2}")
+_HOW_TO_COPY_STATE = {
+    "Environment": " (and copy the state with mujoco.mj_copyData(new.physics.data, model, old.physics.data) if "
+                   "needed)",
+    "BatchEnvironment": ""}
+
+
+def not_copyable(name: str) -> str:
+    """The message for copying or pickling an environment of class `name`."""
+    article = "an" if name[:1].lower() in "aeiou" else "a"
+    return NOT_COPYABLE.format(f"{article} {name}", name, _HOW_TO_COPY_STATE.get(name, ""))
 
 
 def random_state_from(seed: int | np.random.SeedSequence | np.random.RandomState | None) -> np.random.RandomState:
@@ -48,6 +57,10 @@ def random_state_from(seed: int | np.random.SeedSequence | np.random.RandomState
         return seed
     if isinstance(seed, np.random.SeedSequence):
         return np.random.RandomState(np.random.MT19937(seed))
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer))
+                             or not 0 <= seed <= 2**32 - 1):
+        raise ArgumentError(f"seed must be None, an integer from 0 to 2**32 - 1, a numpy SeedSequence or "
+                            f"RandomState; got {seed!r}")
     return np.random.RandomState(seed)
 
 
@@ -124,7 +137,7 @@ def model_and_observables(model: Any, suite: Any, batch: bool = False
     if isinstance(model, (str, os.PathLike, mujoco.MjSpec)):
         if not isinstance(model, mujoco.MjSpec):
             load_model(model)  # a missing or broken file: the same error as without a suite
-        model = suite.compile(model)
+        model = suite.compile(model, batch=batch)
     model = load_model(model)
     observables = suite.build(model, batch=True) if batch else suite.build(model)
     return model, observables, {**suite.updater_kwargs(model), "keyframe": getattr(suite.options, "keyframe", None)}
@@ -169,13 +182,13 @@ class ControlLoop:
                                   name="discount")
 
     def __reduce_ex__(self, protocol: Any) -> Any:
-        raise TypeError(NOT_COPYABLE.format(type(self).__name__))
+        raise TypeError(not_copyable(type(self).__name__))
 
     def __copy__(self) -> Any:
-        raise TypeError(NOT_COPYABLE.format(type(self).__name__))
+        raise TypeError(not_copyable(type(self).__name__))
 
     def __deepcopy__(self, memo: Any) -> Any:
-        raise TypeError(NOT_COPYABLE.format(type(self).__name__))
+        raise TypeError(not_copyable(type(self).__name__))
 
 
 class Environment(ControlLoop, dm_env.Environment):

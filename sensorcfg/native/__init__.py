@@ -1,7 +1,7 @@
 """MuJoCo's own sensor types as suite kinds, added to a model through MjSpec (see `table`)."""
 
 from .bind import bind_native, carry_hint
-from .compile import compile_model, native_names
+from .compile import compile_model, native_names, reads_on_demand
 from .plan import native_row, sensor_name
 from .table import NATIVE
 

@@ -18,10 +18,12 @@ import mujoco
 
 from ..config.models import SensorConfig
 from ..errors import SuiteError
+from ..kinds import ON_DEMAND
+from ..observables.feature import computed_by_model
 from ..selection import split_selector
 from .plan import Added, native_row, plan_sensor
 
-__all__ = ["Compiled", "compile_model", "native_names"]
+__all__ = ["Compiled", "compile_model", "native_names", "reads_on_demand"]
 
 Compiled = tuple[mujoco.MjModel, dict[str, str]]  # the model, and MuJoCo's message per refused suite sensor
 _ELEMENT = re.compile(r"sensorcfg:([^:\s']+):\d+")
@@ -73,15 +75,45 @@ def _add(spec: mujoco.MjSpec, added: Added) -> list[Any]:
     return made
 
 
-def compile_model(source: Any, sensors: Mapping[str, SensorConfig]) -> Compiled:
-    """`source` (an MJCF path or an MjSpec, which is copied) compiled with the native sensors of `sensors`.
+# the MuJoCo sensor whose presence makes every step fill an on-demand family (`kinds.ON_DEMAND`'s flag)
+_ENABLERS = {"flg_rnepost": ("ACCELEROMETER", "SITE"), "flg_subtreevel": ("SUBTREELINVEL", "BODY")}
+
+
+def reads_on_demand(sensors: Mapping[str, SensorConfig]) -> bool:
+    """Whether a suite reads a field MuJoCo computes on demand only (cfrc_ext, cacc, subtree_linvel, ...)."""
+    return any(cfg.kind in ON_DEMAND for cfg in sensors.values())
+
+
+def _enable_on_demand(spec: mujoco.MjSpec, plain: mujoco.MjModel, sensors: Mapping[str, SensorConfig]) -> bool:
+    """For a batch, whose rollout cannot call MuJoCo's on-demand functions between substeps: one sensor per
+    family the suite reads and the model does not compute (an accelerometer at a world site, a subtree
+    velocity of the world), so that every step fills it, as MuJoCo does for a model with such sensors.
+    They change no dynamics, and the values equal those the single simulation computes on demand."""
+    added = False
+    for od in {ON_DEMAND[cfg.kind] for cfg in sensors.values() if cfg.kind in ON_DEMAND}:
+        if computed_by_model(plain, od):
+            continue
+        sensor_type, objtype = _ENABLERS[od.flag]
+        objname = "world"
+        if objtype == "SITE":
+            objname = spec.worldbody.add_site(name=f"sensorcfg-{od.flag}").name
+        spec.add_sensor(name=f"sensorcfg-{od.flag}", type=_enum(mujoco.mjtSensor, "mjSENS_", sensor_type),
+                        objtype=_enum(mujoco.mjtObj, "mjOBJ_", objtype), objname=objname)
+        added = True
+    return added
+
+
+def compile_model(source: Any, sensors: Mapping[str, SensorConfig], batch: bool = False) -> Compiled:
+    """`source` (an MJCF path or an MjSpec, which is copied) compiled with the native sensors of `sensors`
+    (and, for a batch, the sensors that make MuJoCo fill the on-demand fields the suite reads).
 
     Raises ValueError when MuJoCo cannot read or compile the file itself.
     """
     spec = _spec(source)
     plain = spec.compile()
     names = native_names(sensors)
-    if not names:
+    enabled = batch and _enable_on_demand(spec, plain, sensors)
+    if not names and not enabled:
         return plain, {}
     made: dict[str, list[Any]] = {}
     for name in names:

@@ -2,7 +2,9 @@
 bank, the batch and the suite schema.
 
 Each reduces a buffer over its first axis. `preserves_bounds` says whether a bounded spec stays bounded
-after aggregation: min, max, mean and median of values within bounds stay within them; a sum does not.
+after aggregation: min, max and median of values within bounds stay within them; a sum does not; a mean
+does up to rounding (the mean of three 0.1s is 0.1 + 1 ulp), so its bounds widen by the rounding's
+worst case (`aggregated_bounds`), and a spec holds every value the reads return.
 `reduce` is the same reduction written for the bank and the batch (a stacked group of buffers, reduced once
 per group; `reduce(x, out)` writes into `out`), bit-identical to numpy's (and so dm_control's) reduction along axis 0: numpy adds rows in order
 and divides the sum by the count; a median is the middle value, or the mean of the two middle values.
@@ -18,7 +20,8 @@ from typing import Any, NamedTuple, cast
 
 import numpy as np
 
-__all__ = ["AGGREGATORS", "Aggregator", "FAMILIES", "Family", "builtin", "family", "get_aggregator", "preserves_bounds"]
+__all__ = ["AGGREGATORS", "Aggregator", "FAMILIES", "Family", "aggregated_bounds", "builtin", "family", "get_aggregator",
+           "preserves_bounds"]
 
 
 def _mean(x: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
@@ -111,6 +114,22 @@ def get_aggregator(value: str | Callable[[np.ndarray], Any] | None,
     raise SuiteError(
         f"{owner + ': ' if owner else ''}unknown aggregator {value!r}{did_you_mean(str(value), AGGREGATORS)}; "
         f"use one of {', '.join(AGGREGATORS)}, a callable, or none")
+
+
+def _rounding(bounds: tuple[Any, Any], count: int) -> tuple[Any, Any]:
+    """Bounds of a float mean of `count` values within `bounds`: the rows are summed one after another,
+    each addition off by at most half an ulp of the running sum, then divided, so the mean is off by less
+    than count x eps x the largest magnitude."""
+    low, high = (np.asarray(b, dtype=np.float64) for b in bounds)
+    slack = count * np.finfo(np.float64).eps * np.maximum(np.abs(low), np.abs(high))
+    return low - slack, high + slack
+
+
+def aggregated_bounds(aggregator: object, bounds: tuple[Any, Any] | None, count: int) -> tuple[Any, Any] | None:
+    """The bounds an aggregated value keeps: None when the aggregator does not preserve them."""
+    if bounds is None or not preserves_bounds(aggregator):
+        return None
+    return _rounding(bounds, count) if builtin(aggregator) is AGGREGATORS["mean"] else bounds
 
 
 def preserves_bounds(aggregator: object) -> bool:

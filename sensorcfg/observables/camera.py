@@ -20,7 +20,7 @@ import numpy as np
 from dm_env import specs
 
 from .. import _gl
-from ..errors import SuiteError, did_you_mean
+from ..errors import SuiteError, UnsupportedError, did_you_mean
 from ..physics import raw_structs
 from .base import Observable
 
@@ -116,7 +116,7 @@ def _renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer
         raise SuiteError(problem)
     with _LOCK:
         if _gl.import_failure is not None:
-            raise SuiteError(_gl.gl_error())
+            raise UnsupportedError(_gl.gl_error())
         try:
             _follow_mujoco_gl()
             with warnings.catch_warnings():
@@ -124,7 +124,7 @@ def _renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer
                 with _gl.current_restored(_context_class()):
                     renderer = mujoco.Renderer(model, height=height, width=width)
         except Exception as e:  # noqa: BLE001 - no usable GL: ImportError, FatalError, EGLError, no Renderer...
-            raise SuiteError(_gl.gl_error(e)) from None
+            raise UnsupportedError(_gl.gl_error(e)) from None
         _RENDERERS.setdefault(model, {})[key] = renderer
         ended = [pool.pop(k) for pool in list(_RENDERERS.values()) for k in list(pool) if not k[2].is_alive()]
     _close(ended)

@@ -105,28 +105,26 @@ class OnDemandCompute:
             self.function(self.model, data)
 
 
-# per model: (flag, disableflags, enableflags) -> whether a forward pass leaves the flag set
-_FILLED_BY_SENSORS: weakref.WeakKeyDictionary[mujoco.MjModel, dict[tuple[str, int, int], bool]] = (
-    weakref.WeakKeyDictionary())
+_COMPUTED_BY_MODEL: weakref.WeakKeyDictionary[mujoco.MjModel, dict[str, bool]] = weakref.WeakKeyDictionary()
 
 
-def filled_every_step(model: mujoco.MjModel, spec: OnDemand) -> bool:
-    """Whether the model's own sensors make every forward pass (so every step) fill the fields of `spec`:
-    mj_forward leaves MuJoCo's flag set. Checked once per model and option flags, on data of its own."""
-    key = (spec.flag, int(model.opt.disableflags), int(model.opt.enableflags))
-    known = _FILLED_BY_SENSORS.setdefault(model, {})
-    if key not in known:
+def computed_by_model(model: mujoco.MjModel, spec: OnDemand) -> bool:
+    """Whether every `mj_step` and `mj_forward` of `model` fills the field itself (its own sensors need it:
+    an accelerometer or force sensor runs mj_rnePostConstraint, a subtreelinvel sensor mj_subtreeVel), as
+    MuJoCo's flag shows after a forward pass. Then the field is read as it is, like any other."""
+    known = _COMPUTED_BY_MODEL.setdefault(model, {})
+    if spec.flag not in known:
         data = mujoco.MjData(model)
         mujoco.mj_forward(model, data)
-        known[key] = bool(getattr(data, spec.flag, False))
-    return known[key]
+        known[spec.flag] = bool(getattr(data, spec.flag, False))
+    return known[spec.flag]
 
 
 def on_demand(model: mujoco.MjModel, data: mujoco.MjData, field: str) -> OnDemandCompute | None:
     """The computation a field MuJoCo fills only on demand needs before it is read; None for other fields
-    and where the model's own sensors fill it at every step (then it is read as any field, as in a batch)."""
+    and where the model's own sensors make MuJoCo fill it at every step."""
     spec = ON_DEMAND.get(field)
-    return None if spec is None or filled_every_step(model, spec) else OnDemandCompute(model, data, spec)
+    return None if spec is None or computed_by_model(model, spec) else OnDemandCompute(model, data, spec)
 
 
 def batch_on_demand_problem(model: mujoco.MjModel, field: str) -> str | None:
@@ -134,12 +132,13 @@ def batch_on_demand_problem(model: mujoco.MjModel, field: str) -> str | None:
     simulation in C and records after each substep, so a field MuJoCo computes on demand is recorded as
     zeros unless the model's own sensors make every step compute it (mj_forward then leaves the flag set)."""
     spec = ON_DEMAND.get(field)
-    if spec is None or filled_every_step(model, spec):
+    if spec is None or computed_by_model(model, spec):
         return None
     return (f"{field} is filled by {spec.function} only when something asks for it, and a BatchEnvironment's "
-            "rollout cannot call it between substeps (it would read zeros); use the single-simulation "
-            "Environment, or give the model a sensor that needs it (an accelerometer or force sensor for "
-            "cacc/cfrc_*, a subtreelinvel or subtreeangmom sensor for subtree_*)")
+            "rollout cannot call it between substeps (it would read zeros); give BatchEnvironment the model's "
+            "file (it then adds a sensor that makes MuJoCo fill it), give the model a sensor that needs it "
+            "(an accelerometer or force sensor for cacc/cfrc_*, a subtreelinvel sensor for subtree_*), or use "
+            "the single-simulation Environment")
 
 
 class SyncingFieldReader(FieldReader):

@@ -1,8 +1,9 @@
 """An observable defined by any `callable(physics)`.
 
 Its values are checked as they come, since nothing else knows what the callable returns: each must be an
-array of numbers (bool, integer or float) with the shape of the first value since the observable was bound,
-and a dtype that value's dtype holds without loss (an integer sensor may not start returning fractions). A
+array of numbers (bool, integer or float) with the shape of the observable's first value (whichever
+episode or binding took it: an environment's spec comes from that value), and a dtype that value's dtype
+holds without loss (an integer sensor may not start returning fractions). A
 value that breaks this is a SuiteError naming the sensor (at its suite line when built from a suite),
 rather than a numpy error deep inside a buffer.
 """
@@ -37,6 +38,7 @@ class Generic(Observable):
             raise TypeError(f"Generic needs a callable, got {type(raw_observation_callable).__name__}")
         self._raw_callable = raw_observation_callable
         self._origin = origin
+        self._first: list[np.ndarray] = []  # the first value ever: the shape and dtype every value keeps
         super().__init__(update_interval, buffer_size, delay, aggregator, corruptor)
 
     def __repr__(self) -> str:
@@ -51,7 +53,7 @@ class Generic(Observable):
 
     def _callable(self, physics: Any) -> Callable[[], Any]:
         raw = self._raw_callable
-        first: list[np.ndarray] = []  # the first value since binding: the shape and dtype to keep
+        first = self._first
 
         def sample() -> np.ndarray:
             value = raw(physics)

@@ -17,7 +17,7 @@ from dm_env import specs
 
 from ..draws import episode_entropy
 from ..errors import ArgumentError, SuiteError
-from ..observables.aggregators import preserves_bounds
+from ..observables.aggregators import aggregated_bounds
 from ..noise.bounds import noisy_bounds
 from .mujoco_structs import structs_of as raw_structs
 from .bank import BankMember, FeatureBank, buffer_view, fields_of, qualifies
@@ -305,8 +305,7 @@ def observation_spec(name: str, observable: Any, ch: _Reader) -> specs.Array:
     if aggregator is not None:
         aggregated = np.asarray(aggregator(np.zeros(ch.buffered_shape, dtype=ch.dtype)))
         shape, dtype = aggregated.shape, aggregated.dtype
-        if not preserves_bounds(aggregator):
-            bounds = None
+        bounds = aggregated_bounds(aggregator, bounds, ch.buffered_shape[0] if ch.buffered_shape else 1)
     if bounds is not None:
         return specs.BoundedArray(shape=shape, dtype=dtype, minimum=bounds[0], maximum=bounds[1], name=name)
     return specs.Array(shape=shape, dtype=dtype, name=name)
