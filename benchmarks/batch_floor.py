@@ -19,6 +19,10 @@ fields next to it in the last rows. Each control step, every variant runs from t
   native sensordata         + `sensordata` recorded after every substep, and one take of the suite's values
   native sensordata, last   `sensordata` bound instead (copied out once per call: only the last substep)
   native + qacc, cfrc_ext   sensordata, qacc and cfrc_ext after every substep, and one take
+  hybrid physics            "hybrid": the model with sensors only for the suite's values of wide fields that a
+                            sensor copies exactly (xquat of the torso, the head site's xmat, subtree_com),
+                            recording nothing (binding what the environment binds)
+  hybrid fields             the environment's fields without those three, sensordata included, and one take
 
 Prints medians of environment steps per second and each variant's cost over `physics`.
 
@@ -52,8 +56,7 @@ S = mujoco.mjtSensor
 O = mujoco.mjtObj
 
 
-def native_model(model_xml: str, assets: dict[str, bytes]) -> mujoco.MjModel:
-    """The humanoid with a MuJoCo sensor for each value of the suite that MuJoCo has a sensor type for."""
+def _spec(model_xml: str, assets: dict[str, bytes]) -> mujoco.MjSpec:
     folder = tempfile.mkdtemp()
     for name, content in assets.items():  # includes are read from files next to the model
         path = os.path.join(folder, name)
@@ -62,7 +65,12 @@ def native_model(model_xml: str, assets: dict[str, bytes]) -> mujoco.MjModel:
             f.write(content)
     with open(os.path.join(folder, "humanoid.xml"), "w") as f:
         f.write(model_xml)
-    spec = mujoco.MjSpec.from_file(os.path.join(folder, "humanoid.xml"))
+    return mujoco.MjSpec.from_file(os.path.join(folder, "humanoid.xml"))
+
+
+def native_model(model_xml: str, assets: dict[str, bytes]) -> mujoco.MjModel:
+    """The humanoid with a MuJoCo sensor for each value of the suite that MuJoCo has a sensor type for."""
+    spec = _spec(model_xml, assets)
 
     def add(kind: int, objtype: int, name: str) -> None:
         spec.add_sensor(type=kind, objtype=objtype, objname=name)
@@ -87,6 +95,21 @@ def native_model(model_xml: str, assets: dict[str, bytes]) -> mujoco.MjModel:
     return spec.compile()
 
 
+def hybrid_model(model_xml: str, assets: dict[str, bytes]) -> mujoco.MjModel:
+    """The humanoid with sensors only where the suite reads a few values of a wide field and a MuJoCo sensor
+    copies exactly those values: the torso's xquat (framequat of its frame), the head site's xmat (its
+    three axes) and the torso's subtree_com (subtreecom)."""
+    spec = _spec(model_xml, assets)
+    spec.add_sensor(type=S.mjSENS_FRAMEQUAT, objtype=O.mjOBJ_XBODY, objname="torso")
+    for axis in (S.mjSENS_FRAMEXAXIS, S.mjSENS_FRAMEYAXIS, S.mjSENS_FRAMEZAXIS):
+        spec.add_sensor(type=axis, objtype=O.mjOBJ_SITE, objname="head")
+    spec.add_sensor(type=S.mjSENS_SUBTREECOM, objtype=O.mjOBJ_BODY, objname="torso")
+    return spec.compile()
+
+
+HYBRID_FIELDS = ("xquat", "site_xmat", "subtree_com")  # what the hybrid model's sensors stand for
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--nsim", type=int, nargs="+", default=[512])
@@ -96,15 +119,16 @@ def main() -> None:
     args = parser.parse_args()
     xml, assets = humanoid_xml()
     model = mujoco.MjModel.from_xml_string(xml, assets)
-    native = native_model(xml, assets)
+    native, hybrid = native_model(xml, assets), hybrid_model(xml, assets)
     print(f"humanoid, {N} physics steps per control step; mujoco {mujoco.__version__}, {os.cpu_count()} CPUs; "
           f"medians of {args.repeats} repeats x {args.control_steps} control steps; native: nsensordata "
           f"{native.nsensordata} (the model's own {model.nsensordata} included)")
     for nsim in args.nsim:
-        run(model, native, nsim, args)
+        run(model, native, hybrid, nsim, args)
 
 
-def run(model: mujoco.MjModel, native: mujoco.MjModel, nsim: int, args: argparse.Namespace) -> None:
+def run(model: mujoco.MjModel, native: mujoco.MjModel, hybrid: mujoco.MjModel, nsim: int,
+        args: argparse.Namespace) -> None:
     env = BatchEnvironment(model, sensorcfg_observables(), nsim, nthread=args.nthread,
                            physics_steps_per_control_step=N, seed=0)
     env.reset()
@@ -117,6 +141,13 @@ def run(model: mujoco.MjModel, native: mujoco.MjModel, nsim: int, args: argparse
     suite_index = rng.integers(0, native.nsensordata, (nsim, width)) + (np.arange(nsim) * N * native.nsensordata)[:, None]
     out_s = {"sensordata": np.empty((nsim, N, native.nsensordata))}
     out_3 = {f: np.empty((nsim, N, *getattr(mujoco.MjData(native), f).shape)) for f in ("sensordata", "qacc", "cfrc_ext")}
+    hb = Batch(hybrid, nsim, args.nthread)
+    (_, _, recorded_fields), = layout.segments
+    for f in layout.bound[0]:
+        hb.bind(f)
+    hdata = mujoco.MjData(hybrid)
+    out_h = {f: np.empty((nsim, N, *getattr(hdata, f).shape))
+             for f in recorded_fields if f not in layout.bound[0] and f not in HYBRID_FIELDS}
     lo, hi = model.actuator_ctrlrange.T
     actions = rng.uniform(lo, hi, (args.control_steps, nsim, model.nu)) * 0.2
 
@@ -138,7 +169,8 @@ def run(model: mujoco.MjModel, native: mujoco.MjModel, nsim: int, args: argparse
         ("physics", env.batch, physics_of(env.batch)), ("null", bare, physics_of(bare)),
         ("fields (env)", env.batch, fields), ("native physics", nb, physics_of(nb)),
         ("native sensordata", nb, recorded(nb, out_s)), ("native sensordata, last", nb_bound, physics_of(nb_bound)),
-        ("native + qacc, cfrc_ext", nb, recorded(nb, out_3))]
+        ("native + qacc, cfrc_ext", nb, recorded(nb, out_3)), ("hybrid physics", hb, physics_of(hb)),
+        ("hybrid fields", hb, recorded(hb, out_h))]
     state = env.batch.state
 
     def repeat() -> dict[str, float]:
