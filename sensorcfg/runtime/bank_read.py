@@ -1,15 +1,17 @@
 """A feature bank's read of one phase, compiled onto a work buffer of its own: a fixed number of numpy calls.
 
 `runtime.bank.read_plan` says which history positions each read gathers and how they are cut and reduced.
-Compiled, a read is: one `take` of every window into the work buffer; one `take` that stacks the windows of
+Compiled, a read is: one `take` from the history into the work buffer, which also stacks the windows of
 reductions of one family (`observables.aggregators.family`: sums, means and medians of one or two samples;
-maxima; minima), each padded to the family's longest buffer with a value that changes no result; one
-reduction per family (and per reduction that runs alone); one division for the means; one copy of the
-values the observations show; one `itemgetter` cutting every observation from that copy. The copy is the
-read's own: each observation is a fresh array, as dm_control's are.
+maxima; minima) side by side, each padded to the family's longest buffer with a value that changes no
+result (`PADS`, kept after the history); one reduction per family (and per reduction that runs alone);
+one division for the means; one copy of the values the observations show; one `itemgetter` cutting every
+observation from that copy. The copy is the read's own: each observation is a fresh array, as
+dm_control's are. With noise, the take gathers the windows only, noise is applied to them, and a second
+take stacks them (with the pads, then kept in the work buffer).
 
-Work buffer, one row: [reduced values | plain windows | reduced windows | pads | family blocks]; the copy
-takes the first two parts.
+Work buffer, one row: [reduced values | plain windows | windows reduced alone | (with noise: the
+families' windows, pads) | family blocks]; the copy takes the first two parts.
 """
 
 from __future__ import annotations
@@ -48,7 +50,7 @@ class CompiledRead(NamedTuple):
     shown: np.ndarray  # the part of the work buffer the observations show, (1, n)
     cut: Callable[[np.ndarray], tuple[Any, ...]]  # a copy of `shown` -> every member's value
     reshapes: list[tuple[int, tuple[int, ...]]]  # members whose cut needs a reshape: (member, shape)
-    noise: list[Any]  # the bank noise's plan for `index` ([] without noise)
+    noise: list[Any]  # the bank noise's plan for `source` ([] without noise)
 
 
 class _Group(NamedTuple):
