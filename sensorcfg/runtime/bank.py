@@ -252,7 +252,9 @@ class FeatureBank:
         phase = step % self.rows
         plan = self._gathers.get(phase)
         if plan is None:
-            plan = self._gathers.put(phase, self._compile(phase), None)
+            plan = self._compile(phase)
+            # its index, noise positions and work buffer (the noise plan's fields are the bank's own)
+            self._gathers.put(phase, plan, 4 * plan.source.nbytes)
         self.flat.take(plan.source, None, plan.gathered, "clip")
         if plan.noise:  # a noise plan: the bank has noise
             self._apply_noise(step, plan)
