@@ -217,10 +217,12 @@ class FeatureBank:
                 self.noise.apply(self.pad_values, self.noise.plan(first))
 
     def _snapshot_task(self, sync: Callable[[], None] | None) -> Callable[[int], None]:
-        """`snapshot` as a closure over what it uses (the plan calls it at every sampled step)."""
+        """Copy every member's values into the history row of `step`: a closure over what it uses (the plan
+        calls it at every sampled step)."""
         take, source, rows, count = self.raw.take, self.source, self.history_rows, self.rows
 
         def snapshot(step: int) -> None:
+            # mode="clip": indices are valid by construction, and "raise" would buffer the output
             take(source, None, rows[step % count], "clip")
 
         if sync is None:
@@ -232,10 +234,6 @@ class FeatureBank:
             take(source, None, rows[step % count], "clip")
 
         return synced
-
-    def snapshot(self, step: int) -> None:
-        # mode="clip": indices are valid by construction, and "raise" would buffer the output
-        self.raw.take(self.source, None, self.history_rows[step % self.rows], "clip")
 
     def samples(self, position: int, step: int) -> int:
         """Samples member `position` has taken by `step`: the reset sample plus its needed steps so far."""
