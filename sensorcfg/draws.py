@@ -26,7 +26,7 @@ import numpy as np
 from .errors import SuiteError
 
 __all__ = ["UniformSteps", "ChoiceSteps", "takes_random_state", "drawer", "episode_entropy", "sensor_key",
-           "as_draw", "DEFAULT_UPDATE_INTERVAL", "DEFAULT_DELAY", "DEFAULT_BUFFER_SIZE"]
+           "as_draw", "planned", "DEFAULT_UPDATE_INTERVAL", "DEFAULT_DELAY", "DEFAULT_BUFFER_SIZE"]
 
 DEFAULT_BUFFER_SIZE = 1
 DEFAULT_UPDATE_INTERVAL = 1
@@ -54,6 +54,14 @@ class UniformSteps:
     def __call__(self, random_state: Any) -> int:
         return _integers(random_state, self.low, self.high + 1)
 
+    @property
+    def largest(self) -> int:
+        return int(self.high)
+
+    def block(self, rng: np.random.Generator, count: int) -> np.ndarray:
+        """`count` draws at once from a counter-based generator (the planned schedules' stream rule)."""
+        return rng.integers(self.low, self.high + 1, size=count, dtype=np.int64)
+
 
 @dataclasses.dataclass(frozen=True)
 class ChoiceSteps:
@@ -71,6 +79,17 @@ class ChoiceSteps:
         if self.p is None:
             return self.values[_integers(random_state, 0, len(self.values))]
         return self.values[int(random_state.choice(len(self.values), p=self.p))]
+
+    @property
+    def largest(self) -> int:
+        return int(max(self.values))
+
+    def block(self, rng: np.random.Generator, count: int) -> np.ndarray:
+        """`count` draws at once from a counter-based generator (the planned schedules' stream rule)."""
+        values = np.asarray(self.values, np.int64)
+        if self.p is None:
+            return values[rng.integers(0, len(values), size=count)]
+        return values[rng.choice(len(values), size=count, p=self.p)]
 
 
 def sensor_key(entropy: Sequence[int], name: str) -> np.ndarray:
@@ -133,6 +152,18 @@ def drawer(owner: str, attr: str, value: Any, default: int, random_state: Any) -
                          f"it must draw integers >= {lowest} (physics steps)")
 
     return checked
+
+
+def planned(interval: Any, delay: Any) -> bool:
+    """Whether a schedule follows the planned-schedule stream rule (`runtime/drawn.py`): sensorcfg's own draws
+    (`{uniform}`, `{choice}`: UniformSteps, ChoiceSteps) giving valid values, with an int or another such
+    draw for the other setting. Any other callable keeps dm_control's planning and draw order."""
+    settings = [(interval or DEFAULT_UPDATE_INTERVAL, 1), (delay or DEFAULT_DELAY, 0)]
+    if not any(isinstance(v, (UniformSteps, ChoiceSteps)) for v, _ in settings):
+        return False
+    return all((isinstance(v, (UniformSteps, ChoiceSteps)) and v.minimum >= lowest)
+               or (isinstance(v, numbers.Integral) and not isinstance(v, bool) and int(v) >= lowest)
+               for v, lowest in settings)
 
 
 def as_draw(value: int | Callable[[], int]) -> Callable[[], int]:

@@ -23,7 +23,7 @@ import numpy as np
 
 from ..runtime.bank import PlainRead, ReductionGroup, _reader, read_plan
 from ..runtime.cache import DEFAULT_BUDGET, BoundedCache
-from ..runtime.channels import FixedChannel, RandomChannel
+from ..runtime.channels import DrawnChannel, FixedChannel, RandomChannel
 
 __all__ = ["Layout", "Segment"]
 
@@ -39,7 +39,7 @@ class Segment(NamedTuple):
 class Layout:
     """Columns, store and gather positions for `channels` (fixed-schedule ones first) of nsim simulations."""
 
-    def __init__(self, channels: Sequence[FixedChannel | RandomChannel], nfixed: int, noisy: set[int], span: int,
+    def __init__(self, channels: Sequence[FixedChannel | RandomChannel | DrawnChannel], nfixed: int, noisy: set[int], span: int,
                  fields: dict[str, tuple[int, ...]], nsim: int, substeps: int, stops: set[int] | frozenset[int] = frozenset()):
         """`span`: steps a sample of a random-schedule channel may wait to be read (0 without any);
         `stops`: substeps after which a rollout must return (cameras render there)."""

@@ -1,134 +1,89 @@
-"""Random intervals and delays across simulations: each simulation's schedule, planned in blocks.
+"""Random intervals and delays across simulations: each simulation's schedule, planned in rounds.
 
 A channel with drawn intervals or delays decides when it samples and which samples a read sees from its
-draws alone, never from the values. So each simulation runs the single-simulation `RandomChannel` itself
-(dm_control's planning, draw order and dropping, against that simulation's own episode random state) on
-sample *codes* instead of values (code 0: a zero fill, code s + 1: the sample taken at step s), `block`
-control steps ahead. The per-step path then only indexes the recorded plan: which simulations sample at
-each physics step, and which steps each read gathers. A refill, once per `block` control steps of a
-simulation, is the only loop over simulations.
-
-Planning ahead must not move the random state past an episode's end: a reset of simulation i restores its
-random state and channels as they were at the start of the block and replays the control steps its
-episode really ran, so the next episode draws exactly what a single simulation would.
+draws alone, never from the values. The batch plans them with the single simulation's planner
+(`runtime/drawn.py`: the stream rule, each simulation's sensor key), vectorised across the simulations that
+start a round together, one round ahead. The per-step path only indexes the rings: which simulations
+sample at each substep, and which steps each read gathers, as codes (0: a zero fill, s + 1: the sample of
+step s since reset). Planning draws from counter-based streams, never from an episode's random state, so
+an episode that ends early needs no rewinding.
 """
 
 from __future__ import annotations
 
-import copy
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
-from ..runtime.channels import RandomChannel
+from ..draws import sensor_key
+from ..runtime.drawn import Drawn, Planner, Round, chunk_steps
 
-__all__ = ["Timelines"]
-
-BLOCK = 32  # control steps planned per refill
+__all__ = ["Timelines", "drawn_of"]
 
 
-class _Plan:
-    """One simulation's shadow channels and what they planned for the current block."""
-
-    __slots__ = ("channels", "state", "saved", "base", "step")
-
-    def __init__(self) -> None:
-        self.channels: list[RandomChannel] = []
-        self.state: Any = None  # the random state at the block's start
-        self.saved: list[RandomChannel] = []  # the channels at the block's start
-        self.base = 0  # episode control step of the block's first
-        self.step = [0]  # the physics step being sampled (the samplers read it)
+def drawn_of(observable: Any, buffer: int, substeps: int, every_sample: bool) -> Drawn:
+    """A batch sensor's planned schedule (its interval and delay are ints or sensorcfg's draws)."""
+    return Drawn(observable.update_interval or 1, observable.delay or 0, buffer, substeps, every_sample)
 
 
 class Timelines:
     """The random-schedule channels of a batch: per simulation, sample times and read windows."""
 
-    def __init__(self, specs: Sequence[tuple[str, RandomChannel, Callable[[Any], tuple[Any, Any]]]], nsim: int,
-                 substeps: int, pad: bool, block: int = BLOCK):
-        """`specs`: (label, template channel, make_drawers(random_state) -> (interval, delay) callables)."""
+    def __init__(self, specs: Sequence[tuple[str, Drawn]], nsim: int, substeps: int, pad: bool):
+        """`specs`: (label, planned schedule) of each random-schedule channel, in history order."""
         self.specs = list(specs)
-        self.nsim, self.substeps, self.pad, self.block = nsim, substeps, pad, block
+        self.nsim, self.substeps, self.pad = nsim, substeps, pad
+        drawn = [d for _, d in self.specs]
+        self.chunk = chunk_steps(drawn, substeps) if drawn else substeps
+        self.slots = 3 * self.chunk // substeps  # control steps held by the rings: two rounds ahead
         nc = len(self.specs)
-        self.taken = np.zeros((nsim, block, nc, substeps), bool)  # [sim, block step, channel, substep]
-        self.windows = [np.zeros((nsim, block, ch.buffer_size), np.int64) for _, ch, _ in self.specs]
-        self.cursor = np.full(nsim, block, np.intp)  # block position of each simulation's next control step
-        self.last = [np.zeros((nsim, ch.buffer_size), np.int64) for _, ch, _ in self.specs]  # the latest reads
-        self.plans = [_Plan() for _ in range(nsim)]
-        self.states: list[np.random.RandomState | None] = [None] * nsim
+        self.taken = np.zeros((nsim, self.slots, nc, substeps), bool)  # [sim, control step, channel, substep]
+        self.windows = [np.zeros((nsim, self.slots, d.buffer), np.int64) for d in drawn]
+        self.last = [np.zeros((nsim, d.buffer), np.int64) for d in drawn]  # the latest reads' codes
+        self.planners = [Planner(d, nsim) for d in drawn]
+        self.control = np.zeros(nsim, np.int64)  # each simulation's control steps since its reset
 
-    def _shadow(self, plan: _Plan, template: RandomChannel, drawers: tuple[Any, Any]) -> RandomChannel:
-        step = plan.step
-        spec = template.spec._replace(sampler=lambda: step[0] + 1, read_into=None, shape=(), dtype=np.dtype(np.int64),
-                                      strip=False, pad=self.pad, aggregator=None, builtin_aggregator=False, noise=None)
-        shadow = RandomChannel(spec, interval=drawers[0], delay=drawers[1])
-        shadow.every_sample = template.every_sample  # stateful noise: no sample is dropped
-        return shadow
+    def _codes(self, windows: np.ndarray) -> np.ndarray:
+        return np.where(windows >= 0, windows + 1, 1 if self.pad else 0)
 
-    def start(self, i: int, random_state: np.random.RandomState) -> None:
-        """Simulation i's episode starts: its channels' reset draws, in observable order, then a block."""
-        plan = self.plans[i] = _Plan()
-        self.states[i] = random_state
-        plan.channels = [self._shadow(plan, template, make(random_state)) for _, template, make in self.specs]
-        for ch in plan.channels:
-            ch.start(0)
-        for ci, ch in enumerate(plan.channels):  # the reset observation's read
-            self.last[ci][i] = ch.read(0)
-        self._refill(i, 0)
+    def start(self, sims: np.ndarray, entropies: list[list[int]]) -> None:
+        """Episodes of simulations `sims` start (each one's episode entropy keys every sensor's schedule)."""
+        self.taken[sims] = False
+        self.control[sims] = 0
+        for c, ((label, _), planner) in enumerate(zip(self.specs, self.planners)):
+            first = planner.start(sims, [sensor_key(entropy, label) for entropy in entropies])
+            self.last[c][sims] = self._codes(first.windows[:, 0])
+        self._plan(sims, np.zeros(len(sims), np.int64))
+        self._plan(sims, np.full(len(sims), self.chunk, np.int64))
 
-    def finish(self, i: int, control_steps: int) -> None:
-        """Simulation i's episode ended after `control_steps`: rewind its random state to that point."""
-        plan, state = self.plans[i], self.states[i]
-        if state is None or not plan.channels:
-            return
-        state.set_state(plan.state)
-        plan.channels = plan.saved
-        plan.saved = copy.deepcopy(plan.channels)
-        for c in range(plan.base, control_steps):
-            self._advance(plan, c, None, 0)
-
-    def _advance(self, plan: _Plan, c: int, i: int | None, j: int) -> None:
-        """Control step c of the episode: plan, sample, read, as the Updater does (recorded when i is given)."""
-        substeps, t = self.substeps, c * self.substeps
-        for ch in plan.channels:
-            ch.plan(t)
-        for k in range(1, substeps + 1):
-            plan.step[0] = t + k
-            for ci, ch in enumerate(plan.channels):
-                if ch.due(t + k):
-                    ch.sample(t + k)
-                    if i is not None:
-                        self.taken[i, j, ci, k - 1] = True
-        for ci, ch in enumerate(plan.channels):
-            window = ch.read(t + substeps)
-            if i is not None:
-                self.windows[ci][i, j] = window
-
-    def _refill(self, i: int, base: int) -> None:
-        plan, state = self.plans[i], self.states[i]
-        plan.state = state.get_state()  # type: ignore[union-attr]
-        plan.saved = copy.deepcopy(plan.channels)
-        plan.base = base
-        self.taken[i] = False
-        for j in range(self.block):
-            self._advance(plan, base + j, i, j)
-        self.cursor[i] = 0
+    def _plan(self, sims: np.ndarray, base: np.ndarray) -> None:
+        """The round (base, base + chunk] of simulations `sims`, into the rings."""
+        n = self.substeps
+        per_round = self.chunk // n
+        slots = (base[:, None] // n + np.arange(per_round)) % self.slots  # control steps of the round's reads
+        self.taken[sims[:, None], slots] = False
+        for c, planner in enumerate(self.planners):
+            plan: Round = planner.round(sims, self.chunk)
+            self.windows[c][sims[:, None], slots] = self._codes(plan.windows)
+            steps = plan.take_step
+            control = (steps - 1) // n  # sample at step s is taken in control step (s - 1) // n
+            self.taken[sims[plan.take_sim], control % self.slots, c, (steps - 1) % n] = True
 
     def ensure(self, sims: np.ndarray, control_steps: np.ndarray) -> None:
-        """Plan another block for the simulations in `sims` whose block is used up."""
-        used = sims[self.cursor[sims] == self.block]
-        for i in used:
-            self._refill(int(i), int(control_steps[i]))
+        """Before the control step: simulations at a round's start plan the round after next."""
+        steps = control_steps[sims] * self.substeps
+        due = sims[(steps > 0) & (steps % self.chunk == 0)]
+        if due.size:
+            self._plan(due, control_steps[due] * self.substeps + self.chunk)
 
     def taken_now(self) -> np.ndarray:
-        """Which channels sample at each substep of this control step, (nsim, channels, substeps) (valid for the
-        simulations that `ensure` prepared)."""
-        j = np.minimum(self.cursor, self.block - 1)
-        return self.taken[np.arange(self.nsim), j]
+        """Which channels sample at each substep of this control step, (nsim, channels, substeps)."""
+        return self.taken[np.arange(self.nsim), self.control % self.slots]
 
     def advance(self, sims: np.ndarray) -> None:
         """The control step ran for `sims`: their reads are this step's windows."""
-        j = self.cursor[sims]
+        c = self.control[sims] + 1
         for last, windows in zip(self.last, self.windows):
-            last[sims] = windows[sims, j]
-        self.cursor[sims] = j + 1
+            last[sims] = windows[sims, (c - 1) % self.slots]
+        self.control[sims] = c

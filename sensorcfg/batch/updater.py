@@ -26,13 +26,13 @@ from typing import Any, NamedTuple, cast
 import numpy as np
 from dm_env import specs
 
-from ..draws import (DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, ChoiceSteps, UniformSteps, as_draw, drawer,
+from ..draws import (DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, ChoiceSteps, UniformSteps,
                      episode_entropy, sensor_key)
 from ..errors import ArgumentError, SuiteError
 from ..observables.aggregators import AGGREGATORS, builtin
 from ..observables.feature import batch_on_demand_problem
 from ..runtime.bank import _reader
-from ..runtime.channels import Channel, FixedChannel, RandomChannel, make_channel
+from ..runtime.channels import Channel, DrawnChannel, FixedChannel, RandomChannel, make_channel
 from ..runtime.updater import observation_spec
 from .layout import Layout
 from .noise import BatchPipeline
@@ -61,10 +61,10 @@ class _Entry(NamedTuple):
 
     name: str
     observable: Any
-    channel: FixedChannel | RandomChannel
+    channel: FixedChannel | RandomChannel | DrawnChannel
 
 
-def _fields(physics: Any, channels: list[FixedChannel | RandomChannel]) -> dict[str, tuple[int, ...]]:
+def _fields(physics: Any, channels: list[Any]) -> dict[str, tuple[int, ...]]:
     """The mjData fields the channels read, in order of first use, with their shapes."""
     data = physics.data if not hasattr(physics.data, "ptr") else physics.data.ptr
     fields: dict[str, tuple[int, ...]] = {}
@@ -74,10 +74,13 @@ def _fields(physics: Any, channels: list[FixedChannel | RandomChannel]) -> dict[
 
 
 def _random_span(entry: _Entry, substeps: int) -> int:
-    """How long a sample of a drawn schedule may wait to be read, at most (its largest interval and delay)."""
-    interval = _bound(entry.name, "update_interval", entry.observable.update_interval, DEFAULT_UPDATE_INTERVAL)
-    delay = _bound(entry.name, "delay", entry.observable.delay, DEFAULT_DELAY)
-    return delay + (entry.channel.buffer_size + 1) * interval + 2 * substeps + 1
+    """How long a sample of a drawn schedule may wait to be read, at most (`Drawn.span`)."""
+    _bound(entry.name, "update_interval", entry.observable.update_interval, DEFAULT_UPDATE_INTERVAL)
+    _bound(entry.name, "delay", entry.observable.delay, DEFAULT_DELAY)
+    if not isinstance(entry.channel, DrawnChannel):
+        raise SuiteError(f"sensor {entry.name!r}: its drawn interval or delay can give values below the least "
+                         "allowed (interval 1, delay 0 steps)")
+    return entry.channel.drawn.span
 
 
 def _camera_stops(ch: FixedChannel, substeps: int) -> set[int]:
@@ -131,8 +134,8 @@ class BatchUpdater:
                                       stops)
         self.reset_values = layout.reset_values
         self.history, self.flat, self.cols, self.rows = layout.history, layout.flat, layout.cols, layout.rows
-        self.timelines = Timelines([(e.name, cast(RandomChannel, e.channel), self._drawers(e.name, e.observable))
-                                    for e in drawn], self.nsim, self.substeps, self.pad)
+        self.timelines = Timelines([(e.name, cast(DrawnChannel, e.channel).drawn) for e in drawn], self.nsim,
+                                   self.substeps, self.pad)
         self.G = 0  # global physics steps
         self.t = np.zeros(self.nsim, np.int64)  # physics steps since each simulation's reset
         self.control_steps = np.zeros(self.nsim, np.int64)
@@ -161,7 +164,7 @@ class BatchUpdater:
             if problem:
                 raise SuiteError(f"sensor {entry.name!r}: {problem}")
         return (cameras, [e for e in features if isinstance(e.channel, FixedChannel)],
-                [e for e in features if isinstance(e.channel, RandomChannel)])
+                [e for e in features if not isinstance(e.channel, FixedChannel)])
 
     def _cameras(self, cameras: list[_Entry], physics: Any) -> Any:
         """The cameras, rendered per simulation (`batch.camera`), or None."""
@@ -204,13 +207,6 @@ class BatchUpdater:
             raise SuiteError(f"{label} {name!r}: a BatchEnvironment {does} per simulation and cannot apply "
                              f"{what} to them; remove it, or use the single-simulation Environment")
 
-    def _drawers(self, label: str, obs: Any) -> Any:
-        def make(random_state: Any) -> tuple[Any, Any]:
-            interval = drawer(label, "update_interval", obs.update_interval, DEFAULT_UPDATE_INTERVAL, random_state)
-            delay = drawer(label, "delay", obs.delay, DEFAULT_DELAY, random_state)
-            return as_draw(interval), as_draw(delay)
-        return make
-
     # -- episodes ---------------------------------------------------------------------------------
 
     def reset(self, ids: np.ndarray, random_states: list[np.random.RandomState]) -> None:
@@ -222,18 +218,16 @@ class BatchUpdater:
         ids = np.asarray(ids, np.intp)
         if not ids.size:
             return
-        for i in ids:
-            i = int(i)
-            rs = random_states[i]
-            if self.started[i]:
-                self.timelines.finish(i, int(self.control_steps[i]))
-            entropy = episode_entropy(rs) if self.noisy else None
+        entropies = []
+        for i in ids.tolist():
+            entropy = episode_entropy(random_states[i]) if self.noisy or self.timelines.specs else None
             for c, pipeline in self.noise.items():
                 pipeline.reset(i, sensor_key(entropy or [], self.labels[c]))
-            if self.timelines.specs:
-                self.timelines.start(i, rs)
+            entropies.append(entropy or [])
             if self.cameras is not None:
                 self.cameras.reset_noise(i, entropy or [])
+        if self.timelines.specs:
+            self.timelines.start(ids, entropies)
         self.started[ids] = True
         values = self.flat.take(self.layout.reset_index[ids])  # (m, width): the reset sample
         zeros = np.zeros(ids.size, np.int64)

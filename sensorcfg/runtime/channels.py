@@ -22,12 +22,14 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from ..draws import DEFAULT_BUFFER_SIZE, DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, as_draw, drawer, sensor_key
+from ..draws import (DEFAULT_BUFFER_SIZE, DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, as_draw, drawer, planned,
+                     sensor_key)
 from ..errors import SuiteError
 from ..observables.aggregators import builtin
+from .drawn import Drawn, Planner, Round, chunk_steps
 from .schedule import Schedule
 
-__all__ = ["Channel", "ChannelSpec", "FixedChannel", "RandomChannel", "make_channel"]
+__all__ = ["Channel", "ChannelSpec", "DrawnChannel", "FixedChannel", "RandomChannel", "make_channel"]
 
 Sampler = Callable[[], Any]
 
@@ -252,6 +254,70 @@ class RandomChannel(Channel):
         return self.finish(self.arrived[0])
 
 
+class DrawnChannel(Channel):
+    """Interval and/or delay drawn by sensorcfg's own draws: planned in rounds by the stream rule of
+    `runtime/drawn.py`, samples taken per sample by the channel's sampler (the per-sample path; plain
+    float64 features join `runtime/planned.DrawnBank` instead)."""
+
+    def __init__(self, spec: ChannelSpec, *, drawn: Drawn, key: np.ndarray):
+        super().__init__(spec)
+        self.drawn = drawn._replace(every_sample=self.every_sample)
+        self.key = key
+        self.chunk = chunk_steps([self.drawn], self.substeps)
+        self.rows = self.chunk * -(-(self.drawn.span + 2 * self.chunk + 1) // self.chunk)
+        self.need = np.zeros(self.rows, bool)
+        self.windows = np.full((self.rows // self.substeps, self.buffer_size), -1, np.int64)
+        self.values: list[Any] = [None] * self.rows
+        self.fill: Any = None
+        self.planner = Planner(self.drawn, 1)
+
+    def store(self, first: Round | None, rounds: list[Round], base: int) -> None:
+        """Record planned rounds: each round's reads (the first read of `rounds[i]` follows `base + i *
+        chunk`) and the samples to take."""
+        n, slots = self.substeps, len(self.windows)
+        if first is not None:
+            self.windows[0] = first.windows[0, 0]
+        for i, plan in enumerate(rounds):
+            read = (base + i * self.chunk) // n + 1
+            self.windows[(read + np.arange(plan.windows.shape[1])) % slots] = plan.windows[0]
+            self.need[plan.take_step % self.rows] = True
+
+    def start(self, step: int) -> None:
+        self.need[:] = False
+        first = self.planner.start(_ZERO, [self.key])
+        self.store(first, [self.planner.round(_ZERO, self.chunk) for _ in range(2)], 0)
+        value = np.array(self.value(step), dtype=self.dtype)
+        self.fill = value if self.pad else np.zeros(self.shape, self.dtype)
+        self.values[0] = value
+
+    def plan(self, step: int) -> None:
+        """Before the control step after `step`: at a round's start, plan the round after next."""
+        if step and step % self.chunk == 0:
+            self.store(None, [self.planner.round(_ZERO, self.chunk)], step + self.chunk)
+
+    def due(self, step: int) -> bool:
+        return bool(self.need[step % self.rows])
+
+    def sample(self, step: int) -> None:
+        row = step % self.rows
+        self.need[row] = False
+        self.values[row] = np.array(self.value(step), dtype=self.dtype)
+
+    def maybe_sample(self, step: int) -> None:
+        if self.due(step):
+            self.sample(step)
+
+    def read(self, step: int) -> Any:
+        window = self.windows[(step // self.substeps) % len(self.windows)]
+        values = [self.values[t % self.rows] if t >= 0 else self.fill for t in window.tolist()]
+        if self.has_buffer_dim:
+            return self.finish(np.stack(values))
+        return self.finish(values[0])
+
+
+_ZERO = np.zeros(1, np.intp)
+
+
 def _window_drops(window: list[tuple[int, int, int]], b: int, flight: list[int]) -> list[int]:
     """The scheduled samples of one read window ((window, arrival, index) in delivery order) that `b` or
     more samples delivered after them push out before the window's read (`flight`: arrivals in flight)."""
@@ -265,7 +331,7 @@ def _window_drops(window: list[tuple[int, int, int]], b: int, flight: list[int])
 
 
 def make_channel(label: str, observable: Any, physics: Any, random_state: Any, entropy: list[int] | None,
-                 substeps: int, strip: bool, pad: bool) -> FixedChannel | RandomChannel:
+                 substeps: int, strip: bool, pad: bool) -> FixedChannel | RandomChannel | DrawnChannel:
     """Bind `observable` to `physics` and build its channel for an episode: the Updater's and the batch's one
     way to turn an observable into a channel. `entropy` keys the sensor's noise streams (`draws.sensor_key`);
     `random_state` is the episode's, given to the observable and to schedule callables that take it."""
@@ -292,6 +358,17 @@ def make_channel(label: str, observable: Any, physics: Any, random_state: Any, e
     channel = ChannelSpec(label, sampler, getattr(sampler, "read_into", None), tuple(shape), np.dtype(dtype),
                           int(buffer_size), strip, pad, substeps, aggregator, builtin(aggregator) is not None,
                           noise)
+    return _scheduled(channel, observable, interval, delay, sensor_key(entropy or [], label))
+
+
+def _scheduled(channel: ChannelSpec, observable: Any, interval: int | Callable[[], int],
+               delay: int | Callable[[], int], key: np.ndarray) -> FixedChannel | RandomChannel | DrawnChannel:
+    """The channel type of a schedule: sensorcfg's draws follow the planned stream rule (`runtime/drawn.py`),
+    other callables dm_control's planning, constants the closed form."""
+    if planned(observable.update_interval, observable.delay):
+        drawn = Drawn(observable.update_interval or DEFAULT_UPDATE_INTERVAL, observable.delay or DEFAULT_DELAY,
+                      channel.buffer_size, channel.substeps)
+        return DrawnChannel(channel, drawn=drawn, key=key)
     if callable(interval) or callable(delay):
         return RandomChannel(channel, interval=as_draw(interval), delay=as_draw(delay))
     return FixedChannel(channel, interval=interval, delay=delay)

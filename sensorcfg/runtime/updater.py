@@ -15,20 +15,21 @@ from typing import Any, NamedTuple, Union, cast
 import numpy as np
 from dm_env import specs
 
-from ..draws import episode_entropy
+from ..draws import episode_entropy, planned
 from ..errors import ArgumentError, SuiteError
 from ..observables.aggregators import aggregated_bounds
 from ..noise.bounds import noisy_bounds
 from .mujoco_structs import structs_of as raw_structs
 from .bank import BankMember, FeatureBank, buffer_view, fields_of, qualifies
-from .channels import FixedChannel, RandomChannel, make_channel
+from .channels import DrawnChannel, FixedChannel, RandomChannel, make_channel
+from .planned import DrawnBank, DrawnMember, joins
 
 __all__ = ["Updater", "observation_spec"]
 
 _MAX_PLAN_PERIOD = 1 << 16
 
 _Task = Callable[[int], None]  # one sampling task of the plan, called with the step
-_Reader = Union[FixedChannel, RandomChannel, BankMember]  # what the layout holds per observable
+_Reader = Union[FixedChannel, RandomChannel, DrawnChannel, BankMember, DrawnMember]  # what the layout holds per observable
 
 SYNC_ORDER = -2  # `PlanTask.order` of bringing a dirty dm_control physics up to date: before anything
 BANK_ORDER = -1  # of the bank's snapshots and noise draws: pure reads of the state, before any sampler
@@ -69,10 +70,11 @@ class Updater:
     """Samples, delays, buffers, aggregates and corrupts observables inside the physics loop."""
 
     # set by `reset` (and `_build_plan`)
-    _channels: list[FixedChannel | RandomChannel]
+    _channels: list[FixedChannel | RandomChannel | DrawnChannel]
     _bank: FeatureBank | None
+    _drawn: DrawnBank | None
     _reads: list[tuple[type, list[Read]]]
-    _random: list[tuple[int, RandomChannel]]
+    _random: list[tuple[int, RandomChannel | DrawnChannel]]
     _period: int
     _plan: list[tuple[_Task, ...]]
     _orders: list[tuple[int, ...]]
@@ -108,9 +110,10 @@ class Updater:
         layout = self._bind(physics, random_state)
         self._channels = [ch for _, entries in layout for _, ch in entries]
         self._bank = self._make_bank(physics)
-        members = {id(m.channel): m for m in self._bank.members()} if self._bank else {}
+        self._drawn = self._make_drawn_bank(physics)
+        members = self._members()
         self._layout = [(kind, [(name, members.get(id(ch), ch)) for name, ch in entries]) for kind, entries in layout]
-        self._reads = [(kind, [Read(name, m.position if isinstance(m, BankMember) else NOT_BANKED, m)
+        self._reads = [(kind, [Read(name, m.position if type(m) is BankMember else NOT_BANKED, m)
                                for name, m in entries]) for kind, entries in self._layout]
         self._step = 0
         self._start(members)
@@ -120,17 +123,30 @@ class Updater:
     def _fast_path(self) -> None:
         """The common case: one dict whose every observable the bank reads, in order (one read, one dict)."""
         first_kind, first_reads = self._reads[0] if self._reads else (dict, [])  # Updater([]): no dicts at all
-        bank = self._bank
-        self._all_banked = (not self._nested and bank is not None
-                            and [read.position for read in first_reads] == list(range(len(first_reads))))
+        self._whole = None if self._nested else self._single_bank([read.reader for read in first_reads])
         self._dict_type, self._names = first_kind, [read.name for read in first_reads]
-        self._bank_read: Callable[[int], Sequence[Any]] = bank.read if bank is not None else (lambda step: ())
 
-    def _bind(self, physics: Any, random_state: Any) -> list[tuple[type, list[tuple[str, FixedChannel | RandomChannel]]]]:
-        """Per observables dict: its type and (name, channel) of each enabled observable, in order."""
+    def _members(self) -> dict[int, BankMember | DrawnMember]:
+        """The banks' members, by the id of their channel."""
+        members: list[BankMember | DrawnMember] = [*(self._bank.members() if self._bank else ()),
+                                                   *(self._drawn.members() if self._drawn else ())]
+        return {id(m.channel): m for m in members}
+
+    @staticmethod
+    def _single_bank(readers: list[Any]) -> FeatureBank | DrawnBank | None:
+        """The bank that reads every observation, in order, when one does."""
+        for kind in (BankMember, DrawnMember):
+            if readers and all(type(r) is kind and r.position == i for i, r in enumerate(readers)):
+                return cast(Any, readers[0]).bank
+        return None
+
+    def _bind(self, physics: Any, random_state: Any) -> list[tuple[type, list[tuple[str, Any]]]]:
+        """Per observables dict: its type and (name, channel) of each enabled observable, in order. The
+        episode entropy keys noise streams and planned schedules (drawn when some sensor has either)."""
         dicts = list(self._observables) if self._nested else [self._observables]
-        noisy = any(getattr(o, "noise", None) is not None for d in dicts for o in d.values() if o.enabled)
-        entropy = episode_entropy(random_state) if noisy else None
+        keyed = any(getattr(o, "noise", None) is not None or planned(o.update_interval, o.delay)
+                    for d in dicts for o in d.values() if o.enabled)
+        entropy = episode_entropy(random_state) if keyed else None
         layout = []
         for index, obs_dict in enumerate(dicts):
             entries = [(name, make_channel(f"{index}/{name}" if self._nested else str(name), observable, physics,
@@ -139,7 +155,7 @@ class Updater:
             layout.append((type(obs_dict), entries))
         return layout
 
-    def _start(self, members: Mapping[int, BankMember]) -> None:
+    def _start(self, members: Mapping[int, Any]) -> None:
         """The reset samples, in dm_control's order: per observable, its delay draw then its sample."""
         synced = False
         for ch in self._channels:
@@ -150,6 +166,8 @@ class Updater:
                 synced = True
         if self._bank:
             self._bank.start()
+        if self._drawn:
+            self._drawn.start()
 
     def _make_bank(self, physics: Any) -> FeatureBank | None:
         members = [ch for ch in self._channels if qualifies(ch)]
@@ -168,10 +186,23 @@ class Updater:
         self._bank_cache = (key, bank)
         return bank
 
+    def _make_drawn_bank(self, physics: Any) -> DrawnBank | None:
+        """The planned-schedule features that join one bank (`runtime/planned.py`)."""
+        members = [ch for ch in self._channels if joins(ch)]
+        if not members:
+            return None
+        data = raw_structs(physics)[1]
+        view = buffer_view(data, fields_of(members))  # type: ignore[arg-type]
+        if view is None or any(getattr(ch.sampler, "sync", None) is not None for ch in members):
+            return None  # fields outside MjData's main buffer, or a dm_control physics: per sample
+        return DrawnBank(cast(list[DrawnChannel], members), data, self._substeps, self._pad, view)
+
     def _build_plan(self) -> None:
         """One table over the common period: which sampling tasks run at each step's phase."""
         tasks = [*self._tasks(), *self._before_tasks()]
-        self._random = [(order, ch) for order, ch in enumerate(self._channels) if isinstance(ch, RandomChannel)]
+        drawn = {id(m.channel) for m in self._drawn.members()} if self._drawn else set()
+        self._random = [(order, ch) for order, ch in enumerate(self._channels)
+                        if isinstance(ch, (RandomChannel, DrawnChannel)) and id(ch) not in drawn]
         period = math.lcm(*(task.period for task in tasks)) if tasks else 1
         if period > _MAX_PLAN_PERIOD:  # pathological interval mixes: each task checks its own phase
             self._period, self._plan, self._orders = 1, [()], [()]
@@ -231,11 +262,16 @@ class Updater:
             raise RuntimeError("`reset` must be called before `prepare_for_next_control_step`.")
         for _, ch in self._random:
             ch.plan(self._step)
+        if self._drawn is not None:
+            self._drawn.plan(self._step)
 
     def update(self) -> None:
         if self._layout is None:
             raise RuntimeError("`reset` must be called before `update`.")
         step = self._step = self._step + 1
+        drawn = self._drawn
+        if drawn is not None and drawn.need[step % drawn.rows]:  # a pure read of the state: first
+            drawn.snapshot(step)
         tasks = self._plan[step % self._period]
         if self._slow or self._random:
             tasks = self._merge_irregular(step, tasks)
@@ -255,8 +291,8 @@ class Updater:
         if self._layout is None:
             raise RuntimeError("`reset` must be called before `get_observation`.")
         step = self._step
-        if self._all_banked:  # the common case: one compiled read, then a dict in file order
-            return self._dict_type(zip(self._names, self._bank_read(step)))
+        if self._whole is not None:  # the common case: one gather, then a dict in file order
+            return self._dict_type(zip(self._names, self._whole.read(step)))
         banked = self._bank.read(step) if self._bank else ()
         out = [kind((read.name, banked[read.position] if read.position != NOT_BANKED else read.reader.read(step))
                     for read in entries) for kind, entries in self._reads]

@@ -1,0 +1,222 @@
+"""The feature bank of planned schedules: plain float64 features with drawn intervals or delays, together.
+
+Their samples are planned a round ahead (`runtime/drawn.py`), so which steps snapshot and which history rows
+each read gathers are known before the steps run. Per step that some member samples, one `numpy.take` copies
+every member's values from MjData's main buffer into a step-indexed history; per read, one gather (an index
+computed with the round) builds every window, noise is applied to the gathered values (`BankNoise`: the
+same numbers as the per-sample pipeline), and each (aggregator, buffer) group is reduced once, as the
+fixed-schedule bank does (`bank.read_plan` gives the layout).
+"""
+
+from __future__ import annotations
+
+from typing import Any, NamedTuple, cast
+
+import numpy as np
+
+from .bank import BankMember, ReadPlan, _reader, read_plan
+from .bank_noise import _APPLY, BankNoise, program
+from .channels import DrawnChannel
+from .drawn import Planner, Round, chunk_steps
+from ..observables.aggregators import builtin
+
+__all__ = ["DrawnBank", "DrawnMember", "joins"]
+
+
+def joins(ch: Any) -> bool:
+    """Whether a planned channel can join the bank: an uncorrupted float64 mjData feature (not computed on
+    demand) whose noise the bank can apply, with a built-in aggregator on a buffer or none."""
+    sampler = ch.sampler
+    return (isinstance(ch, DrawnChannel) and getattr(sampler, "struct", None) == "data"
+            and hasattr(sampler, "index") and getattr(sampler, "compute", None) is None
+            and ch.dtype == np.float64 and program(ch.noise) is not None
+            and (ch.aggregator is None or (ch.builtin_aggregator and ch.has_buffer_dim
+                                           and builtin(ch.aggregator) is not None)))
+
+
+class _Window(NamedTuple):
+    """A stand-in for `read_plan`: window position p of a member reads history row p."""
+
+    buffer: int
+
+    def window(self, phase: int) -> np.ndarray:
+        return np.arange(self.buffer)
+
+
+class _Layout(NamedTuple):
+    interval: int
+    schedule: _Window
+    aggregator: Any
+    buffer_size: int
+    buffered_shape: tuple[int, ...]
+    shape: tuple[int, ...]
+
+
+class DrawnMember(BankMember):
+    """A member of the drawn-schedule bank in the Updater's layout (`BankMember`'s reads, of a `DrawnBank`)."""
+
+    __slots__ = ()
+
+
+class DrawnBank:
+    """All planned float64 features of one Updater: a history of `rows` steps (plus a padding row)."""
+
+    def __init__(self, channels: list[DrawnChannel], data: Any, substeps: int, pad: bool,
+                 view: tuple[np.ndarray, dict[str, int]]):
+        self.raw, offsets = view
+        self._data = data  # keeps the memory behind `raw` alive
+        self.channels, self.n, self.pad = channels, substeps, pad
+        self.cols = np.cumsum([0] + [int(np.prod(ch.shape, dtype=int)) for ch in channels])
+        self.width = int(self.cols[-1])
+        self.source = np.concatenate(
+            [offsets[_reader(ch).field] + _reader(ch).index.ravel() for ch in channels]).astype(np.intp)
+        self.chunk = chunk_steps([ch.drawn for ch in channels], substeps)
+        span = max(ch.drawn.span for ch in channels)
+        self.rows = self.chunk * -(-(span + 2 * self.chunk + 1) // self.chunk)
+        self.history = np.zeros((self.rows, self.width))
+        self.flat = self.history.reshape(-1)
+        self.history_rows = list(self.history)
+        self.need = np.zeros(self.rows, bool)
+        self.planners = [Planner(ch.drawn, 1) for ch in channels]
+        self.taken: list[tuple[int, list[np.ndarray]]] = []  # per member: samples of past rounds, recent takes
+        layout = [_Layout(1, _Window(ch.buffer_size), ch.aggregator, ch.buffer_size, ch.buffered_shape, ch.shape)
+                  for ch in channels]
+        plan: ReadPlan = read_plan(cast(Any, layout), self.cols, max(ch.buffer_size for ch in channels), 0)
+        self.groups, self.plain = plan.groups, plan.plain
+        # each gathered value: (member's first window entry + window position, column)
+        starts = np.cumsum([0] + [ch.buffer_size for ch in channels])
+        member = np.searchsorted(self.cols, plan.gather % self.width, side="right") - 1
+        self.entry = starts[member] + plan.gather // self.width
+        self.column = plan.gather % self.width
+        slots = self.rows // substeps
+        self.gathers = np.zeros((slots, len(plan.gather)), np.intp)
+        self.pads: list[np.ndarray | None] = [None] * slots
+        self.pad_values = np.zeros(self.width)
+        programs = [program(ch.noise) or () for ch in channels]
+        self.noise = None
+        if any(programs):
+            strides = [_Stride(ch.shape, ch.drawn.stride) for ch in channels]
+            offsets_in_chunk = [np.arange(0, self.chunk, s.interval, dtype=np.intp) for s in strides]
+            self.noise = BankNoise(strides, list(programs), self.cols, self.rows, self.chunk, offsets_in_chunk)
+            self.terms: list[tuple[np.ndarray, np.ndarray]] = []
+            self.noise_plan = self._noise_plan(plan.gather)
+        self._read_step, self._outputs = -1, cast(list[Any], [])
+
+    def _noise_plan(self, gather: np.ndarray) -> list[Any]:
+        """BankNoise's plan, whose per-sample terms are looked up at each read's own gather positions
+        (refreshed in place per read: `self.terms` with the positions they take)."""
+        out = []
+        for pos, ops in self.noise.plan(gather):  # type: ignore[union-attr]
+            at = np.zeros(len(pos), np.intp)
+            ops = [(fn, (args[0], at) if fn is _APPLY["term"] else args) for fn, args in ops]
+            self.terms.append((at, pos))
+            out.append((pos, ops))
+        return out
+
+    def members(self) -> list[DrawnMember]:
+        return [DrawnMember(cast(Any, self), i, cast(Any, ch)) for i, ch in enumerate(self.channels)]
+
+    # -- episodes and rounds ----------------------------------------------------------------------
+
+    def start(self) -> None:
+        """The reset sample (step 0), padding, and the first rounds."""
+        self.need[:] = False
+        self.taken = [(1, []) for _ in self.channels]
+        self.raw.take(self.source, None, self.history[0], "clip")
+        if self.noise is not None:
+            self.noise.start()  # noise of the steps [0, chunk), then [chunk, 2 chunk): one round ahead
+            self.noise.fill(self.chunk)
+        if self.pad:
+            self.pad_values = self.history[0].copy()
+            if self.noise is not None:  # padding repeats the first sample as delivered: with its noise
+                self._apply_noise(self.pad_values, np.arange(self.width))
+        else:
+            self.pad_values = np.zeros(self.width)
+        first = [p.start(_ZERO, [ch.key]) for p, ch in zip(self.planners, self.channels)]
+        self._store(first, 0, 0)
+        for base in (0, self.chunk):
+            self._plan_round(base)
+
+    def _apply_noise(self, values: np.ndarray, index: np.ndarray) -> None:
+        noise = self.noise
+        assert noise is not None
+        noise.apply(values, noise.plan(index))
+
+    def plan(self, step: int) -> None:
+        """Before the control step after `step`: at a round's start, plan the round after next."""
+        if step and step % self.chunk == 0:
+            self._plan_round(step + self.chunk)
+            if self.noise is not None:
+                self.noise.fill(step + self.chunk)
+
+    def _plan_round(self, base: int) -> None:
+        rounds = [p.round(_ZERO, self.chunk) for p in self.planners]
+        self._store(rounds, base // self.n + 1, self.chunk // self.n)
+        for i, plan in enumerate(rounds):
+            self.need[plan.take_step % self.rows] = True
+            older, recent = self.taken[i]
+            if len(recent) == 3:  # rounds that ended before the current step
+                older += len(recent.pop(0))
+            # a sample is shown first in its own round or the next: each counted once
+            recent.append(np.setdiff1d(plan.take_step, recent[-1] if recent else ()))
+            self.taken[i] = (older, recent)
+
+    def samples(self, position: int, step: int) -> int:
+        """Samples member `position` has taken by `step` (the reset sample included)."""
+        older, recent = self.taken[position]
+        return older + sum(int(np.count_nonzero(steps <= step)) for steps in recent)
+
+    def _store(self, rounds: list[Round], first: int, count: int) -> None:
+        """Gather indices of the rounds' reads (read slots first .. first + count, or the reset read)."""
+        windows = np.concatenate([r.windows[0] for r in rounds], axis=1)  # (reads, sum of buffers)
+        rows = np.where(windows >= 0, windows % self.rows, 0)
+        index = rows[:, self.entry] * self.width + self.column
+        slots = (first + np.arange(max(count, 1))) % len(self.gathers)
+        self.gathers[slots] = index
+        padded = windows[:, self.entry] < 0
+        for slot, mask in zip(slots.tolist(), padded):
+            self.pads[slot] = np.flatnonzero(mask) if mask.any() else None
+
+    # -- the physics loop -------------------------------------------------------------------------
+
+    def due(self, step: int) -> bool:
+        return bool(self.need[step % self.rows])
+
+    def snapshot(self, step: int) -> None:
+        row = step % self.rows
+        self.need[row] = False
+        self.raw.take(self.source, None, self.history_rows[row], "clip")
+
+    def read(self, step: int) -> list[Any]:
+        """Every member's observation at `step` (computed once per step)."""
+        if step == self._read_step:
+            return self._outputs
+        slot = (step // self.n) % len(self.gathers)
+        index = self.gathers[slot]
+        gathered = self.flat.take(index, None, None, "clip")
+        if self.noise is not None:
+            for at, pos in self.terms:
+                index.take(pos, None, at, "clip")
+            self.noise.apply(gathered, self.noise_plan)
+        pads = self.pads[slot]
+        if pads is not None:
+            gathered[pads] = self.pad_values.take(self.column[pads])
+        outputs: list[Any] = [None] * len(self.channels)
+        for i, part, shape in self.plain:
+            outputs[i] = gathered[part].reshape(shape)
+        for reduce, part, block, members in self.groups:
+            reduced = reduce(gathered[part].reshape(block))
+            for i, sub, shape in members:
+                outputs[i] = reduced[sub].reshape(shape) if shape else reduced[sub][0]
+        self._read_step, self._outputs = step, outputs
+        return outputs
+
+
+class _Stride(NamedTuple):
+    """What BankNoise needs of a member: its sample shape and the steps between its sample indices."""
+
+    shape: tuple[int, ...]
+    interval: int
+
+
+_ZERO = np.zeros(1, np.intp)

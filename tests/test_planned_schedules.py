@@ -1,0 +1,139 @@
+"""Planned schedules (`{uniform}` / `{choice}` intervals and delays): the stream rule of runtime/drawn.py.
+
+A brute force of the rule (every sample of the schedule taken, delivered in (arrival, time) order, the last
+`buffer` shown) against the Updater, on a clock sensor; windows independent of other sensors; the feature bank
+path against the per-sample path, bit for bit, noise included.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+import sensorcfg
+from sensorcfg import assets
+from sensorcfg.draws import ChoiceSteps, UniformSteps, episode_entropy, sensor_key
+from sensorcfg.noise import build_noise
+from sensorcfg.runtime.drawn import PURPOSE, SAMPLE_BLOCK
+
+MODEL = """<mujoco><option timestep="0.001"/><worldbody><body><joint name="slide" type="slide"/><geom size=".1"/>
+</body></worldbody><actuator><motor joint="slide"/></actuator></mujoco>"""
+
+
+def step_of(physics) -> np.ndarray:
+    return np.array([round(physics.data.time / 0.001) + 1.0])  # +1: padding zeros stay distinguishable
+
+
+def draws(setting, key: np.ndarray, stage: int, count: int) -> np.ndarray:
+    """The first `count` draws of a schedule stream, straight from the rule (Philox, purpose 2, block q)."""
+    if isinstance(setting, int):
+        return np.full(count, setting)
+    out = []
+    for q in range(-(-count // SAMPLE_BLOCK)):
+        bitgen = np.random.Philox(key=key, counter=np.array([0, PURPOSE, q, stage], np.uint64))
+        out.append(setting.block(np.random.Generator(bitgen), SAMPLE_BLOCK))
+    return np.concatenate(out)[:count]
+
+
+def brute_force(interval, delay, buffer: int, substeps: int, key: np.ndarray, steps: int) -> list[list[int]]:
+    """Per read (every `substeps` steps, from step 0): the sample steps shown, oldest first (-1: padding)."""
+    count = steps + 1
+    gaps = draws(interval, key, 0, count)
+    times = np.arange(count) * interval if isinstance(interval, int) else np.cumsum(gaps) - gaps[0]
+    arrivals = times + draws(delay, key, 1, count)
+    order = sorted(range(count), key=lambda j: (arrivals[j], times[j]))
+    out = []
+    for read in range(0, steps + 1, substeps):
+        delivered = [int(times[j]) for j in order if arrivals[j] <= read]
+        window = ([-1] * buffer + delivered)[-buffer:]
+        out.append(window)
+    return out
+
+
+@pytest.mark.parametrize("interval, delay, buffer, substeps", [
+    (1, UniformSteps(1, 3), 1, 5),
+    (1, UniformSteps(0, 9), 3, 2),
+    (UniformSteps(1, 4), UniformSteps(0, 6), 3, 5),
+    (7, ChoiceSteps((2, 9), (0.5, 0.5)), 2, 3),
+    (UniformSteps(2, 5), 4, 4, 1),
+    (ChoiceSteps((1, 3)), ChoiceSteps((5, 10), (0.8, 0.2)), 2, 10),
+])
+def test_updater_follows_the_stream_rule(interval, delay, buffer, substeps) -> None:
+    model = mujoco.MjModel.from_xml_string(MODEL)
+    physics = sensorcfg.Physics(model)
+    clock = sensorcfg.Generic(step_of, update_interval=interval, delay=delay, buffer_size=buffer)
+    clock.enabled = True
+    other = sensorcfg.Generic(step_of, update_interval=UniformSteps(1, 3), delay=UniformSteps(0, 2))
+    other.enabled = True
+    steps = 1200  # several planning rounds
+    for observables in ({"clock": clock}, {"a_first": other, "clock": clock}):
+        mujoco.mj_resetData(model, physics.data)
+        updater = sensorcfg.Updater(observables, substeps)
+        random_state = np.random.RandomState(3)
+        updater.reset(physics, random_state)
+        key = sensor_key(episode_entropy(np.random.RandomState(3)), "clock")
+        expected = brute_force(interval, delay, buffer, substeps, key, steps)
+        seen = [updater.get_observation()["clock"].ravel()]
+        for _ in range(steps // substeps):
+            updater.prepare_for_next_control_step()
+            for _ in range(substeps):
+                mujoco.mj_step(model, physics.data)
+                updater.update()
+            seen.append(updater.get_observation()["clock"].ravel())
+        for read, (got, want) in enumerate(zip(seen, expected)):
+            np.testing.assert_array_equal(got, np.array(want) + 1, err_msg=f"read {read} ({list(observables)})")
+
+
+def _noisy_suite(seed: int) -> dict[str, sensorcfg.Observable]:
+    rng = np.random.default_rng(seed)
+    model = mujoco.MjModel.from_xml_path(str(assets.path("robot.xml")))
+    physics = sensorcfg.Physics(model)
+    stages = [[{"type": "gaussian", "std": 0.01}], [{"type": "bias", "std": 0.1}, {"type": "quantize", "step": 0.01}],
+              [{"type": "random_walk", "std": 0.01, "correlation_time": 0.05}, {"type": "clip", "min": -0.2, "max": 0.2}],
+              None]
+    out = {}
+    for j, (kind, element) in enumerate([("qpos", "joint:*"), ("qvel", "joint:*"), ("xpos", "site:fingertip"),
+                                          ("qpos", "joint:wrist")] * 2):
+        interval = [1, UniformSteps(1, 4), ChoiceSteps((2, 5))][int(rng.integers(3))]
+        delay = [UniformSteps(0, 3), ChoiceSteps((1, 7), (0.7, 0.3)), 2][int(rng.integers(3))]
+        obs = sensorcfg.Feature(kind, element, update_interval=interval, delay=delay,
+                                buffer_size=int(rng.integers(1, 5)),
+                                aggregator=[None, "mean", "max", "sum"][int(rng.integers(4))])
+        obs.reader(physics)
+        noise = stages[int(rng.integers(len(stages)))]
+        if noise:
+            obs.noise = build_noise(noise, obs.array_spec.shape, np.float64, physics.timestep)
+        obs.enabled = True
+        out[f"s{j}"] = obs
+    return out
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_the_bank_reads_what_the_per_sample_path_reads(seed, monkeypatch) -> None:
+    from sensorcfg.runtime import updater as updater_module
+
+    model = mujoco.MjModel.from_xml_path(str(assets.path("robot.xml")))
+    runs = []
+    for banked in (True, False):
+        if not banked:
+            monkeypatch.setattr(updater_module, "joins", lambda ch: False)
+        physics = sensorcfg.Physics(model)
+        updater = sensorcfg.Updater(_noisy_suite(seed), 3, pad_with_initial_value=bool(seed % 2))
+        updater.reset(physics, np.random.RandomState(seed))
+        assert (updater._drawn is not None) == banked
+        controls = np.random.default_rng(seed).uniform(-1, 1, (400, model.nu))
+        seen = [updater.get_observation()]
+        for control in controls:
+            physics.data.ctrl[:] = control
+            updater.prepare_for_next_control_step()
+            for _ in range(3):
+                mujoco.mj_step(model, physics.data)
+                updater.update()
+            seen.append(updater.get_observation())
+        runs.append((seen, updater.samples_taken()))
+    (a_seen, a_taken), (b_seen, b_taken) = runs
+    assert a_taken == b_taken
+    for s, (a, b) in enumerate(zip(a_seen, b_seen)):
+        for name in a:
+            np.testing.assert_array_equal(a[name], b[name], err_msg=f"step {s} {name}")
