@@ -78,3 +78,39 @@ def test_batch_memory_is_bounded_by_the_data_kept():
     kept = nsim * (1000 + 5000) * 14 * 8
     early, late = traced(lambda: env.step(action), 10, 300)
     assert late - early < 3 * max(DEFAULT_BUDGET, 2 * kept), f"grew by {(late - early) / MB:.1f} MB"
+
+
+@pytest.mark.parametrize("noise", [None, [{"type": "gaussian", "std": 0.01}]], ids=["plain", "noisy"])
+def test_each_phase_is_compiled_once(noise, monkeypatch):
+    """Read plans of every phase fit the cache: after one cycle of the history, reads compile nothing (a noisy
+    bank's plans refer to its noise fields, which must not count against the budget once per plan)."""
+    from sensorcfg.noise import build_noise
+    from sensorcfg.runtime.bank import FeatureBank
+
+    observable = sensorcfg.Feature("qpos", "joint:*", buffer_size=4, aggregator="mean")
+    observable.enabled = True
+    physics = sensorcfg.Physics(MODEL)
+    updater = sensorcfg.Updater({"q": observable}, 5)
+    updater.reset(physics, np.random.RandomState(0))
+    if noise:
+        observable.noise = build_noise(noise, observable.array_spec.shape, np.float64, MODEL.opt.timestep)
+    updater.reset(physics, np.random.RandomState(0))
+    bank = updater._bank
+    assert bank is not None and (bank.noise is not None) == bool(noise)
+    compiled = []
+    original = FeatureBank._compile
+    monkeypatch.setattr(FeatureBank, "_compile", lambda self, phase: compiled.append(phase) or original(self, phase))
+
+    def control_step():
+        updater.prepare_for_next_control_step()
+        for _ in range(5):
+            mujoco.mj_step(MODEL, physics.data)
+            updater.update()
+        updater.get_observation()
+
+    for _ in range(bank.rows // 5):
+        control_step()
+    assert len(compiled) == bank.rows // 5
+    for _ in range(2 * bank.rows // 5):
+        control_step()
+    assert len(compiled) == bank.rows // 5

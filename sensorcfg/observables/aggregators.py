@@ -6,7 +6,7 @@ after aggregation: min, max and median of values within bounds stay within them;
 does up to rounding (the mean of three 0.1s is 0.1 + 1 ulp), so its bounds widen by the rounding's
 worst case (`aggregated_bounds`), and a spec holds every value the reads return.
 `reduce` is the same reduction written for the bank and the batch (a stacked group of buffers, reduced once
-per group), bit-identical to numpy's (and so dm_control's) reduction along axis 0: numpy adds rows in order
+per group; `reduce(x, out)` writes into `out`), bit-identical to numpy's (and so dm_control's) reduction along axis 0: numpy adds rows in order
 and divides the sum by the count; a median is the middle value, or the mean of the two middle values.
 (dm_control sets a misspelled `bounds_reserving` on its built-ins while its Updater reads
 `preserves_bounds`, so it silently drops bounds; we read both names.)
@@ -16,27 +16,27 @@ from __future__ import annotations
 
 import types
 from collections.abc import Callable, Mapping
-from typing import Any
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 
-__all__ = ["AGGREGATORS", "Aggregator", "aggregated_bounds", "builtin", "get_aggregator", "preserves_bounds"]
+__all__ = ["AGGREGATORS", "Aggregator", "FAMILIES", "Family", "aggregated_bounds", "builtin", "family", "get_aggregator",
+           "preserves_bounds"]
 
 
-def _mean(x: np.ndarray) -> np.ndarray:
-    total = np.add.reduce(x, axis=0) if x.shape[0] != 2 else x[0] + x[1]
+def _mean(x: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    total: np.ndarray = np.add.reduce(x, 0, None, cast(Any, out))  # numpy adds from 0.0 row by row: a sum of -0.0s is 0.0
     return np.true_divide(total, x.shape[0], out=total)
 
 
-def _median(x: np.ndarray) -> np.ndarray:
+def _median(x: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
     b = x.shape[0]
-    if b <= 2:  # the middle value, or the mean of both (a nan anywhere gives nan, as in numpy)
-        return x[0].copy() if b == 1 else np.true_divide(x[0] + x[1], 2)
-    s = np.sort(x, axis=0)
-    out = s[b // 2].copy() if b % 2 else np.true_divide(s[b // 2 - 1] + s[b // 2], 2)
-    nan = np.isnan(s[-1])  # numpy's median is nan wherever a nan is present (sort puts nans last)
-    if nan.any():
-        out[nan] = np.nan
+    s = x if b <= 2 else np.sort(x, axis=0)
+    out = _mean(s[(b - 1) // 2:b // 2 + 1], out)  # numpy's median is the mean of the middle value(s)
+    if b > 2:
+        nan = np.isnan(s[-1])  # numpy's median is nan wherever a nan is present (sort puts nans last)
+        if nan.any():
+            out[nan] = np.nan
     return out
 
 
@@ -46,7 +46,7 @@ class Aggregator:
     __slots__ = ("name", "_func", "preserves_bounds", "reduce")
 
     def __init__(self, name: str, func: Callable[..., np.ndarray], preserves_bounds: bool,
-                 reduce: Callable[[np.ndarray], np.ndarray]):
+                 reduce: Callable[..., np.ndarray]):
         self.name = name
         self._func = func
         self.preserves_bounds = preserves_bounds
@@ -62,13 +62,38 @@ class Aggregator:
 AGGREGATORS: Mapping[str, Aggregator] = types.MappingProxyType({
     name: Aggregator(name, func, keeps, reduce)
     for name, func, keeps, reduce in (
-        ("min", np.min, True, lambda x: np.minimum.reduce(x, 0)),
-        ("max", np.max, True, lambda x: np.maximum.reduce(x, 0)),
+        ("min", np.min, True, lambda x, out=None: np.minimum.reduce(x, 0, None, out)),
+        ("max", np.max, True, lambda x, out=None: np.maximum.reduce(x, 0, None, out)),
         ("mean", np.mean, True, _mean),
         ("median", np.median, True, _median),
-        ("sum", np.sum, False, lambda x: np.add.reduce(x, 0)),
+        ("sum", np.sum, False, lambda x, out=None: np.add.reduce(x, 0, None, out)),
     )
 })
+
+
+class Family(NamedTuple):
+    """Built-in reductions that run as one over buffers of different lengths, each buffer padded to the
+    longest with `pad`, which changes no result: numpy adds rows in order from 0.0 and adding -0.0 changes
+    no sum; -inf changes no maximum and +inf no minimum. A mean then divides each column by its own count."""
+
+    reduce: str  # the table's entry that reduces the padded block
+    pad: float
+
+
+FAMILIES: Mapping[str, Family] = types.MappingProxyType(
+    {"sum": Family("sum", -0.0), "max": Family("max", -np.inf), "min": Family("min", np.inf)})
+
+
+def family(name: str, buffer: int, width: int) -> tuple[Family, int] | None:
+    """(family, divisor) of the built-in `name` reducing `buffer` samples of `width` values stacked; None
+    when it runs alone: a one-value sum or mean (numpy sums a 1-D buffer pairwise from 8 values on) or a
+    median of 3 or more (sorted). A median of 1 or 2 is their mean (numpy's median is the mean of the middle
+    values); a min or max of one value stays in its family (no rounding)."""
+    if name in ("min", "max"):
+        return FAMILIES[name], 1
+    if width == 1 or (name == "median" and buffer > 2):
+        return None
+    return FAMILIES["sum"], 1 if name == "sum" else buffer
 
 
 def builtin(aggregator: object) -> Aggregator | None:

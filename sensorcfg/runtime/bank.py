@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import ctypes
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple, Protocol, TypeGuard, cast
 
 import numpy as np
@@ -21,6 +21,7 @@ import numpy as np
 from ..observables.aggregators import AGGREGATORS, builtin
 from .cache import BoundedCache
 from .bank_noise import BankNoise, Program, program
+from .bank_read import PADS, CompiledRead, compile_read
 from .channels import Channel, FixedChannel
 
 __all__ = ["FeatureBank", "BankMember", "GroupMember", "PlainRead", "ReadPlan", "ReductionGroup", "buffer_view",
@@ -153,8 +154,10 @@ class FeatureBank:
         self.chunk = period * -(-_CHUNK_STEPS // period) if noisy else 0
         unit = self.chunk or period
         self.rows = unit * -(-(span + self.chunk) // unit)  # a multiple of every sampling period
-        self.history = np.zeros((self.rows, self.width))
-        self.flat = self.history.reshape(-1)
+        # the history, then the values reductions of different buffers are padded with (`bank_read.PADS`)
+        self.flat = np.zeros(self.rows * self.width + len(PADS))
+        self.flat[self.rows * self.width:] = PADS
+        self.history = self.flat[:self.rows * self.width].reshape(self.rows, self.width)
         self.history_rows = list(self.history)
         self.phases = [(ch.period(), len(phases), phases) for ch in channels for phases in [ch.needed_phases()]]
         self.snap_rows = _snapshot_rows(self.phases, self.rows)
@@ -191,9 +194,10 @@ class FeatureBank:
     def snapshot_steps(self) -> list[int]:
         return [t for t, snap in enumerate(self.snap_rows) if snap]
 
-    def tasks(self) -> list[tuple[int, list[int], Any]]:
-        """(period, phases, task(step)) for the Updater's plan: snapshots, and noise drawn a chunk ahead."""
-        out = [(self.rows, self.snapshot_steps(), self.snapshot)]
+    def tasks(self, sync: Callable[[], None] | None = None) -> list[tuple[int, list[int], Any]]:
+        """(period, phases, task(step)) for the Updater's plan: snapshots (each calling `sync` first when
+        given), and noise drawn a chunk ahead."""
+        out = [(self.rows, self.snapshot_steps(), self._snapshot_task(sync))]
         if self.noise is not None:
             out.append((self.chunk, [0], self.noise.fill))
         return out
@@ -212,44 +216,70 @@ class FeatureBank:
                 self.pad_values = self.history[0].copy()
                 self.noise.apply(self.pad_values, self.noise.plan(first))
 
-    def snapshot(self, step: int) -> None:
-        # mode="clip": indices are valid by construction, and "raise" would buffer the output
-        self.raw.take(self.source, None, self.history_rows[step % self.rows], "clip")
+    def _snapshot_task(self, sync: Callable[[], None] | None) -> Callable[[int], None]:
+        """Copy every member's values into the history row of `step`: a closure over what it uses (the plan
+        calls it at every sampled step)."""
+        take, source, rows, count = self.raw.take, self.source, self.history_rows, self.rows
+
+        def snapshot(step: int) -> None:
+            # mode="clip": indices are valid by construction, and "raise" would buffer the output
+            take(source, None, rows[step % count], "clip")
+
+        if sync is None:
+            return snapshot
+        bring_up_to_date = sync
+
+        def synced(step: int) -> None:
+            bring_up_to_date()
+            take(source, None, rows[step % count], "clip")
+
+        return synced
 
     def samples(self, position: int, step: int) -> int:
         """Samples member `position` has taken by `step`: the reset sample plus its needed steps so far."""
         return self.channels[position].schedule.samples_taken(self.phases[position][2], step)
 
-    def _plan_read(self, phase: int) -> tuple[np.ndarray, list[Any], list[Any], list[Any]]:
-        index, groups, plain = read_plan(self.channels, self.cols, self.rows, phase)
-        return index, groups, plain, (self.noise.plan(index) if self.noise is not None else [])
+    def _compile(self, phase: int) -> CompiledRead:
+        plan = read_plan(self.channels, self.cols, self.rows, phase)
+        if self.noise is None:  # gather the families' blocks straight from the history
+            return compile_read(self.channels, plan, None, self.rows * self.width)
+        return compile_read(self.channels, plan, self.noise.plan, None)  # noise applies to the windows first
 
-    def read(self, step: int) -> list[np.ndarray]:
-        """Every member's observation at `step`: fresh arrays (views of this read's own gather)."""
+    def read(self, step: int) -> Sequence[Any]:
+        """Every member's observation at `step`: fresh arrays (views of this read's own copy)."""
         phase = step % self.rows
         plan = self._gathers.get(phase)
         if plan is None:
-            plan = self._plan_read(phase)
-            self._gathers.put(phase, plan, 3 * plan[0].nbytes)  # the index, its noise positions, the groups
-        index, groups, plain, noise = plan
-        gathered = self.flat.take(index, None, None, "clip")
-        if noise:  # a noise plan: the bank has noise
-            cast(BankNoise, self.noise).apply(gathered, noise)
-            if step < self.rows:  # early in an episode: windows reach before the reset sample
-                early = self._early.get(step)
-                if early is None:
-                    early = self._early.put(step, np.flatnonzero(index // self.width > step))
-                if len(early):
-                    gathered[early] = self.pad_values.take(index[early] % self.width)
-        outputs: list[Any] = [None] * len(self.channels)
-        for i, part, shape in plain:
-            outputs[i] = gathered[part].reshape(shape)
-        for reduce, part, block, members in groups:
-            reduced = reduce(gathered[part].reshape(block))
-            for i, sub, shape in members:
-                # numpy reductions of scalar samples give numpy scalars (dm_control's type), not 0-d arrays
-                outputs[i] = reduced[sub].reshape(shape) if shape else reduced[sub][0]
-        return outputs
+            plan = self._compile(phase)
+            # its index, noise positions and work buffer (the noise plan's fields are the bank's own)
+            self._gathers.put(phase, plan, 4 * plan.source.nbytes)
+        self.flat.take(plan.source, None, plan.gathered, "clip")
+        if plan.noise:  # a noise plan: the bank has noise
+            self._apply_noise(step, plan)
+        if plan.stack is not None:
+            source, index, blocks = plan.stack
+            source.take(index, None, blocks, "clip")
+        for reduce, window, out in plan.reductions:
+            reduce(window, out)
+        for out, counts in plan.divisions:
+            np.true_divide(out, counts, out)
+        values = plan.cut(plan.shown.copy())
+        if not plan.reshapes:
+            return values
+        cut = list(values)
+        for i, shape in plan.reshapes:
+            cut[i] = cut[i].reshape(shape)
+        return cut
+
+    def _apply_noise(self, step: int, plan: CompiledRead) -> None:
+        gathered, index = plan.gathered, plan.source
+        cast(BankNoise, self.noise).apply(gathered, plan.noise)
+        if step < self.rows:  # early in an episode: windows reach before the reset sample
+            early = self._early.get(step)
+            if early is None:
+                early = self._early.put(step, np.flatnonzero(index // self.width > step))
+            if len(early):
+                gathered[early] = self.pad_values.take(index[early] % self.width)
 
 
 def _snapshot_rows(phases: list[tuple[int, int, list[int]]], rows: int) -> list[bool]:

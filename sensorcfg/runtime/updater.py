@@ -118,6 +118,10 @@ class Updater:
         self._step = 0
         self._start(members)
         self._build_plan()
+        self._fast_path()
+
+    def _fast_path(self) -> None:
+        """The common case: one dict whose every observable the bank reads, in order (one read, one dict)."""
         first_kind, first_reads = self._reads[0] if self._reads else (dict, [])  # Updater([]): no dicts at all
         self._whole = None if self._nested else self._single_bank([read.reader for read in first_reads])
         self._dict_type, self._names = first_kind, [read.name for read in first_reads]
@@ -219,7 +223,7 @@ class Updater:
         tasks = [PlanTask(ch.period(), ch.needed_phases(), order, ch.sample) for order, ch in enumerate(self._channels)
                  if isinstance(ch, FixedChannel) and id(ch) not in banked]
         if bank:
-            tasks[:0] = [*self._sync_tasks(bank), *(PlanTask(p, phases, BANK_ORDER, run) for p, phases, run in bank.tasks())]
+            tasks[:0] = self._bank_tasks(bank)
         return tasks
 
     def _before_tasks(self) -> list[PlanTask]:
@@ -239,14 +243,17 @@ class Updater:
         return tasks
 
     @staticmethod
-    def _sync_tasks(bank: FeatureBank) -> list[PlanTask]:
-        """On a dirty dm_control physics, mj_forward before a step's derived reads (as its bind does)."""
+    def _bank_tasks(bank: FeatureBank) -> list[PlanTask]:
+        """The bank's snapshots and noise draws; on a dirty dm_control physics, mj_forward before a step's
+        derived reads (as its bind does): within the snapshot when they happen at the same steps."""
         syncing = [m.channel for m in bank.members() if getattr(m.channel.sampler, "sync", None)]
-        if not syncing:
-            return []
-        sync = cast(Any, syncing[0].sampler).sync
+        sync = cast(Any, syncing[0].sampler).sync if syncing else None
         steps = sorted({t for ch in syncing for p in ch.needed_phases() for t in range(p, bank.rows, ch.period())})
-        return [PlanTask(bank.rows, steps, SYNC_ORDER, lambda step: sync())]
+        folded = sync is not None and steps == bank.snapshot_steps()
+        tasks = [PlanTask(p, phases, BANK_ORDER, run) for p, phases, run in bank.tasks(sync if folded else None)]
+        if sync is not None and not folded:
+            tasks.insert(0, PlanTask(bank.rows, steps, SYNC_ORDER, lambda step: sync()))
+        return tasks
 
     # -- the physics loop -------------------------------------------------------------------------
 

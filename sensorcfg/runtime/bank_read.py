@@ -1,0 +1,207 @@
+"""A feature bank's read of one phase, compiled onto a work buffer of its own: a fixed number of numpy calls.
+
+`runtime.bank.read_plan` says which history positions each read gathers and how they are cut and reduced.
+Compiled, a read is: one `take` from the history into the work buffer, which also stacks the windows of
+reductions of one family (`observables.aggregators.family`: sums, means and medians of one or two samples;
+maxima; minima) side by side, each padded to the family's longest buffer with a value that changes no
+result (`PADS`, kept after the history); one reduction per family (and per reduction that runs alone);
+one division for the means; one copy of the values the observations show; one `itemgetter` cutting every
+observation from that copy. The copy is the read's own: each observation is a fresh array, as
+dm_control's are. With noise, the take gathers the windows only, noise is applied to them, and a second
+take stacks them (with the pads, then kept in the work buffer).
+
+Work buffer, one row: [reduced values | plain windows | windows reduced alone | (with noise: the
+families' windows, pads) | family blocks]; the copy takes the first two parts.
+"""
+
+from __future__ import annotations
+
+import math
+import operator
+from collections.abc import Callable, Sequence
+from typing import Any, NamedTuple, cast
+
+import numpy as np
+
+from ..observables.aggregators import AGGREGATORS, FAMILIES, Family, family
+from .channels import FixedChannel
+
+__all__ = ["PADS", "CompiledRead", "Reduction", "compile_read"]
+
+PADS = [f.pad for f in FAMILIES.values()]  # what the families' blocks are padded with
+
+
+class Reduction(NamedTuple):
+    """`reduce(window, out)`: both views of the work buffer."""
+
+    reduce: Callable[..., np.ndarray]
+    window: np.ndarray  # (buffer, width)
+    out: np.ndarray  # (width,)
+
+
+class CompiledRead(NamedTuple):
+    """One phase's read (see the module's doc)."""
+
+    source: np.ndarray  # the history positions gathered, in the order of `gathered`
+    gathered: np.ndarray  # the windows' part of the work buffer
+    stack: tuple[np.ndarray, np.ndarray, np.ndarray] | None  # (source, index, blocks) of the families' take
+    reductions: list[Reduction]
+    divisions: list[tuple[np.ndarray, np.ndarray]]  # (reduced values, their counts): the means
+    shown: np.ndarray  # the part of the work buffer the observations show, (1, n)
+    cut: Callable[[np.ndarray], tuple[Any, ...]]  # a copy of `shown` -> every member's value
+    reshapes: list[tuple[int, tuple[int, ...]]]  # members whose cut needs a reshape: (member, shape)
+    noise: list[Any]  # the bank noise's plan for `source` ([] without noise)
+
+
+class _Group(NamedTuple):
+    """A reduction group of the read plan: its window's positions in the plan's gather, and its family."""
+
+    positions: np.ndarray  # (buffer, width)
+    members: list[Any]  # GroupMember
+    reduce: Callable[..., np.ndarray]
+    family: tuple[Family, int] | None  # (family, divisor); None: reduced alone
+
+
+class _Cuts:
+    """Per member, the index into a (1, n) copy that gives its value in one step where its shape allows
+    ((1, k) and (k,) arrays, numpy scalars), else a flat cut and a reshape."""
+
+    def __init__(self, channels: Sequence[FixedChannel], plain: list[Any], ordered: list[_Group], starts: np.ndarray):
+        """Plain members' windows start at `starts`; reduced values lie first, in the groups' `ordered` order."""
+        self.keys: list[Any] = [None] * len(channels)
+        self.reshapes: list[tuple[int, tuple[int, ...]]] = []
+        for p, start in zip(plain, starts):
+            self.place(p.member, int(start), p.shape, scalar=False)
+        at = 0
+        for g in ordered:
+            for m in g.members:
+                self.place(m.member, at + m.columns.start, m.shape, scalar=True)
+            at += g.positions.shape[1]
+
+    def place(self, i: int, start: int, shape: tuple[int, ...], scalar: bool) -> None:
+        span = slice(start, start + math.prod(shape))
+        if not shape and scalar:  # numpy reductions of scalar samples give numpy scalars (dm_control's type)
+            self.keys[i] = (0, start)
+        elif len(shape) == 2 and shape[0] == 1:
+            self.keys[i] = (slice(None), span)
+        else:
+            self.keys[i] = (0, span)
+            if len(shape) != 1:
+                self.reshapes.append((i, shape))
+
+    def getter(self) -> Callable[[np.ndarray], tuple[Any, ...]]:
+        if len(self.keys) == 1:
+            key = self.keys[0]
+            return lambda values: (values[key],)
+        return operator.itemgetter(*self.keys)
+
+
+def compile_read(channels: Sequence[FixedChannel], plan: Any, noise_plan: Callable[[np.ndarray], list[Any]] | None,
+                 pads_at: int | None) -> CompiledRead:
+    """`plan`: `read_plan(...)` of one phase; `noise_plan`: the bank noise's `plan` (None without noise);
+    `pads_at`: where the history's source holds the families' pads (`PADS`): the gather fills the families'
+    blocks too; or None: noise applies to the gathered windows first, and a second take stacks them."""
+    index, groups, plain = plan
+    families, alone = _families(channels, groups)
+    stacked_groups = [g for members in families.values() for g in members]
+    ordered = stacked_groups + alone  # as their reduced values lie
+    nreduced = sum(g.positions.shape[1] for g in ordered)
+    # the windows gathered: plain, reduced alone, and the families' unless the gather stacks them itself
+    windows = _windows(plain, alone + (stacked_groups if pads_at is None else []))
+    order = np.concatenate([*windows, np.zeros(0, np.intp)]).astype(np.intp)
+    starts = nreduced + np.cumsum([0] + [len(w) for w in windows])  # each window's start in the work row
+    work = np.empty((1, int(starts[-1]) + (0 if pads_at is not None else len(PADS)) + _block_values(families)))
+    stacked = _stacker(work[0], index, order, int(starts[-1]), pads_at)
+    for gs in families.values():
+        stacked.add(gs)
+    for g, start in zip(alone, starts[len(plain):]):
+        stacked.alone(g, int(start))
+    source = index[order]
+    if pads_at is not None:  # the gather fills the blocks too
+        source = np.concatenate([source, *stacked.index])
+    stack = None if pads_at is not None or not stacked.index else (
+        work[0, nreduced:stacked.first_block], np.concatenate(stacked.index),
+        work[0, stacked.first_block:stacked.block_at])
+    cuts = _Cuts(channels, plain, ordered, starts)
+    return CompiledRead(source, work[0, nreduced:nreduced + len(source)], stack, stacked.reductions,
+                        stacked.divisions, work[:, :int(starts[len(plain)])], cuts.getter(), cuts.reshapes,
+                        noise_plan(source) if noise_plan else [])
+
+
+def _windows(plain: list[Any], groups: list[_Group]) -> list[np.ndarray]:
+    """Read-plan positions of each window, in the order the work row holds them."""
+    return [np.arange(p.part.start, p.part.stop) for p in plain] + [g.positions.ravel() for g in groups]
+
+
+def _block_values(families: dict[str, list[_Group]]) -> int:
+    """Values in the families' blocks: per family, its longest buffer times its width."""
+    return sum(max(g.positions.shape[0] for g in gs) * sum(g.positions.shape[1] for g in gs)
+               for gs in families.values())
+
+
+def _stacker(row: np.ndarray, index: np.ndarray, order: np.ndarray, end: int, pads_at: int | None) -> _Stacked:
+    """Blocks after the windows (which end at `end`) that a take fills from the history (`pads_at` given)
+    or from the gathered windows followed by the pads (stored there)."""
+    if pads_at is not None:
+        return _Stacked(row, end, index, pads_at)
+    where = np.empty(len(index), np.intp)  # a read-plan position -> its place among the gathered values
+    where[order] = np.arange(len(order))
+    row[end:end + len(PADS)] = PADS
+    return _Stacked(row, end + len(PADS), where, len(order))
+
+
+def _families(channels: Sequence[FixedChannel], groups: list[Any]) -> tuple[dict[str, list[_Group]], list[_Group]]:
+    """The plan's reduction groups by family (`observables.aggregators.family`), and those reduced alone."""
+    families: dict[str, list[_Group]] = {}
+    alone = []
+    for g in groups:
+        found = family(cast(Any, channels[g.members[0].member].aggregator).name, *g.block)
+        group = _Group(np.arange(g.part.start, g.part.stop).reshape(g.block), g.members, g.reduce, found)
+        if found is None:
+            alone.append(group)
+        else:
+            families.setdefault(found[0].reduce, []).append(group)
+    return families, alone
+
+
+class _Stacked:
+    """The families' blocks in the work buffer, from `first_block` on: where each block value comes from in
+    the source of the take that fills them (`lookup`: a read-plan position -> its place there; the pads
+    from `pad_at`), and each family's reduction into its reduced values."""
+
+    def __init__(self, row: np.ndarray, first_block: int, lookup: np.ndarray, pad_at: int):
+        self.row, self.lookup, self.pad_at = row, lookup, pad_at
+        self.first_block = self.block_at = first_block
+        self.at = 0  # the next reduced value
+        self.index: list[np.ndarray] = []
+        self.reductions: list[Reduction] = []
+        self.divisions: list[tuple[np.ndarray, np.ndarray]] = []
+
+    def add(self, groups: list[_Group]) -> None:
+        """One family: its groups' windows side by side, each padded to the longest."""
+        fam = cast("tuple[Family, int]", groups[0].family)[0]
+        buffer = max(g.positions.shape[0] for g in groups)
+        width = sum(g.positions.shape[1] for g in groups)
+        source = np.full((buffer, width), self.pad_at + PADS.index(fam.pad), np.intp)
+        counts = np.empty(width)
+        col = 0
+        for g in groups:
+            b, w = g.positions.shape
+            source[:b, col:col + w] = self.lookup[g.positions]
+            counts[col:col + w] = cast("tuple[Family, int]", g.family)[1]
+            col += w
+        block = self.row[self.block_at:self.block_at + source.size].reshape(source.shape)
+        out = self.row[self.at:self.at + width]
+        self.reductions.append(Reduction(AGGREGATORS[fam.reduce].reduce, block, out))
+        if (counts != 1).any():
+            self.divisions.append((out, counts))
+        self.index.append(source.ravel())
+        self.block_at += source.size
+        self.at += width
+
+    def alone(self, group: _Group, start: int) -> None:
+        """A group reduced on its own, from its window at `start` in the work row."""
+        buffer, width = group.positions.shape
+        window = self.row[start:start + buffer * width].reshape(buffer, width)
+        self.reductions.append(Reduction(group.reduce, window, self.row[self.at:self.at + width]))
+        self.at += width
