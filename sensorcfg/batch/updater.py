@@ -127,11 +127,7 @@ class BatchUpdater:
         self.noise = {i: BatchPipeline(e.channel.noise, self.nsim, e.name)
                       for i, e in enumerate(ordered) if e.channel.noise is not None}
         self.noisy = bool(self.noise) or any(e.channel.noise is not None for e in cameras)  # as the Updater draws
-        fields = _fields(physics, self.channels)
-        span = max((_random_span(e, substeps) for e in drawn), default=0)  # how long a drawn sample may wait
-        stops = set().union(*(_camera_stops(cast(FixedChannel, e.channel), substeps) for e in cameras))
-        layout = self.layout = Layout(self.channels, self.nfixed, set(self.noise), span, fields, self.nsim, self.substeps,
-                                      stops)
+        layout = self.layout = self._layout(physics, cameras, drawn)
         self.reset_values = layout.reset_values
         self.history, self.flat, self.cols, self.rows = layout.history, layout.flat, layout.cols, layout.rows
         self.timelines = Timelines([(e.name, cast(DrawnChannel, e.channel).drawn) for e in drawn], self.nsim,
@@ -143,6 +139,14 @@ class BatchUpdater:
         self._noise_plans: dict[int, list[list[tuple[int, np.ndarray]]]] = {}
 
     # -- construction -----------------------------------------------------------------------------
+
+    def _layout(self, physics: Any, cameras: list[_Entry], drawn: list[_Entry]) -> Layout:
+        """The store the rollouts record into and the history the reads gather from."""
+        substeps = self.substeps
+        fields = _fields(physics, self.channels)
+        span = max((_random_span(e, substeps) for e in drawn), default=0)  # how long a drawn sample may wait
+        stops = set().union(*(_camera_stops(cast(FixedChannel, e.channel), substeps) for e in cameras))
+        return Layout(self.channels, self.nfixed, set(self.noise), span, fields, self.nsim, substeps, stops)
 
     def _bind(self, observables: Mapping[str, Any], physics: Any, strip: bool) -> list[_Entry]:
         """Each enabled observable bound to `physics` with its channel, as the single-simulation Updater
