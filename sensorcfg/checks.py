@@ -22,7 +22,7 @@ from .errors import did_you_mean
 from .kinds import CONSTANT, INTERNAL, STATE, kinds_of, offered_kinds, state_twin
 from .observables.feature import batch_on_demand_problem
 
-__all__ = ["kind_problems", "sensor_problems", "batch_problems"]
+__all__ = ["kind_problems", "sensor_problems", "batch_problems", "per_simulation_refusal"]
 
 Found = list[tuple[tuple[str | int, ...], str]]  # (key path inside the sensor, message)
 
@@ -77,16 +77,21 @@ def _drawn(value: Any) -> bool:
     return isinstance(value, (UniformDraw, ChoiceDraw))
 
 
+def per_simulation_refusal(camera: bool, what: str) -> str:
+    """Why a BatchEnvironment refuses `what` (an aggregator, a drawn schedule, ...) on a camera or a height
+    scan, which it samples per simulation: the one wording for suites and for Python observables."""
+    does = "renders cameras" if camera else "casts height scans"
+    return f"a BatchEnvironment {does} per simulation and cannot apply {what} to them; {_SINGLE}"
+
+
 def batch_problems(cfg: SensorConfig, dtype: Any, field: str | None, model: mujoco.MjModel) -> Found:
     """What `BatchEnvironment` cannot run, by key."""
     found: Found = []
     if cfg.kind in IMAGE_KINDS or cfg.kind == HEIGHTSCAN_KIND:  # sampled per simulation; noise runs per simulation
-        does = "renders cameras" if cfg.kind in IMAGE_KINDS else "casts height scans"
         for key, present in (("aggregator", cfg.aggregator is not None),
                              ("interval", _drawn(cfg.interval)), ("delay", _drawn(cfg.delay))):
             if present:
-                found.append(((key,), f"a BatchEnvironment {does} per simulation and cannot apply "
-                              f"{_PER_SIMULATION_WHAT[key]} to them; {_SINGLE}"))
+                found.append(((key,), per_simulation_refusal(cfg.kind in IMAGE_KINDS, _PER_SIMULATION_WHAT[key])))
         return found
     if cfg.kind == GENERIC_KIND:
         return [(("kind",), "a generic callable runs Python per sample and simulation, which a BatchEnvironment "

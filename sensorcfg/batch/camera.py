@@ -36,8 +36,7 @@ class _Camera:
         self.many: Any = None
         self.ring = np.zeros((nsim, channel.capacity, *channel.shape), channel.dtype)
         self.noise = [copy.deepcopy(channel.noise) for _ in range(nsim)] if channel.noise is not None else None
-        self.needed = np.zeros(channel.schedule.period, bool)
-        self.needed[channel.schedule.needed_phases()] = True
+        self.needed = channel.schedule.needed_mask()
 
 
 def _noisy(camera: _Camera, i: int | np.integer, frame: np.ndarray, step: int) -> np.ndarray:

@@ -28,6 +28,7 @@ from dm_env import specs
 
 from ..draws import (DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, ChoiceSteps, UniformSteps,
                      episode_entropy, sensor_keys)
+from ..checks import per_simulation_refusal
 from ..errors import ArgumentError, SuiteError
 from ..observables.aggregators import AGGREGATORS, builtin
 from ..observables.feature import batch_on_demand_problem
@@ -207,9 +208,8 @@ class BatchUpdater:
                 else "an aggregator" if ch.aggregator is not None
                 else "a drawn interval or delay" if not isinstance(ch, FixedChannel) else None)
         if what:
-            label, does = ("camera", "renders cameras") if hasattr(obs, "camera_id") else ("height scan", "casts height scans")
-            raise SuiteError(f"{label} {name!r}: a BatchEnvironment {does} per simulation and cannot apply "
-                             f"{what} to them; remove it, or use the single-simulation Environment")
+            camera = hasattr(obs, "camera_id")
+            raise SuiteError(f"{'camera' if camera else 'height scan'} {name!r}: {per_simulation_refusal(camera, what)}")
 
     # -- episodes ---------------------------------------------------------------------------------
 
@@ -332,12 +332,9 @@ class BatchUpdater:
             for c in range(self.nfixed):
                 if c not in self.noise:
                     continue
-                ch = cast(FixedChannel, self.channels[c])  # the first nfixed are
-                period = ch.period()
-                needed = np.zeros(period, bool)
-                needed[ch.needed_phases()] = True
+                needed = cast(FixedChannel, self.channels[c]).schedule.needed_mask()  # the first nfixed are fixed
                 for k in range(1, self.substeps + 1):
-                    sims = np.flatnonzero(needed[(local + k) % period])
+                    sims = np.flatnonzero(needed[(local + k) % needed.size])
                     if sims.size:
                         plan[k - 1].append((c, sims))
             self._noise_plans[gp] = plan

@@ -85,6 +85,12 @@ class Schedule(NamedTuple):
             samples = samples[self.visible(samples)]
         return [int(k) * self.interval for k in samples]
 
+    def needed_mask(self) -> np.ndarray:
+        """`needed_phases()` as a boolean mask over [0, period): indexed by `step % period`."""
+        mask = np.zeros(self.period, bool)
+        mask[self.needed_phases()] = True
+        return mask
+
     def slot(self, sample: Any) -> Any:
         """The ring slot of sample `sample`."""
         return sample % self.capacity
