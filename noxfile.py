@@ -6,6 +6,9 @@
   failure here (SENSORCFG_REQUIRE_ORACLE=1).
 - `typecheck`: mypy (pinned) over the package; any error fails the session.
 
+Both test sessions build the compiled noise kernel (setup.py; the machines have a C compiler) and set
+SENSORCFG_REQUIRE_KERNEL=1, so that a kernel that failed to build fails its tests instead of skipping them.
+
 pytest's exit code 5 ("no tests collected") fails the session like any other non-zero code.
 """
 
@@ -17,7 +20,7 @@ nox.options.sessions = ["tests-mujoco4", "oracle-mujoco3", "typecheck"]
 nox.options.reuse_existing_virtualenvs = True
 nox.options.error_on_missing_interpreters = True
 
-ENV = {"MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"), "PYTHONHASHSEED": "0"}
+ENV = {"MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"), "PYTHONHASHSEED": "0", "SENSORCFG_REQUIRE_KERNEL": "1"}
 
 
 def _pytest(session: nox.Session, **env: str) -> None:

@@ -1,14 +1,31 @@
-"""The counter-based numbers (`sensorcfg.noise.streams`): Philox4x32-10 as published, random access, and
-normals and uniforms with the right distributions."""
+"""The counter-based numbers (`sensorcfg.noise.streams`): Philox4x32-10 as published, random access,
+normals and uniforms with the right distributions, and the compiled kernel equal to the numpy reference bit
+for bit. The kernel is optional (built where a C compiler is present); where it is meant to be built (the
+test sessions of noxfile.py set SENSORCFG_REQUIRE_KERNEL=1) a missing kernel fails instead of skipping."""
 
 from __future__ import annotations
 
 import math
+import os
+import subprocess
+import sys
 
 import numpy as np
 import pytest
 
+from sensorcfg.noise import streams
 from sensorcfg.noise.streams import Draw, numbers, philox
+
+PATHS = [pytest.param(False, id="numpy"), pytest.param(True, id="compiled")]
+
+
+def _path(compiled: bool) -> bool:
+    """Use the compiled kernel if asked (skip without it, or fail where it is required)."""
+    if compiled and streams.KERNEL != "compiled":
+        if os.environ.get("SENSORCFG_REQUIRE_KERNEL", "") not in ("", "0"):
+            pytest.fail("the compiled kernel is not built (SENSORCFG_REQUIRE_KERNEL=1)", pytrace=False)
+        pytest.skip("the compiled kernel is not built here")
+    return compiled
 
 # Random123's known-answer vectors for philox4x32-10: (counter, key, result)
 KNOWN = [
@@ -52,10 +69,12 @@ def test_keys_stages_lanes_and_samples_give_different_numbers():
         assert not np.any(numbers([other])[0] == first)
 
 
-def test_normals_are_standard_normal_and_uniforms_uniform():
+@pytest.mark.parametrize("compiled", PATHS)
+def test_normals_are_standard_normal_and_uniforms_uniform(compiled):
     n = 200_000
     keys = np.repeat(KEYS[:1], n // 20, axis=0)
-    z, u = numbers([Draw(keys, np.arange(n // 20), 0, 0, 20, True), Draw(keys, np.arange(n // 20), 1, 0, 20, False)])
+    z, u = numbers([Draw(keys, np.arange(n // 20), 0, 0, 20, True), Draw(keys, np.arange(n // 20), 1, 0, 20, False)],
+                   compiled=_path(compiled))
     z, u = z.ravel(), u.ravel()
     assert abs(z.mean()) < 0.01 and abs(z.std() - 1) < 0.01
     for t in (1.0, 2.0, 3.0):  # tail frequencies, against 5 standard errors
@@ -66,3 +85,48 @@ def test_normals_are_standard_normal_and_uniforms_uniform():
     assert np.max(np.abs(cdf - (np.arange(zs.size) * 50 + 1) / n)) < 1.63 / math.sqrt(n)  # KS at 1%
     assert u.min() >= 0 and u.max() < 1 and abs(u.mean() - 0.5) < 0.005
     assert np.all(np.abs(np.histogram(u, 10, (0, 1))[0] - n / 10) < 5 * math.sqrt(n / 10))
+
+
+def test_the_compiled_kernel_gives_the_numpy_numbers_bit_for_bit():
+    _path(True)
+    rng = np.random.default_rng(11)
+    draws = []
+    for size, m in [(1, 3000), (3, 2000), (4, 1000), (5, 999), (21, 800), (63, 300), (64, 250), (257, 70),
+                    (5000, 12)]:  # one counter to several blocks of counters per sample
+        keys = rng.integers(0, 2**64, (m, 2), dtype=np.uint64)
+        samples = rng.integers(0, 2**40, m)  # the counter takes the low 32 bits
+        for normal in (True, False):
+            draws.append(Draw(keys, samples, int(rng.integers(0, 256)), int(rng.integers(0, 3)), size, normal))
+    reference, compiled = numbers(draws, compiled=False), numbers(draws, compiled=True)
+    for d, a, b in zip(draws, reference, compiled):
+        assert a.shape == b.shape == (np.size(d.samples), d.size)
+        assert np.array_equal(a.view(np.uint64), b.view(np.uint64)), (d.size, d.normal)
+    z = np.concatenate([a.ravel() for d, a in zip(draws, reference) if d.normal])
+    # the fallback ran both ways: values beyond the ziggurat's base strip come only from its tail
+    assert np.count_nonzero(np.abs(z) > 3.442620) > 0
+
+
+def test_numpy_streams_can_be_forced_and_give_the_same_observations(tmp_path):
+    """SENSORCFG_NUMPY_STREAMS=1 runs the reference in a fresh process; a noisy suite observes the same."""
+    script = tmp_path / "run.py"
+    script.write_text(
+        "import sys, numpy as np, sensorcfg\n"
+        "from sensorcfg import assets\n"
+        "from sensorcfg.noise import streams\n"
+        "suite = sensorcfg.load(sys.argv[1])\n"
+        "env = sensorcfg.Environment(sensorcfg.assets.path('robot.xml'), suite, seed=3)\n"
+        "out = [env.reset().observation]\n"
+        "out += [env.step(np.zeros(env.action_spec().shape)).observation for _ in range(40)]\n"
+        "np.savez(sys.argv[2], kernel=streams.KERNEL, **{f'{i}/{k}': v for i, o in enumerate(out) for k, v in o.items()})\n")
+    suite = os.path.join(os.path.dirname(__file__), "..", "configs", "sim2real.yaml")
+    runs = {}
+    for force in ("1", "0"):
+        out = tmp_path / f"obs{force}.npz"
+        subprocess.run([sys.executable, str(script), suite, str(out)], check=True,
+                       env={**os.environ, "SENSORCFG_NUMPY_STREAMS": force})
+        runs[force] = dict(np.load(out))
+    assert str(runs["1"].pop("kernel")) == "numpy"
+    assert str(runs["0"].pop("kernel")) == streams.KERNEL
+    assert runs["1"].keys() == runs["0"].keys() and len(runs["1"]) > 40
+    for key, value in runs["1"].items():
+        assert np.array_equal(value, runs["0"][key]), key

@@ -10,8 +10,13 @@ numbers, as an outlier's hits and jumps, uses lanes 0 and 1), with the sensor's 
     counter = (j mod 2^32, s << 24 | l << 22 | v // 4, lo32(k1), hi32(k1)),  key = (lo32(k0), hi32(k0))
 
 gives four 32-bit words w0..w3 for values 4(v // 4) .. 4(v // 4) + 3. A uniform is w 2^-32 (in [0, 1),
-32 bits); normals come in pairs by Box-Muller: (w0, w1) give values 0 and 1 of the four, (w2, w3) values
-2 and 3, as r cos t and r sin t with r = sqrt(-2 ln((w_a + 1) 2^-32)), t = 2 pi w_b 2^-32 (|z| <= 6.66).
+32 bits); a normal comes from its own word by Marsaglia and Tsang's ziggurat, a word it rejects (about 1 in
+100) going on with words of its own (`_fallback`). The few exponentials and logarithms that takes are the C
+library's (Python's `math`), not numpy's, whose vectorised ones differ from it in the last bit on some CPUs.
+
+The compiled kernel (`_philox.c`, built by setup.py when a C compiler is present) computes the same numbers
+bit for bit, about ten times faster; numpy is the reference (tests/test_streams.py compares the two) and the
+path without a compiler. `KERNEL` says which one runs; SENSORCFG_NUMPY_STREAMS=1 forces numpy.
 
 Per-episode draws (bias, scale, a random walk's start, a custom stage's seed, drawn parameters) come from
 numpy's Philox generator keyed by the same key (`Streams.at`), counter (0, purpose, 0, stage).
@@ -20,13 +25,14 @@ numpy's Philox generator keyed by the same key (`Streams.at`), counter (0, purpo
 from __future__ import annotations
 
 import math
+import os
 import sys
 from collections.abc import Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
 
-__all__ = ["Draw", "Streams", "numbers", "philox", "stream_key"]
+__all__ = ["Draw", "KERNEL", "Streams", "numbers", "philox", "stream_key"]
 
 _M0, _M1 = np.uint64(0xD2511F53), np.uint64(0xCD9E8D57)  # Philox4x32 multipliers
 _W0, _W1 = np.uint32(0x9E3779B9), np.uint32(0xBB67AE85)  # its key schedule's increments
@@ -82,8 +88,6 @@ def _counters(draws: Sequence[Draw]) -> tuple[list[np.ndarray], list[np.ndarray]
     """The counter and key words of every draw, concatenated (q = ceil(size / 4) counters per sample,
     draw after draw), and each draw's q."""
     q = np.array([-(-d.size // 4) for d in draws], np.int64)
-    if q.max() > _MAX_LANE_VALUES // 4 or max(d.stage for d in draws) >= 256 or max(d.lane for d in draws) >= 3:
-        raise ValueError(f"a noise stage draws at most {_MAX_LANE_VALUES} values per sample, from stages < 256")
     m = np.array([np.size(d.samples) for d in draws], np.int64)
     per_row = np.repeat(q, m)  # counters per sample row
     samples = np.concatenate([np.asarray(d.samples, np.int64).ravel() for d in draws])
@@ -118,6 +122,27 @@ def _ziggurat_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 _KN, _WN, _FN = _ziggurat_tables()
 _R = 3.442620  # the start of the tail
+
+
+def _kernel() -> Any:
+    """The compiled kernel, given the ziggurat's tables; None where it was not built or is switched off."""
+    if os.environ.get("SENSORCFG_NUMPY_STREAMS", "") not in ("", "0"):
+        return None
+    try:
+        from . import _philox  # type: ignore[attr-defined]
+    except ImportError:
+        return None
+    _philox.tables(_KN, _WN, _FN)
+    return _philox
+
+
+_COMPILED = _kernel()
+KERNEL = "compiled" if _COMPILED is not None else "numpy"
+
+
+def _libm(fn: Any, x: np.ndarray) -> np.ndarray:
+    """fn (math.exp or math.log: the C library's) of each element of float64 array x."""
+    return np.fromiter(map(fn, x.tolist()), np.float64, x.size)
 
 
 def _normals(words: list[np.ndarray], counter: list[np.ndarray], key: list[np.ndarray]) -> np.ndarray:
@@ -173,11 +198,13 @@ def _attempt(hz: np.ndarray, w: list[np.ndarray]) -> tuple[np.ndarray, np.ndarra
     tail = iz == 0
     accepted = np.zeros(hz.size, bool)
     if tail.any():  # beyond the base layer: x from the exponential tail
-        t = -np.log(u[2][tail]) / _R
+        t = -_libm(math.log, u[2][tail]) / _R
         value[tail] = np.where(hz[tail] > 0, _R + t, -_R - t)
-        accepted[tail] = -2.0 * np.log(u[3][tail]) >= t * t
+        accepted[tail] = -2.0 * _libm(math.log, u[3][tail]) >= t * t
     wedge = ~tail
-    inside = wedge & (_FN[iz] + u[0] * (_FN[iz - 1] - _FN[iz]) < np.exp(-0.5 * value * value))
+    inside = np.zeros(hz.size, bool)
+    w_iz, w_value = iz[wedge], value[wedge]
+    inside[wedge] = _FN[w_iz] + u[0][wedge] * (_FN[w_iz - 1] - _FN[w_iz]) < _libm(math.exp, -0.5 * w_value * w_value)
     accepted |= inside
     # the others take the next word; accepted at once when it falls inside its layer
     again = wedge & ~inside
@@ -191,10 +218,15 @@ def _attempt(hz: np.ndarray, w: list[np.ndarray]) -> tuple[np.ndarray, np.ndarra
     return accepted, value, following
 
 
-def numbers(draws: Sequence[Draw]) -> list[np.ndarray]:
-    """Each draw's numbers, (m, size) float64, from one Philox call over all of them."""
+def numbers(draws: Sequence[Draw], compiled: bool = True) -> list[np.ndarray]:
+    """Each draw's numbers, (m, size) float64: by the compiled kernel where it is built (and `compiled`),
+    else from one numpy Philox call over all of them."""
     if not draws:
         return []
+    if any(d.size > _MAX_LANE_VALUES or d.stage >= 256 or d.lane >= 3 for d in draws):
+        raise ValueError(f"a noise stage draws at most {_MAX_LANE_VALUES} values per sample, from stages < 256")
+    if compiled and _COMPILED is not None:
+        return [_fill(d) for d in draws]
     counter, key, q = _counters(draws)
     words = philox(counter, key)
     normal = [d.normal for d in draws]
@@ -208,6 +240,15 @@ def numbers(draws: Sequence[Draw]) -> list[np.ndarray]:
         m = int(np.size(d.samples))
         out.append(values[d.normal][at:at + m * per].reshape(m, -1)[:, :d.size])
         at += m * per
+    return out
+
+
+def _fill(d: Draw) -> np.ndarray:
+    samples = np.ascontiguousarray(d.samples, np.int64).ravel()
+    keys = np.ascontiguousarray(np.broadcast_to(np.asarray(d.keys, np.uint64).reshape(-1, 2), (samples.size, 2)))
+    out = np.empty((samples.size, d.size))
+    assert _COMPILED is not None
+    _COMPILED.fill(keys, samples, d.stage << 24 | d.lane << 22, d.size, d.normal, out)
     return out
 
 
