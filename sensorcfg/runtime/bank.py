@@ -21,7 +21,7 @@ import numpy as np
 from ..observables.aggregators import AGGREGATORS, builtin
 from .cache import BoundedCache
 from .bank_noise import BankNoise, Program, program
-from .bank_read import PADS, CompiledRead, compile_read
+from .bank_read import PADS, CompiledRead, compile_read, finish
 from .channels import Channel, FixedChannel
 
 __all__ = ["FeatureBank", "BankMember", "GroupMember", "PlainRead", "ReadPlan", "ReductionGroup", "buffer_view",
@@ -214,7 +214,7 @@ class FeatureBank:
             if self.pad:  # padding repeats the first sample as delivered: with its noise
                 first = np.arange(self.width)
                 self.pad_values = self.history[0].copy()
-                self.noise.apply(self.pad_values, self.noise.plan(first))
+                self.noise.apply(self.pad_values, first, self.noise.read_program(first))
 
     def _snapshot_task(self, sync: Callable[[], None] | None) -> Callable[[int], None]:
         """Copy every member's values into the history row of `step`: a closure over what it uses (the plan
@@ -243,7 +243,8 @@ class FeatureBank:
         plan = read_plan(self.channels, self.cols, self.rows, phase)
         if self.noise is None:  # gather the families' blocks straight from the history
             return compile_read(self.channels, plan, None, self.rows * self.width)
-        return compile_read(self.channels, plan, self.noise.plan, None)  # noise applies to the windows first
+        noise = self.noise
+        return compile_read(self.channels, plan, lambda source: noise.read_program(source % self.width), None)
 
     def read(self, step: int) -> Sequence[Any]:
         """Every member's observation at `step`: fresh arrays (views of this read's own copy)."""
@@ -254,26 +255,13 @@ class FeatureBank:
             # its index, noise positions and work buffer (the noise plan's fields are the bank's own)
             self._gathers.put(phase, plan, 4 * plan.source.nbytes)
         self.flat.take(plan.source, None, plan.gathered, "clip")
-        if plan.noise:  # a noise plan: the bank has noise
+        if plan.noise:  # a noise program: the bank has noise
             self._apply_noise(step, plan)
-        if plan.stack is not None:
-            source, index, blocks = plan.stack
-            source.take(index, None, blocks, "clip")
-        for reduce, window, out in plan.reductions:
-            reduce(window, out)
-        for out, counts in plan.divisions:
-            np.true_divide(out, counts, out)
-        values = plan.cut(plan.shown.copy())
-        if not plan.reshapes:
-            return values
-        cut = list(values)
-        for i, shape in plan.reshapes:
-            cut[i] = cut[i].reshape(shape)
-        return cut
+        return finish(plan)
 
     def _apply_noise(self, step: int, plan: CompiledRead) -> None:
         gathered, index = plan.gathered, plan.source
-        cast(BankNoise, self.noise).apply(gathered, plan.noise)
+        cast(BankNoise, self.noise).apply(gathered, index, plan.noise)
         if step < self.rows:  # early in an episode: windows reach before the reset sample
             early = self._early.get(step)
             if early is None:

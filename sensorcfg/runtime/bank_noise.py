@@ -23,9 +23,10 @@ from ..noise import arithmetic as ar
 from ..noise import stages as rt
 from ..noise.streams import Draw, numbers
 
-__all__ = ["BankNoise", "program"]
+__all__ = ["BankNoise", "ReadOp", "program"]
 
 Program = tuple[tuple[str, Any], ...]  # (kind, stage) pairs
+ReadOp = Callable[[np.ndarray, np.ndarray], None]  # op(gathered values, their history positions), in place
 
 # What the bank does with each runtime stage type: "term" stages add a per-sample row (white noise,
 # outliers, their sums, a random walk's state: drawn a chunk ahead into a noise field); an episode draw
@@ -57,31 +58,6 @@ def program(pipeline: Any) -> Program | None:
     return tuple(ops)
 
 
-def _term(v: np.ndarray, field: np.ndarray, positions: np.ndarray) -> None:
-    ar.add(v, field.take(positions), v)
-
-
-def _add(v: np.ndarray, values: np.ndarray, cols: np.ndarray) -> None:
-    ar.add(v, values.take(cols), v)
-
-
-def _mul(v: np.ndarray, values: np.ndarray, cols: np.ndarray) -> None:
-    ar.multiply(v, values.take(cols), v)
-
-
-def _quantize(v: np.ndarray, step: np.ndarray) -> None:
-    ar.quantize(v, step, v)
-
-
-def _clip(v: np.ndarray, low: np.ndarray, high: np.ndarray) -> None:
-    ar.clip(v, low, high, v)
-
-
-# kind -> how a read applies it to the gathered values of a group (the stage's own arithmetic)
-_APPLY: dict[str, Callable[..., None]] = {"term": _term, "add": _add, "mul": _mul, "quantize": _quantize,
-                                          "clip": _clip}
-
-
 class BankNoise:
     """Noise fields and per-group programs for the noisy members of a bank."""
 
@@ -100,7 +76,8 @@ class BankNoise:
         self.programs = programs
         self.groups = [(signature, members) for signature, members in groups.items()]
         self.nfields = max((sig.count("term") for sig, _ in self.groups), default=0)
-        self.fields = np.zeros((self.nfields, rows, self.width))
+        # -0.0 where nothing is drawn: adding it changes no value, so a read may add a whole field row
+        self.fields = np.full((self.nfields, rows, self.width), -0.0)
         self.flat_fields = self.fields.reshape(self.nfields, rows * self.width)
         # per group and op position: full-width parameter vectors (constants now, episode draws at reset)
         self.params: list[list[Any]] = []
@@ -175,35 +152,101 @@ class BankNoise:
 
     # -- reads ------------------------------------------------------------------------------------
 
-    def plan(self, index: np.ndarray) -> list[Any]:
-        """For a gather `index` (flat history positions): per group, where its values are and what to do."""
-        columns = index % self.width
-        out = []
-        for (signature, members), per_op in zip(self.groups, self.params):
-            wanted = np.zeros(self.width, bool)
-            for i in members:
-                wanted[self.cols[i]:self.cols[i + 1]] = True
-            pos = np.flatnonzero(wanted[columns])
+    def read_program(self, columns: np.ndarray) -> list[ReadOp]:
+        """The noise of a read whose gathered values come from bank columns `columns`: stage q of every group
+        at once, layer by layer (the groups' values are disjoint, and each value still goes through its own
+        stages in order, so the bits are those of the per-sample pipeline). Each op is `op(gathered, index)`,
+        `index` being the read's history positions (a term is looked up there in its noise field)."""
+        member = np.searchsorted(self.cols, columns, side="right") - 1
+        layers: dict[tuple[int, str, int], list[tuple[np.ndarray, Any]]] = {}
+        has_term = np.zeros((self.nfields, len(self.shapes)), bool)  # [j, member]: it has a j-th term
+        for g, ((signature, members), per_op) in enumerate(zip(self.groups, self.params)):
+            pos = np.flatnonzero(np.isin(member, members))
+            j = 0
+            for q, (kind, params) in enumerate(zip(signature, per_op)):
+                key = j if kind == "term" else g if kind in ("add", "mul") else -1  # episode draws: per group
+                layers.setdefault((q, kind, key), []).append((pos, params))
+                if kind == "term":
+                    has_term[j, members] = True
+                    j += 1
+        ops = []
+        for (_, kind, key), entries in sorted(layers.items(), key=lambda item: item[0][0]):
+            pos = np.concatenate([p for p, _ in entries])
+            order = np.argsort(pos)
+            pos = pos[order]
             if not len(pos):
                 continue
+            if kind == "term":  # the other values' noise fields hold -0.0, which changes no value: add them too
+                rest = np.ones(len(columns), bool)
+                rest[pos] = False
+                everywhere = not has_term[key, member[rest]].any()
+                ops.append(_term_op(self.flat_fields[key], None if everywhere else _where(pos, len(columns))))
+                continue
             cols = columns[pos]
-            ops, j = [], 0
-            for kind, p in zip(signature, per_op):
-                if kind == "term":
-                    args: tuple[Any, ...] = (self.flat_fields[j], index[pos])
-                    j += 1
-                elif kind in ("add", "mul"):
-                    args = (p[0], cols)
-                else:
-                    args = tuple(a.take(cols) for a in p)
-                ops.append((_APPLY[kind], args))
-            out.append((pos, ops))
-        return out
+            args = tuple(np.concatenate([params[a].take(columns[p]) for p, params in entries])[order]
+                         for a in range(len(entries[0][1])))  # quantize and clip: their constants at `pos`
+            ops.append(_elementwise_op(kind, _where(pos, len(columns)), entries[0][1], cols, args))
+        return ops
 
-    def apply(self, gathered: np.ndarray, plan: list[Any]) -> None:
-        """Apply every group's stages, in order, to its gathered values (in place)."""
-        for pos, ops in plan:
-            v = gathered.take(pos)
-            for apply, args in ops:
-                apply(v, *args)
-            gathered[pos] = v
+    def apply(self, gathered: np.ndarray, index: np.ndarray, program: list[ReadOp]) -> None:
+        """Apply a read program to the values gathered from history positions `index` (in place)."""
+        for op in program:
+            op(gathered, index)
+
+
+def _where(pos: np.ndarray, n: int) -> slice | np.ndarray | None:
+    """Positions as None (all n), a slice (contiguous: ops work on a view) or the index array."""
+    if len(pos) == n:
+        return None
+    if pos[-1] - pos[0] + 1 == len(pos):
+        return slice(int(pos[0]), int(pos[-1]) + 1)
+    return pos
+
+
+def _term_op(field: np.ndarray, where: slice | np.ndarray | None) -> ReadOp:
+    """Add the noise field's values at the read's history positions (`where` of them)."""
+    if where is None:
+        def everywhere(g: np.ndarray, index: np.ndarray) -> None:
+            ar.add(g, field.take(index), g)
+        return everywhere
+    if isinstance(where, slice):
+        def on_view(g: np.ndarray, index: np.ndarray) -> None:
+            v = g[where]
+            ar.add(v, field.take(index[where]), v)
+        return on_view
+    positions = where
+
+    def scattered(g: np.ndarray, index: np.ndarray) -> None:
+        v = g.take(positions)
+        ar.add(v, field.take(index.take(positions)), v)
+        g.put(positions, v)
+    return scattered
+
+
+def _elementwise_op(kind: str, where: slice | np.ndarray | None, params: tuple[np.ndarray, ...], cols: np.ndarray,
+                    args: tuple[np.ndarray, ...]) -> ReadOp:
+    """An elementwise stage on `where` of the gathered values: quantize and clip with their constants at
+    those values (`args`), an episode draw with this episode's values (`params`, filled at `start`) at `cols`."""
+    if kind in ("add", "mul"):
+        values, arithmetic = params[0], ar.add if kind == "add" else ar.multiply
+
+        def fn(v: np.ndarray) -> None:
+            arithmetic(v, values.take(cols), v)
+    elif kind == "quantize":
+        def fn(v: np.ndarray) -> None:
+            ar.quantize(v, args[0], v)
+    else:
+        def fn(v: np.ndarray) -> None:
+            ar.clip(v, args[0], args[1], v)
+    if where is None:
+        return lambda g, index: fn(g)
+    if isinstance(where, slice):
+        view = where
+        return lambda g, index: fn(g[view])
+    positions = where
+
+    def scattered(g: np.ndarray, index: np.ndarray) -> None:
+        v = g.take(positions)
+        fn(v)
+        g.put(positions, v)
+    return scattered

@@ -26,7 +26,7 @@ import numpy as np
 from ..observables.aggregators import AGGREGATORS, FAMILIES, Family, family
 from .channels import FixedChannel
 
-__all__ = ["PADS", "CompiledRead", "Reduction", "compile_read"]
+__all__ = ["PADS", "CompiledRead", "Reduction", "compile_read", "finish"]
 
 PADS = [f.pad for f in FAMILIES.values()]  # what the families' blocks are padded with
 
@@ -50,7 +50,7 @@ class CompiledRead(NamedTuple):
     shown: np.ndarray  # the part of the work buffer the observations show, (1, n)
     cut: Callable[[np.ndarray], tuple[Any, ...]]  # a copy of `shown` -> every member's value
     reshapes: list[tuple[int, tuple[int, ...]]]  # members whose cut needs a reshape: (member, shape)
-    noise: list[Any]  # the bank noise's plan for `source` ([] without noise)
+    noise: list[Any]  # the bank noise's read program for `source` ([] without noise)
 
 
 class _Group(NamedTuple):
@@ -126,6 +126,25 @@ def compile_read(channels: Sequence[FixedChannel], plan: Any, noise_plan: Callab
     return CompiledRead(source, work[0, nreduced:nreduced + len(source)], stack, stacked.reductions,
                         stacked.divisions, work[:, :int(starts[len(plain)])], cuts.getter(), cuts.reshapes,
                         noise_plan(source) if noise_plan else [])
+
+
+def finish(plan: CompiledRead) -> Sequence[Any]:
+    """After the windows are gathered (and their noise applied): stack, reduce, copy and cut every member's
+    observation (fresh arrays: views of this read's own copy)."""
+    if plan.stack is not None:
+        source, index, blocks = plan.stack
+        source.take(index, None, blocks, "clip")
+    for reduce, window, out in plan.reductions:
+        reduce(window, out)
+    for out, counts in plan.divisions:
+        np.true_divide(out, counts, out)
+    values = plan.cut(plan.shown.copy())
+    if not plan.reshapes:
+        return values
+    cut = list(values)
+    for i, shape in plan.reshapes:
+        cut[i] = cut[i].reshape(shape)
+    return cut
 
 
 def _windows(plain: list[Any], groups: list[_Group]) -> list[np.ndarray]:

@@ -10,12 +10,14 @@ fixed-schedule bank does (`bank.read_plan` gives the layout).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any, NamedTuple, cast
 
 import numpy as np
 
 from .bank import BankMember, ReadPlan, _reader, read_plan
-from .bank_noise import _APPLY, BankNoise, program
+from .bank_noise import BankNoise, ReadOp, program
+from .bank_read import compile_read, finish
 from .channels import DrawnChannel
 from .drawn import Planner, Round, chunk_steps
 from ..observables.aggregators import builtin
@@ -82,36 +84,27 @@ class DrawnBank:
         layout = [_Layout(1, _Window(ch.buffer_size), ch.aggregator, ch.buffer_size, ch.buffered_shape, ch.shape)
                   for ch in channels]
         plan: ReadPlan = read_plan(cast(Any, layout), self.cols, max(ch.buffer_size for ch in channels), 0)
-        self.groups, self.plain = plan.groups, plan.plain
-        # each gathered value: (member's first window entry + window position, column)
+        # a read is compiled once (`bank_read`): only the rows it gathers change; each gathered value is
+        # (member's first window entry + window position, column)
+        self.compiled = compile_read(cast(Any, layout), plan, None, None)
+        template = self.compiled.source  # window position * width + column, in the order of the work buffer
         starts = np.cumsum([0] + [ch.buffer_size for ch in channels])
-        member = np.searchsorted(self.cols, plan.gather % self.width, side="right") - 1
-        self.entry = starts[member] + plan.gather // self.width
-        self.column = plan.gather % self.width
+        member = np.searchsorted(self.cols, template % self.width, side="right") - 1
+        self.entry = starts[member] + template // self.width
+        self.column = template % self.width
         slots = self.rows // substeps
-        self.gathers = np.zeros((slots, len(plan.gather)), np.intp)
+        self.gathers = np.zeros((slots, len(template)), np.intp)
         self.pads: list[np.ndarray | None] = [None] * slots
         self.pad_values = np.zeros(self.width)
         programs = [program(ch.noise) or () for ch in channels]
         self.noise = None
+        self.noise_program: list[ReadOp] = []
         if any(programs):
             strides = [_Stride(ch.shape, ch.drawn.stride) for ch in channels]
             offsets_in_chunk = [np.arange(0, self.chunk, s.interval, dtype=np.intp) for s in strides]
             self.noise = BankNoise(strides, list(programs), self.cols, self.rows, self.chunk, offsets_in_chunk)
-            self.terms: list[tuple[np.ndarray, np.ndarray]] = []
-            self.noise_plan = self._noise_plan(plan.gather)
-        self._read_step, self._outputs = -1, cast(list[Any], [])
-
-    def _noise_plan(self, gather: np.ndarray) -> list[Any]:
-        """BankNoise's plan, whose per-sample terms are looked up at each read's own gather positions
-        (refreshed in place per read: `self.terms` with the positions they take)."""
-        out = []
-        for pos, ops in self.noise.plan(gather):  # type: ignore[union-attr]
-            at = np.zeros(len(pos), np.intp)
-            ops = [(fn, (args[0], at) if fn is _APPLY["term"] else args) for fn, args in ops]
-            self.terms.append((at, pos))
-            out.append((pos, ops))
-        return out
+            self.noise_program = self.noise.read_program(self.column)
+        self._read_step, self._outputs = -1, cast(Sequence[Any], [])
 
     def members(self) -> list[DrawnMember]:
         return [DrawnMember(cast(Any, self), i, cast(Any, ch)) for i, ch in enumerate(self.channels)]
@@ -140,7 +133,7 @@ class DrawnBank:
     def _apply_noise(self, values: np.ndarray, index: np.ndarray) -> None:
         noise = self.noise
         assert noise is not None
-        noise.apply(values, noise.plan(index))
+        noise.apply(values, index, noise.read_program(index % self.width))
 
     def plan(self, step: int) -> None:
         """Before the control step after `step`: at a round's start, plan the round after next."""
@@ -187,29 +180,22 @@ class DrawnBank:
         self.need[row] = False
         self.raw.take(self.source, None, self.history_rows[row], "clip")
 
-    def read(self, step: int) -> list[Any]:
+    def read(self, step: int) -> Sequence[Any]:
         """Every member's observation at `step` (computed once per step)."""
         if step == self._read_step:
             return self._outputs
         slot = (step // self.n) % len(self.gathers)
         index = self.gathers[slot]
-        gathered = self.flat.take(index, None, None, "clip")
+        plan = self.compiled
+        gathered = plan.gathered
+        self.flat.take(index, None, gathered, "clip")
         if self.noise is not None:
-            for at, pos in self.terms:
-                index.take(pos, None, at, "clip")
-            self.noise.apply(gathered, self.noise_plan)
+            self.noise.apply(gathered, index, self.noise_program)
         pads = self.pads[slot]
         if pads is not None:
             gathered[pads] = self.pad_values.take(self.column[pads])
-        outputs: list[Any] = [None] * len(self.channels)
-        for i, part, shape in self.plain:
-            outputs[i] = gathered[part].reshape(shape)
-        for reduce, part, block, members in self.groups:
-            reduced = reduce(gathered[part].reshape(block))
-            for i, sub, shape in members:
-                outputs[i] = reduced[sub].reshape(shape) if shape else reduced[sub][0]
-        self._read_step, self._outputs = step, outputs
-        return outputs
+        self._read_step, self._outputs = step, finish(plan)
+        return self._outputs
 
 
 class _Stride(NamedTuple):
