@@ -143,11 +143,11 @@ def drawer(owner: str, attr: str, value: Any, default: int, random_state: Any) -
             raise SuiteError(f"observable {owner!r}: {attr} must be a "
                              f"{'non-negative' if attr == 'delay' else 'positive'} integer, got {value!r}")
         return int(value)
-    draw = functools.partial(value, random_state=random_state) if takes_random_state(value) else value
     if isinstance(value, (UniformSteps, ChoiceSteps)) and value.minimum >= lowest:
         # sensorcfg's own draws give integers >= their minimum: no check per draw. A closure, not the
         # partial: copies of a channel (deepcopy) must keep drawing from the episode's random state.
         return lambda: value(random_state)
+    draw = functools.partial(value, random_state=random_state) if takes_random_state(value) else value
 
     def checked() -> int:
         drawn = draw()

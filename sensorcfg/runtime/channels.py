@@ -18,7 +18,7 @@ import collections
 import dataclasses
 import numbers
 from collections.abc import Callable
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 
@@ -265,11 +265,12 @@ class DrawnChannel(Channel):
         self.key = key
         self.chunk = chunk_steps([self.drawn], self.substeps)
         self.rows = self.chunk * -(-(self.drawn.span + 2 * self.chunk + 1) // self.chunk)
-        self.need = np.zeros(self.rows, bool)
-        self.windows = np.full((self.rows // self.substeps, self.buffer_size), -1, np.int64)
-        self.values: list[Any] = [None] * self.rows
         self.fill: Any = None
-        self.planner = Planner(self.drawn, 1)
+        # the per-sample path's plan and samples, made at `start` (a channel the bank runs needs none)
+        self.need = np.zeros(0, bool)
+        self.windows = np.zeros((0, self.buffer_size), np.int64)
+        self.values: list[Any] = []
+        self.planner: Planner | None = None
 
     def store(self, first: Round | None, rounds: list[Round], base: int) -> None:
         """Record planned rounds: each round's reads (the first read of `rounds[i]` follows `base + i *
@@ -283,6 +284,11 @@ class DrawnChannel(Channel):
             self.need[plan.take_step % self.rows] = True
 
     def start(self, step: int) -> None:
+        if self.planner is None:
+            self.need = np.zeros(self.rows, bool)
+            self.windows = np.full((self.rows // self.substeps, self.buffer_size), -1, np.int64)
+            self.values = [None] * self.rows
+            self.planner = Planner(self.drawn, 1)
         self.need[:] = False
         first = self.planner.start(_ZERO, [self.key])
         self.store(first, [self.planner.round(_ZERO, self.chunk) for _ in range(2)], 0)
@@ -293,7 +299,7 @@ class DrawnChannel(Channel):
     def plan(self, step: int) -> None:
         """Before the control step after `step`: at a round's start, plan the round after next."""
         if step and step % self.chunk == 0:
-            self.store(None, [self.planner.round(_ZERO, self.chunk)], step + self.chunk)
+            self.store(None, [cast(Planner, self.planner).round(_ZERO, self.chunk)], step + self.chunk)
 
     def due(self, step: int) -> bool:
         return bool(self.need[step % self.rows])

@@ -86,6 +86,11 @@ class _Samples:
 
     def __init__(self, key: np.ndarray):
         self.streams = Streams(key)
+        self.restart(key)
+
+    def restart(self, key: np.ndarray) -> None:
+        """A new episode's samples (the generator is kept)."""
+        self.streams.rekey(key)
         self.block = 0
         self.last = 0  # time of the newest generated sample
         self.times = np.zeros(0, np.int64)
@@ -132,7 +137,11 @@ class Planner:
         """Episodes of simulations `sims` start (their sensor keys): the round of step 0 (the reset sample and
         read)."""
         for i, key in zip(sims.tolist(), keys):
-            self.samples[i] = _Samples(key)
+            samples = self.samples[i]
+            if samples is None:
+                self.samples[i] = _Samples(key)
+            else:
+                samples.restart(key)
         self.tail[sims] = -1
         self.end[sims] = -1
         restarted = np.zeros(len(self.end), bool)
@@ -190,9 +199,8 @@ class Planner:
             counts = [len(t) for t, _ in new]
             return np.repeat(np.arange(len(new)), counts), np.concatenate([t for t, _ in new])
         floor = np.maximum(prev - length, 0)
-        sim = np.broadcast_to(np.arange(len(prev))[:, None, None], windows.shape)
         shown = windows > floor[:, None, None]
-        return sim[shown], windows[shown]
+        return shown.nonzero()[0], windows[shown]
 
 
 def _ready(samples: _Samples | None) -> _Samples:

@@ -75,6 +75,11 @@ class DrawnBank:
         self.chunk = chunk_steps([ch.drawn for ch in channels], substeps)
         span = max(ch.drawn.span for ch in channels)
         self.rows = self.chunk * -(-(span + 2 * self.chunk + 1) // self.chunk)
+        # A round is planned this many steps before it starts: every sample its reads show is then still
+        # ahead (a read shows samples at most `span` steps old), and so is every sample of the round before
+        # whose first read falls in it (at most delay + substeps - 1 steps old).
+        self.ahead = min(self.chunk, span + substeps)
+        self.next_round = 0  # the start of the next round to plan
         self.history = np.zeros((self.rows, self.width))
         self.flat = self.history.reshape(-1)
         self.history_rows = list(self.history)
@@ -94,7 +99,7 @@ class DrawnBank:
         self.column = template % self.width
         slots = self.rows // substeps
         self.gathers = np.zeros((slots, len(template)), np.intp)
-        self.pads: list[np.ndarray | None] = [None] * slots
+        self.pads: dict[int, np.ndarray] = {}  # read slot -> its gathered values before the reset sample
         self.pad_values = np.zeros(self.width)
         programs = [program(ch.noise) or () for ch in channels]
         self.noise = None
@@ -105,6 +110,21 @@ class DrawnBank:
             self.noise = BankNoise(strides, list(programs), self.cols, self.rows, self.chunk, offsets_in_chunk)
             self.noise_program = self.noise.read_program(self.column)
         self._read_step, self._outputs = -1, cast(Sequence[Any], [])
+
+    @staticmethod
+    def key(channels: list[DrawnChannel], data: Any, substeps: int, pad: bool) -> tuple[Any, ...]:
+        """What the bank's layout depends on: equal keys let a reset reuse the bank (`rebind`)."""
+        head: tuple[Any, ...] = (id(data), substeps, pad)
+        return head + tuple(
+            (_reader(ch).field, _reader(ch).index.shape, _reader(ch).index.tobytes(), ch.drawn, ch.shape,
+             ch.buffered_shape, getattr(ch.aggregator, "name", None), ch.has_buffer_dim, id(ch.noise))
+            for ch in channels)
+
+    def rebind(self, channels: list[DrawnChannel]) -> None:
+        """Take this episode's channels (same settings as the ones the bank was built for)."""
+        self.channels = channels
+        if self.noise is not None:
+            self.noise.programs = [program(ch.noise) or () for ch in channels]
 
     def members(self) -> list[DrawnMember]:
         return [DrawnMember(cast(Any, self), i, cast(Any, ch)) for i, ch in enumerate(self.channels)]
@@ -117,18 +137,19 @@ class DrawnBank:
         self.taken = [(1, []) for _ in self.channels]
         self.raw.take(self.source, None, self.history[0], "clip")
         if self.noise is not None:
-            self.noise.start()  # noise of the steps [0, chunk), then [chunk, 2 chunk): one round ahead
-            self.noise.fill(self.chunk)
+            self.noise.start()  # noise of the steps [0, chunk); later chunks with their rounds
         if self.pad:
             self.pad_values = self.history[0].copy()
             if self.noise is not None:  # padding repeats the first sample as delivered: with its noise
                 self._apply_noise(self.pad_values, np.arange(self.width))
         else:
             self.pad_values = np.zeros(self.width)
+        self.pads.clear()
         first = [p.start(_ZERO, [ch.key]) for p, ch in zip(self.planners, self.channels)]
         self._store(first, 0, 0)
-        for base in (0, self.chunk):
-            self._plan_round(base)
+        self._plan_round(0)
+        self.next_round = self.chunk
+        self.plan(0)
 
     def _apply_noise(self, values: np.ndarray, index: np.ndarray) -> None:
         noise = self.noise
@@ -136,11 +157,13 @@ class DrawnBank:
         noise.apply(values, index, noise.read_program(index % self.width))
 
     def plan(self, step: int) -> None:
-        """Before the control step after `step`: at a round's start, plan the round after next."""
-        if step and step % self.chunk == 0:
-            self._plan_round(step + self.chunk)
+        """Before the control step after `step`: plan the next round (and draw its noise) once it is
+        `ahead` steps away."""
+        if step + self.ahead >= self.next_round:
+            self._plan_round(self.next_round)
             if self.noise is not None:
-                self.noise.fill(step + self.chunk)
+                self.noise.fill(self.next_round)
+            self.next_round += self.chunk
 
     def _plan_round(self, base: int) -> None:
         rounds = [p.round(_ZERO, self.chunk) for p in self.planners]
@@ -151,7 +174,7 @@ class DrawnBank:
             if len(recent) == 3:  # rounds that ended before the current step
                 older += len(recent.pop(0))
             # a sample is shown first in its own round or the next: each counted once
-            recent.append(np.setdiff1d(plan.take_step, recent[-1] if recent else ()))
+            recent.append(_new(plan.take_step, recent[-1] if recent else _ZERO[:0]))
             self.taken[i] = (older, recent)
 
     def samples(self, position: int, step: int) -> int:
@@ -166,9 +189,11 @@ class DrawnBank:
         index = rows[:, self.entry] * self.width + self.column
         slots = (first + np.arange(max(count, 1))) % len(self.gathers)
         self.gathers[slots] = index
-        padded = windows[:, self.entry] < 0
-        for slot, mask in zip(slots.tolist(), padded):
-            self.pads[slot] = np.flatnonzero(mask) if mask.any() else None
+        for slot in [slot for slot in self.pads if (slot - first) % len(self.gathers) < max(count, 1)]:
+            del self.pads[slot]  # a slot of an earlier round
+        padded = windows[:, self.entry] < 0  # only reads early in an episode show padding
+        for read in np.flatnonzero(padded.any(axis=1)).tolist():
+            self.pads[int(slots[read])] = np.flatnonzero(padded[read])
 
     # -- the physics loop -------------------------------------------------------------------------
 
@@ -191,7 +216,7 @@ class DrawnBank:
         self.flat.take(index, None, gathered, "clip")
         if self.noise is not None:
             self.noise.apply(gathered, index, self.noise_program)
-        pads = self.pads[slot]
+        pads = self.pads.get(slot)
         if pads is not None:
             gathered[pads] = self.pad_values.take(self.column[pads])
         self._read_step, self._outputs = step, finish(plan)
@@ -203,6 +228,15 @@ class _Stride(NamedTuple):
 
     shape: tuple[int, ...]
     interval: int
+
+
+def _new(steps: np.ndarray, before: np.ndarray) -> np.ndarray:
+    """The distinct `steps` (sorted) not in `before` (sorted, distinct)."""
+    steps = np.unique(steps)
+    if not len(before) or not len(steps):
+        return steps
+    at = np.searchsorted(before, steps)
+    return steps[before.take(at, mode="clip") != steps]
 
 
 _ZERO = np.zeros(1, np.intp)

@@ -193,9 +193,20 @@ class Updater:
             return None
         data = raw_structs(physics)[1]
         view = buffer_view(data, fields_of(members))  # type: ignore[arg-type]
-        if view is None or any(getattr(ch.sampler, "sync", None) is not None for ch in members):
-            return None  # fields outside MjData's main buffer, or a dm_control physics: per sample
-        return DrawnBank(cast(list[DrawnChannel], members), data, self._substeps, self._pad, view)
+        if any(getattr(ch.sampler, "sync", None) is not None for ch in members):
+            return None  # a dm_control physics: per sample
+        channels = cast(list[DrawnChannel], members)
+        key = DrawnBank.key(channels, data, self._substeps, self._pad)
+        cached = getattr(self, "_drawn_cache", None)
+        if cached is not None and cached[0] == key:  # same sensors: keep the layout and compiled read
+            cached[1].rebind(channels)
+            return cached[1]
+        view = buffer_view(data, fields_of(members))  # type: ignore[arg-type]
+        if view is None:  # fields outside MjData's main buffer: per sample
+            return None
+        bank = DrawnBank(channels, data, self._substeps, self._pad, view)
+        self._drawn_cache = (key, bank)
+        return bank
 
     def _build_plan(self) -> None:
         """One table over the common period: which sampling tasks run at each step's phase."""
