@@ -30,6 +30,9 @@ __all__ = ["NOT_COPYABLE", "ControlLoop", "Environment", "make_env", "load_model
            "steps_per_control_step", "keyframe_index"]
 
 _BAD_STATE = np.array([int(getattr(mujoco.mjtWarning, f"mjWARN_BAD{w}")) for w in ("QPOS", "QVEL", "QACC", "CTRL")])
+# adjacent in MuJoCo's enum (3..6): a slice of the counters is then a live view, compared as bytes
+_BAD_SPAN = (slice(int(_BAD_STATE.min()), int(_BAD_STATE.max()) + 1)
+             if np.array_equal(_BAD_STATE, np.arange(_BAD_STATE.min(), _BAD_STATE.max() + 1)) else None)
 RewardFn = Callable[[Physics], float]
 TerminationFn = Callable[[Physics], bool]
 InitializeFn = Callable[[Physics, np.random.RandomState], None]
@@ -207,6 +210,8 @@ class Environment(ControlLoop, dm_env.Environment):
         self._model, observables, kwargs = model_and_observables(model, suite)
         self._physics = Physics(self._model)
         self._warning_counts = self._physics.data.warning.number  # a live view of MjData's counters
+        self._bad_counts = None if _BAD_SPAN is None else self._warning_counts[_BAD_SPAN]
+        self._ctrl = self._physics.data.ctrl  # a live view too
         suite_keyframe = kwargs.pop("keyframe", None)
         self._n, self._control_timestep, self._step_limit = episode_timing(
             self._model, physics_steps_per_control_step, control_timestep, time_limit,
@@ -288,7 +293,7 @@ class Environment(ControlLoop, dm_env.Environment):
 
     def _step(self, ctrl: np.ndarray) -> dm_env.TimeStep:
         data = self._physics.data
-        data.ctrl[:] = ctrl
+        self._ctrl[:] = ctrl
         updater, model = self._updater, self._model
         updater.prepare_for_next_control_step()
         for _ in range(self._n):
@@ -307,7 +312,7 @@ class Environment(ControlLoop, dm_env.Environment):
         if last:
             self._needs_reset = True
             return dm_env.TimeStep(dm_env.StepType.LAST, reward, float(discount), observation)
-        return dm_env.transition(reward, observation)
+        return dm_env.TimeStep(dm_env.StepType.MID, reward, 1.0, observation)  # dm_env.transition's
 
     def _check_action(self, action: Any) -> np.ndarray:
         action = np.asarray(action, dtype=np.float64)
@@ -316,11 +321,12 @@ class Environment(ControlLoop, dm_env.Environment):
                                 f"got {action.shape}")
         return action
 
-    def _warnings(self) -> int:
-        """MuJoCo's count of bad-state warnings. mj_step checks qpos, qvel (at its start) and qacc for
-        non-finite or huge values, resets the state and counts a warning, silently otherwise; so the count
-        is the whole divergence test (a NaN written after the last step is caught at the next one)."""
-        return int(self._warning_counts.take(_BAD_STATE).sum())
+    def _warnings(self) -> bytes:
+        """MuJoCo's counts of bad-state warnings. mj_step checks qpos, qvel (at its start) and qacc for
+        non-finite or huge values, resets the state and counts a warning, silently otherwise; so a change of
+        the counts is the whole divergence test (a NaN written after the last step is caught at the next one)."""
+        counts = self._warning_counts.take(_BAD_STATE) if self._bad_counts is None else self._bad_counts
+        return counts.tobytes()
 
     def _divergence(self) -> str | None:
         bad = self._warnings()
