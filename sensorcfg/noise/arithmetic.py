@@ -16,19 +16,19 @@ __all__ = ["add", "multiply", "quantize", "clip", "walk", "lowpass", "dropout"]
 
 def add(src: np.ndarray, term: Any, dst: np.ndarray) -> None:
     """Additive noise (white noise, outliers, bias, a random walk's state): dst = src + term."""
-    np.add(src, term, out=dst)
+    np.add(src, term, dst)  # out positionally: a read applies this to a few values, where keywords cost
 
 
 def multiply(src: np.ndarray, gain: Any, dst: np.ndarray) -> None:
     """A per-episode gain: dst = src * gain."""
-    np.multiply(src, gain, out=dst)
+    np.multiply(src, gain, dst)
 
 
 def quantize(src: np.ndarray, step: Any, dst: np.ndarray) -> None:
     """Rounds to the nearest multiple of `step`."""
-    np.divide(src, step, out=dst)
-    np.rint(dst, out=dst)
-    np.multiply(dst, step, out=dst)
+    np.divide(src, step, dst)
+    np.rint(dst, dst)
+    np.multiply(dst, step, dst)
 
 
 def clip(src: np.ndarray, low: Any, high: Any, dst: np.ndarray) -> None:

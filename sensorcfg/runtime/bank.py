@@ -214,7 +214,7 @@ class FeatureBank:
             if self.pad:  # padding repeats the first sample as delivered: with its noise
                 first = np.arange(self.width)
                 self.pad_values = self.history[0].copy()
-                self.noise.apply(self.pad_values, first, self.noise.read_program(first))
+                self.noise.apply(first, self.noise.read_program(first, self.pad_values))
 
     def _snapshot_task(self, sync: Callable[[], None] | None) -> Callable[[int], None]:
         """Copy every member's values into the history row of `step`: a closure over what it uses (the plan
@@ -244,7 +244,8 @@ class FeatureBank:
         if self.noise is None:  # gather the families' blocks straight from the history
             return compile_read(self.channels, plan, None, self.rows * self.width)
         noise = self.noise
-        return compile_read(self.channels, plan, lambda source: noise.read_program(source % self.width), None)
+        return compile_read(self.channels, plan, lambda source, gathered: noise.read_program(source % self.width, gathered),
+                            None)
 
     def read(self, step: int) -> Sequence[Any]:
         """Every member's observation at `step`: fresh arrays (views of this read's own copy)."""
@@ -261,7 +262,7 @@ class FeatureBank:
 
     def _apply_noise(self, step: int, plan: CompiledRead) -> None:
         gathered, index = plan.gathered, plan.source
-        cast(BankNoise, self.noise).apply(gathered, index, plan.noise)
+        cast(BankNoise, self.noise).apply(index, plan.noise)
         if step < self.rows:  # early in an episode: windows reach before the reset sample
             early = self._early.get(step)
             if early is None:

@@ -26,7 +26,7 @@ from ..noise.streams import Draw, numbers
 __all__ = ["BankNoise", "ReadOp", "program"]
 
 Program = tuple[tuple[str, Any], ...]  # (kind, stage) pairs
-ReadOp = Callable[[np.ndarray, np.ndarray], None]  # op(gathered values, their history positions), in place
+ReadOp = Callable[[np.ndarray], None]  # op(the gathered values' history positions): in place, on its work buffer
 
 # What the bank does with each runtime stage type: "term" stages add a per-sample row (white noise,
 # outliers, their sums, a random walk's state: drawn a chunk ahead into a noise field); an episode draw
@@ -152,11 +152,12 @@ class BankNoise:
 
     # -- reads ------------------------------------------------------------------------------------
 
-    def read_program(self, columns: np.ndarray) -> list[ReadOp]:
-        """The noise of a read whose gathered values come from bank columns `columns`: stage q of every group
-        at once, layer by layer (the groups' values are disjoint, and each value still goes through its own
-        stages in order, so the bits are those of the per-sample pipeline). Each op is `op(gathered, index)`,
-        `index` being the read's history positions (a term is looked up there in its noise field)."""
+    def read_program(self, columns: np.ndarray, gathered: np.ndarray) -> list[ReadOp]:
+        """The noise of a read whose values are gathered into `gathered` (a read's own work buffer) from bank
+        columns `columns`: stage q of every group at once, layer by layer (the groups' values are disjoint,
+        and each value still goes through its own stages in order, so the bits are those of the per-sample
+        pipeline). Each op is `op(index)`, `index` being the read's history positions (a term is looked up
+        there in its noise field)."""
         member = np.searchsorted(self.cols, columns, side="right") - 1
         layers: dict[tuple[int, str, int], list[tuple[np.ndarray, Any]]] = {}
         has_term = np.zeros((self.nfields, len(self.shapes)), bool)  # [j, member]: it has a j-th term
@@ -180,18 +181,19 @@ class BankNoise:
                 rest = np.ones(len(columns), bool)
                 rest[pos] = False
                 everywhere = not has_term[key, member[rest]].any()
-                ops.append(_term_op(self.flat_fields[key], None if everywhere else _where(pos, len(columns))))
+                ops.append(_term_op(self.flat_fields[key], gathered, None if everywhere else _where(pos, len(columns))))
                 continue
-            cols = columns[pos]
             args = tuple(np.concatenate([params[a].take(columns[p]) for p, params in entries])[order]
                          for a in range(len(entries[0][1])))  # quantize and clip: their constants at `pos`
-            ops.append(_elementwise_op(kind, _where(pos, len(columns)), entries[0][1], cols, args))
+            fn = _elementwise(kind, entries[0][1], columns[pos], args)
+            ops.append(_on(fn, gathered, _where(pos, len(columns))))
         return ops
 
-    def apply(self, gathered: np.ndarray, index: np.ndarray, program: list[ReadOp]) -> None:
-        """Apply a read program to the values gathered from history positions `index` (in place)."""
+    @staticmethod
+    def apply(index: np.ndarray, program: list[ReadOp]) -> None:
+        """Apply a read program to its work buffer's values, gathered from history positions `index`."""
         for op in program:
-            op(gathered, index)
+            op(index)
 
 
 def _where(pos: np.ndarray, n: int) -> slice | np.ndarray | None:
@@ -203,50 +205,46 @@ def _where(pos: np.ndarray, n: int) -> slice | np.ndarray | None:
     return pos
 
 
-def _term_op(field: np.ndarray, where: slice | np.ndarray | None) -> ReadOp:
-    """Add the noise field's values at the read's history positions (`where` of them)."""
+def _term_op(field: np.ndarray, g: np.ndarray, where: slice | np.ndarray | None) -> ReadOp:
+    """Add the noise field's values at the read's history positions (at `where` of `g`)."""
+    add = ar.add
     if where is None:
-        def everywhere(g: np.ndarray, index: np.ndarray) -> None:
-            ar.add(g, field.take(index), g)
-        return everywhere
+        return lambda index: add(g, field.take(index), g)
     if isinstance(where, slice):
-        def on_view(g: np.ndarray, index: np.ndarray) -> None:
-            v = g[where]
-            ar.add(v, field.take(index[where]), v)
-        return on_view
+        view, part = g[where], where
+        return lambda index: add(view, field.take(index[part]), view)
     positions = where
 
-    def scattered(g: np.ndarray, index: np.ndarray) -> None:
+    def scattered(index: np.ndarray) -> None:
         v = g.take(positions)
-        ar.add(v, field.take(index.take(positions)), v)
+        add(v, field.take(index.take(positions)), v)
         g.put(positions, v)
     return scattered
 
 
-def _elementwise_op(kind: str, where: slice | np.ndarray | None, params: tuple[np.ndarray, ...], cols: np.ndarray,
-                    args: tuple[np.ndarray, ...]) -> ReadOp:
-    """An elementwise stage on `where` of the gathered values: quantize and clip with their constants at
-    those values (`args`), an episode draw with this episode's values (`params`, filled at `start`) at `cols`."""
+def _elementwise(kind: str, params: tuple[np.ndarray, ...], cols: np.ndarray,
+                 args: tuple[np.ndarray, ...]) -> Callable[[np.ndarray], None]:
+    """An elementwise stage, in place: quantize and clip with their constants (`args`), an episode draw
+    with this episode's values (`params`, filled at `start`) at columns `cols`."""
     if kind in ("add", "mul"):
         values, arithmetic = params[0], ar.add if kind == "add" else ar.multiply
+        return lambda v: arithmetic(v, values.take(cols), v)
+    if kind == "quantize":
+        step, quantize = args[0], ar.quantize
+        return lambda v: quantize(v, step, v)
+    low, high, clip = args[0], args[1], ar.clip
+    return lambda v: clip(v, low, high, v)
 
-        def fn(v: np.ndarray) -> None:
-            arithmetic(v, values.take(cols), v)
-    elif kind == "quantize":
-        def fn(v: np.ndarray) -> None:
-            ar.quantize(v, args[0], v)
-    else:
-        def fn(v: np.ndarray) -> None:
-            ar.clip(v, args[0], args[1], v)
-    if where is None:
-        return lambda g, index: fn(g)
-    if isinstance(where, slice):
-        view = where
-        return lambda g, index: fn(g[view])
-    positions = where
 
-    def scattered(g: np.ndarray, index: np.ndarray) -> None:
-        v = g.take(positions)
-        fn(v)
-        g.put(positions, v)
-    return scattered
+def _on(fn: Callable[[np.ndarray], None], g: np.ndarray, where: slice | np.ndarray | None) -> ReadOp:
+    """`fn` on the values at `where` of `g` (a view when they are contiguous)."""
+    if where is not None and not isinstance(where, slice):
+        positions = where
+
+        def scattered(index: np.ndarray) -> None:
+            v = g.take(positions)
+            fn(v)
+            g.put(positions, v)
+        return scattered
+    view = g if where is None else g[where]
+    return lambda index: fn(view)

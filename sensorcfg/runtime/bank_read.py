@@ -96,9 +96,11 @@ class _Cuts:
         return operator.itemgetter(*self.keys)
 
 
-def compile_read(channels: Sequence[FixedChannel], plan: Any, noise_plan: Callable[[np.ndarray], list[Any]] | None,
+def compile_read(channels: Sequence[FixedChannel], plan: Any,
+                 noise_plan: Callable[[np.ndarray, np.ndarray], list[Any]] | None,
                  pads_at: int | None) -> CompiledRead:
-    """`plan`: `read_plan(...)` of one phase; `noise_plan`: the bank noise's `plan` (None without noise);
+    """`plan`: `read_plan(...)` of one phase; `noise_plan(source, gathered)`: the bank noise's read program for
+    the values gathered from `source` into the work buffer's `gathered` (None without noise);
     `pads_at`: where the history's source holds the families' pads (`PADS`): the gather fills the families'
     blocks too; or None: noise applies to the gathered windows first, and a second take stacks them."""
     index, groups, plain = plan
@@ -123,9 +125,10 @@ def compile_read(channels: Sequence[FixedChannel], plan: Any, noise_plan: Callab
         work[0, nreduced:stacked.first_block], np.concatenate(stacked.index),
         work[0, stacked.first_block:stacked.block_at])
     cuts = _Cuts(channels, plain, ordered, starts)
-    return CompiledRead(source, work[0, nreduced:nreduced + len(source)], stack, stacked.reductions,
-                        stacked.divisions, work[:, :int(starts[len(plain)])], cuts.getter(), cuts.reshapes,
-                        noise_plan(source) if noise_plan else [])
+    gathered = work[0, nreduced:nreduced + len(source)]
+    return CompiledRead(source, gathered, stack, stacked.reductions, stacked.divisions,
+                        work[:, :int(starts[len(plain)])], cuts.getter(), cuts.reshapes,
+                        noise_plan(source, gathered) if noise_plan else [])
 
 
 def finish(plan: CompiledRead) -> Sequence[Any]:

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 import numbers
+from collections.abc import Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -71,8 +72,9 @@ def chunk_steps(schedules: list[Drawn], substeps: int) -> int:
 
 
 class Round(NamedTuple):
-    """What a planning round gives for simulations `sims`: `windows` (len(sims), reads, buffer) sample steps
-    (-1: padding), and the samples to take, as (position in sims, step) pairs."""
+    """What a planning round gives for simulations `sims`: `windows` (len(sims), reads, largest buffer) sample
+    steps (-1: padding; a simulation with a smaller buffer reads the last `buffer` of them), and the samples
+    to take, as (position in sims, step) pairs."""
 
     windows: np.ndarray
     take_sim: np.ndarray
@@ -123,13 +125,24 @@ class _Samples:
 
 
 class Planner:
-    """One planned channel across `nsim` simulations: per simulation its samples, the last `buffer` delivered
-    (`tail`), the samples in flight, and the end of its last round."""
+    """Planned channels across simulations: one channel for `nsim` simulations (the batch), or one
+    simulation's channels, each a "simulation" of its own schedule (`drawn`: one Drawn per simulation).
+    Per simulation: its samples, the last `buffer` delivered (`tail`), the samples in flight, and the end of
+    its last round."""
 
-    def __init__(self, drawn: Drawn, nsim: int):
-        self.drawn = drawn
+    def __init__(self, drawn: Drawn | Sequence[Drawn], nsim: int):
+        drawns = [drawn] * nsim if isinstance(drawn, Drawn) else list(drawn)
+        if len(drawns) != nsim or len({d.substeps for d in drawns}) != 1:
+            raise ValueError("a Planner needs one Drawn per simulation, all with the same substeps")
+        self.drawns = drawns
+        self.buffer = max(d.buffer for d in drawns)  # windows hold the largest buffer: the last `buffer` entries count
+        self.substeps = drawns[0].substeps
+        self.ties = max(_largest(d.delay) for d in drawns) + 1
+        self.every = np.array([d.every_sample for d in drawns])
+        # per simulation, the window entries it reads (all but the first largest - own buffer)
+        self.reads = np.arange(self.buffer)[None, :] >= self.buffer - np.array([[d.buffer] for d in drawns])
         self.samples: list[_Samples | None] = [None] * nsim
-        self.tail = np.full((nsim, drawn.buffer), -1, np.int64)
+        self.tail = np.full((nsim, self.buffer), -1, np.int64)
         self.end = np.full(nsim, -1, np.int64)
         self.flight = np.zeros((3, 0), np.int64)  # rows: simulation, time, arrival
 
@@ -151,25 +164,17 @@ class Planner:
 
     def round(self, sims: np.ndarray, length: int) -> Round:
         """Plan the next `length` steps of simulations `sims` (0 after `start`: step 0 only)."""
-        drawn, b, n = self.drawn, self.drawn.buffer, self.drawn.substeps
+        b, n = self.buffer, self.substeps
         prev = self.end[sims]
         end = prev + (length if length else 1)
-        new = [_ready(self.samples[int(i)]).until(drawn, int(e)) for i, e in zip(sims, end)]
+        new = [_ready(self.samples[i]).until(self.drawns[i], e) for i, e in zip(sims.tolist(), end.tolist())]
         counts = np.array([len(t) for t, _ in new], np.intp)
         g = np.repeat(np.arange(len(sims)), counts)
         t = np.concatenate([t for t, _ in new]) if new else np.zeros(0, np.int64)
         a = t + (np.concatenate([d for _, d in new]) if new else np.zeros(0, np.int64))
-        local = np.full(len(self.end), -1, np.intp)
-        local[sims] = np.arange(len(sims))
-        mine = local[self.flight[0]] >= 0
-        fg, ft, fa = local[self.flight[0, mine]], self.flight[1, mine], self.flight[2, mine]
-        g, t, a = np.concatenate((fg, g)), np.concatenate((ft, t)), np.concatenate((fa, a))
-        due = a <= end[g]
-        keep = self.flight[:, ~mine]
-        self.flight = np.concatenate((keep, np.stack((sims[g[~due]], t[~due], a[~due]))), axis=1)
-        g, t, a = g[due], t[due], a[due]
+        g, t, a = self._in_flight(sims, end, g, t, a)
         # delivery order per simulation: by arrival (after the round's start), ties by time (longer delay first)
-        w1, w2 = length + 2, _largest(drawn.delay) + 1
+        w1, w2 = length + 2, self.ties
         rel = a - prev[g]
         order = np.argsort((g * w1 + rel) * w2 + (w2 - 1 - (a - t)), kind="stable")  # nearly sorted: runs
         g, t, rel = g[order], t[order], rel[order]
@@ -187,20 +192,40 @@ class Planner:
         windows = seq[(offset[:, None] + k)[..., None] + np.arange(b)]
         self.tail[sims] = seq[offset[:, None] + delivered[:, None] + np.arange(b)]
         self.end[sims] = end
-        return Round(windows, *self._taken(windows, new, prev, length))
+        return Round(windows, *self._taken(sims, windows, new, prev, length))
 
-    def _taken(self, windows: np.ndarray, new: list[tuple[np.ndarray, np.ndarray]], prev: np.ndarray,
-               length: int) -> tuple[np.ndarray, np.ndarray]:
+    def _in_flight(self, sims: np.ndarray, end: np.ndarray, g: np.ndarray, t: np.ndarray,
+                   a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The new samples of `sims` with their samples in flight: those that arrive by the round's end
+        (the rest stay in flight)."""
+        keep = self.flight
+        if keep.shape[1]:
+            local = np.full(len(self.end), -1, np.intp)
+            local[sims] = np.arange(len(sims))
+            mine = local[keep[0]] >= 0
+            fg, ft, fa = local[keep[0, mine]], keep[1, mine], keep[2, mine]
+            g, t, a = np.concatenate((fg, g)), np.concatenate((ft, t)), np.concatenate((fa, a))
+            keep = keep[:, ~mine]
+        due = a <= end[g]
+        late = ~due
+        self.flight = np.concatenate((keep, np.stack((sims[g[late]], t[late], a[late]))), axis=1)
+        return g[due], t[due], a[due]
+
+    def _taken(self, sims: np.ndarray, windows: np.ndarray, new: list[tuple[np.ndarray, np.ndarray]],
+               prev: np.ndarray, length: int) -> tuple[np.ndarray, np.ndarray]:
         """The samples to take: every new one (stateful noise), or those some read of the round shows that
         are not yet decided (older than a round: decided by an earlier round)."""
         if not length:  # the reset sample is always taken
             return np.zeros(0, np.intp), np.zeros(0, np.int64)
-        if self.drawn.every_sample:
-            counts = [len(t) for t, _ in new]
-            return np.repeat(np.arange(len(new)), counts), np.concatenate([t for t, _ in new])
+        every = self.every[sims]
         floor = np.maximum(prev - length, 0)
-        shown = windows > floor[:, None, None]
-        return shown.nonzero()[0], windows[shown]
+        shown = (windows > floor[:, None, None]) & (self.reads[sims] & ~every[:, None])[:, None, :]
+        sim, steps = shown.nonzero()[0], windows[shown]
+        if every.any():
+            counts = [len(t) if all_new else 0 for (t, _), all_new in zip(new, every.tolist())]
+            sim = np.concatenate((sim, np.repeat(np.arange(len(new)), counts)))
+            steps = np.concatenate([steps] + [t for (t, _), all_new in zip(new, every.tolist()) if all_new])
+        return sim, steps
 
 
 def _ready(samples: _Samples | None) -> _Samples:

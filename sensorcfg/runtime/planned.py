@@ -84,8 +84,11 @@ class DrawnBank:
         self.flat = self.history.reshape(-1)
         self.history_rows = list(self.history)
         self.need = np.zeros(self.rows, bool)
-        self.planners = [Planner(ch.drawn, 1) for ch in channels]
-        self.taken: list[tuple[int, list[np.ndarray]]] = []  # per member: samples of past rounds, recent takes
+        # every member's schedule in one planner, each a "simulation" of its own (one call per round)
+        self.planner = Planner([ch.drawn for ch in channels], len(channels))
+        self.members_ = np.arange(len(channels))
+        self.older = np.zeros(len(channels), np.int64)  # per member: samples of rounds past
+        self.recent: list[np.ndarray] = []  # the recent rounds' new samples, as member * _KEY + step (sorted)
         layout = [_Layout(1, _Window(ch.buffer_size), ch.aggregator, ch.buffer_size, ch.buffered_shape, ch.shape)
                   for ch in channels]
         plan: ReadPlan = read_plan(cast(Any, layout), self.cols, max(ch.buffer_size for ch in channels), 0)
@@ -93,9 +96,10 @@ class DrawnBank:
         # (member's first window entry + window position, column)
         self.compiled = compile_read(cast(Any, layout), plan, None, None)
         template = self.compiled.source  # window position * width + column, in the order of the work buffer
-        starts = np.cumsum([0] + [ch.buffer_size for ch in channels])
+        buffers = np.array([ch.buffer_size for ch in channels])
         member = np.searchsorted(self.cols, template % self.width, side="right") - 1
-        self.entry = starts[member] + template // self.width
+        # in a round's windows (member, read, largest buffer): a member reads the last `buffer` entries
+        self.entry = member * self.planner.buffer + self.planner.buffer - buffers[member] + template // self.width
         self.column = template % self.width
         slots = self.rows // substeps
         self.gathers = np.zeros((slots, len(template)), np.intp)
@@ -108,7 +112,7 @@ class DrawnBank:
             strides = [_Stride(ch.shape, ch.drawn.stride) for ch in channels]
             offsets_in_chunk = [np.arange(0, self.chunk, s.interval, dtype=np.intp) for s in strides]
             self.noise = BankNoise(strides, list(programs), self.cols, self.rows, self.chunk, offsets_in_chunk)
-            self.noise_program = self.noise.read_program(self.column)
+            self.noise_program = self.noise.read_program(self.column, self.compiled.gathered)
         self._read_step, self._outputs = -1, cast(Sequence[Any], [])
 
     @staticmethod
@@ -134,7 +138,8 @@ class DrawnBank:
     def start(self) -> None:
         """The reset sample (step 0), padding, and the first rounds."""
         self.need[:] = False
-        self.taken = [(1, []) for _ in self.channels]
+        self.older[:] = 1  # the reset sample
+        self.recent = []
         self.raw.take(self.source, None, self.history[0], "clip")
         if self.noise is not None:
             self.noise.start()  # noise of the steps [0, chunk); later chunks with their rounds
@@ -145,8 +150,7 @@ class DrawnBank:
         else:
             self.pad_values = np.zeros(self.width)
         self.pads.clear()
-        first = [p.start(_ZERO, [ch.key]) for p, ch in zip(self.planners, self.channels)]
-        self._store(first, 0, 0)
+        self._store(self.planner.start(self.members_, [ch.key for ch in self.channels]), 0, 0)
         self._plan_round(0)
         self.next_round = self.chunk
         self.plan(0)
@@ -154,7 +158,7 @@ class DrawnBank:
     def _apply_noise(self, values: np.ndarray, index: np.ndarray) -> None:
         noise = self.noise
         assert noise is not None
-        noise.apply(values, index, noise.read_program(index % self.width))
+        noise.apply(index, noise.read_program(index % self.width, values))
 
     def plan(self, step: int) -> None:
         """Before the control step after `step`: plan the next round (and draw its noise) once it is
@@ -166,25 +170,22 @@ class DrawnBank:
             self.next_round += self.chunk
 
     def _plan_round(self, base: int) -> None:
-        rounds = [p.round(_ZERO, self.chunk) for p in self.planners]
-        self._store(rounds, base // self.n + 1, self.chunk // self.n)
-        for i, plan in enumerate(rounds):
-            self.need[plan.take_step % self.rows] = True
-            older, recent = self.taken[i]
-            if len(recent) == 3:  # rounds that ended before the current step
-                older += len(recent.pop(0))
-            # a sample is shown first in its own round or the next: each counted once
-            recent.append(_new(plan.take_step, recent[-1] if recent else _ZERO[:0]))
-            self.taken[i] = (older, recent)
+        plan = self.planner.round(self.members_, self.chunk)
+        self._store(plan, base // self.n + 1, self.chunk // self.n)
+        self.need[plan.take_step % self.rows] = True
+        if len(self.recent) == 3:  # rounds that ended before the current step
+            self.older += np.bincount(self.recent.pop(0) // _KEY, minlength=len(self.channels))
+        # a sample is shown first in its own round or the next: each counted once
+        self.recent.append(_new(plan.take_sim * _KEY + plan.take_step, self.recent[-1] if self.recent else _ZERO[:0]))
 
     def samples(self, position: int, step: int) -> int:
         """Samples member `position` has taken by `step` (the reset sample included)."""
-        older, recent = self.taken[position]
-        return older + sum(int(np.count_nonzero(steps <= step)) for steps in recent)
+        bounds = np.array([position * _KEY, position * _KEY + step + 1])  # keys of steps 0..step
+        return int(self.older[position]) + sum(int(np.diff(keys.searchsorted(bounds))[0]) for keys in self.recent)
 
-    def _store(self, rounds: list[Round], first: int, count: int) -> None:
-        """Gather indices of the rounds' reads (read slots first .. first + count, or the reset read)."""
-        windows = np.concatenate([r.windows[0] for r in rounds], axis=1)  # (reads, sum of buffers)
+    def _store(self, plan: Round, first: int, count: int) -> None:
+        """Gather indices of a round's reads (read slots first .. first + count, or the reset read)."""
+        windows = plan.windows.transpose(1, 0, 2).reshape(plan.windows.shape[1], -1)  # (reads, member x buffer)
         rows = np.where(windows >= 0, windows % self.rows, 0)
         index = rows[:, self.entry] * self.width + self.column
         slots = (first + np.arange(max(count, 1))) % len(self.gathers)
@@ -215,7 +216,7 @@ class DrawnBank:
         gathered = plan.gathered
         self.flat.take(index, None, gathered, "clip")
         if self.noise is not None:
-            self.noise.apply(gathered, index, self.noise_program)
+            self.noise.apply(index, self.noise_program)
         pads = self.pads.get(slot)
         if pads is not None:
             gathered[pads] = self.pad_values.take(self.column[pads])
@@ -232,7 +233,8 @@ class _Stride(NamedTuple):
 
 def _new(steps: np.ndarray, before: np.ndarray) -> np.ndarray:
     """The distinct `steps` (sorted) not in `before` (sorted, distinct)."""
-    steps = np.unique(steps)
+    steps = np.sort(steps)
+    steps = steps[np.concatenate(([True], steps[1:] != steps[:-1]))]  # distinct (np.unique hashes, then sorts)
     if not len(before) or not len(steps):
         return steps
     at = np.searchsorted(before, steps)
@@ -240,3 +242,4 @@ def _new(steps: np.ndarray, before: np.ndarray) -> np.ndarray:
 
 
 _ZERO = np.zeros(1, np.intp)
+_KEY = 1 << 40  # member * _KEY + step: a sample taken, as one sortable number
