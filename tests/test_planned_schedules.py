@@ -137,3 +137,48 @@ def test_the_bank_reads_what_the_per_sample_path_reads(seed, monkeypatch) -> Non
     for s, (a, b) in enumerate(zip(a_seen, b_seen)):
         for name in a:
             np.testing.assert_array_equal(a[name], b[name], err_msg=f"step {s} {name}")
+
+
+@pytest.mark.parametrize("long_span", [False, True], ids=["rounds-planned-just-ahead", "span-longer-than-a-round"])
+def test_the_bank_follows_the_per_sample_path_over_rounds_and_episodes(long_span, monkeypatch) -> None:
+    """The bank plans every member in one planner (buffers of different sizes), each round shortly before it
+    starts (a whole round ahead when a member's span is longer than a round), and is kept across resets:
+    the same observations and sample counts as the per-sample path, over several rounds and episodes."""
+    from sensorcfg.runtime import updater as updater_module
+
+    model = mujoco.MjModel.from_xml_path(str(assets.path("robot.xml")))
+    runs = []
+    for banked in (True, False):
+        if not banked:
+            monkeypatch.setattr(updater_module, "joins", lambda ch: False)
+        physics = sensorcfg.Physics(model)
+        observables = _noisy_suite(4)
+        if long_span:
+            observables["long"] = sensorcfg.Feature("qvel", "joint:*", update_interval=ChoiceSteps((20, 30)),
+                                                    delay=UniformSteps(0, 5), buffer_size=40, aggregator="mean")
+            observables["long"].enabled = True
+        updater = sensorcfg.Updater(observables, 3)
+        controls = np.random.default_rng(4).uniform(-1, 1, (1300, model.nu))
+        seen, taken = [], []
+        for episode in range(2):
+            updater.reset(physics, np.random.RandomState(episode))
+            assert (updater._drawn is not None) == banked
+            chunk = updater._drawn.chunk if banked else 0
+            assert not banked or (updater._drawn.ahead == chunk) == long_span
+            seen.append(updater.get_observation())
+            for i, control in enumerate(controls[: 1300 if episode == 0 else 400]):
+                physics.data.ctrl[:] = control
+                updater.prepare_for_next_control_step()
+                for _ in range(3):
+                    mujoco.mj_step(model, physics.data)
+                    updater.update()
+                seen.append(updater.get_observation())
+                if i % 97 == 0:
+                    taken.append(updater.samples_taken())
+        runs.append((seen, taken))
+    (a_seen, a_taken), (b_seen, b_taken) = runs
+    assert a_taken == b_taken
+    assert len(a_seen) == 1702
+    for s, (a, b) in enumerate(zip(a_seen, b_seen)):
+        for name in a:
+            np.testing.assert_array_equal(a[name], b[name], err_msg=f"read {s} {name}")
