@@ -139,11 +139,13 @@ def test_the_bank_reads_what_the_per_sample_path_reads(seed, monkeypatch) -> Non
             np.testing.assert_array_equal(a[name], b[name], err_msg=f"step {s} {name}")
 
 
-@pytest.mark.parametrize("long_span", [False, True], ids=["rounds-planned-just-ahead", "span-longer-than-a-round"])
-def test_the_bank_follows_the_per_sample_path_over_rounds_and_episodes(long_span, monkeypatch) -> None:
+@pytest.mark.parametrize("suite", ["late-alone", "suite", "long-span"])
+def test_the_bank_follows_the_per_sample_path_over_rounds_and_episodes(suite, monkeypatch) -> None:
     """The bank plans every member in one planner (buffers of different sizes), each round shortly before it
     starts (a whole round ahead when a member's span is longer than a round), and is kept across resets:
-    the same observations and sample counts as the per-sample path, over several rounds and episodes."""
+    the same observations and sample counts as the per-sample path, over several rounds and episodes. A
+    sensor alone (no other member's snapshot at its steps) with long delays takes samples just before a
+    round whose first read is in that round."""
     from sensorcfg.runtime import updater as updater_module
 
     model = mujoco.MjModel.from_xml_path(str(assets.path("robot.xml")))
@@ -152,19 +154,20 @@ def test_the_bank_follows_the_per_sample_path_over_rounds_and_episodes(long_span
         if not banked:
             monkeypatch.setattr(updater_module, "joins", lambda ch: False)
         physics = sensorcfg.Physics(model)
-        observables = _noisy_suite(4)
-        if long_span:
+        observables = {} if suite == "late-alone" else _noisy_suite(3)
+        observables["late"] = sensorcfg.Feature("qpos", "joint:*", delay=UniformSteps(0, 9))
+        if suite == "long-span":
             observables["long"] = sensorcfg.Feature("qvel", "joint:*", update_interval=ChoiceSteps((20, 30)),
                                                     delay=UniformSteps(0, 5), buffer_size=40, aggregator="mean")
-            observables["long"].enabled = True
+        for observable in observables.values():
+            observable.enabled = True
         updater = sensorcfg.Updater(observables, 3)
         controls = np.random.default_rng(4).uniform(-1, 1, (1300, model.nu))
         seen, taken = [], []
         for episode in range(2):
             updater.reset(physics, np.random.RandomState(episode))
             assert (updater._drawn is not None) == banked
-            chunk = updater._drawn.chunk if banked else 0
-            assert not banked or (updater._drawn.ahead == chunk) == long_span
+            assert not banked or (updater._drawn.ahead == updater._drawn.chunk) == (suite == "long-span")
             seen.append(updater.get_observation())
             for i, control in enumerate(controls[: 1300 if episode == 0 else 400]):
                 physics.data.ctrl[:] = control
