@@ -16,6 +16,7 @@ families' windows, pads) | family blocks]; the copy takes the first two parts.
 
 from __future__ import annotations
 
+import functools
 import math
 import operator
 from collections.abc import Callable, Sequence
@@ -44,9 +45,7 @@ class CompiledRead(NamedTuple):
 
     source: np.ndarray  # the history positions gathered, in the order of `gathered`
     gathered: np.ndarray  # the windows' part of the work buffer
-    stack: tuple[np.ndarray, np.ndarray, np.ndarray] | None  # (source, index, blocks) of the families' take
-    reductions: list[Reduction]
-    divisions: list[tuple[np.ndarray, np.ndarray]]  # (reduced values, their counts): the means
+    steps: list[Callable[[], Any]]  # on the work buffer, in order: the families' take, reductions, divisions
     shown: np.ndarray  # the part of the work buffer the observations show, (1, n)
     cut: Callable[[np.ndarray], tuple[Any, ...]]  # a copy of `shown` -> every member's value
     reshapes: list[tuple[int, tuple[int, ...]]]  # members whose cut needs a reshape: (member, shape)
@@ -121,26 +120,23 @@ def compile_read(channels: Sequence[FixedChannel], plan: Any,
     source = index[order]
     if pads_at is not None:  # the gather fills the blocks too
         source = np.concatenate([source, *stacked.index])
-    stack = None if pads_at is not None or not stacked.index else (
-        work[0, nreduced:stacked.first_block], np.concatenate(stacked.index),
-        work[0, stacked.first_block:stacked.block_at])
+    steps: list[Callable[[], Any]] = []
+    if pads_at is None and stacked.index:  # a take stacks the gathered windows (and pads) into the blocks
+        steps.append(functools.partial(work[0, nreduced:stacked.first_block].take, np.concatenate(stacked.index),
+                                       None, work[0, stacked.first_block:stacked.block_at], "clip"))
+    steps += [functools.partial(reduce, window, out) for reduce, window, out in stacked.reductions]
+    steps += [functools.partial(np.true_divide, out, counts, out) for out, counts in stacked.divisions]  # means
     cuts = _Cuts(channels, plain, ordered, starts)
     gathered = work[0, nreduced:nreduced + len(source)]
-    return CompiledRead(source, gathered, stack, stacked.reductions, stacked.divisions,
-                        work[:, :int(starts[len(plain)])], cuts.getter(), cuts.reshapes,
+    return CompiledRead(source, gathered, steps, work[:, :int(starts[len(plain)])], cuts.getter(), cuts.reshapes,
                         noise_plan(source, gathered) if noise_plan else [])
 
 
 def finish(plan: CompiledRead) -> Sequence[Any]:
     """After the windows are gathered (and their noise applied): stack, reduce, copy and cut every member's
     observation (fresh arrays: views of this read's own copy)."""
-    if plan.stack is not None:
-        source, index, blocks = plan.stack
-        source.take(index, None, blocks, "clip")
-    for reduce, window, out in plan.reductions:
-        reduce(window, out)
-    for out, counts in plan.divisions:
-        np.true_divide(out, counts, out)
+    for step in plan.steps:
+        step()
     values = plan.cut(plan.shown.copy())
     if not plan.reshapes:
         return values

@@ -79,6 +79,7 @@ class Updater:
     _plan: list[tuple[_Task, ...]]
     _orders: list[tuple[int, ...]]
     _slow: list[PlanTask]
+    _irregular: bool
 
     def __init__(self, observables: Mapping[str, Any] | Sequence[Mapping[str, Any]],
                  physics_steps_per_control_step: int = 1, strip_singleton_buffer_dim: bool = False,
@@ -118,6 +119,7 @@ class Updater:
         self._step = 0
         self._start(members)
         self._build_plan()
+        self._irregular = bool(self._slow or self._random)  # tasks off the periodic plan: merged per step
         self._fast_path()
 
     def _fast_path(self) -> None:
@@ -192,7 +194,6 @@ class Updater:
         if not members:
             return None
         data = raw_structs(physics)[1]
-        view = buffer_view(data, fields_of(members))  # type: ignore[arg-type]
         if any(getattr(ch.sampler, "sync", None) is not None for ch in members):
             return None  # a dm_control physics: per sample
         channels = cast(list[DrawnChannel], members)
@@ -284,7 +285,7 @@ class Updater:
         if drawn is not None and drawn.need[step % drawn.rows]:  # a pure read of the state: first
             drawn.snapshot(step)
         tasks = self._plan[step % self._period]
-        if self._slow or self._random:
+        if self._irregular:
             tasks = self._merge_irregular(step, tasks)
         for sample in tasks:
             sample(step)
