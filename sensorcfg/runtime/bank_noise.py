@@ -14,7 +14,7 @@ Bit-identity with the per-sample pipeline is the contract (the tests compare bot
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from typing import Any
 
 import numpy as np
@@ -103,14 +103,15 @@ class BankNoise:
 
     # -- per episode and per chunk ----------------------------------------------------------------
 
-    def start(self) -> None:
-        """After the pipelines' reset: this episode's draws, and the first chunk of noise."""
+    def start(self, fill: bool = True) -> None:
+        """After the pipelines' reset: this episode's draws, and (with `fill`) the first chunk of noise."""
         for (signature, members), per_op in zip(self.groups, self.params):
             for q, kind in enumerate(signature):
                 if kind in ("add", "mul"):
                     for i in members:
                         per_op[q][0][self.cols[i]:self.cols[i + 1]] = self.programs[i][q][1].value.ravel()
-        self.fill(0)
+        if fill:
+            self.fill(0)
 
     def _layout(self, sample_offsets: list[np.ndarray]) -> tuple[list[np.ndarray], ...]:
         """Per member: the flat positions (in a noise field, from a chunk's first row) of its values at its
@@ -124,21 +125,36 @@ class BankNoise:
         return ([places(i, o) for i, o in enumerate(sample_offsets)], first,
                 [places(i, o) for i, o in enumerate(first)])
 
-    def fill(self, step: int) -> None:
-        """Write the per-sample terms of every noisy member's samples in steps [step, step + chunk): the
-        numbers of the samples taken only, of every member, from one Philox call (`streams.numbers`); a
-        random walk walks every index (`rows_at`). `step` is a multiple of the chunk, which divides the
-        rows, so a chunk's rows do not wrap."""
+    def walks(self, i: int) -> bool:
+        """Whether member i's noise has a random walk (its states are computed over every index, in order)."""
+        return any(isinstance(stage, rt.RandomWalk) for _, stage in self.programs[i])
+
+    def fill(self, step: int, members: Collection[int] | None = None) -> None:
+        """Write the per-sample terms of every noisy member's (of `members`) samples in steps [step, step +
+        chunk). `step` is a multiple of the chunk, which divides the rows, so a chunk's rows do not wrap."""
+        start = (step % self.rows) * self.width
+        items = []
+        for i, ops in enumerate(self.programs):
+            if ops and (members is None or i in members):
+                offsets, places = (self.first[i], self.first_places[i]) if step == 0 else (self.offsets[i], self.places[i])
+                items.append((i, step + offsets, places + start))
+        self._write(items)
+
+    def fill_samples(self, samples: list[tuple[int, np.ndarray]]) -> None:
+        """Write the per-sample terms of the given samples: (member, its sample steps), wherever they lie in
+        the rows (a member without a random walk: its walk needs its indices in order, a chunk at a time)."""
+        self._write([(i, steps, ((steps % self.rows)[:, None] * self.width
+                                 + np.arange(self.cols[i], self.cols[i + 1])).ravel()) for i, steps in samples])
+
+    def _write(self, items: list[tuple[int, np.ndarray, np.ndarray]]) -> None:
+        """(member, sample steps, their flat positions in a noise field): the numbers of those samples only,
+        of every member, from one Philox call (`streams.numbers`); a random walk walks every index
+        (`rows_at`)."""
         jobs: list[tuple[Any, int, np.ndarray, int, int]] = []
         draws: list[Draw] = []
-        start = (step % self.rows) * self.width
-        for i, ops in enumerate(self.programs):
-            if not ops:
-                continue
-            offsets, places = (self.first[i], self.first_places[i]) if step == 0 else (self.offsets[i], self.places[i])
-            places = places + start
-            indices = (step + offsets) // self.strides[i]
-            terms = [stage for kind, stage in ops if kind == "term"]
+        for i, steps, places in items:
+            indices = steps // self.strides[i]
+            terms = [stage for kind, stage in self.programs[i] if kind == "term"]
             for j, stage in enumerate(terms):
                 if isinstance(stage, rt.RandomWalk):
                     self.flat_fields[j].put(places, stage.rows_at(indices))
@@ -146,6 +162,8 @@ class BankNoise:
                 drawn = stage.draws(indices, np.broadcast_to(stage.streams.keys, (len(indices), 2)))
                 jobs.append((stage, j, places, len(draws), len(drawn)))
                 draws.extend(drawn)
+        if not draws:
+            return
         raw = numbers(draws)
         for stage, j, places, at, count in jobs:
             self.flat_fields[j].put(places, stage.shape(raw[at:at + count], len(places) // stage.size))

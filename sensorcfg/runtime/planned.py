@@ -112,6 +112,9 @@ class DrawnBank:
             strides = [_Stride(ch.shape, ch.drawn.stride) for ch in channels]
             offsets_in_chunk = [np.arange(0, self.chunk, s.interval, dtype=np.intp) for s in strides]
             self.noise = BankNoise(strides, list(programs), self.cols, self.rows, self.chunk, offsets_in_chunk)
+            walks = [self.noise.walks(i) for i in range(len(channels))]
+            self.walkers = {i for i, ops in enumerate(programs) if ops and walks[i]}
+            self.drawing = [i for i, ops in enumerate(programs) if ops and not walks[i]]  # drawn per sample taken
             self.noise_program = self.noise.read_program(self.column, self.compiled.gathered)
         self._read_step, self._outputs = -1, cast(Sequence[Any], [])
 
@@ -142,7 +145,9 @@ class DrawnBank:
         self.recent = []
         self.raw.take(self.source, None, self.history[0], "clip")
         if self.noise is not None:
-            self.noise.start()  # noise of the steps [0, chunk); later chunks with their rounds
+            self.noise.start(fill=False)  # noise with the rounds' samples, the reset sample first:
+            self.noise.fill(0, self.walkers)  # (random walks a chunk at a time)
+            self.noise.fill_samples([(i, _ZERO) for i in self.drawing])
         if self.pad:
             self.pad_values = self.history[0].copy()
             if self.noise is not None:  # padding repeats the first sample as delivered: with its noise
@@ -165,8 +170,6 @@ class DrawnBank:
         `ahead` steps away."""
         if step + self.ahead >= self.next_round:
             self._plan_round(self.next_round)
-            if self.noise is not None:
-                self.noise.fill(self.next_round)
             self.next_round += self.chunk
 
     def _plan_round(self, base: int) -> None:
@@ -177,6 +180,13 @@ class DrawnBank:
             self.older += np.bincount(self.recent.pop(0) // _KEY, minlength=len(self.channels))
         # a sample is shown first in its own round or the next: each counted once
         self.recent.append(_new(plan.take_sim * _KEY + plan.take_step, self.recent[-1] if self.recent else _ZERO[:0]))
+        if self.noise is not None:  # the noise of the samples this round takes first
+            if base:  # (the reset drew the first chunk's random walks)
+                self.noise.fill(base, self.walkers)
+            keys = self.recent[-1]
+            bounds = keys.searchsorted(np.arange(len(self.channels) + 1) * _KEY)
+            self.noise.fill_samples([(i, keys[bounds[i]:bounds[i + 1]] - i * _KEY) for i in self.drawing
+                                     if bounds[i + 1] > bounds[i]])
 
     def samples(self, position: int, step: int) -> int:
         """Samples member `position` has taken by `step` (the reset sample included)."""
