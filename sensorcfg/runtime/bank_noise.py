@@ -2,12 +2,14 @@
 
 A noise pipeline whose stages are additive noise (gaussian, uniform, outlier, bias), a random walk (a drift
 that does not depend on the signal), a per-episode gain, quantisation or clipping can run inside the bank.
-Every `chunk` steps the bank asks each sensor's own stages for the per-sample terms of that sensor's
-samples in the next chunk (counter-based: the same numbers the per-sample path uses for those samples)
-and writes them into "noise fields" laid out like the bank's history. A read then applies each pipeline's
-stages, in order, with the stages' own array arithmetic (`noise.stages`), to the gathered values of every
-sensor with the same stage sequence at once. Sensors whose pipelines hold lowpass, dropout or custom
-stages stay on the per-sample path.
+Every `chunk` steps (the planned bank: with each round, for the samples it takes) the bank asks each
+sensor's own stages for the per-sample terms of that sensor's samples (counter-based: the same numbers the
+per-sample path uses for those samples) and writes them into "noise fields" laid out like the bank's
+history. A read then runs a program compiled with its layout (`read_program`): stage q of every pipeline
+at once, in order, with the stages' own array arithmetic (`noise.arithmetic`), on views of the read's work
+buffer where the values are contiguous; a term is added to every gathered value at once when the others'
+noise fields hold -0.0 there (adding -0.0 changes no value). Sensors whose pipelines hold lowpass,
+dropout or custom stages stay on the per-sample path.
 
 Bit-identity with the per-sample pipeline is the contract (the tests compare both paths).
 """

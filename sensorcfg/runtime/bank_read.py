@@ -1,4 +1,5 @@
-"""A feature bank's read of one phase, compiled onto a work buffer of its own: a fixed number of numpy calls.
+"""A feature bank's read of one phase (of the planned bank: any read, whose gathered rows change), compiled
+onto a work buffer of its own: a fixed number of numpy calls.
 
 `runtime.bank.read_plan` says which history positions each read gathers and how they are cut and reduced.
 Compiled, a read is: one `take` from the history into the work buffer, which also stacks the windows of
@@ -120,12 +121,7 @@ def compile_read(channels: Sequence[FixedChannel], plan: Any,
     source = index[order]
     if pads_at is not None:  # the gather fills the blocks too
         source = np.concatenate([source, *stacked.index])
-    steps: list[Callable[[], Any]] = []
-    if pads_at is None and stacked.index:  # a take stacks the gathered windows (and pads) into the blocks
-        steps.append(functools.partial(work[0, nreduced:stacked.first_block].take, np.concatenate(stacked.index),
-                                       None, work[0, stacked.first_block:stacked.block_at], "clip"))
-    steps += [functools.partial(reduce, window, out) for reduce, window, out in stacked.reductions]
-    steps += [functools.partial(np.true_divide, out, counts, out) for out, counts in stacked.divisions]  # means
+    steps = _steps(work[0], nreduced, stacked, pads_at is None)
     cuts = _Cuts(channels, plain, ordered, starts)
     gathered = work[0, nreduced:nreduced + len(source)]
     return CompiledRead(source, gathered, steps, work[:, :int(starts[len(plain)])], cuts.getter(), cuts.reshapes,
@@ -144,6 +140,18 @@ def finish(plan: CompiledRead) -> Sequence[Any]:
     for i, shape in plan.reshapes:
         cut[i] = cut[i].reshape(shape)
     return cut
+
+
+def _steps(row: np.ndarray, nreduced: int, stacked: _Stacked, stack: bool) -> list[Callable[[], Any]]:
+    """A read's work after its gather, as zero-argument calls on the work buffer `row`: (with `stack`) a take
+    stacking the gathered windows and pads into the families' blocks, the reductions, the means' divisions."""
+    steps: list[Callable[[], Any]] = []
+    if stack and stacked.index:
+        steps.append(functools.partial(row[nreduced:stacked.first_block].take, np.concatenate(stacked.index), None,
+                                       row[stacked.first_block:stacked.block_at], "clip"))
+    steps += [functools.partial(reduce, window, out) for reduce, window, out in stacked.reductions]
+    steps += [functools.partial(np.true_divide, out, counts, out) for out, counts in stacked.divisions]
+    return steps
 
 
 def _windows(plain: list[Any], groups: list[_Group]) -> list[np.ndarray]:

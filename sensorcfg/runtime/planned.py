@@ -1,11 +1,12 @@
 """The feature bank of planned schedules: plain float64 features with drawn intervals or delays, together.
 
-Their samples are planned a round ahead (`runtime/drawn.py`), so which steps snapshot and which history rows
-each read gathers are known before the steps run. Per step that some member samples, one `numpy.take` copies
-every member's values from MjData's main buffer into a step-indexed history; per read, one gather (an index
-computed with the round) builds every window, noise is applied to the gathered values (`BankNoise`: the
-same numbers as the per-sample pipeline), and each (aggregator, buffer) group is reduced once, as the
-fixed-schedule bank does (`bank.read_plan` gives the layout).
+Their samples are planned in rounds (`runtime/drawn.py`: every member in one Planner call, a round shortly
+before it starts), so which steps snapshot and which history rows each read gathers are known before the
+steps run. Per step that some member samples, one `numpy.take` copies every member's values from MjData's
+main buffer into a step-indexed history; a read is compiled once (`bank_read.compile_read`; only the rows
+it gathers change, an index computed with the round): one gather builds every window, noise is applied to
+the gathered values (`BankNoise`: the same numbers as the per-sample pipeline, drawn for the samples taken),
+and the reductions run as the fixed-schedule bank's do.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from typing import Any, NamedTuple, cast
 import numpy as np
 
 from .bank import BankMember, ReadPlan, _reader, read_plan
-from .bank_noise import BankNoise, ReadOp, program
+from .bank_noise import BankNoise, Program, ReadOp, program
 from .bank_read import compile_read, finish
 from .channels import DrawnChannel
 from .drawn import Planner, Round, chunk_steps
@@ -89,11 +90,20 @@ class DrawnBank:
         self.members_ = np.arange(len(channels))
         self.older = np.zeros(len(channels), np.int64)  # per member: samples of rounds past
         self.recent: list[np.ndarray] = []  # the recent rounds' new samples, as member * _KEY + step (sorted)
+        self._compile(channels)
+        slots = self.rows // substeps
+        self.gathers = np.zeros((slots, len(self.column)), np.intp)
+        self.pads: dict[int, np.ndarray] = {}  # read slot -> its gathered values before the reset sample
+        self.pad_values = np.zeros(self.width)
+        self._noise([program(ch.noise) or () for ch in channels])
+        self._read_step, self._outputs = -1, cast(Sequence[Any], [])
+
+    def _compile(self, channels: list[DrawnChannel]) -> None:
+        """A read compiled once (`bank_read`): only the rows it gathers change, each gathered value is
+        (`entry`: its member's window entry in a round's windows, `column`)."""
         layout = [_Layout(1, _Window(ch.buffer_size), ch.aggregator, ch.buffer_size, ch.buffered_shape, ch.shape)
                   for ch in channels]
         plan: ReadPlan = read_plan(cast(Any, layout), self.cols, max(ch.buffer_size for ch in channels), 0)
-        # a read is compiled once (`bank_read`): only the rows it gathers change; each gathered value is
-        # (member's first window entry + window position, column)
         self.compiled = compile_read(cast(Any, layout), plan, None, None)
         template = self.compiled.source  # window position * width + column, in the order of the work buffer
         buffers = np.array([ch.buffer_size for ch in channels])
@@ -101,22 +111,23 @@ class DrawnBank:
         # in a round's windows (member, read, largest buffer): a member reads the last `buffer` entries
         self.entry = member * self.planner.buffer + self.planner.buffer - buffers[member] + template // self.width
         self.column = template % self.width
-        slots = self.rows // substeps
-        self.gathers = np.zeros((slots, len(template)), np.intp)
-        self.pads: dict[int, np.ndarray] = {}  # read slot -> its gathered values before the reset sample
-        self.pad_values = np.zeros(self.width)
-        programs = [program(ch.noise) or () for ch in channels]
-        self.noise = None
+
+    def _noise(self, programs: list[Program]) -> None:
+        """The members' noise (`BankNoise`), drawn with the rounds for the samples they take (random walks a
+        chunk at a time), and the read's noise program."""
+        self.noise: BankNoise | None = None
         self.noise_program: list[ReadOp] = []
-        if any(programs):
-            strides = [_Stride(ch.shape, ch.drawn.stride) for ch in channels]
-            offsets_in_chunk = [np.arange(0, self.chunk, s.interval, dtype=np.intp) for s in strides]
-            self.noise = BankNoise(strides, list(programs), self.cols, self.rows, self.chunk, offsets_in_chunk)
-            walks = [self.noise.walks(i) for i in range(len(channels))]
-            self.walkers = {i for i, ops in enumerate(programs) if ops and walks[i]}
-            self.drawing = [i for i, ops in enumerate(programs) if ops and not walks[i]]  # drawn per sample taken
-            self.noise_program = self.noise.read_program(self.column, self.compiled.gathered)
-        self._read_step, self._outputs = -1, cast(Sequence[Any], [])
+        self.walkers: set[int] = set()
+        self.drawing: list[int] = []  # noisy members drawn per sample taken
+        if not any(programs):
+            return
+        strides = [_Stride(ch.shape, ch.drawn.stride) for ch in self.channels]
+        offsets_in_chunk = [np.arange(0, self.chunk, s.interval, dtype=np.intp) for s in strides]
+        self.noise = BankNoise(strides, programs, self.cols, self.rows, self.chunk, offsets_in_chunk)
+        walks = [self.noise.walks(i) for i in range(len(programs))]
+        self.walkers = {i for i, ops in enumerate(programs) if ops and walks[i]}
+        self.drawing = [i for i, ops in enumerate(programs) if ops and not walks[i]]
+        self.noise_program = self.noise.read_program(self.column, self.compiled.gathered)
 
     @staticmethod
     def key(channels: list[DrawnChannel], data: Any, substeps: int, pad: bool) -> tuple[Any, ...]:
