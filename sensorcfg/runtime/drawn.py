@@ -141,6 +141,7 @@ class Planner:
         self.every = np.array([d.every_sample for d in drawns])
         # per simulation, the window entries it reads (all but the first largest - own buffer)
         self.reads = np.arange(self.buffer)[None, :] >= self.buffer - np.array([[d.buffer] for d in drawns])
+        self.uneven = not self.reads.all()
         self.samples: list[_Samples | None] = [None] * nsim
         self.tail = np.full((nsim, self.buffer), -1, np.int64)
         self.end = np.full(nsim, -1, np.int64)
@@ -219,8 +220,11 @@ class Planner:
             return np.zeros(0, np.intp), np.zeros(0, np.int64)
         every = self.every[sims]
         floor = np.maximum(prev - length, 0)
-        shown = (windows > floor[:, None, None]) & (self.reads[sims] & ~every[:, None])[:, None, :]
-        sim, steps = shown.nonzero()[0], windows[shown]
+        shown = windows > floor[:, None, None]
+        if self.uneven or every.any():  # entries before a smaller buffer's, or stateful noise: not shown
+            shown &= (self.reads[sims] & ~every[:, None])[:, None, :]
+        sim = np.repeat(np.arange(len(sims)), np.count_nonzero(shown.reshape(len(sims), -1), axis=1))
+        steps = windows[shown]
         if every.any():
             counts = [len(t) if all_new else 0 for (t, _), all_new in zip(new, every.tolist())]
             sim = np.concatenate((sim, np.repeat(np.arange(len(new)), counts)))
