@@ -130,3 +130,33 @@ def test_numpy_streams_can_be_forced_and_give_the_same_observations(tmp_path):
     assert runs["1"].keys() == runs["0"].keys() and len(runs["1"]) > 40
     for key, value in runs["1"].items():
         assert np.array_equal(value, runs["0"][key]), key
+
+
+def test_sums_of_scaled_numbers_equal_the_numpy_arithmetic_on_both_paths():
+    """`sums` (the batch's gaussian and uniform stages, fused): numbers x scale (+ offset), added in order,
+    with numpy's roundings; jobs large enough that the compiled path splits them between two threads."""
+    rng = np.random.default_rng(3)
+    jobs = []
+    for size, m in [(1, 9000), (6, 5000), (21, 3000), (48, 700)]:
+        keys = rng.integers(0, 2**64, (m, 2), dtype=np.uint64)
+        samples = rng.integers(0, 2**32, m)
+        draws = [Draw(keys, samples, 1, 0, size, True), Draw(keys, samples, 2, 0, size, False),
+                 Draw(keys, samples, 3, 0, size, True)]
+        terms = [streams.Affine(rng.normal(size=size), None), streams.Affine(rng.normal(size=size), rng.normal(size=size)),
+                 streams.Affine(np.full(size, 0.5), np.zeros(size))]
+        jobs.append((draws, terms))
+    assert sum(m * size * 3 for size, m in [(1, 9000), (6, 5000), (21, 3000), (48, 700)]) > streams._SPLIT_VALUES
+    expected = []
+    for draws, terms in jobs:
+        raw = numbers(draws, compiled=False)
+        total = raw[0] * terms[0].scale
+        for x, term in zip(raw[1:], terms[1:]):
+            total = total + (x * term.scale + term.offset)
+        expected.append(total)
+    for compiled in (False, _path(True)):
+        got = streams.sums(jobs, compiled=compiled)
+        for a, b in zip(expected, got):
+            assert np.array_equal(a.view(np.uint64), b.view(np.uint64))
+    split = numbers([d for draws, _ in jobs for d in draws], compiled=True)  # numbers split between threads too
+    for a, b in zip(numbers([d for draws, _ in jobs for d in draws], compiled=False), split):
+        assert np.array_equal(a.view(np.uint64), b.view(np.uint64))

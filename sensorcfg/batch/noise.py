@@ -26,7 +26,7 @@ import numpy as np
 from ..errors import SuiteError
 from ..noise import arithmetic as ar
 from ..noise import stages as rt
-from ..noise.streams import Draw, numbers
+from ..noise.streams import Affine, Draw, numbers, sums
 
 __all__ = ["BatchPipeline", "BATCHED", "prefetch"]
 
@@ -101,6 +101,8 @@ class _Additive(_Drawn):
             self.values = [np.zeros((nsim, *p.value.shape), p.value.dtype)
                            for p in template.parts if isinstance(p, rt.EpisodeDraw)]
         self.keyed = type(self).keyed and not self.values
+        # numbers x scale (+ offset), added up: computed in one pass (`streams.sums`) where nothing per episode joins
+        self.terms: list[Affine] | None = None if self.values else template.affine()
 
     def load(self, i: int | np.ndarray, stage: Any) -> None:
         super().load(i, stage)
@@ -348,12 +350,19 @@ def prefetch(calls: Sequence[tuple[BatchPipeline, np.ndarray, np.ndarray]]) -> N
     random walk walks its own parts."""
     jobs: list[tuple[_Drawn, np.ndarray, int, int]] = []
     draws: list[Draw] = []
+    summed: list[tuple[_Drawn, np.ndarray]] = []
+    terms: list[tuple[list[Draw], list[Affine]]] = []
     for pipeline, sims, steps in calls:
         for stage in pipeline.batched:
-            if isinstance(stage, _Drawn) and not isinstance(stage, _RandomWalk):
+            if isinstance(stage, _Additive) and stage.terms is not None:
+                summed.append((stage, sims))
+                terms.append((stage.draws(sims, steps), stage.terms))
+            elif isinstance(stage, _Drawn) and not isinstance(stage, _RandomWalk):
                 drawn = stage.draws(sims, steps)
                 jobs.append((stage, sims, len(draws), len(drawn)))
                 draws.extend(drawn)
     raw = numbers(draws)
     for stage, sims, at, count in jobs:
         stage.ready.append(stage.shape(sims, raw[at:at + count]))
+    for (stage, sims), total in zip(summed, sums(terms)):
+        stage.ready.append(total.reshape(sims.size, *stage.template.ctx.shape))

@@ -57,7 +57,7 @@ static inline void philox1(uint32_t x[4], uint32_t k0, uint32_t k1) {
 
 /* Philox of n <= BLOCK counters in place (x: four word arrays, k: two key arrays), vectorised across them */
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__)
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 #endif
 static void philox_block(int n, uint32_t *restrict x0, uint32_t *restrict x1, uint32_t *restrict x2,
                          uint32_t *restrict x3, uint32_t *restrict k0, uint32_t *restrict k1) {
@@ -76,6 +76,19 @@ static void philox_block(int n, uint32_t *restrict x0, uint32_t *restrict x1, ui
 }
 
 static inline uint32_t abs32(int32_t v) { return v < 0 ? 0u - (uint32_t)v : (uint32_t)v; }
+
+/* the ziggurat's first try on 4 BLOCK words: hz WN[iz] for each, and which it rejects */
+#if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__)
+__attribute__((target_clones("avx512f", "avx2", "default")))
+#endif
+static void to_normals(const uint32_t *restrict w, double *restrict out, uint8_t *restrict rejected) {
+    for (int j = 0; j < 4 * BLOCK; j++) {
+        int32_t hz = (int32_t)w[j];
+        uint32_t iz = w[j] & 127u;
+        out[j] = (double)hz * WN[iz];
+        rejected[j] = abs32(hz) >= KN[iz];
+    }
+}
 
 /* streams._fallback for one rejected word hz, word `word` of counter (c0, c1, c2, c3) under key (k0, k1) */
 static double fallback(int64_t hz, uint32_t word, const uint32_t c[4], uint32_t k0, uint32_t k1) {
@@ -101,17 +114,31 @@ static double fallback(int64_t hz, uint32_t word, const uint32_t c[4], uint32_t 
     }
 }
 
-/* fill(keys (m, 2) uint64, samples (m,) int64, tag, size, normal, out (m, size) float64) */
+/* fill(keys (m, 2) uint64, samples (m,) int64, tag, size, normal, out (m, size) float64[, scale (size,),
+ * offset (size,), add]): each number x becomes x scale (when given), then + offset (when given), and is
+ * written to out, or added to it (add): the roundings of numpy's z *= scale; z += offset; out += z. */
 static PyObject *fill(PyObject *self, PyObject *args) {
-    Py_buffer keys, samples, out;
+    Py_buffer keys, samples, out, sc = {0}, of = {0};
     unsigned long tag;
     Py_ssize_t size;
-    int normal;
-    if (!PyArg_ParseTuple(args, "y*y*knpw*", &keys, &samples, &tag, &size, &normal, &out)) return NULL;
+    int normal, add = 0;
+    PyObject *scale_obj = Py_None, *offset_obj = Py_None, *result = NULL;
+    if (!PyArg_ParseTuple(args, "y*y*knpw*|OOp", &keys, &samples, &tag, &size, &normal, &out, &scale_obj,
+                          &offset_obj, &add))
+        return NULL;
     Py_ssize_t m = samples.len / 8;
-    PyObject *result = NULL;
-    if (keys.len != 16 * m || out.len != (Py_ssize_t)sizeof(double) * m * size || size < 0) {
-        PyErr_SetString(PyExc_ValueError, "fill: keys (m, 2), samples (m,) and out (m, size) disagree");
+    const double *scale = NULL, *offset = NULL;
+    if (scale_obj != Py_None) {
+        if (PyObject_GetBuffer(scale_obj, &sc, PyBUF_C_CONTIGUOUS) < 0) goto done;
+        scale = (const double *)sc.buf;
+    }
+    if (offset_obj != Py_None) {
+        if (PyObject_GetBuffer(offset_obj, &of, PyBUF_C_CONTIGUOUS) < 0) goto done;
+        offset = (const double *)of.buf;
+    }
+    if (keys.len != 16 * m || out.len != (Py_ssize_t)sizeof(double) * m * size || size < 0 ||
+        (scale && sc.len != (Py_ssize_t)sizeof(double) * size) || (offset && of.len != (Py_ssize_t)sizeof(double) * size)) {
+        PyErr_SetString(PyExc_ValueError, "fill: keys (m, 2), samples (m,), out (m, size), scale and offset (size,) disagree");
         goto done;
     }
     const uint64_t *k = (const uint64_t *)keys.buf;
@@ -121,6 +148,8 @@ static PyObject *fill(PyObject *self, PyObject *args) {
     Py_BEGIN_ALLOW_THREADS
     /* counter j = r q + i (row r, i < q) in blocks of BLOCK, across rows */
     uint32_t x[4][BLOCK], kk[2][BLOCK], key[2][BLOCK], c1[BLOCK];
+    double values[4][BLOCK];
+    uint8_t rejected[4 * BLOCK];
     Py_ssize_t total = m * q, row_of[BLOCK], at_of[BLOCK], r = 0, at = 0;
     for (Py_ssize_t j0 = 0; j0 < total; j0 += BLOCK) {
         int n = (int)(total - j0 < BLOCK ? total - j0 : BLOCK);
@@ -139,26 +168,30 @@ static PyObject *fill(PyObject *self, PyObject *args) {
             key[1][i] = kk[1][i] = (uint32_t)(k[2 * r] >> 32);
         }
         philox_block(n, x[0], x[1], x[2], x[3], kk[0], kk[1]);
+        /* the numbers of the block's 4 n words (vectorised: value v of counter i at j = v BLOCK + i) */
+        double *val = &values[0][0];
+        if (normal) {
+            to_normals(&x[0][0], val, rejected);
+            for (int j = 0; j < 4 * BLOCK; j++) {
+                int i = j % BLOCK, v = j / BLOCK;
+                if (!rejected[j] || i >= n) continue;
+                Py_ssize_t ri = row_of[i];
+                uint32_t cc[4] = {(uint32_t)(uint64_t)s[ri], c1[i], (uint32_t)k[2 * ri + 1],
+                                  (uint32_t)(k[2 * ri + 1] >> 32)};
+                val[j] = fallback((int32_t)x[v][i], (uint32_t)v, cc, key[0][i], key[1][i]);
+            }
+        } else {
+            for (int j = 0; j < 4 * BLOCK; j++) val[j] = (double)(&x[0][0])[j] * TWO_M32;
+        }
         for (int i = 0; i < n; i++) {
             Py_ssize_t first = 4 * at_of[i];
             int count = size - first < 4 ? (int)(size - first) : 4;
             double *dst = o + row_of[i] * size + first;
             for (int v = 0; v < count; v++) {
-                uint32_t w = x[v][i];
-                if (!normal) {
-                    dst[v] = (double)w * TWO_M32;
-                    continue;
-                }
-                int32_t hz = (int32_t)w;
-                int iz = (int)(w & 127u);
-                if (abs32(hz) < KN[iz]) {
-                    dst[v] = (double)hz * WN[iz];
-                } else {
-                    Py_ssize_t ri = row_of[i];
-                    uint32_t cc[4] = {(uint32_t)(uint64_t)s[ri], c1[i], (uint32_t)k[2 * ri + 1],
-                                      (uint32_t)(k[2 * ri + 1] >> 32)};
-                    dst[v] = fallback(hz, (uint32_t)v, cc, key[0][i], key[1][i]);
-                }
+                double value = values[v][i];
+                if (scale) value = value * scale[first + v];
+                if (offset) value = value + offset[first + v];
+                dst[v] = add ? dst[v] + value : value;
             }
         }
     }
@@ -166,6 +199,8 @@ static PyObject *fill(PyObject *self, PyObject *args) {
     result = Py_None;
     Py_INCREF(result);
 done:
+    if (sc.obj) PyBuffer_Release(&sc);
+    if (of.obj) PyBuffer_Release(&of);
     PyBuffer_Release(&keys);
     PyBuffer_Release(&samples);
     PyBuffer_Release(&out);
@@ -180,7 +215,8 @@ static PyObject *tables(PyObject *self, PyObject *args) {
 }
 
 static PyMethodDef methods[] = {
-    {"fill", fill, METH_VARARGS, "fill(keys, samples, tag, size, normal, out): one draw's numbers into out."},
+    {"fill", fill, METH_VARARGS,
+     "fill(keys, samples, tag, size, normal, out[, scale, offset, add]): one draw's numbers into out."},
     {"tables", tables, METH_VARARGS, "tables(kn, wn, fn): the ziggurat's tables (from streams.py)."},
     {NULL, NULL, 0, NULL}};
 

@@ -32,7 +32,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-__all__ = ["Draw", "KERNEL", "Streams", "numbers", "philox", "stream_key"]
+__all__ = ["Affine", "Draw", "KERNEL", "Streams", "numbers", "philox", "stream_key", "sums"]
 
 _M0, _M1 = np.uint64(0xD2511F53), np.uint64(0xCD9E8D57)  # Philox4x32 multipliers
 _W0, _W1 = np.uint32(0x9E3779B9), np.uint32(0xBB67AE85)  # its key schedule's increments
@@ -226,7 +226,14 @@ def numbers(draws: Sequence[Draw], compiled: bool = True) -> list[np.ndarray]:
     if any(d.size > _MAX_LANE_VALUES or d.stage >= 256 or d.lane >= 3 for d in draws):
         raise ValueError(f"a noise stage draws at most {_MAX_LANE_VALUES} values per sample, from stages < 256")
     if compiled and _COMPILED is not None:
-        return [_fill(d) for d in draws]
+        out = [np.empty((np.size(d.samples), d.size)) for d in draws]
+
+        def run(indices: Sequence[int]) -> None:
+            for i in indices:
+                _fill(draws[i], out[i])
+
+        _split(run, [o.size for o in out])
+        return out
     counter, key, q = _counters(draws)
     words = philox(counter, key)
     normal = [d.normal for d in draws]
@@ -243,13 +250,77 @@ def numbers(draws: Sequence[Draw], compiled: bool = True) -> list[np.ndarray]:
     return out
 
 
-def _fill(d: Draw) -> np.ndarray:
+def _fill(d: Draw, out: np.ndarray | None = None, term: Affine | None = None, add: bool = False) -> np.ndarray:
+    """The compiled kernel's numbers of draw d, written to `out` (a new (m, size) array when None), or added
+    to it (`add`); scaled and shifted by `term` when given."""
     samples = np.ascontiguousarray(d.samples, np.int64).ravel()
     keys = np.ascontiguousarray(np.broadcast_to(np.asarray(d.keys, np.uint64).reshape(-1, 2), (samples.size, 2)))
-    out = np.empty((samples.size, d.size))
+    out = np.empty((samples.size, d.size)) if out is None else out
     assert _COMPILED is not None
-    _COMPILED.fill(keys, samples, d.stage << 24 | d.lane << 22, d.size, d.normal, out)
+    scale, offset = (None, None) if term is None else term
+    _COMPILED.fill(keys, samples, d.stage << 24 | d.lane << 22, d.size, d.normal, out, scale, offset, add)
     return out
+
+
+class Affine(NamedTuple):
+    """A per-sample term linear in its draw's numbers x: x scale (+ offset), each (size,) float64."""
+
+    scale: np.ndarray
+    offset: np.ndarray | None
+
+
+def sums(jobs: Sequence[tuple[Sequence[Draw], Sequence[Affine]]], compiled: bool = True) -> list[np.ndarray]:
+    """Per job, the sum of its terms (m, size): numbers times scale, plus offset, the first term written and
+    the others added in order, with numpy's roundings (x *= scale; x += offset; total += x). The compiled
+    kernel computes each in place, the large ones split between two threads."""
+    if not (compiled and _COMPILED is not None):
+        raw = iter(numbers([d for draws, _ in jobs for d in draws], compiled=False))
+        out = []
+        for draws, terms in jobs:
+            total: np.ndarray | None = None
+            for term in terms:
+                x = next(raw)
+                x *= term.scale
+                if term.offset is not None:
+                    x += term.offset
+                if total is None:
+                    total = x
+                else:
+                    total += x
+            assert total is not None
+            out.append(total)
+        return out
+    results = [np.empty((np.size(draws[0].samples), draws[0].size)) for draws, _ in jobs]
+
+    def run(indices: Sequence[int]) -> None:
+        for i in indices:
+            draws, terms = jobs[i]
+            for k, (d, term) in enumerate(zip(draws, terms)):
+                _fill(d, results[i], term, add=k > 0)
+
+    _split(run, [r.size * len(jobs[i][0]) for i, r in enumerate(results)])
+    return results
+
+
+_POOL: Any = None
+_SPLIT_VALUES = 50_000  # below this many numbers, one thread (a handoff costs tens of microseconds)
+
+
+def _split(run: Any, work: Sequence[int]) -> None:
+    """run(indices) over the indices of `work` (their sizes), in two halves on two threads when it pays."""
+    global _POOL
+    total = sum(work)
+    if total < _SPLIT_VALUES or (os.cpu_count() or 1) < 2:
+        run(range(len(work)))
+        return
+    at = int(np.searchsorted(np.cumsum(work), total / 2))
+    if _POOL is None:
+        from concurrent.futures import ThreadPoolExecutor
+
+        _POOL = ThreadPoolExecutor(1, thread_name_prefix="sensorcfg-noise")
+    half = _POOL.submit(run, range(at + 1, len(work)))
+    run(range(at + 1))
+    half.result()
 
 
 class Streams:
