@@ -26,7 +26,8 @@ import numpy as np
 from ..errors import SuiteError
 from ..noise import arithmetic as ar
 from ..noise import stages as rt
-from ..noise.streams import Affine, Draw, numbers, sums
+from ..noise.level import Blend, Keep
+from ..noise.streams import Affine, Draw, Sum, numbers
 
 __all__ = ["BatchPipeline", "BATCHED", "prefetch"]
 
@@ -311,6 +312,21 @@ class BatchPipeline:
         self.stages = stages
         self.batched = batched
         self.shape = tuple(pipeline.shape)
+        # a pipeline that only adds numbers x scale (+ offset), but for the noise level's stages (which pass
+        # values through while every simulation is at level 1): applied in place by `streams.add_sums`
+        core = [b for b in batched if not isinstance(b.template, (Keep, Blend))]
+        self._fusable = core[0] if len(core) == 1 and getattr(core[0], "terms", None) is not None else None
+        self._blend = next((b.template for b in batched if isinstance(b.template, Blend)), None)
+
+    @property
+    def fused(self) -> _Additive | None:
+        blending = self._blend is not None and self._blend.batch_active  # type: ignore[attr-defined]
+        return None if blending else cast(_Additive | None, self._fusable)
+
+    def sum(self, table: np.ndarray, lo: int, sims: np.ndarray, steps: np.ndarray) -> Sum:
+        """The fused pipeline's noise of `sims` at `steps`, added to table[sims, lo:...] (`streams.add_sums`)."""
+        stage = cast(_Additive, self.fused)
+        return Sum(stage.draws(sims, steps), cast(list[Affine], stage.terms), table, lo, sims)
 
     def reset(self, i: int, key: np.ndarray) -> None:
         """Start simulation i's episode with its sensor key (as the Updater resets a pipeline)."""
@@ -350,19 +366,12 @@ def prefetch(calls: Sequence[tuple[BatchPipeline, np.ndarray, np.ndarray]]) -> N
     random walk walks its own parts."""
     jobs: list[tuple[_Drawn, np.ndarray, int, int]] = []
     draws: list[Draw] = []
-    summed: list[tuple[_Drawn, np.ndarray]] = []
-    terms: list[tuple[list[Draw], list[Affine]]] = []
     for pipeline, sims, steps in calls:
         for stage in pipeline.batched:
-            if isinstance(stage, _Additive) and stage.terms is not None:
-                summed.append((stage, sims))
-                terms.append((stage.draws(sims, steps), stage.terms))
-            elif isinstance(stage, _Drawn) and not isinstance(stage, _RandomWalk):
+            if isinstance(stage, _Drawn) and not isinstance(stage, _RandomWalk):
                 drawn = stage.draws(sims, steps)
                 jobs.append((stage, sims, len(draws), len(drawn)))
                 draws.extend(drawn)
     raw = numbers(draws)
     for stage, sims, at, count in jobs:
         stage.ready.append(stage.shape(sims, raw[at:at + count]))
-    for (stage, sims), total in zip(summed, sums(terms)):
-        stage.ready.append(total.reshape(sims.size, *stage.template.ctx.shape))

@@ -36,6 +36,7 @@ from ..runtime.bank import _reader
 from ..runtime.channels import Channel, DrawnChannel, FixedChannel, RandomChannel, make_channel
 from ..runtime.updater import observation_spec
 from .layout import Layout
+from ..noise.streams import add_sums
 from .noise import BatchPipeline, prefetch
 from .random_schedules import Timelines
 
@@ -276,6 +277,10 @@ class BatchUpdater:
         everyone = bool(active.all())
         if self.noisy:
             calls = self._noise_calls(gp, active, everyone)
+            fused = [call for call in calls if self.noise[call[1]].fused is not None]
+            add_sums([self.noise[c].sum(self.history[gp + k - 1], int(self.cols[c]), sims, steps)
+                      for k, c, sims, steps in fused])
+            calls = [call for call in calls if self.noise[call[1]].fused is None]
             prefetch([(self.noise[c], sims, steps) for _, c, sims, steps in calls])
             for k, c, sims, steps in calls:
                 self._corrupt(self.history[gp + k - 1], c, sims, steps)

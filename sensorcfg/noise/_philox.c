@@ -5,6 +5,10 @@
  * (lane 3, the key's second word xor (1 + word + 16 a) at attempt a), exactly as streams._fallback does.
  * exp and log are the C library's, which the reference also calls (through Python's math module).
  *
+ * One entry point, `add`: any number of lanes (a stage's numbers, scaled and shifted) summed per value and
+ * written or added into rows of a table, which serves streams.numbers (one lane, written), streams.sums
+ * and the batch's additive noise applied in place in its history (streams.add_into).
+ *
  * Built by setup.py as an optional extension: without a C compiler the package installs without it and
  * streams.py uses numpy. No numpy C API: arrays arrive through the buffer protocol. */
 
@@ -77,16 +81,18 @@ static void philox_block(int n, uint32_t *restrict x0, uint32_t *restrict x1, ui
 
 static inline uint32_t abs32(int32_t v) { return v < 0 ? 0u - (uint32_t)v : (uint32_t)v; }
 
-/* the ziggurat's first try on 4 BLOCK words: hz WN[iz] for each, and which it rejects */
+/* the ziggurat's first try on the words w[v][i] (i < n): hz WN[iz] for each, and which it rejects */
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__)
 __attribute__((target_clones("avx512f", "avx2", "default")))
 #endif
-static void to_normals(const uint32_t *restrict w, double *restrict out, uint8_t *restrict rejected) {
-    for (int j = 0; j < 4 * BLOCK; j++) {
-        int32_t hz = (int32_t)w[j];
-        uint32_t iz = w[j] & 127u;
-        out[j] = (double)hz * WN[iz];
-        rejected[j] = abs32(hz) >= KN[iz];
+static void to_normals(int n, const uint32_t w[4][BLOCK], double out[4][BLOCK], uint8_t rejected[4][BLOCK]) {
+    for (int v = 0; v < 4; v++) {
+        for (int i = 0; i < n; i++) {
+            int32_t hz = (int32_t)w[v][i];
+            uint32_t iz = w[v][i] & 127u;
+            out[v][i] = (double)hz * WN[iz];
+            rejected[v][i] = abs32(hz) >= KN[iz];
+        }
     }
 }
 
@@ -114,31 +120,128 @@ static double fallback(int64_t hz, uint32_t word, const uint32_t c[4], uint32_t 
     }
 }
 
-/* fill(keys (m, 2) uint64, samples (m,) int64, tag, size, normal, out (m, size) float64[, scale (size,),
- * offset (size,), add]): each number x becomes x scale (when given), then + offset (when given), and is
- * written to out, or added to it (add): the roundings of numpy's z *= scale; z += offset; out += z. */
-static PyObject *fill(PyObject *self, PyObject *args) {
-    Py_buffer keys, samples, out, sc = {0}, of = {0};
-    unsigned long tag;
-    Py_ssize_t size;
-    int normal, add = 0;
-    PyObject *scale_obj = Py_None, *offset_obj = Py_None, *result = NULL;
-    if (!PyArg_ParseTuple(args, "y*y*knpw*|OOp", &keys, &samples, &tag, &size, &normal, &out, &scale_obj,
-                          &offset_obj, &add))
+/* One lane of a job: its counters' tag, normals or uniforms, and the optional per-value scale and offset. */
+typedef struct {
+    uint32_t tag;
+    int normal;
+    const double *scale, *offset;
+    Py_buffer sc, of;
+} Lane;
+
+/* The numbers of a block of n counters of one lane (counter i: row row_of[i], index at_of[i]), value v of
+ * counter i at val[v][i], scaled and shifted. */
+static void lane_block(const Lane *lane, int n, const Py_ssize_t *row_of, const Py_ssize_t *at_of,
+                       const uint64_t *k, const int64_t *s, Py_ssize_t size, double val[4][BLOCK]) {
+    uint32_t x[4][BLOCK], kk[2][BLOCK];
+    uint8_t rejected[4][BLOCK];
+    for (int i = 0; i < n; i++) {
+        Py_ssize_t r = row_of[i];
+        x[0][i] = (uint32_t)(uint64_t)s[r];
+        x[1][i] = lane->tag | (uint32_t)at_of[i];
+        x[2][i] = (uint32_t)k[2 * r + 1];
+        x[3][i] = (uint32_t)(k[2 * r + 1] >> 32);
+        kk[0][i] = (uint32_t)k[2 * r];
+        kk[1][i] = (uint32_t)(k[2 * r] >> 32);
+    }
+    philox_block(n, x[0], x[1], x[2], x[3], kk[0], kk[1]);
+    if (lane->normal) {
+        to_normals(n, x, val, rejected);
+        for (int v = 0; v < 4; v++) {
+          for (int i = 0; i < n; i++) {
+            if (!rejected[v][i]) continue;
+            Py_ssize_t r = row_of[i];
+            uint32_t c[4] = {(uint32_t)(uint64_t)s[r], lane->tag | (uint32_t)at_of[i], (uint32_t)k[2 * r + 1],
+                             (uint32_t)(k[2 * r + 1] >> 32)};
+            val[v][i] = fallback((int32_t)x[v][i], (uint32_t)v, c, (uint32_t)k[2 * r], (uint32_t)(k[2 * r] >> 32));
+          }
+        }
+    } else {
+        for (int v = 0; v < 4; v++)
+            for (int i = 0; i < n; i++) val[v][i] = (double)x[v][i] * TWO_M32;
+    }
+    if (!lane->scale && !lane->offset) return;
+    for (int i = 0; i < n; i++) {
+        Py_ssize_t first = 4 * at_of[i];
+        int count = size - first < 4 ? (int)(size - first) : 4;
+        for (int v = 0; v < count; v++) {
+            if (lane->scale) val[v][i] = val[v][i] * lane->scale[first + v];
+            if (lane->offset) val[v][i] = val[v][i] + lane->offset[first + v];
+        }
+    }
+}
+
+static int get_lanes(PyObject *seq, Py_ssize_t size, Lane *lanes, int *count) {
+    /* lanes: a sequence of (tag, normal, scale or None, offset or None), at most 8 */
+    PyObject *fast = PySequence_Fast(seq, "lanes must be a sequence");
+    if (!fast) return -1;
+    Py_ssize_t nl = PySequence_Fast_GET_SIZE(fast);
+    if (nl < 1 || nl > 8) {
+        Py_DECREF(fast);
+        PyErr_SetString(PyExc_ValueError, "add: 1 to 8 lanes");
+        return -1;
+    }
+    *count = 0;
+    for (Py_ssize_t l = 0; l < nl; l++) {
+        Lane *lane = &lanes[l];
+        PyObject *sc = Py_None, *of = Py_None;
+        unsigned long tag;
+        memset(lane, 0, sizeof(*lane));
+        if (!PyArg_ParseTuple(PySequence_Fast_GET_ITEM(fast, l), "kpOO", &tag, &lane->normal, &sc, &of)) break;
+        lane->tag = (uint32_t)tag;
+        *count = (int)l + 1;
+        PyObject *objs[2] = {sc, of};
+        Py_buffer *bufs[2] = {&lane->sc, &lane->of};
+        const double **ptrs[2] = {&lane->scale, &lane->offset};
+        for (int b = 0; b < 2; b++) {
+            if (objs[b] == Py_None) continue;
+            if (PyObject_GetBuffer(objs[b], bufs[b], PyBUF_C_CONTIGUOUS) < 0) goto fail;
+            *ptrs[b] = (const double *)bufs[b]->buf;
+            if (bufs[b]->len != (Py_ssize_t)sizeof(double) * size) {
+                PyErr_SetString(PyExc_ValueError, "add: a scale or offset is not (size,) float64");
+                goto fail;
+            }
+        }
+    }
+    Py_DECREF(fast);
+    return PyErr_Occurred() ? -1 : 0;
+fail:
+    Py_DECREF(fast);
+    return -1;
+}
+
+static void release_lanes(Lane *lanes, int count) {
+    for (int l = 0; l < count; l++) {
+        if (lanes[l].sc.obj) PyBuffer_Release(&lanes[l].sc);
+        if (lanes[l].of.obj) PyBuffer_Release(&lanes[l].of);
+    }
+}
+
+/* add(keys (m, 2) uint64, samples (m,) int64, size, lanes, out (rows, width) float64, lo, rows (m,) int64
+ * or None, accumulate): per sample r the total of its lanes' numbers (x scale, + offset), lane after lane
+ * (the first written, the others added: numpy's total = t0; total += t1 ...), then written to, or added to
+ * (accumulate: out = out + total), out[rows[r] (r when None), lo:lo + size]. */
+static PyObject *add(PyObject *self, PyObject *args) {
+    Py_buffer keys, samples, out, rows_buf = {0};
+    Py_ssize_t size, width, lo;
+    int accumulate, nl = 0;
+    PyObject *lanes_obj, *rows_obj, *result = NULL;
+    Lane lanes[8];
+    if (!PyArg_ParseTuple(args, "y*y*nOw*nnOp", &keys, &samples, &size, &lanes_obj, &out, &width, &lo, &rows_obj,
+                          &accumulate))
         return NULL;
-    Py_ssize_t m = samples.len / 8;
-    const double *scale = NULL, *offset = NULL;
-    if (scale_obj != Py_None) {
-        if (PyObject_GetBuffer(scale_obj, &sc, PyBUF_C_CONTIGUOUS) < 0) goto done;
-        scale = (const double *)sc.buf;
+    Py_ssize_t m = samples.len / 8, nrows = out.len / (Py_ssize_t)sizeof(double) / (width > 0 ? width : 1);
+    const int64_t *rows = NULL;
+    if (get_lanes(lanes_obj, size, lanes, &nl) < 0) goto done;
+    if (rows_obj != Py_None) {
+        if (PyObject_GetBuffer(rows_obj, &rows_buf, PyBUF_C_CONTIGUOUS) < 0) goto done;
+        rows = (const int64_t *)rows_buf.buf;
     }
-    if (offset_obj != Py_None) {
-        if (PyObject_GetBuffer(offset_obj, &of, PyBUF_C_CONTIGUOUS) < 0) goto done;
-        offset = (const double *)of.buf;
-    }
-    if (keys.len != 16 * m || out.len != (Py_ssize_t)sizeof(double) * m * size || size < 0 ||
-        (scale && sc.len != (Py_ssize_t)sizeof(double) * size) || (offset && of.len != (Py_ssize_t)sizeof(double) * size)) {
-        PyErr_SetString(PyExc_ValueError, "fill: keys (m, 2), samples (m,), out (m, size), scale and offset (size,) disagree");
+    int bad = keys.len != 16 * m || size < 0 || width < 1 || lo < 0 || lo + size > width ||
+              out.len != (Py_ssize_t)sizeof(double) * nrows * width || (rows && rows_buf.len != 8 * m) ||
+              (!rows && m > nrows);
+    for (Py_ssize_t r = 0; rows && !bad && r < m; r++) bad = rows[r] < 0 || rows[r] >= nrows;
+    if (bad) {
+        PyErr_SetString(PyExc_ValueError, "add: keys (m, 2), samples (m,), rows (m,) and out (rows, width) disagree");
         goto done;
     }
     const uint64_t *k = (const uint64_t *)keys.buf;
@@ -146,61 +249,37 @@ static PyObject *fill(PyObject *self, PyObject *args) {
     double *o = (double *)out.buf;
     Py_ssize_t q = (size + 3) / 4;
     Py_BEGIN_ALLOW_THREADS
-    /* counter j = r q + i (row r, i < q) in blocks of BLOCK, across rows */
-    uint32_t x[4][BLOCK], kk[2][BLOCK], key[2][BLOCK], c1[BLOCK];
-    double values[4][BLOCK];
-    uint8_t rejected[4 * BLOCK];
-    Py_ssize_t total = m * q, row_of[BLOCK], at_of[BLOCK], r = 0, at = 0;
-    for (Py_ssize_t j0 = 0; j0 < total; j0 += BLOCK) {
-        int n = (int)(total - j0 < BLOCK ? total - j0 : BLOCK);
-        for (int i = 0; i < n; i++, at++) {
+    double total[4][BLOCK], term[4][BLOCK];
+    Py_ssize_t row_of[BLOCK], at_of[BLOCK], r = 0, at = 0;
+    for (Py_ssize_t j0 = 0; j0 < m * q; j0 += BLOCK) {
+        int n = (int)(m * q - j0 < BLOCK ? m * q - j0 : BLOCK);
+        for (int i = 0; i < n; i++, at++) { /* counter j0 + i: sample r, index at */
             if (at == q) {
                 at = 0;
                 r++;
             }
             row_of[i] = r;
             at_of[i] = at;
-            x[0][i] = (uint32_t)(uint64_t)s[r];
-            x[1][i] = c1[i] = (uint32_t)tag | (uint32_t)at;
-            x[2][i] = (uint32_t)k[2 * r + 1];
-            x[3][i] = (uint32_t)(k[2 * r + 1] >> 32);
-            key[0][i] = kk[0][i] = (uint32_t)k[2 * r];
-            key[1][i] = kk[1][i] = (uint32_t)(k[2 * r] >> 32);
         }
-        philox_block(n, x[0], x[1], x[2], x[3], kk[0], kk[1]);
-        /* the numbers of the block's 4 n words (vectorised: value v of counter i at j = v BLOCK + i) */
-        double *val = &values[0][0];
-        if (normal) {
-            to_normals(&x[0][0], val, rejected);
-            for (int j = 0; j < 4 * BLOCK; j++) {
-                int i = j % BLOCK, v = j / BLOCK;
-                if (!rejected[j] || i >= n) continue;
-                Py_ssize_t ri = row_of[i];
-                uint32_t cc[4] = {(uint32_t)(uint64_t)s[ri], c1[i], (uint32_t)k[2 * ri + 1],
-                                  (uint32_t)(k[2 * ri + 1] >> 32)};
-                val[j] = fallback((int32_t)x[v][i], (uint32_t)v, cc, key[0][i], key[1][i]);
-            }
-        } else {
-            for (int j = 0; j < 4 * BLOCK; j++) val[j] = (double)(&x[0][0])[j] * TWO_M32;
+        lane_block(&lanes[0], n, row_of, at_of, k, s, size, total);
+        for (int l = 1; l < nl; l++) {
+            lane_block(&lanes[l], n, row_of, at_of, k, s, size, term);
+            for (int v = 0; v < 4; v++)
+                for (int i = 0; i < n; i++) total[v][i] = total[v][i] + term[v][i];
         }
         for (int i = 0; i < n; i++) {
             Py_ssize_t first = 4 * at_of[i];
             int count = size - first < 4 ? (int)(size - first) : 4;
-            double *dst = o + row_of[i] * size + first;
-            for (int v = 0; v < count; v++) {
-                double value = values[v][i];
-                if (scale) value = value * scale[first + v];
-                if (offset) value = value + offset[first + v];
-                dst[v] = add ? dst[v] + value : value;
-            }
+            double *dst = o + (rows ? rows[row_of[i]] : row_of[i]) * width + lo + first;
+            for (int v = 0; v < count; v++) dst[v] = accumulate ? dst[v] + total[v][i] : total[v][i];
         }
     }
     Py_END_ALLOW_THREADS
     result = Py_None;
     Py_INCREF(result);
 done:
-    if (sc.obj) PyBuffer_Release(&sc);
-    if (of.obj) PyBuffer_Release(&of);
+    release_lanes(lanes, nl);
+    if (rows_buf.obj) PyBuffer_Release(&rows_buf);
     PyBuffer_Release(&keys);
     PyBuffer_Release(&samples);
     PyBuffer_Release(&out);
@@ -215,8 +294,8 @@ static PyObject *tables(PyObject *self, PyObject *args) {
 }
 
 static PyMethodDef methods[] = {
-    {"fill", fill, METH_VARARGS,
-     "fill(keys, samples, tag, size, normal, out[, scale, offset, add]): one draw's numbers into out."},
+    {"add", add, METH_VARARGS,
+     "add(keys, samples, size, lanes, out, lo, rows, accumulate): the lanes' numbers, summed, into out's rows."},
     {"tables", tables, METH_VARARGS, "tables(kn, wn, fn): the ziggurat's tables (from streams.py)."},
     {NULL, NULL, 0, NULL}};
 

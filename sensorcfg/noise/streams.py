@@ -32,7 +32,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-__all__ = ["Affine", "Draw", "KERNEL", "Streams", "numbers", "philox", "stream_key", "sums"]
+__all__ = ["Affine", "Draw", "KERNEL", "Streams", "Sum", "add_sums", "numbers", "philox", "stream_key"]
 
 _M0, _M1 = np.uint64(0xD2511F53), np.uint64(0xCD9E8D57)  # Philox4x32 multipliers
 _W0, _W1 = np.uint32(0x9E3779B9), np.uint32(0xBB67AE85)  # its key schedule's increments
@@ -227,12 +227,7 @@ def numbers(draws: Sequence[Draw], compiled: bool = True) -> list[np.ndarray]:
         raise ValueError(f"a noise stage draws at most {_MAX_LANE_VALUES} values per sample, from stages < 256")
     if compiled and _COMPILED is not None:
         out = [np.empty((np.size(d.samples), d.size)) for d in draws]
-
-        def run(indices: Sequence[int]) -> None:
-            for i in indices:
-                _fill(draws[i], out[i])
-
-        _split(run, [o.size for o in out])
+        _run([_Job([d], [None], out[i], 0, None) for i, d in enumerate(draws)], accumulate=False)
         return out
     counter, key, q = _counters(draws)
     words = philox(counter, key)
@@ -250,18 +245,6 @@ def numbers(draws: Sequence[Draw], compiled: bool = True) -> list[np.ndarray]:
     return out
 
 
-def _fill(d: Draw, out: np.ndarray | None = None, term: Affine | None = None, add: bool = False) -> np.ndarray:
-    """The compiled kernel's numbers of draw d, written to `out` (a new (m, size) array when None), or added
-    to it (`add`); scaled and shifted by `term` when given."""
-    samples = np.ascontiguousarray(d.samples, np.int64).ravel()
-    keys = np.ascontiguousarray(np.broadcast_to(np.asarray(d.keys, np.uint64).reshape(-1, 2), (samples.size, 2)))
-    out = np.empty((samples.size, d.size)) if out is None else out
-    assert _COMPILED is not None
-    scale, offset = (None, None) if term is None else term
-    _COMPILED.fill(keys, samples, d.stage << 24 | d.lane << 22, d.size, d.normal, out, scale, offset, add)
-    return out
-
-
 class Affine(NamedTuple):
     """A per-sample term linear in its draw's numbers x: x scale (+ offset), each (size,) float64."""
 
@@ -269,16 +252,26 @@ class Affine(NamedTuple):
     offset: np.ndarray | None
 
 
-def sums(jobs: Sequence[tuple[Sequence[Draw], Sequence[Affine]]], compiled: bool = True) -> list[np.ndarray]:
-    """Per job, the sum of its terms (m, size): numbers times scale, plus offset, the first term written and
-    the others added in order, with numpy's roundings (x *= scale; x += offset; total += x). The compiled
-    kernel computes each in place, the large ones split between two threads."""
+class Sum(NamedTuple):
+    """Numbers of draws of the same samples (their keys, samples and size), each scaled and shifted, summed
+    in order and added to table[rows[r], lo:lo + size] for sample r: `table` (n, width) float64, C-contiguous."""
+
+    draws: Sequence[Draw]
+    terms: Sequence[Affine]
+    table: np.ndarray
+    lo: int
+    rows: np.ndarray
+
+
+def add_sums(jobs: Sequence[Sum], compiled: bool = True) -> None:
+    """Each job's total added to its rows in place, with numpy's roundings: per term x *= scale; x += offset,
+    total = first term; total += each other; then row = row + total (the regions must not overlap). The
+    compiled kernel does it in one pass per job, splitting many jobs between two threads."""
     if not (compiled and _COMPILED is not None):
-        raw = iter(numbers([d for draws, _ in jobs for d in draws], compiled=False))
-        out = []
-        for draws, terms in jobs:
+        raw = iter(numbers([d for job in jobs for d in job.draws], compiled=False))
+        for job in jobs:
             total: np.ndarray | None = None
-            for term in terms:
+            for term in job.terms:
                 x = next(raw)
                 x *= term.scale
                 if term.offset is not None:
@@ -288,18 +281,40 @@ def sums(jobs: Sequence[tuple[Sequence[Draw], Sequence[Affine]]], compiled: bool
                 else:
                     total += x
             assert total is not None
-            out.append(total)
-        return out
-    results = [np.empty((np.size(draws[0].samples), draws[0].size)) for draws, _ in jobs]
+            hi = job.lo + job.draws[0].size
+            job.table[job.rows, job.lo:hi] = job.table[job.rows, job.lo:hi] + total
+        return
+    _run([_Job(job.draws, job.terms, job.table, job.lo, np.ascontiguousarray(job.rows, np.int64)) for job in jobs],
+         accumulate=True)
+
+
+class _Job(NamedTuple):
+    draws: Sequence[Draw]
+    terms: Sequence[Affine | None]
+    out: np.ndarray
+    lo: int
+    rows: np.ndarray | None
+
+
+def _run(jobs: list[_Job], accumulate: bool) -> None:
+    """The kernel's `add` over the jobs, in two halves on two threads when there are many numbers."""
+    assert _COMPILED is not None
+    kernel = _COMPILED.add
 
     def run(indices: Sequence[int]) -> None:
         for i in indices:
-            draws, terms = jobs[i]
-            for k, (d, term) in enumerate(zip(draws, terms)):
-                _fill(d, results[i], term, add=k > 0)
+            draws, terms, out, lo, rows = jobs[i]
+            first = draws[0]
+            if not first.size or not np.size(first.samples):
+                continue
+            samples = np.ascontiguousarray(first.samples, np.int64).ravel()
+            keys = np.ascontiguousarray(np.broadcast_to(np.asarray(first.keys, np.uint64).reshape(-1, 2),
+                                                        (samples.size, 2)))
+            lanes = [(d.stage << 24 | d.lane << 22, d.normal, *(t if t is not None else (None, None)))
+                     for d, t in zip(draws, terms)]
+            kernel(keys, samples, first.size, lanes, out, out.shape[-1], lo, rows, accumulate)
 
-    _split(run, [r.size * len(jobs[i][0]) for i, r in enumerate(results)])
-    return results
+    _split(run, [np.size(job.draws[0].samples) * job.draws[0].size * len(job.draws) for job in jobs])
 
 
 _POOL: Any = None
