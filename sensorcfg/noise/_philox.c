@@ -59,12 +59,13 @@ static inline void philox1(uint32_t x[4], uint32_t k0, uint32_t k1) {
     }
 }
 
-/* Philox of n <= BLOCK counters in place (x: four word arrays, k: two key arrays), vectorised across them */
+/* Philox of n <= BLOCK counters (x: four word arrays, k: two key arrays, both overwritten), vectorised
+ * across them; the words counter after counter into w (w[4 i + v]: word v of counter i) */
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__)
 __attribute__((target_clones("avx512f", "avx2", "default")))
 #endif
 static void philox_block(int n, uint32_t *restrict x0, uint32_t *restrict x1, uint32_t *restrict x2,
-                         uint32_t *restrict x3, uint32_t *restrict k0, uint32_t *restrict k1) {
+                         uint32_t *restrict x3, uint32_t *restrict k0, uint32_t *restrict k1, uint32_t *restrict w) {
     for (int r = 0; r < ROUNDS; r++) {
         for (int i = 0; i < n; i++) {
             uint64_t p0 = (uint64_t)x0[i] * 0xD2511F53u, p1 = (uint64_t)x2[i] * 0xCD9E8D57u;
@@ -77,22 +78,26 @@ static void philox_block(int n, uint32_t *restrict x0, uint32_t *restrict x1, ui
             k1[i] += 0xBB67AE85u;
         }
     }
+    for (int i = 0; i < n; i++) {
+        w[4 * i] = x0[i];
+        w[4 * i + 1] = x1[i];
+        w[4 * i + 2] = x2[i];
+        w[4 * i + 3] = x3[i];
+    }
 }
 
 static inline uint32_t abs32(int32_t v) { return v < 0 ? 0u - (uint32_t)v : (uint32_t)v; }
 
-/* the ziggurat's first try on the words w[v][i] (i < n): hz WN[iz] for each, and which it rejects */
+/* the ziggurat's first try on n words: hz WN[iz] for each, and which it rejects */
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__)
 __attribute__((target_clones("avx512f", "avx2", "default")))
 #endif
-static void to_normals(int n, const uint32_t w[4][BLOCK], double out[4][BLOCK], uint8_t rejected[4][BLOCK]) {
-    for (int v = 0; v < 4; v++) {
-        for (int i = 0; i < n; i++) {
-            int32_t hz = (int32_t)w[v][i];
-            uint32_t iz = w[v][i] & 127u;
-            out[v][i] = (double)hz * WN[iz];
-            rejected[v][i] = abs32(hz) >= KN[iz];
-        }
+static void to_normals(int n, const uint32_t *restrict w, double *restrict out, uint8_t *restrict rejected) {
+    for (int j = 0; j < n; j++) {
+        int32_t hz = (int32_t)w[j];
+        uint32_t iz = w[j] & 127u;
+        out[j] = (double)hz * WN[iz];
+        rejected[j] = abs32(hz) >= KN[iz];
     }
 }
 
@@ -128,45 +133,58 @@ typedef struct {
     Py_buffer sc, of;
 } Lane;
 
-/* The numbers of a block of n counters of one lane (counter i: row row_of[i], index at_of[i]), value v of
- * counter i at val[v][i], scaled and shifted. */
-static void lane_block(const Lane *lane, int n, const Py_ssize_t *row_of, const Py_ssize_t *at_of,
-                       const uint64_t *k, const int64_t *s, Py_ssize_t size, double val[4][BLOCK]) {
-    uint32_t x[4][BLOCK], kk[2][BLOCK];
-    uint8_t rejected[4][BLOCK];
+/* A block: n <= BLOCK counters, counter i of sample row_of[i] (its counter index at_of[i]); and its
+ * segments: runs of one sample's values, value t0 .. t0 + len of sample `row` at position j of the block. */
+typedef struct {
+    int n, nseg;
+    Py_ssize_t row_of[BLOCK], at_of[BLOCK];
+    Py_ssize_t seg_row[BLOCK], seg_t0[BLOCK], seg_j[BLOCK], seg_len[BLOCK];
+} Block;
+
+/* The numbers of one lane for a block (value v of counter i at val[4 i + v]), scaled and shifted. */
+static void lane_block(const Lane *lane, const Block *b, const uint64_t *k, const int64_t *s, double *val) {
+    uint32_t x[4][BLOCK], kk[2][BLOCK], w[4 * BLOCK];
+    uint8_t rejected[4 * BLOCK];
+    int n = b->n;
     for (int i = 0; i < n; i++) {
-        Py_ssize_t r = row_of[i];
+        Py_ssize_t r = b->row_of[i];
         x[0][i] = (uint32_t)(uint64_t)s[r];
-        x[1][i] = lane->tag | (uint32_t)at_of[i];
+        x[1][i] = lane->tag | (uint32_t)b->at_of[i];
         x[2][i] = (uint32_t)k[2 * r + 1];
         x[3][i] = (uint32_t)(k[2 * r + 1] >> 32);
         kk[0][i] = (uint32_t)k[2 * r];
         kk[1][i] = (uint32_t)(k[2 * r] >> 32);
     }
-    philox_block(n, x[0], x[1], x[2], x[3], kk[0], kk[1]);
+    philox_block(n, x[0], x[1], x[2], x[3], kk[0], kk[1], w);
     if (lane->normal) {
-        to_normals(n, x, val, rejected);
-        for (int v = 0; v < 4; v++) {
-          for (int i = 0; i < n; i++) {
-            if (!rejected[v][i]) continue;
-            Py_ssize_t r = row_of[i];
-            uint32_t c[4] = {(uint32_t)(uint64_t)s[r], lane->tag | (uint32_t)at_of[i], (uint32_t)k[2 * r + 1],
+        to_normals(4 * n, w, val, rejected);
+        memset(rejected + 4 * n, 0, sizeof(rejected) - 4 * (size_t)n);
+        for (int j = 0; j < 4 * n; j++) {
+            uint64_t eight;
+            if ((j & 7) == 0) { /* eight flags at a time: about one word in a hundred is rejected */
+                memcpy(&eight, rejected + j, 8);
+                if (!eight) {
+                    j += 7;
+                    continue;
+                }
+            }
+            if (!rejected[j]) continue;
+            int i = j / 4;
+            Py_ssize_t r = b->row_of[i];
+            uint32_t c[4] = {(uint32_t)(uint64_t)s[r], lane->tag | (uint32_t)b->at_of[i], (uint32_t)k[2 * r + 1],
                              (uint32_t)(k[2 * r + 1] >> 32)};
-            val[v][i] = fallback((int32_t)x[v][i], (uint32_t)v, c, (uint32_t)k[2 * r], (uint32_t)(k[2 * r] >> 32));
-          }
+            val[j] = fallback((int32_t)w[j], (uint32_t)(j & 3), c, (uint32_t)k[2 * r], (uint32_t)(k[2 * r] >> 32));
         }
     } else {
-        for (int v = 0; v < 4; v++)
-            for (int i = 0; i < n; i++) val[v][i] = (double)x[v][i] * TWO_M32;
+        for (int j = 0; j < 4 * n; j++) val[j] = (double)w[j] * TWO_M32;
     }
-    if (!lane->scale && !lane->offset) return;
-    for (int i = 0; i < n; i++) {
-        Py_ssize_t first = 4 * at_of[i];
-        int count = size - first < 4 ? (int)(size - first) : 4;
-        for (int v = 0; v < count; v++) {
-            if (lane->scale) val[v][i] = val[v][i] * lane->scale[first + v];
-            if (lane->offset) val[v][i] = val[v][i] + lane->offset[first + v];
-        }
+    for (int g = 0; g < b->nseg; g++) {
+        double *v = val + b->seg_j[g];
+        Py_ssize_t t0 = b->seg_t0[g], len = b->seg_len[g];
+        if (lane->scale)
+            for (Py_ssize_t t = 0; t < len; t++) v[t] = v[t] * lane->scale[t0 + t];
+        if (lane->offset)
+            for (Py_ssize_t t = 0; t < len; t++) v[t] = v[t] + lane->offset[t0 + t];
     }
 }
 
@@ -249,29 +267,43 @@ static PyObject *add(PyObject *self, PyObject *args) {
     double *o = (double *)out.buf;
     Py_ssize_t q = (size + 3) / 4;
     Py_BEGIN_ALLOW_THREADS
-    double total[4][BLOCK], term[4][BLOCK];
-    Py_ssize_t row_of[BLOCK], at_of[BLOCK], r = 0, at = 0;
-    for (Py_ssize_t j0 = 0; j0 < m * q; j0 += BLOCK) {
-        int n = (int)(m * q - j0 < BLOCK ? m * q - j0 : BLOCK);
-        for (int i = 0; i < n; i++, at++) { /* counter j0 + i: sample r, index at */
+    double total[4 * BLOCK], term[4 * BLOCK];
+    Block blk;
+    Py_ssize_t r = 0, at = 0; /* the next counter: sample r, index at */
+    while (r < m && q) {
+        int n = 0;
+        blk.nseg = 0;
+        while (n < BLOCK && r < m) { /* the rest of sample r's counters, as many as fit */
+            Py_ssize_t take = q - at < BLOCK - n ? q - at : BLOCK - n, t0 = 4 * at;
+            Py_ssize_t end = 4 * (at + take) < size ? 4 * (at + take) : size;
+            blk.seg_row[blk.nseg] = r;
+            blk.seg_t0[blk.nseg] = t0;
+            blk.seg_j[blk.nseg] = 4 * n;
+            blk.seg_len[blk.nseg++] = end - t0;
+            for (Py_ssize_t c = 0; c < take; c++, n++) {
+                blk.row_of[n] = r;
+                blk.at_of[n] = at + c;
+            }
+            at += take;
             if (at == q) {
                 at = 0;
                 r++;
             }
-            row_of[i] = r;
-            at_of[i] = at;
         }
-        lane_block(&lanes[0], n, row_of, at_of, k, s, size, total);
+        blk.n = n;
+        lane_block(&lanes[0], &blk, k, s, total);
         for (int l = 1; l < nl; l++) {
-            lane_block(&lanes[l], n, row_of, at_of, k, s, size, term);
-            for (int v = 0; v < 4; v++)
-                for (int i = 0; i < n; i++) total[v][i] = total[v][i] + term[v][i];
+            lane_block(&lanes[l], &blk, k, s, term);
+            for (int j = 0; j < 4 * n; j++) total[j] = total[j] + term[j];
         }
-        for (int i = 0; i < n; i++) {
-            Py_ssize_t first = 4 * at_of[i];
-            int count = size - first < 4 ? (int)(size - first) : 4;
-            double *dst = o + (rows ? rows[row_of[i]] : row_of[i]) * width + lo + first;
-            for (int v = 0; v < count; v++) dst[v] = accumulate ? dst[v] + total[v][i] : total[v][i];
+        for (int g = 0; g < blk.nseg; g++) {
+            double *dst = o + (rows ? rows[blk.seg_row[g]] : blk.seg_row[g]) * width + lo + blk.seg_t0[g];
+            const double *src = total + blk.seg_j[g];
+            Py_ssize_t len = blk.seg_len[g];
+            if (accumulate)
+                for (Py_ssize_t t = 0; t < len; t++) dst[t] = dst[t] + src[t];
+            else
+                memcpy(dst, src, sizeof(double) * len);
         }
     }
     Py_END_ALLOW_THREADS
