@@ -249,18 +249,17 @@ class BatchUpdater:
         """Each simulation's draws at reset, in the Updater's order; returns the noisy channels' keys
         (channel, simulation, 2), in the order of `self.noise`."""
         labels = [self.labels[c] for c in self.noise]
-        keys = np.zeros((len(labels), ids.size, 2), np.uint64)
-        entropies = []
+        planned = [label for label, _ in self.timelines.specs]
+        keys = np.zeros((len(labels) + len(planned), ids.size, 2), np.uint64)  # noise's, then schedules'
         for m, i in enumerate(ids.tolist()):
-            entropy = episode_entropy(random_states[i]) if self.noisy or self.timelines.specs else None
-            if labels:
-                keys[:, m] = sensor_keys(entropy or [], labels)
-            entropies.append(entropy or [])
+            entropy = episode_entropy(random_states[i]) if self.noisy or planned else None
+            if labels or planned:
+                keys[:, m] = sensor_keys(entropy or [], labels + planned)
             if self.cameras is not None:
                 self.cameras.reset_noise(i, entropy or [])
-        if self.timelines.specs:
-            self.timelines.start(ids, entropies)
-        return keys
+        if planned:
+            self.timelines.start(ids, keys[len(labels):])
+        return keys[:len(labels)]
 
     # -- the physics loop -------------------------------------------------------------------------
 

@@ -1,12 +1,13 @@
 """Drawn intervals and delays planned in blocks: the planned-schedule stream rule, for one or many simulations.
 
-The rule (README, Semantics): a schedule drawn by sensorcfg's own draws (`{uniform}`, `{choice}`) gets its own
-counter-based stream, numpy's Philox keyed by the sensor's episode key (`draws.sensor_key`, as its noise),
-counter (position 0, purpose 2, block q, stage 0 for intervals / 1 for delays). Sample j (j = 0 is the reset
-sample, at step 0) is taken at step t_j = I_1 + ... + I_j (j * interval when it is constant) and delivered
-at a_j = t_j + D_j, where I_j and D_j are entry j % 1024 of block j // 1024 of the interval and delay streams.
-So a sample's time and delay are functions of the seed, the sensor and j alone: other sensors, buffers,
-reads and which samples were taken change nothing, and a block of 1024 is drawn in one call.
+The rule (README, Semantics): a schedule drawn by sensorcfg's own draws (`{uniform}`, `{choice}`) draws from
+the counter-based numbers of its noise (`noise/streams.numbers`), with the sensor's episode key (k0, k1)
+(`draws.sensor_key`) turned into the schedule key (k0, k1 xor 2^63): I_j and D_j are drawn from the uniform
+of sample j, stage 0, lane 0 (intervals) or 1 (delays), value 0 (`UniformSteps.of_uniform`,
+`ChoiceSteps.of_uniform`). Sample j (j = 0 is the reset sample, at step 0) is taken at step t_j = I_1 + ... +
+I_j (j * interval when it is constant) and delivered at a_j = t_j + D_j. So a sample's time and delay are
+functions of the seed, the sensor and j alone: other sensors, buffers, reads and which samples were taken
+change nothing, and any samples of any simulations are drawn in one call.
 
 A read at step R (every `substeps` steps) shows the last `buffer` samples delivered by R, in order of
 (arrival, time), padded before the first ones. A sample that no read shows is not taken (unless the sensor's
@@ -27,12 +28,10 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from ..noise.streams import Streams
+from ..noise import streams
 
-__all__ = ["Drawn", "Planner", "Round", "SAMPLE_BLOCK", "PURPOSE", "chunk_steps"]
+__all__ = ["Drawn", "Planner", "Round", "chunk_steps"]
 
-SAMPLE_BLOCK = 1024  # samples per counter block of a schedule's stream
-PURPOSE = 2  # the counter's purpose word of schedules (noise uses 0 and 1)
 _MIN_CHUNK = 1024  # steps per planning round, at least
 
 
@@ -62,11 +61,12 @@ class Drawn(NamedTuple):
         return 2 * dmax + self.buffer * imax + self.substeps + 1
 
 
-def chunk_steps(schedules: list[Drawn], substeps: int) -> int:
-    """Steps per planning round: a multiple of substeps and of every constant interval, at least 1024 and at
-    least the largest delay plus substeps (a sample is decided one round after its own)."""
+def chunk_steps(schedules: list[Drawn], substeps: int, least: int = _MIN_CHUNK) -> int:
+    """Steps per planning round: a multiple of substeps and of every constant interval, at least `least` and
+    at least the largest delay plus substeps (a sample is decided one round after its own). The rule does not
+    depend on it: rounds only set how far ahead, and how much at a time, schedules are planned."""
     unit = math.lcm(substeps, *(d.stride for d in schedules))
-    least = max([_MIN_CHUNK] + [_largest(d.delay) + substeps for d in schedules])
+    least = max([least] + [_largest(d.delay) + substeps for d in schedules])
     return unit * -(-least // unit)
 
 
@@ -79,60 +79,39 @@ class Round(NamedTuple):
     take_step: np.ndarray
 
 
-class _Samples:
-    """One simulation's drawn samples, generated a block at a time: times and delays not yet planned."""
+_SCHEDULE = np.array([0, 1 << 63], np.uint64)  # xor of a sensor key that gives its schedule key
 
-    __slots__ = ("streams", "block", "last", "times", "delays")
 
-    def __init__(self, key: np.ndarray):
-        self.streams = Streams(key)
-        self.block = 0
-        self.last = 0  # time of the newest generated sample
-        self.times = np.zeros(0, np.int64)
-        self.delays = np.zeros(0, np.int64)
-
-    def until(self, drawn: Drawn, end: int) -> tuple[np.ndarray, np.ndarray]:
-        """The samples with times <= end not returned before (times, delays)."""
-        while not len(self.times) or self.times[-1] <= end:
-            self._extend(drawn)
-        cut = int(np.searchsorted(self.times, end, side="right"))
-        out = self.times[:cut], self.delays[:cut]
-        self.times, self.delays = self.times[cut:], self.delays[cut:]
-        return out
-
-    def _extend(self, drawn: Drawn) -> None:
-        q, n = self.block, SAMPLE_BLOCK
-        if isinstance(drawn.interval, numbers.Integral):
-            times = (q * n + np.arange(n, dtype=np.int64)) * int(drawn.interval)
-        else:
-            steps = np.cumsum(drawn.interval.block(self.streams.at(0, q, PURPOSE), n))
-            times = steps - steps[0] if q == 0 else self.last + steps  # sample 0 is at step 0
-        if isinstance(drawn.delay, numbers.Integral):
-            delays = np.full(n, int(drawn.delay), np.int64)
-        else:
-            delays = drawn.delay.block(self.streams.at(1, q, PURPOSE), n).astype(np.int64)
-        self.last = int(times[-1])
-        self.block += 1
-        self.times = np.concatenate((self.times, times))
-        self.delays = np.concatenate((self.delays, delays))
+def _drawn(setting: Any, keys: np.ndarray, j: np.ndarray, lane: int) -> np.ndarray:
+    """Draws of `setting` for samples j of schedule keys `keys` (len(j), 2), from lane `lane`."""
+    if not j.size:
+        return np.zeros(0, np.int64)
+    u = streams.numbers([streams.Draw(keys, j, 0, lane, 1, False)])[0][:, 0]
+    return np.asarray(setting.of_uniform(u), np.int64)
 
 
 class Planner:
-    """One planned channel across `nsim` simulations: per simulation its samples, the last `buffer` delivered
-    (`tail`), the samples in flight, and the end of its last round."""
+    """One planned channel across `nsim` simulations: per simulation its schedule key, the next sample not
+    yet planned and the time of the one before, the last `buffer` delivered (`tail`), the samples in
+    flight, and the end of its last round."""
 
     def __init__(self, drawn: Drawn, nsim: int):
         self.drawn = drawn
-        self.samples: list[_Samples | None] = [None] * nsim
+        self.keys = np.zeros((nsim, 2), np.uint64)
+        self.started = np.zeros(nsim, bool)
+        self.next = np.zeros(nsim, np.int64)  # the index of the next sample to plan
+        self.last = np.zeros(nsim, np.int64)  # the time of sample next - 1
         self.tail = np.full((nsim, drawn.buffer), -1, np.int64)
         self.end = np.full(nsim, -1, np.int64)
         self.flight = np.zeros((3, 0), np.int64)  # rows: simulation, time, arrival
 
-    def start(self, sims: np.ndarray, keys: list[np.ndarray]) -> Round:
+    def start(self, sims: np.ndarray, keys: np.ndarray | list[np.ndarray]) -> Round:
         """Episodes of simulations `sims` start (their sensor keys): the round of step 0 (the reset sample and
         read)."""
-        for i, key in zip(sims.tolist(), keys):
-            self.samples[i] = _Samples(key)
+        self.keys[sims] = np.asarray(keys, np.uint64).reshape(-1, 2) ^ _SCHEDULE
+        self.started[sims] = True
+        self.next[sims] = 0
+        self.last[sims] = 0
         self.tail[sims] = -1
         self.end[sims] = -1
         restarted = np.zeros(len(self.end), bool)
@@ -140,16 +119,46 @@ class Planner:
         self.flight = self.flight[:, ~restarted[self.flight[0]]]
         return self.round(sims, 0)
 
+    def _until(self, sims: np.ndarray, end: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The samples of `sims` with times <= end not planned before: (position in sims, time, delay)."""
+        if not self.started[sims].all():
+            raise RuntimeError("a planned schedule was used before its episode started")
+        interval, first = self.drawn.interval, self.next[sims]
+        if isinstance(interval, numbers.Integral):
+            counts = np.maximum(end // int(interval) - first + 1, 0)
+            g = np.repeat(np.arange(len(sims)), counts)
+            j = first[g] + np.arange(g.size) - np.repeat(np.cumsum(counts) - counts, counts)
+            t = j * int(interval)
+        else:
+            least = max(int(interval.minimum), 1)
+            # at most this many samples fit before `end`: each interval is at least `least`
+            bound = np.where(first == 0, 1 + np.maximum(end, 0) // least, np.maximum(end - self.last[sims], 0) // least)
+            k = np.arange(int(bound.max()) if len(sims) else 0)
+            j = first[:, None] + k
+            fits = k < bound[:, None]
+            gaps = np.zeros(j.shape, np.int64)
+            drawn = fits & (j > 0)  # sample 0 is at step 0: no interval
+            gaps[drawn] = _drawn(interval, np.repeat(self.keys[sims], drawn.sum(1), axis=0), j[drawn], 0)
+            times = np.where(first == 0, 0, self.last[sims])[:, None] + np.cumsum(gaps, axis=1)
+            shown = fits & (times <= end[:, None])
+            g, j, t = np.nonzero(shown)[0], j[shown], times[shown]
+            counts = shown.sum(1)
+            had = counts > 0
+            self.last[sims[had]] = times[had, counts[had] - 1]
+        self.next[sims] = first + counts
+        delay = self.drawn.delay
+        d = (np.full(g.size, int(delay), np.int64) if isinstance(delay, numbers.Integral)
+             else _drawn(delay, self.keys[sims[g]], j, 1))
+        return g, t, d
+
     def round(self, sims: np.ndarray, length: int) -> Round:
         """Plan the next `length` steps of simulations `sims` (0 after `start`: step 0 only)."""
         drawn, b, n = self.drawn, self.drawn.buffer, self.drawn.substeps
         prev = self.end[sims]
         end = prev + (length if length else 1)
-        new = [_ready(self.samples[int(i)]).until(drawn, int(e)) for i, e in zip(sims, end)]
-        counts = np.array([len(t) for t, _ in new], np.intp)
-        g = np.repeat(np.arange(len(sims)), counts)
-        t = np.concatenate([t for t, _ in new]) if new else np.zeros(0, np.int64)
-        a = t + (np.concatenate([d for _, d in new]) if new else np.zeros(0, np.int64))
+        g, t, d = self._until(sims, end)
+        new = (g, t)
+        a = t + d
         local = np.full(len(self.end), -1, np.intp)
         local[sims] = np.arange(len(sims))
         mine = local[self.flight[0]] >= 0
@@ -180,22 +189,15 @@ class Planner:
         self.end[sims] = end
         return Round(windows, *self._taken(windows, new, prev, length))
 
-    def _taken(self, windows: np.ndarray, new: list[tuple[np.ndarray, np.ndarray]], prev: np.ndarray,
+    def _taken(self, windows: np.ndarray, new: tuple[np.ndarray, np.ndarray], prev: np.ndarray,
                length: int) -> tuple[np.ndarray, np.ndarray]:
         """The samples to take: every new one (stateful noise), or those some read of the round shows that
         are not yet decided (older than a round: decided by an earlier round)."""
         if not length:  # the reset sample is always taken
             return np.zeros(0, np.intp), np.zeros(0, np.int64)
         if self.drawn.every_sample:
-            counts = [len(t) for t, _ in new]
-            return np.repeat(np.arange(len(new)), counts), np.concatenate([t for t, _ in new])
+            return new
         floor = np.maximum(prev - length, 0)
         sim = np.broadcast_to(np.arange(len(prev))[:, None, None], windows.shape)
         shown = windows > floor[:, None, None]
         return sim[shown], windows[shown]
-
-
-def _ready(samples: _Samples | None) -> _Samples:
-    if samples is None:
-        raise RuntimeError("a planned schedule was used before its episode started")
-    return samples
