@@ -34,7 +34,7 @@ import numpy as np
 from .arithmetic import add, dropout, multiply, walk
 from .base import Context, Stage, _Timed
 from .filters import Clip, Custom, Lowpass, Quantize
-from .streams import Affine, Draw, Streams, numbers, stream_key
+from .streams import MAX_TERMS, Affine, Draw, Streams, numbers, stream_key
 
 __all__ = ["Context", "Streams", "Stage", "Sum", "Gaussian", "Uniform", "Outlier", "EpisodeDraw", "RandomWalk",
            "Lowpass", "Quantize", "Clip", "Dropout", "Custom", "stream_key"]
@@ -148,7 +148,10 @@ class Sum(_Additive):
 
     def affine(self) -> list[Affine] | None:
         terms = [p.affine() if isinstance(p, _PerSample) else None for p in self.parts]
-        return None if any(t is None for t in terms) else [a for t in terms for a in cast(list[Affine], t)]
+        if any(t is None for t in terms):
+            return None
+        flat = [a for t in terms for a in cast(list[Affine], t)]
+        return flat if len(flat) <= MAX_TERMS else None
 
     def shape(self, raw: list[np.ndarray], m: int, values: list[np.ndarray] | None = None) -> np.ndarray:
         total: np.ndarray | None = None

@@ -245,6 +245,9 @@ def numbers(draws: Sequence[Draw], compiled: bool = True) -> list[np.ndarray]:
     return out
 
 
+MAX_TERMS = 8  # terms of one sum the kernel adds in one pass (`add_sums`); a longer sum is not fused
+
+
 class Affine(NamedTuple):
     """A per-sample term linear in its draw's numbers x: x scale (+ offset), each (size,) float64."""
 
@@ -267,6 +270,8 @@ def add_sums(jobs: Sequence[Sum], compiled: bool = True) -> None:
     """Each job's total added to its rows in place, with numpy's roundings: per term x *= scale; x += offset,
     total = first term; total += each other; then row = row + total (the regions must not overlap). The
     compiled kernel does it in one pass per job, splitting many jobs between two threads."""
+    if any(len(job.terms) > MAX_TERMS for job in jobs):
+        raise ValueError(f"a sum adds at most {MAX_TERMS} terms in one pass")
     if not (compiled and _COMPILED is not None):
         raw = iter(numbers([d for job in jobs for d in job.draws], compiled=False))
         for job in jobs:
