@@ -58,9 +58,10 @@ class UniformSteps:
     def largest(self) -> int:
         return int(self.high)
 
-    def block(self, rng: np.random.Generator, count: int) -> np.ndarray:
-        """`count` draws at once from a counter-based generator (the planned schedules' stream rule)."""
-        return rng.integers(self.low, self.high + 1, size=count, dtype=np.int64)
+    def of_uniform(self, u: np.ndarray) -> np.ndarray:
+        """Draws from uniforms u in [0, 1) of 32 bits (the planned schedules' stream rule): low + floor(u n),
+        n = high - low + 1 (exact in float64; n / 2^32 from uniform at most)."""
+        return self.low + np.floor(u * (self.high - self.low + 1)).astype(np.int64)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -84,12 +85,14 @@ class ChoiceSteps:
     def largest(self) -> int:
         return int(max(self.values))
 
-    def block(self, rng: np.random.Generator, count: int) -> np.ndarray:
-        """`count` draws at once from a counter-based generator (the planned schedules' stream rule)."""
+    def of_uniform(self, u: np.ndarray) -> np.ndarray:
+        """Draws from uniforms u in [0, 1) of 32 bits (the planned schedules' stream rule): value k where u
+        falls in [P_(k-1), P_k) of the cumulative probabilities (floor(u n) when uniform)."""
         values = np.asarray(self.values, np.int64)
         if self.p is None:
-            return values[rng.integers(0, len(values), size=count)]
-        return values[rng.choice(len(values), size=count, p=self.p)]
+            return values[np.floor(u * len(values)).astype(np.intp)]
+        cumulative = np.cumsum(self.p)
+        return values[np.minimum(np.searchsorted(cumulative, u, side="right"), len(values) - 1)]
 
 
 def sensor_key(entropy: Sequence[int], name: str) -> np.ndarray:

@@ -173,6 +173,31 @@ def test_pad_with_initial_value_and_strip_follow_the_suite_options():
     assert b[1].observation["gyro"].shape == (3, 3)  # the singleton buffer is stripped
 
 
+@needs_batch
+@pytest.mark.parametrize("stages", [2, 9], ids=["fused", "too-long-to-fuse"])
+def test_additive_noise_applied_in_place_is_the_single_environments(stages):
+    """A pipeline of gaussian and uniform stages only is added straight into the history by one kernel pass
+    (`streams.add_sums`, up to MAX_TERMS terms); longer sums take the general path. Both equal the single
+    Environment's observations bit for bit."""
+    noise = ", ".join("{type: gaussian, std: 0.1}" if k % 2 == 0 else "{type: uniform, low: -0.01, high: 0.02}"
+                      for k in range(stages))
+    text = f"""
+version: 1
+sensors:
+  qpos: {{kind: qpos, element: "joint:*", buffer: 3, noise: [{noise}]}}
+  gyro: {{kind: sensordata, element: "sensor:imu_gyro", interval: 2, delay: 1, noise: [{noise}]}}
+"""
+    env = BatchEnvironment(ROBOT, sensorcfg.loads(text), 3, physics_steps_per_control_step=3, seed=4)
+    fused = [p.fused is not None for p in env.updater.noise.values()]
+    assert fused == [stages <= 8] * 2
+    single = [sensorcfg.Environment(ROBOT, sensorcfg.loads(text), physics_steps_per_control_step=3, seed=sim_seed(4, i))
+              for i in range(3)]
+    actions = np.random.default_rng(5).uniform(-1, 1, (15, 3, 3)) * [1, 1, 0.04]
+    b = [env.reset()] + [env.step(a) for a in actions]
+    for i, e in enumerate(single):
+        check_sim(b, [e.reset()] + [e.step(a[i]) for a in actions], i, f"{stages} stages")
+
+
 OPTIONS_SUITE = """
 version: 1
 options: {pad_with_initial_value: true, strip_singleton_buffer_dim: true}

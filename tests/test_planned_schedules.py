@@ -15,7 +15,7 @@ import sensorcfg
 from sensorcfg import assets
 from sensorcfg.draws import ChoiceSteps, UniformSteps, episode_entropy, sensor_key
 from sensorcfg.noise import build_noise
-from sensorcfg.runtime.drawn import PURPOSE, SAMPLE_BLOCK
+from sensorcfg.noise.streams import philox
 
 MODEL = """<mujoco><option timestep="0.001"/><worldbody><body><joint name="slide" type="slide"/><geom size=".1"/>
 </body></worldbody><actuator><motor joint="slide"/></actuator></mujoco>"""
@@ -25,15 +25,24 @@ def step_of(physics) -> np.ndarray:
     return np.array([round(physics.data.time / 0.001) + 1.0])  # +1: padding zeros stay distinguishable
 
 
-def draws(setting, key: np.ndarray, stage: int, count: int) -> np.ndarray:
-    """The first `count` draws of a schedule stream, straight from the rule (Philox, purpose 2, block q)."""
+def draws(setting, key: np.ndarray, lane: int, count: int) -> np.ndarray:
+    """The first `count` draws of a schedule stream, straight from the rule: the first word of Philox4x32-10
+    at counter (j, lane << 22, lo32(k1'), hi32(k1')), key (lo32(k0), hi32(k0)), with k1' = k1 xor 2^63; a
+    uniform u = word / 2^32 gives low + floor(u (high - low + 1)), or the choice whose cumulative
+    probability first exceeds u."""
     if isinstance(setting, int):
         return np.full(count, setting)
-    out = []
-    for q in range(-(-count // SAMPLE_BLOCK)):
-        bitgen = np.random.Philox(key=key, counter=np.array([0, PURPOSE, q, stage], np.uint64))
-        out.append(setting.block(np.random.Generator(bitgen), SAMPLE_BLOCK))
-    return np.concatenate(out)[:count]
+    k0, k1 = int(key[0]), int(key[1]) ^ (1 << 63)
+    j = np.arange(count, dtype=np.uint32)
+    word = philox([j, np.full(count, lane << 22, np.uint32), np.full(count, k1 & 0xFFFFFFFF, np.uint32),
+                   np.full(count, k1 >> 32, np.uint32)],
+                  [np.full(count, k0 & 0xFFFFFFFF, np.uint32), np.full(count, k0 >> 32, np.uint32)])[0]
+    u = word.astype(np.float64) / 2**32
+    if isinstance(setting, UniformSteps):
+        return setting.low + np.floor(u * (setting.high - setting.low + 1)).astype(np.int64)
+    p = np.full(len(setting.values), 1 / len(setting.values)) if setting.p is None else np.asarray(setting.p)
+    index = [next((i for i, c in enumerate(np.cumsum(p)) if x < c), len(p) - 1) for x in u]
+    return np.asarray(setting.values)[index]
 
 
 def brute_force(interval, delay, buffer: int, substeps: int, key: np.ndarray, steps: int) -> list[list[int]]:

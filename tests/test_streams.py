@@ -130,3 +130,39 @@ def test_numpy_streams_can_be_forced_and_give_the_same_observations(tmp_path):
     assert runs["1"].keys() == runs["0"].keys() and len(runs["1"]) > 40
     for key, value in runs["1"].items():
         assert np.array_equal(value, runs["0"][key]), key
+
+
+def test_sums_added_in_place_equal_the_numpy_arithmetic_on_both_paths():
+    """`add_sums` (the batch's gaussian and uniform stages, fused and added in place in its history): numbers
+    x scale (+ offset), summed in order, added to table rows, with numpy's roundings; enough numbers that the
+    compiled path splits the jobs between two threads."""
+    rng = np.random.default_rng(3)
+    shapes = [(1, 9000), (6, 5000), (21, 3000), (48, 700)]
+    width = sum(size for size, _ in shapes) + 5
+    table = rng.normal(size=(9000, width))
+    jobs, lo = [], 2
+    for size, m in shapes:
+        keys = rng.integers(0, 2**64, (m, 2), dtype=np.uint64)
+        samples = rng.integers(0, 2**32, m)
+        rows = np.sort(rng.choice(9000, m, replace=False))
+        draws = [Draw(keys, samples, 1, 0, size, True), Draw(keys, samples, 2, 0, size, False),
+                 Draw(keys, samples, 3, 0, size, True)]
+        terms = [streams.Affine(rng.normal(size=size), None), streams.Affine(rng.normal(size=size), rng.normal(size=size)),
+                 streams.Affine(np.full(size, 0.5), np.zeros(size))]
+        jobs.append((draws, terms, lo, rows))
+        lo += size
+    assert sum(m * size * 3 for size, m in shapes) > streams._SPLIT_VALUES
+    expected = table.copy()
+    for draws, terms, lo, rows in jobs:
+        raw = numbers(draws, compiled=False)
+        total = raw[0] * terms[0].scale
+        for x, term in zip(raw[1:], terms[1:]):
+            total = total + (x * term.scale + term.offset)
+        expected[rows, lo:lo + draws[0].size] = expected[rows, lo:lo + draws[0].size] + total
+    for compiled in (False, _path(True)):
+        got = table.copy()
+        streams.add_sums([streams.Sum(draws, terms, got, lo, rows) for draws, terms, lo, rows in jobs], compiled=compiled)
+        assert np.array_equal(expected.view(np.uint64), got.view(np.uint64))
+    every = [d for draws, *_ in jobs for d in draws]  # numbers split between threads too
+    for a, b in zip(numbers(every, compiled=False), numbers(every, compiled=True)):
+        assert np.array_equal(a.view(np.uint64), b.view(np.uint64))

@@ -26,7 +26,8 @@ import numpy as np
 from ..errors import SuiteError
 from ..noise import arithmetic as ar
 from ..noise import stages as rt
-from ..noise.streams import Draw, numbers
+from ..noise.level import Blend, Keep
+from ..noise.streams import Affine, Draw, Sum, numbers
 
 __all__ = ["BatchPipeline", "BATCHED", "prefetch"]
 
@@ -101,6 +102,8 @@ class _Additive(_Drawn):
             self.values = [np.zeros((nsim, *p.value.shape), p.value.dtype)
                            for p in template.parts if isinstance(p, rt.EpisodeDraw)]
         self.keyed = type(self).keyed and not self.values
+        # numbers x scale (+ offset), added up: computed in one pass (`streams.sums`) where nothing per episode joins
+        self.terms: list[Affine] | None = None if self.values else template.affine()
 
     def load(self, i: int | np.ndarray, stage: Any) -> None:
         super().load(i, stage)
@@ -309,6 +312,21 @@ class BatchPipeline:
         self.stages = stages
         self.batched = batched
         self.shape = tuple(pipeline.shape)
+        # a pipeline that only adds numbers x scale (+ offset), but for the noise level's stages (which pass
+        # values through while every simulation is at level 1): applied in place by `streams.add_sums`
+        core = [b for b in batched if not isinstance(b.template, (Keep, Blend))]
+        self._fusable = core[0] if len(core) == 1 and getattr(core[0], "terms", None) is not None else None
+        self._blend = next((b.template for b in batched if isinstance(b.template, Blend)), None)
+
+    @property
+    def fused(self) -> _Additive | None:
+        blending = self._blend is not None and self._blend.batch_active  # type: ignore[attr-defined]
+        return None if blending else cast(_Additive | None, self._fusable)
+
+    def sum(self, table: np.ndarray, lo: int, sims: np.ndarray, steps: np.ndarray) -> Sum:
+        """The fused pipeline's noise of `sims` at `steps`, added to table[sims, lo:...] (`streams.add_sums`)."""
+        stage = cast(_Additive, self.fused)
+        return Sum(stage.draws(sims, steps), cast(list[Affine], stage.terms), table, lo, sims)
 
     def reset(self, i: int, key: np.ndarray) -> None:
         """Start simulation i's episode with its sensor key (as the Updater resets a pipeline)."""

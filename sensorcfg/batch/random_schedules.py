@@ -16,10 +16,14 @@ from typing import Any
 
 import numpy as np
 
-from ..draws import sensor_key
 from ..runtime.drawn import Drawn, Planner, Round, chunk_steps
 
 __all__ = ["Timelines", "drawn_of"]
+
+# Steps per planning round across simulations, at least: a reset plans two rounds of every simulation it
+# starts (512 simulations x 5 sensors x 2 x 1024 steps took about half a second); a round costs a few
+# milliseconds of fixed work whatever its length, so shorter rounds cost the step loop little.
+_ROUND_STEPS = 64
 
 
 def drawn_of(observable: Any, buffer: int, substeps: int, every_sample: bool) -> Drawn:
@@ -35,7 +39,7 @@ class Timelines:
         self.specs = list(specs)
         self.nsim, self.substeps, self.pad = nsim, substeps, pad
         drawn = [d for _, d in self.specs]
-        self.chunk = chunk_steps(drawn, substeps) if drawn else substeps
+        self.chunk = chunk_steps(drawn, substeps, _ROUND_STEPS) if drawn else substeps
         self.slots = 3 * self.chunk // substeps  # control steps held by the rings: two rounds ahead
         nc = len(self.specs)
         self.taken = np.zeros((nsim, self.slots, nc, substeps), bool)  # [sim, control step, channel, substep]
@@ -47,12 +51,13 @@ class Timelines:
     def _codes(self, windows: np.ndarray) -> np.ndarray:
         return np.where(windows >= 0, windows + 1, 1 if self.pad else 0)
 
-    def start(self, sims: np.ndarray, entropies: list[list[int]]) -> None:
-        """Episodes of simulations `sims` start (each one's episode entropy keys every sensor's schedule)."""
+    def start(self, sims: np.ndarray, keys: np.ndarray) -> None:
+        """Episodes of simulations `sims` start: `keys` (channel, simulation, 2) their sensors' episode keys
+        (`draws.sensor_key`), which key every schedule."""
         self.taken[sims] = False
         self.control[sims] = 0
-        for c, ((label, _), planner) in enumerate(zip(self.specs, self.planners)):
-            first = planner.start(sims, [sensor_key(entropy, label) for entropy in entropies])
+        for c, planner in enumerate(self.planners):
+            first = planner.start(sims, keys[c])
             self.last[c][sims] = self._codes(first.windows[:, 0])
         self._plan(sims, np.zeros(len(sims), np.int64))
         self._plan(sims, np.full(len(sims), self.chunk, np.int64))

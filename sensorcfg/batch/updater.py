@@ -36,6 +36,7 @@ from ..runtime.bank import _reader
 from ..runtime.channels import Channel, DrawnChannel, FixedChannel, RandomChannel, make_channel
 from ..runtime.updater import observation_spec
 from .layout import Layout
+from ..noise.streams import add_sums
 from .noise import BatchPipeline, prefetch
 from .random_schedules import Timelines
 
@@ -248,18 +249,17 @@ class BatchUpdater:
         """Each simulation's draws at reset, in the Updater's order; returns the noisy channels' keys
         (channel, simulation, 2), in the order of `self.noise`."""
         labels = [self.labels[c] for c in self.noise]
-        keys = np.zeros((len(labels), ids.size, 2), np.uint64)
-        entropies = []
+        planned = [label for label, _ in self.timelines.specs]
+        keys = np.zeros((len(labels) + len(planned), ids.size, 2), np.uint64)  # noise's, then schedules'
         for m, i in enumerate(ids.tolist()):
-            entropy = episode_entropy(random_states[i]) if self.noisy or self.timelines.specs else None
-            if labels:
-                keys[:, m] = sensor_keys(entropy or [], labels)
-            entropies.append(entropy or [])
+            entropy = episode_entropy(random_states[i]) if self.noisy or planned else None
+            if labels or planned:
+                keys[:, m] = sensor_keys(entropy or [], labels + planned)
             if self.cameras is not None:
                 self.cameras.reset_noise(i, entropy or [])
-        if self.timelines.specs:
-            self.timelines.start(ids, entropies)
-        return keys
+        if planned:
+            self.timelines.start(ids, keys[len(labels):])
+        return keys[:len(labels)]
 
     # -- the physics loop -------------------------------------------------------------------------
 
@@ -276,6 +276,10 @@ class BatchUpdater:
         everyone = bool(active.all())
         if self.noisy:
             calls = self._noise_calls(gp, active, everyone)
+            fused = [call for call in calls if self.noise[call[1]].fused is not None]
+            add_sums([self.noise[c].sum(self.history[gp + k - 1], int(self.cols[c]), sims, steps)
+                      for k, c, sims, steps in fused])
+            calls = [call for call in calls if self.noise[call[1]].fused is None]
             prefetch([(self.noise[c], sims, steps) for _, c, sims, steps in calls])
             for k, c, sims, steps in calls:
                 self._corrupt(self.history[gp + k - 1], c, sims, steps)

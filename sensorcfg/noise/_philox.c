@@ -5,6 +5,10 @@
  * (lane 3, the key's second word xor (1 + word + 16 a) at attempt a), exactly as streams._fallback does.
  * exp and log are the C library's, which the reference also calls (through Python's math module).
  *
+ * One entry point, `add`: any number of lanes (a stage's numbers, scaled and shifted) summed per value and
+ * written or added into rows of a table, which serves streams.numbers (one lane, written), streams.sums
+ * and the batch's additive noise applied in place in its history (streams.add_into).
+ *
  * Built by setup.py as an optional extension: without a C compiler the package installs without it and
  * streams.py uses numpy. No numpy C API: arrays arrive through the buffer protocol. */
 
@@ -55,12 +59,13 @@ static inline void philox1(uint32_t x[4], uint32_t k0, uint32_t k1) {
     }
 }
 
-/* Philox of n <= BLOCK counters in place (x: four word arrays, k: two key arrays), vectorised across them */
+/* Philox of n <= BLOCK counters (x: four word arrays, k: two key arrays, both overwritten), vectorised
+ * across them; the words counter after counter into w (w[4 i + v]: word v of counter i) */
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__)
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target_clones("avx512f", "avx2", "default")))
 #endif
 static void philox_block(int n, uint32_t *restrict x0, uint32_t *restrict x1, uint32_t *restrict x2,
-                         uint32_t *restrict x3, uint32_t *restrict k0, uint32_t *restrict k1) {
+                         uint32_t *restrict x3, uint32_t *restrict k0, uint32_t *restrict k1, uint32_t *restrict w) {
     for (int r = 0; r < ROUNDS; r++) {
         for (int i = 0; i < n; i++) {
             uint64_t p0 = (uint64_t)x0[i] * 0xD2511F53u, p1 = (uint64_t)x2[i] * 0xCD9E8D57u;
@@ -73,9 +78,28 @@ static void philox_block(int n, uint32_t *restrict x0, uint32_t *restrict x1, ui
             k1[i] += 0xBB67AE85u;
         }
     }
+    for (int i = 0; i < n; i++) {
+        w[4 * i] = x0[i];
+        w[4 * i + 1] = x1[i];
+        w[4 * i + 2] = x2[i];
+        w[4 * i + 3] = x3[i];
+    }
 }
 
 static inline uint32_t abs32(int32_t v) { return v < 0 ? 0u - (uint32_t)v : (uint32_t)v; }
+
+/* the ziggurat's first try on n words: hz WN[iz] for each, and which it rejects */
+#if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__)
+__attribute__((target_clones("avx512f", "avx2", "default")))
+#endif
+static void to_normals(int n, const uint32_t *restrict w, double *restrict out, uint8_t *restrict rejected) {
+    for (int j = 0; j < n; j++) {
+        int32_t hz = (int32_t)w[j];
+        uint32_t iz = w[j] & 127u;
+        out[j] = (double)hz * WN[iz];
+        rejected[j] = abs32(hz) >= KN[iz];
+    }
+}
 
 /* streams._fallback for one rejected word hz, word `word` of counter (c0, c1, c2, c3) under key (k0, k1) */
 static double fallback(int64_t hz, uint32_t word, const uint32_t c[4], uint32_t k0, uint32_t k1) {
@@ -101,17 +125,141 @@ static double fallback(int64_t hz, uint32_t word, const uint32_t c[4], uint32_t 
     }
 }
 
-/* fill(keys (m, 2) uint64, samples (m,) int64, tag, size, normal, out (m, size) float64) */
-static PyObject *fill(PyObject *self, PyObject *args) {
-    Py_buffer keys, samples, out;
-    unsigned long tag;
-    Py_ssize_t size;
+/* One lane of a job: its counters' tag, normals or uniforms, and the optional per-value scale and offset. */
+typedef struct {
+    uint32_t tag;
     int normal;
-    if (!PyArg_ParseTuple(args, "y*y*knpw*", &keys, &samples, &tag, &size, &normal, &out)) return NULL;
-    Py_ssize_t m = samples.len / 8;
-    PyObject *result = NULL;
-    if (keys.len != 16 * m || out.len != (Py_ssize_t)sizeof(double) * m * size || size < 0) {
-        PyErr_SetString(PyExc_ValueError, "fill: keys (m, 2), samples (m,) and out (m, size) disagree");
+    const double *scale, *offset;
+    Py_buffer sc, of;
+} Lane;
+
+/* A block: n <= BLOCK counters, counter i of sample row_of[i] (its counter index at_of[i]); and its
+ * segments: runs of one sample's values, value t0 .. t0 + len of sample `row` at position j of the block. */
+typedef struct {
+    int n, nseg;
+    Py_ssize_t row_of[BLOCK], at_of[BLOCK];
+    Py_ssize_t seg_row[BLOCK], seg_t0[BLOCK], seg_j[BLOCK], seg_len[BLOCK];
+} Block;
+
+/* The numbers of one lane for a block (value v of counter i at val[4 i + v]), scaled and shifted. */
+static void lane_block(const Lane *lane, const Block *b, const uint64_t *k, const int64_t *s, double *val) {
+    uint32_t x[4][BLOCK], kk[2][BLOCK], w[4 * BLOCK];
+    uint8_t rejected[4 * BLOCK];
+    int n = b->n;
+    for (int i = 0; i < n; i++) {
+        Py_ssize_t r = b->row_of[i];
+        x[0][i] = (uint32_t)(uint64_t)s[r];
+        x[1][i] = lane->tag | (uint32_t)b->at_of[i];
+        x[2][i] = (uint32_t)k[2 * r + 1];
+        x[3][i] = (uint32_t)(k[2 * r + 1] >> 32);
+        kk[0][i] = (uint32_t)k[2 * r];
+        kk[1][i] = (uint32_t)(k[2 * r] >> 32);
+    }
+    philox_block(n, x[0], x[1], x[2], x[3], kk[0], kk[1], w);
+    if (lane->normal) {
+        to_normals(4 * n, w, val, rejected);
+        memset(rejected + 4 * n, 0, sizeof(rejected) - 4 * (size_t)n);
+        for (int j = 0; j < 4 * n; j++) {
+            uint64_t eight;
+            if ((j & 7) == 0) { /* eight flags at a time: about one word in a hundred is rejected */
+                memcpy(&eight, rejected + j, 8);
+                if (!eight) {
+                    j += 7;
+                    continue;
+                }
+            }
+            if (!rejected[j]) continue;
+            int i = j / 4;
+            Py_ssize_t r = b->row_of[i];
+            uint32_t c[4] = {(uint32_t)(uint64_t)s[r], lane->tag | (uint32_t)b->at_of[i], (uint32_t)k[2 * r + 1],
+                             (uint32_t)(k[2 * r + 1] >> 32)};
+            val[j] = fallback((int32_t)w[j], (uint32_t)(j & 3), c, (uint32_t)k[2 * r], (uint32_t)(k[2 * r] >> 32));
+        }
+    } else {
+        for (int j = 0; j < 4 * n; j++) val[j] = (double)w[j] * TWO_M32;
+    }
+    for (int g = 0; g < b->nseg; g++) {
+        double *v = val + b->seg_j[g];
+        Py_ssize_t t0 = b->seg_t0[g], len = b->seg_len[g];
+        if (lane->scale)
+            for (Py_ssize_t t = 0; t < len; t++) v[t] = v[t] * lane->scale[t0 + t];
+        if (lane->offset)
+            for (Py_ssize_t t = 0; t < len; t++) v[t] = v[t] + lane->offset[t0 + t];
+    }
+}
+
+static int get_lanes(PyObject *seq, Py_ssize_t size, Lane *lanes, int *count) {
+    /* lanes: a sequence of (tag, normal, scale or None, offset or None), at most 8 */
+    PyObject *fast = PySequence_Fast(seq, "lanes must be a sequence");
+    if (!fast) return -1;
+    Py_ssize_t nl = PySequence_Fast_GET_SIZE(fast);
+    if (nl < 1 || nl > 8) {
+        Py_DECREF(fast);
+        PyErr_SetString(PyExc_ValueError, "add: 1 to 8 lanes");
+        return -1;
+    }
+    *count = 0;
+    for (Py_ssize_t l = 0; l < nl; l++) {
+        Lane *lane = &lanes[l];
+        PyObject *sc = Py_None, *of = Py_None;
+        unsigned long tag;
+        memset(lane, 0, sizeof(*lane));
+        if (!PyArg_ParseTuple(PySequence_Fast_GET_ITEM(fast, l), "kpOO", &tag, &lane->normal, &sc, &of)) break;
+        lane->tag = (uint32_t)tag;
+        *count = (int)l + 1;
+        PyObject *objs[2] = {sc, of};
+        Py_buffer *bufs[2] = {&lane->sc, &lane->of};
+        const double **ptrs[2] = {&lane->scale, &lane->offset};
+        for (int b = 0; b < 2; b++) {
+            if (objs[b] == Py_None) continue;
+            if (PyObject_GetBuffer(objs[b], bufs[b], PyBUF_C_CONTIGUOUS) < 0) goto fail;
+            *ptrs[b] = (const double *)bufs[b]->buf;
+            if (bufs[b]->len != (Py_ssize_t)sizeof(double) * size) {
+                PyErr_SetString(PyExc_ValueError, "add: a scale or offset is not (size,) float64");
+                goto fail;
+            }
+        }
+    }
+    Py_DECREF(fast);
+    return PyErr_Occurred() ? -1 : 0;
+fail:
+    Py_DECREF(fast);
+    return -1;
+}
+
+static void release_lanes(Lane *lanes, int count) {
+    for (int l = 0; l < count; l++) {
+        if (lanes[l].sc.obj) PyBuffer_Release(&lanes[l].sc);
+        if (lanes[l].of.obj) PyBuffer_Release(&lanes[l].of);
+    }
+}
+
+/* add(keys (m, 2) uint64, samples (m,) int64, size, lanes, out (rows, width) float64, lo, rows (m,) int64
+ * or None, accumulate): per sample r the total of its lanes' numbers (x scale, + offset), lane after lane
+ * (the first written, the others added: numpy's total = t0; total += t1 ...), then written to, or added to
+ * (accumulate: out = out + total), out[rows[r] (r when None), lo:lo + size]. */
+static PyObject *add(PyObject *self, PyObject *args) {
+    Py_buffer keys, samples, out, rows_buf = {0};
+    Py_ssize_t size, width, lo;
+    int accumulate, nl = 0;
+    PyObject *lanes_obj, *rows_obj, *result = NULL;
+    Lane lanes[8];
+    if (!PyArg_ParseTuple(args, "y*y*nOw*nnOp", &keys, &samples, &size, &lanes_obj, &out, &width, &lo, &rows_obj,
+                          &accumulate))
+        return NULL;
+    Py_ssize_t m = samples.len / 8, nrows = out.len / (Py_ssize_t)sizeof(double) / (width > 0 ? width : 1);
+    const int64_t *rows = NULL;
+    if (get_lanes(lanes_obj, size, lanes, &nl) < 0) goto done;
+    if (rows_obj != Py_None) {
+        if (PyObject_GetBuffer(rows_obj, &rows_buf, PyBUF_C_CONTIGUOUS) < 0) goto done;
+        rows = (const int64_t *)rows_buf.buf;
+    }
+    int bad = keys.len != 16 * m || size < 0 || width < 1 || lo < 0 || lo + size > width ||
+              out.len != (Py_ssize_t)sizeof(double) * nrows * width || (rows && rows_buf.len != 8 * m) ||
+              (!rows && m > nrows);
+    for (Py_ssize_t r = 0; rows && !bad && r < m; r++) bad = rows[r] < 0 || rows[r] >= nrows;
+    if (bad) {
+        PyErr_SetString(PyExc_ValueError, "add: keys (m, 2), samples (m,), rows (m,) and out (rows, width) disagree");
         goto done;
     }
     const uint64_t *k = (const uint64_t *)keys.buf;
@@ -119,53 +267,51 @@ static PyObject *fill(PyObject *self, PyObject *args) {
     double *o = (double *)out.buf;
     Py_ssize_t q = (size + 3) / 4;
     Py_BEGIN_ALLOW_THREADS
-    /* counter j = r q + i (row r, i < q) in blocks of BLOCK, across rows */
-    uint32_t x[4][BLOCK], kk[2][BLOCK], key[2][BLOCK], c1[BLOCK];
-    Py_ssize_t total = m * q, row_of[BLOCK], at_of[BLOCK], r = 0, at = 0;
-    for (Py_ssize_t j0 = 0; j0 < total; j0 += BLOCK) {
-        int n = (int)(total - j0 < BLOCK ? total - j0 : BLOCK);
-        for (int i = 0; i < n; i++, at++) {
+    double total[4 * BLOCK], term[4 * BLOCK];
+    Block blk;
+    Py_ssize_t r = 0, at = 0; /* the next counter: sample r, index at */
+    while (r < m && q) {
+        int n = 0;
+        blk.nseg = 0;
+        while (n < BLOCK && r < m) { /* the rest of sample r's counters, as many as fit */
+            Py_ssize_t take = q - at < BLOCK - n ? q - at : BLOCK - n, t0 = 4 * at;
+            Py_ssize_t end = 4 * (at + take) < size ? 4 * (at + take) : size;
+            blk.seg_row[blk.nseg] = r;
+            blk.seg_t0[blk.nseg] = t0;
+            blk.seg_j[blk.nseg] = 4 * n;
+            blk.seg_len[blk.nseg++] = end - t0;
+            for (Py_ssize_t c = 0; c < take; c++, n++) {
+                blk.row_of[n] = r;
+                blk.at_of[n] = at + c;
+            }
+            at += take;
             if (at == q) {
                 at = 0;
                 r++;
             }
-            row_of[i] = r;
-            at_of[i] = at;
-            x[0][i] = (uint32_t)(uint64_t)s[r];
-            x[1][i] = c1[i] = (uint32_t)tag | (uint32_t)at;
-            x[2][i] = (uint32_t)k[2 * r + 1];
-            x[3][i] = (uint32_t)(k[2 * r + 1] >> 32);
-            key[0][i] = kk[0][i] = (uint32_t)k[2 * r];
-            key[1][i] = kk[1][i] = (uint32_t)(k[2 * r] >> 32);
         }
-        philox_block(n, x[0], x[1], x[2], x[3], kk[0], kk[1]);
-        for (int i = 0; i < n; i++) {
-            Py_ssize_t first = 4 * at_of[i];
-            int count = size - first < 4 ? (int)(size - first) : 4;
-            double *dst = o + row_of[i] * size + first;
-            for (int v = 0; v < count; v++) {
-                uint32_t w = x[v][i];
-                if (!normal) {
-                    dst[v] = (double)w * TWO_M32;
-                    continue;
-                }
-                int32_t hz = (int32_t)w;
-                int iz = (int)(w & 127u);
-                if (abs32(hz) < KN[iz]) {
-                    dst[v] = (double)hz * WN[iz];
-                } else {
-                    Py_ssize_t ri = row_of[i];
-                    uint32_t cc[4] = {(uint32_t)(uint64_t)s[ri], c1[i], (uint32_t)k[2 * ri + 1],
-                                      (uint32_t)(k[2 * ri + 1] >> 32)};
-                    dst[v] = fallback(hz, (uint32_t)v, cc, key[0][i], key[1][i]);
-                }
-            }
+        blk.n = n;
+        lane_block(&lanes[0], &blk, k, s, total);
+        for (int l = 1; l < nl; l++) {
+            lane_block(&lanes[l], &blk, k, s, term);
+            for (int j = 0; j < 4 * n; j++) total[j] = total[j] + term[j];
+        }
+        for (int g = 0; g < blk.nseg; g++) {
+            double *dst = o + (rows ? rows[blk.seg_row[g]] : blk.seg_row[g]) * width + lo + blk.seg_t0[g];
+            const double *src = total + blk.seg_j[g];
+            Py_ssize_t len = blk.seg_len[g];
+            if (accumulate)
+                for (Py_ssize_t t = 0; t < len; t++) dst[t] = dst[t] + src[t];
+            else
+                memcpy(dst, src, sizeof(double) * len);
         }
     }
     Py_END_ALLOW_THREADS
     result = Py_None;
     Py_INCREF(result);
 done:
+    release_lanes(lanes, nl);
+    if (rows_buf.obj) PyBuffer_Release(&rows_buf);
     PyBuffer_Release(&keys);
     PyBuffer_Release(&samples);
     PyBuffer_Release(&out);
@@ -180,7 +326,8 @@ static PyObject *tables(PyObject *self, PyObject *args) {
 }
 
 static PyMethodDef methods[] = {
-    {"fill", fill, METH_VARARGS, "fill(keys, samples, tag, size, normal, out): one draw's numbers into out."},
+    {"add", add, METH_VARARGS,
+     "add(keys, samples, size, lanes, out, lo, rows, accumulate): the lanes' numbers, summed, into out's rows."},
     {"tables", tables, METH_VARARGS, "tables(kn, wn, fn): the ziggurat's tables (from streams.py)."},
     {NULL, NULL, 0, NULL}};
 

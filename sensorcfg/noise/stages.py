@@ -34,7 +34,7 @@ import numpy as np
 from .arithmetic import add, dropout, multiply, walk
 from .base import Context, Stage, _Timed
 from .filters import Clip, Custom, Lowpass, Quantize
-from .streams import Draw, Streams, numbers, stream_key
+from .streams import MAX_TERMS, Affine, Draw, Streams, numbers, stream_key
 
 __all__ = ["Context", "Streams", "Stage", "Sum", "Gaussian", "Uniform", "Outlier", "EpisodeDraw", "RandomWalk",
            "Lowpass", "Quantize", "Clip", "Dropout", "Custom", "stream_key"]
@@ -68,6 +68,11 @@ class _PerSample(Stage):
     def shape(self, raw: list[np.ndarray], m: int) -> Any:
         """The rows (m, *shape) from the drawn numbers of each lane."""
         raise NotImplementedError
+
+    def affine(self) -> list[Affine] | None:
+        """Where `shape` is, lane by lane, numbers x scale (+ offset) added up in float64 (`streams.sums`
+        computes it in one pass): those terms; else None."""
+        return None
 
     def reset(self, streams: Streams | None, stride: int) -> None:
         self.streams = streams
@@ -141,6 +146,13 @@ class Sum(_Additive):
         keys = np.broadcast_to(self.streams.keys if keys is None else keys, (samples.size, 2))  # type: ignore[union-attr]
         return self.shape(numbers(self.draws(samples, keys)), samples.size, values)
 
+    def affine(self) -> list[Affine] | None:
+        terms = [p.affine() if isinstance(p, _PerSample) else None for p in self.parts]
+        if any(t is None for t in terms):
+            return None
+        flat = [a for t in terms for a in cast(list[Affine], t)]
+        return flat if len(flat) <= MAX_TERMS else None
+
     def shape(self, raw: list[np.ndarray], m: int, values: list[np.ndarray] | None = None) -> np.ndarray:
         total: np.ndarray | None = None
         episode = iter(values if values is not None else [p.value for p in self.parts if isinstance(p, EpisodeDraw)])
@@ -158,6 +170,17 @@ class Sum(_Additive):
         return cast(np.ndarray, total)
 
 
+def _affine(ctx: Context, scale: Any, offset: Any) -> list[Affine] | None:
+    """One lane's term x scale (+ offset), each parameter flattened to the sample's values (float64 only)."""
+    if ctx.work != np.float64:
+        return None
+
+    def flat(p: Any) -> np.ndarray:
+        return np.ascontiguousarray(np.broadcast_to(np.asarray(p, np.float64), ctx.shape)).ravel()
+
+    return [Affine(flat(scale), None if offset is None else flat(offset))]
+
+
 def _fresh(raw: np.ndarray, m: int, ctx: Context) -> np.ndarray:
     """Drawn numbers as a new (m, *shape) array of the work dtype."""
     return np.array(raw.reshape(m, *ctx.shape), dtype=ctx.work)
@@ -168,6 +191,9 @@ class Gaussian(_Additive):
         super().__init__(ctx)
         self.mean, self.std = ctx.cast(mean), ctx.cast(std)
         self.centred = not np.any(self.mean)
+
+    def affine(self) -> list[Affine] | None:
+        return _affine(self.ctx, self.std, None if self.centred else self.mean)
 
     def shape(self, raw: list[np.ndarray], m: int) -> np.ndarray:
         z = _fresh(raw[0], m, self.ctx)
@@ -183,6 +209,9 @@ class Uniform(_Additive):
     def __init__(self, ctx: Context, low: Any, high: Any):
         super().__init__(ctx)
         self.low, self.width = ctx.cast(low), ctx.cast(np.subtract(high, low))
+
+    def affine(self) -> list[Affine] | None:
+        return _affine(self.ctx, self.width, self.low)
 
     def shape(self, raw: list[np.ndarray], m: int) -> np.ndarray:
         u = _fresh(raw[0], m, self.ctx)

@@ -32,7 +32,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-__all__ = ["Draw", "KERNEL", "Streams", "numbers", "philox", "stream_key"]
+__all__ = ["Affine", "Draw", "KERNEL", "Streams", "Sum", "add_sums", "numbers", "philox", "stream_key"]
 
 _M0, _M1 = np.uint64(0xD2511F53), np.uint64(0xCD9E8D57)  # Philox4x32 multipliers
 _W0, _W1 = np.uint32(0x9E3779B9), np.uint32(0xBB67AE85)  # its key schedule's increments
@@ -226,7 +226,9 @@ def numbers(draws: Sequence[Draw], compiled: bool = True) -> list[np.ndarray]:
     if any(d.size > _MAX_LANE_VALUES or d.stage >= 256 or d.lane >= 3 for d in draws):
         raise ValueError(f"a noise stage draws at most {_MAX_LANE_VALUES} values per sample, from stages < 256")
     if compiled and _COMPILED is not None:
-        return [_fill(d) for d in draws]
+        out = [np.empty((np.size(d.samples), d.size)) for d in draws]
+        _run([_Job([d], [None], out[i], 0, None) for i, d in enumerate(draws)], accumulate=False)
+        return out
     counter, key, q = _counters(draws)
     words = philox(counter, key)
     normal = [d.normal for d in draws]
@@ -243,13 +245,102 @@ def numbers(draws: Sequence[Draw], compiled: bool = True) -> list[np.ndarray]:
     return out
 
 
-def _fill(d: Draw) -> np.ndarray:
-    samples = np.ascontiguousarray(d.samples, np.int64).ravel()
-    keys = np.ascontiguousarray(np.broadcast_to(np.asarray(d.keys, np.uint64).reshape(-1, 2), (samples.size, 2)))
-    out = np.empty((samples.size, d.size))
+MAX_TERMS = 8  # terms of one sum the kernel adds in one pass (`add_sums`); a longer sum is not fused
+
+
+class Affine(NamedTuple):
+    """A per-sample term linear in its draw's numbers x: x scale (+ offset), each (size,) float64."""
+
+    scale: np.ndarray
+    offset: np.ndarray | None
+
+
+class Sum(NamedTuple):
+    """Numbers of draws of the same samples (their keys, samples and size), each scaled and shifted, summed
+    in order and added to table[rows[r], lo:lo + size] for sample r: `table` (n, width) float64, C-contiguous."""
+
+    draws: Sequence[Draw]
+    terms: Sequence[Affine]
+    table: np.ndarray
+    lo: int
+    rows: np.ndarray
+
+
+def add_sums(jobs: Sequence[Sum], compiled: bool = True) -> None:
+    """Each job's total added to its rows in place, with numpy's roundings: per term x *= scale; x += offset,
+    total = first term; total += each other; then row = row + total (the regions must not overlap). The
+    compiled kernel does it in one pass per job, splitting many jobs between two threads."""
+    if any(len(job.terms) > MAX_TERMS for job in jobs):
+        raise ValueError(f"a sum adds at most {MAX_TERMS} terms in one pass")
+    if not (compiled and _COMPILED is not None):
+        raw = iter(numbers([d for job in jobs for d in job.draws], compiled=False))
+        for job in jobs:
+            total: np.ndarray | None = None
+            for term in job.terms:
+                x = next(raw)
+                x *= term.scale
+                if term.offset is not None:
+                    x += term.offset
+                if total is None:
+                    total = x
+                else:
+                    total += x
+            assert total is not None
+            hi = job.lo + job.draws[0].size
+            job.table[job.rows, job.lo:hi] = job.table[job.rows, job.lo:hi] + total
+        return
+    _run([_Job(job.draws, job.terms, job.table, job.lo, np.ascontiguousarray(job.rows, np.int64)) for job in jobs],
+         accumulate=True)
+
+
+class _Job(NamedTuple):
+    draws: Sequence[Draw]
+    terms: Sequence[Affine | None]
+    out: np.ndarray
+    lo: int
+    rows: np.ndarray | None
+
+
+def _run(jobs: list[_Job], accumulate: bool) -> None:
+    """The kernel's `add` over the jobs, in two halves on two threads when there are many numbers."""
     assert _COMPILED is not None
-    _COMPILED.fill(keys, samples, d.stage << 24 | d.lane << 22, d.size, d.normal, out)
-    return out
+    kernel = _COMPILED.add
+
+    def run(indices: Sequence[int]) -> None:
+        for i in indices:
+            draws, terms, out, lo, rows = jobs[i]
+            first = draws[0]
+            if not first.size or not np.size(first.samples):
+                continue
+            samples = np.ascontiguousarray(first.samples, np.int64).ravel()
+            keys = np.ascontiguousarray(np.broadcast_to(np.asarray(first.keys, np.uint64).reshape(-1, 2),
+                                                        (samples.size, 2)))
+            lanes = [(d.stage << 24 | d.lane << 22, d.normal, *(t if t is not None else (None, None)))
+                     for d, t in zip(draws, terms)]
+            kernel(keys, samples, first.size, lanes, out, out.shape[-1], lo, rows, accumulate)
+
+    _split(run, [np.size(job.draws[0].samples) * job.draws[0].size * len(job.draws) for job in jobs])
+
+
+_POOL: Any = None
+_SPLIT_VALUES = 50_000  # below this many numbers, one thread (a handoff costs tens of microseconds)
+
+
+def _split(run: Any, work: Sequence[int]) -> None:
+    """run(indices) over the indices of `work` (their sizes), in two halves on two threads when it pays."""
+    global _POOL
+    total = sum(work)
+    if total < _SPLIT_VALUES or (os.cpu_count() or 1) < 2:
+        run(range(len(work)))
+        return
+    at = int(np.searchsorted(np.cumsum(work), total / 2))
+    if _POOL is None:
+        from concurrent.futures import ThreadPoolExecutor
+
+        _POOL = ThreadPoolExecutor(1, thread_name_prefix="sensorcfg-noise")
+    half = _POOL.submit(run, range(at + 1, len(work)))
+    run(range(at + 1))
+    half.result()
 
 
 class Streams:

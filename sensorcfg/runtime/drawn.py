@@ -1,12 +1,13 @@
 """Drawn intervals and delays planned in blocks: the planned-schedule stream rule, for one or many simulations.
 
-The rule (README, Semantics): a schedule drawn by sensorcfg's own draws (`{uniform}`, `{choice}`) gets its own
-counter-based stream, numpy's Philox keyed by the sensor's episode key (`draws.sensor_key`, as its noise),
-counter (position 0, purpose 2, block q, stage 0 for intervals / 1 for delays). Sample j (j = 0 is the reset
-sample, at step 0) is taken at step t_j = I_1 + ... + I_j (j * interval when it is constant) and delivered
-at a_j = t_j + D_j, where I_j and D_j are entry j % 1024 of block j // 1024 of the interval and delay streams.
-So a sample's time and delay are functions of the seed, the sensor and j alone: other sensors, buffers,
-reads and which samples were taken change nothing, and a block of 1024 is drawn in one call.
+The rule (README, Semantics): a schedule drawn by sensorcfg's own draws (`{uniform}`, `{choice}`) draws from
+the counter-based numbers of its noise (`noise/streams.numbers`), with the sensor's episode key (k0, k1)
+(`draws.sensor_key`) turned into the schedule key (k0, k1 xor 2^63): I_j and D_j are drawn from the uniform
+of sample j, stage 0, lane 0 (intervals) or 1 (delays), value 0 (`UniformSteps.of_uniform`,
+`ChoiceSteps.of_uniform`). Sample j (j = 0 is the reset sample, at step 0) is taken at step t_j = I_1 + ... +
+I_j (j * interval when it is constant) and delivered at a_j = t_j + D_j. So a sample's time and delay are
+functions of the seed, the sensor and j alone: other sensors, buffers, reads and which samples were taken
+change nothing, and any samples of any simulations are drawn in one call.
 
 A read at step R (every `substeps` steps) shows the last `buffer` samples delivered by R, in order of
 (arrival, time), padded before the first ones. A sample that no read shows is not taken (unless the sensor's
@@ -28,12 +29,10 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from ..noise.streams import Streams
+from ..noise import streams
 
-__all__ = ["Drawn", "Planner", "Round", "SAMPLE_BLOCK", "PURPOSE", "chunk_steps"]
+__all__ = ["Drawn", "Planner", "Round", "chunk_steps"]
 
-SAMPLE_BLOCK = 1024  # samples per counter block of a schedule's stream
-PURPOSE = 2  # the counter's purpose word of schedules (noise uses 0 and 1)
 _MIN_CHUNK = 1024  # steps per planning round, at least
 
 
@@ -63,11 +62,12 @@ class Drawn(NamedTuple):
         return 2 * dmax + self.buffer * imax + self.substeps + 1
 
 
-def chunk_steps(schedules: list[Drawn], substeps: int) -> int:
-    """Steps per planning round: a multiple of substeps and of every constant interval, at least 1024 and at
-    least the largest delay plus substeps (a sample is decided one round after its own)."""
+def chunk_steps(schedules: list[Drawn], substeps: int, least: int = _MIN_CHUNK) -> int:
+    """Steps per planning round: a multiple of substeps and of every constant interval, at least `least` and
+    at least the largest delay plus substeps (a sample is decided one round after its own). The rule does not
+    depend on it: rounds only set how far ahead, and how much at a time, schedules are planned."""
     unit = math.lcm(substeps, *(d.stride for d in schedules))
-    least = max([_MIN_CHUNK] + [_largest(d.delay) + substeps for d in schedules])
+    least = max([least] + [_largest(d.delay) + substeps for d in schedules])
     return unit * -(-least // unit)
 
 
@@ -81,60 +81,36 @@ class Round(NamedTuple):
     take_step: np.ndarray
 
 
-class _Samples:
-    """One simulation's drawn samples, generated a block at a time: times and delays not yet planned."""
+_SCHEDULE = np.array([0, 1 << 63], np.uint64)  # xor of a sensor key that gives its schedule key
 
-    __slots__ = ("streams", "block", "last", "times", "delays")
 
-    def __init__(self, key: np.ndarray):
-        self.streams = Streams(key)
-        self.restart(key)
-
-    def restart(self, key: np.ndarray) -> None:
-        """A new episode's samples (the generator is kept)."""
-        self.streams.rekey(key)
-        self.block = 0
-        self.last = 0  # time of the newest generated sample
-        self.times = np.zeros(0, np.int64)
-        self.delays = np.zeros(0, np.int64)
-
-    def until(self, drawn: Drawn, end: int) -> tuple[np.ndarray, np.ndarray]:
-        """The samples with times <= end not returned before (times, delays)."""
-        while not len(self.times) or self.times[-1] <= end:
-            self._extend(drawn)
-        cut = int(np.searchsorted(self.times, end, side="right"))
-        out = self.times[:cut], self.delays[:cut]
-        self.times, self.delays = self.times[cut:], self.delays[cut:]
-        return out
-
-    def _extend(self, drawn: Drawn) -> None:
-        q, n = self.block, SAMPLE_BLOCK
-        if isinstance(drawn.interval, numbers.Integral):
-            times = (q * n + np.arange(n, dtype=np.int64)) * int(drawn.interval)
-        else:
-            steps = np.cumsum(drawn.interval.block(self.streams.at(0, q, PURPOSE), n))
-            times = steps - steps[0] if q == 0 else self.last + steps  # sample 0 is at step 0
-        if isinstance(drawn.delay, numbers.Integral):
-            delays = np.full(n, int(drawn.delay), np.int64)
-        else:
-            delays = drawn.delay.block(self.streams.at(1, q, PURPOSE), n).astype(np.int64)
-        self.last = int(times[-1])
-        self.block += 1
-        self.times = np.concatenate((self.times, times))
-        self.delays = np.concatenate((self.delays, delays))
+def _drawn(setting: Any, keys: np.ndarray, j: np.ndarray, lane: int) -> np.ndarray:
+    """Draws of `setting` for samples j of schedule keys `keys` (len(j), 2), from lane `lane`."""
+    if not j.size:
+        return np.zeros(0, np.int64)
+    u = streams.numbers([streams.Draw(keys, j, 0, lane, 1, False)])[0][:, 0]
+    return np.asarray(setting.of_uniform(u), np.int64)
 
 
 class Planner:
-    """Planned channels across simulations: one channel for `nsim` simulations (the batch), or one
-    simulation's channels, each a "simulation" of its own schedule (`drawn`: one Drawn per simulation).
-    Per simulation: its samples, the last `buffer` delivered (`tail`), the samples in flight, and the end of
-    its last round."""
+    """Planned channels across simulations: one channel for `nsim` simulations (the batch), or one simulation's
+    channels, each a "simulation" of its own schedule (`drawn`: one Drawn per simulation). Per simulation: its
+    schedule key, the next sample not yet planned and the time of the one before, the last `buffer` delivered
+    (`tail`), the samples in flight, and the end of its last round."""
 
     def __init__(self, drawn: Drawn | Sequence[Drawn], nsim: int):
         drawns = [drawn] * nsim if isinstance(drawn, Drawn) else list(drawn)
         if len(drawns) != nsim or len({d.substeps for d in drawns}) != 1:
             raise ValueError("a Planner needs one Drawn per simulation, all with the same substeps")
         self.drawns = drawns
+        # simulations by schedule (interval, delay): each schedule's samples drawn in one call
+        schedules: dict[tuple[Any, Any], list[int]] = {}
+        for i, d in enumerate(drawns):
+            schedules.setdefault((d.interval, d.delay), []).append(i)
+        self.schedules = list(schedules)
+        self.schedule_of = np.zeros(nsim, np.intp)
+        for k, members in enumerate(schedules.values()):
+            self.schedule_of[members] = k
         self.buffer = max(d.buffer for d in drawns)  # windows hold the largest buffer: the last `buffer` entries count
         self.substeps = drawns[0].substeps
         self.ties = max(_largest(d.delay) for d in drawns) + 1
@@ -142,20 +118,21 @@ class Planner:
         # per simulation, the window entries it reads (all but the first largest - own buffer)
         self.reads = np.arange(self.buffer)[None, :] >= self.buffer - np.array([[d.buffer] for d in drawns])
         self.uneven = not self.reads.all()
-        self.samples: list[_Samples | None] = [None] * nsim
+        self.keys = np.zeros((nsim, 2), np.uint64)
+        self.started = np.zeros(nsim, bool)
+        self.next = np.zeros(nsim, np.int64)  # the index of the next sample to plan
+        self.last = np.zeros(nsim, np.int64)  # the time of sample next - 1
         self.tail = np.full((nsim, self.buffer), -1, np.int64)
         self.end = np.full(nsim, -1, np.int64)
         self.flight = np.zeros((3, 0), np.int64)  # rows: simulation, time, arrival
 
-    def start(self, sims: np.ndarray, keys: list[np.ndarray]) -> Round:
+    def start(self, sims: np.ndarray, keys: np.ndarray | list[np.ndarray]) -> Round:
         """Episodes of simulations `sims` start (their sensor keys): the round of step 0 (the reset sample and
         read)."""
-        for i, key in zip(sims.tolist(), keys):
-            samples = self.samples[i]
-            if samples is None:
-                self.samples[i] = _Samples(key)
-            else:
-                samples.restart(key)
+        self.keys[sims] = np.asarray(keys, np.uint64).reshape(-1, 2) ^ _SCHEDULE
+        self.started[sims] = True
+        self.next[sims] = 0
+        self.last[sims] = 0
         self.tail[sims] = -1
         self.end[sims] = -1
         restarted = np.zeros(len(self.end), bool)
@@ -163,17 +140,60 @@ class Planner:
         self.flight = self.flight[:, ~restarted[self.flight[0]]]
         return self.round(sims, 0)
 
+    def _until(self, sims: np.ndarray, end: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The samples of `sims` with times <= end not planned before: (position in sims, time, delay)."""
+        if not self.started[sims].all():
+            raise RuntimeError("a planned schedule was used before its episode started")
+        if len(self.schedules) == 1:
+            return self._samples(self.schedules[0], sims, end)
+        parts = []
+        kinds = self.schedule_of[sims]
+        for k, schedule in enumerate(self.schedules):
+            pos = np.flatnonzero(kinds == k)
+            if len(pos):
+                g, t, d = self._samples(schedule, sims[pos], end[pos])
+                parts.append((pos[g], t, d))
+        g, t, d = (np.concatenate(part) for part in zip(*parts))
+        return g, t, d
+
+    def _samples(self, schedule: tuple[Any, Any], sims: np.ndarray, end: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """`_until` for simulations of one schedule (interval, delay)."""
+        (interval, delay), first = schedule, self.next[sims]
+        if isinstance(interval, numbers.Integral):
+            counts = np.maximum(end // int(interval) - first + 1, 0)
+            g = np.repeat(np.arange(len(sims)), counts)
+            j = first[g] + np.arange(g.size) - np.repeat(np.cumsum(counts) - counts, counts)
+            t = j * int(interval)
+        else:
+            least = max(int(interval.minimum), 1)
+            # at most this many samples fit before `end`: each interval is at least `least`
+            bound = np.where(first == 0, 1 + np.maximum(end, 0) // least, np.maximum(end - self.last[sims], 0) // least)
+            k = np.arange(int(bound.max()) if len(sims) else 0)
+            j = first[:, None] + k
+            fits = k < bound[:, None]
+            gaps = np.zeros(j.shape, np.int64)
+            drawn = fits & (j > 0)  # sample 0 is at step 0: no interval
+            gaps[drawn] = _drawn(interval, np.repeat(self.keys[sims], drawn.sum(1), axis=0), j[drawn], 0)
+            times = np.where(first == 0, 0, self.last[sims])[:, None] + np.cumsum(gaps, axis=1)
+            shown = fits & (times <= end[:, None])
+            g, j, t = np.nonzero(shown)[0], j[shown], times[shown]
+            counts = shown.sum(1)
+            had = counts > 0
+            self.last[sims[had]] = times[had, counts[had] - 1]
+        self.next[sims] = first + counts
+        d = (np.full(g.size, int(delay), np.int64) if isinstance(delay, numbers.Integral)
+             else _drawn(delay, self.keys[sims[g]], j, 1))
+        return g, t, d
+
     def round(self, sims: np.ndarray, length: int) -> Round:
         """Plan the next `length` steps of simulations `sims` (0 after `start`: step 0 only)."""
         b, n = self.buffer, self.substeps
         prev = self.end[sims]
         end = prev + (length if length else 1)
-        new = [_ready(self.samples[i]).until(self.drawns[i], e) for i, e in zip(sims.tolist(), end.tolist())]
-        counts = np.array([len(t) for t, _ in new], np.intp)
-        g = np.repeat(np.arange(len(sims)), counts)
-        t = np.concatenate([t for t, _ in new]) if new else np.zeros(0, np.int64)
-        a = t + (np.concatenate([d for _, d in new]) if new else np.zeros(0, np.int64))
-        g, t, a = self._in_flight(sims, end, g, t, a)
+        g, t, d = self._until(sims, end)
+        new = (g, t)
+        g, t, a = self._in_flight(sims, end, g, t, t + d)
         # delivery order per simulation: by arrival (after the round's start), ties by time (longer delay first)
         w1, w2 = length + 2, self.ties
         rel = a - prev[g]
@@ -212,7 +232,7 @@ class Planner:
         self.flight = np.concatenate((keep, np.stack((sims[g[late]], t[late], a[late]))), axis=1)
         return g[due], t[due], a[due]
 
-    def _taken(self, sims: np.ndarray, windows: np.ndarray, new: list[tuple[np.ndarray, np.ndarray]],
+    def _taken(self, sims: np.ndarray, windows: np.ndarray, new: tuple[np.ndarray, np.ndarray],
                prev: np.ndarray, length: int) -> tuple[np.ndarray, np.ndarray]:
         """The samples to take: every new one (stateful noise), or those some read of the round shows that
         are not yet decided (older than a round: decided by an earlier round)."""
@@ -226,13 +246,7 @@ class Planner:
         sim = np.repeat(np.arange(len(sims)), np.count_nonzero(shown.reshape(len(sims), -1), axis=1))
         steps = windows[shown]
         if every.any():
-            counts = [len(t) if all_new else 0 for (t, _), all_new in zip(new, every.tolist())]
-            sim = np.concatenate((sim, np.repeat(np.arange(len(new)), counts)))
-            steps = np.concatenate([steps] + [t for (t, _), all_new in zip(new, every.tolist()) if all_new])
+            g, t = new
+            pick = every[g]
+            sim, steps = np.concatenate((sim, g[pick])), np.concatenate((steps, t[pick]))
         return sim, steps
-
-
-def _ready(samples: _Samples | None) -> _Samples:
-    if samples is None:
-        raise RuntimeError("a planned schedule was used before its episode started")
-    return samples
