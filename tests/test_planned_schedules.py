@@ -17,6 +17,7 @@ from sensorcfg.draws import ChoiceSteps, UniformSteps, episode_entropy, sensor_k
 from sensorcfg.noise import build_noise
 from sensorcfg.noise.streams import philox
 
+ROBOT = mujoco.MjModel.from_xml_path(str(assets.path("robot.xml")))
 MODEL = """<mujoco><option timestep="0.001"/><worldbody><body><joint name="slide" type="slide"/><geom size=".1"/>
 </body></worldbody><actuator><motor joint="slide"/></actuator></mujoco>"""
 
@@ -118,8 +119,10 @@ def _noisy_suite(seed: int) -> dict[str, sensorcfg.Observable]:
     return out
 
 
-@pytest.mark.parametrize("seed", [0, 1, 2, 3])
-def test_the_bank_reads_what_the_per_sample_path_reads(seed, monkeypatch) -> None:
+def _bank_and_per_sample(make, monkeypatch, episodes, pad: bool = False, counts_every: int = 0):
+    """Runs the observables `make()` builds through the bank and per sample, 3 substeps per control step, over
+    `episodes` ((random state seed, controls) each); asserts both give the same observations and sample
+    counts (after each episode, and every `counts_every` control steps), and returns the banked Updater."""
     from sensorcfg.runtime import updater as updater_module
 
     model = mujoco.MjModel.from_xml_path(str(assets.path("robot.xml")))
@@ -128,24 +131,36 @@ def test_the_bank_reads_what_the_per_sample_path_reads(seed, monkeypatch) -> Non
         if not banked:
             monkeypatch.setattr(updater_module, "joins", lambda ch: False)
         physics = sensorcfg.Physics(model)
-        updater = sensorcfg.Updater(_noisy_suite(seed), 3, pad_with_initial_value=bool(seed % 2))
-        updater.reset(physics, np.random.RandomState(seed))
-        assert (updater._drawn is not None) == banked
-        controls = np.random.default_rng(seed).uniform(-1, 1, (400, model.nu))
-        seen = [updater.get_observation()]
-        for control in controls:
-            physics.data.ctrl[:] = control
-            updater.prepare_for_next_control_step()
-            for _ in range(3):
-                mujoco.mj_step(model, physics.data)
-                updater.update()
+        updater = sensorcfg.Updater(make(), 3, pad_with_initial_value=pad)
+        seen, taken = [], []
+        for seed, controls in episodes:
+            updater.reset(physics, np.random.RandomState(seed))
+            assert (updater._drawn is not None) == banked
             seen.append(updater.get_observation())
-        runs.append((seen, updater.samples_taken()))
-    (a_seen, a_taken), (b_seen, b_taken) = runs
+            for i, control in enumerate(controls):
+                physics.data.ctrl[:] = control
+                updater.prepare_for_next_control_step()
+                for _ in range(3):
+                    mujoco.mj_step(model, physics.data)
+                    updater.update()
+                seen.append(updater.get_observation())
+                if counts_every and i % counts_every == 0:
+                    taken.append(updater.samples_taken())
+            taken.append(updater.samples_taken())
+        runs.append((seen, taken, updater))
+    (a_seen, a_taken, banked_updater), (b_seen, b_taken, _) = runs
     assert a_taken == b_taken
+    assert len(a_seen) == len(b_seen) == sum(len(controls) + 1 for _, controls in episodes)
     for s, (a, b) in enumerate(zip(a_seen, b_seen)):
         for name in a:
-            np.testing.assert_array_equal(a[name], b[name], err_msg=f"step {s} {name}")
+            np.testing.assert_array_equal(a[name], b[name], err_msg=f"read {s} {name}")
+    return banked_updater
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_the_bank_reads_what_the_per_sample_path_reads(seed, monkeypatch) -> None:
+    controls = np.random.default_rng(seed).uniform(-1, 1, (400, ROBOT.nu))
+    _bank_and_per_sample(lambda: _noisy_suite(seed), monkeypatch, [(seed, controls)], pad=bool(seed % 2))
 
 
 @pytest.mark.parametrize("suite", ["late-alone", "suite", "long-span"])
@@ -155,14 +170,7 @@ def test_the_bank_follows_the_per_sample_path_over_rounds_and_episodes(suite, mo
     the same observations and sample counts as the per-sample path, over several rounds and episodes. A
     sensor alone (no other member's snapshot at its steps) with long delays takes samples just before a
     round whose first read is in that round."""
-    from sensorcfg.runtime import updater as updater_module
-
-    model = mujoco.MjModel.from_xml_path(str(assets.path("robot.xml")))
-    runs = []
-    for banked in (True, False):
-        if not banked:
-            monkeypatch.setattr(updater_module, "joins", lambda ch: False)
-        physics = sensorcfg.Physics(model)
+    def make() -> dict[str, sensorcfg.Observable]:
         observables = {} if suite == "late-alone" else _noisy_suite(3)
         observables["late"] = sensorcfg.Feature("qpos", "joint:*", delay=UniformSteps(0, 9))
         if suite == "long-span":
@@ -170,27 +178,8 @@ def test_the_bank_follows_the_per_sample_path_over_rounds_and_episodes(suite, mo
                                                     delay=UniformSteps(0, 5), buffer_size=40, aggregator="mean")
         for observable in observables.values():
             observable.enabled = True
-        updater = sensorcfg.Updater(observables, 3)
-        controls = np.random.default_rng(4).uniform(-1, 1, (1300, model.nu))
-        seen, taken = [], []
-        for episode in range(2):
-            updater.reset(physics, np.random.RandomState(episode))
-            assert (updater._drawn is not None) == banked
-            assert not banked or (updater._drawn.ahead == updater._drawn.chunk) == (suite == "long-span")
-            seen.append(updater.get_observation())
-            for i, control in enumerate(controls[: 1300 if episode == 0 else 400]):
-                physics.data.ctrl[:] = control
-                updater.prepare_for_next_control_step()
-                for _ in range(3):
-                    mujoco.mj_step(model, physics.data)
-                    updater.update()
-                seen.append(updater.get_observation())
-                if i % 97 == 0:
-                    taken.append(updater.samples_taken())
-        runs.append((seen, taken))
-    (a_seen, a_taken), (b_seen, b_taken) = runs
-    assert a_taken == b_taken
-    assert len(a_seen) == 1702
-    for s, (a, b) in enumerate(zip(a_seen, b_seen)):
-        for name in a:
-            np.testing.assert_array_equal(a[name], b[name], err_msg=f"read {s} {name}")
+        return observables
+
+    controls = np.random.default_rng(4).uniform(-1, 1, (1300, ROBOT.nu))
+    banked = _bank_and_per_sample(make, monkeypatch, [(0, controls), (1, controls[:400])], counts_every=97)
+    assert (banked._drawn.ahead == banked._drawn.chunk) == (suite == "long-span")

@@ -25,7 +25,7 @@ from .bank_read import PADS, CompiledRead, compile_read, finish
 from .channels import Channel, FixedChannel
 
 __all__ = ["FeatureBank", "BankMember", "GroupMember", "PlainRead", "ReadPlan", "ReductionGroup", "buffer_view",
-           "fields_of", "read_plan"]
+           "fields_of", "read_plan", "rebind_noise", "reuse_key"]
 
 _PLANS_BUDGET = 4 << 20  # bytes of read plans kept, at least (4 x the history's size when that is more)
 _CHUNK_STEPS = 1024  # physics steps of noise drawn at a time (rounded up to the sampling period): one Philox call each
@@ -176,17 +176,12 @@ class FeatureBank:
     @staticmethod
     def key(channels: list[FixedChannel], data: Any, substeps: int, pad: bool) -> tuple[Any, ...]:
         """What the bank's layout and plans depend on: equal keys let a reset reuse the bank."""
-        head: tuple[Any, ...] = (id(data), substeps, pad)
-        return head + tuple(
-            (_reader(ch).field, _reader(ch).index.shape, _reader(ch).index.tobytes(), ch.interval, ch.delay,
-             ch.buffer_size, getattr(ch.aggregator, "name", None), ch.has_buffer_dim, id(ch.noise))
-            for ch in channels)
+        return reuse_key(channels, data, substeps, pad, [(ch.interval, ch.delay) for ch in channels])
 
     def rebind(self, channels: list[FixedChannel]) -> None:
         """Take this episode's channels (same settings as the ones the bank was built for)."""
         self.channels = channels
-        if self.noise is not None:
-            self.noise.programs = cast("list[Program]", [program(ch.noise) for ch in channels])  # members qualify
+        rebind_noise(self.noise, channels)
 
     def members(self) -> list[BankMember]:
         return [BankMember(self, i, ch) for i, ch in enumerate(self.channels)]
@@ -269,6 +264,23 @@ class FeatureBank:
                 early = self._early.put(step, np.flatnonzero(index // self.width > step))
             if len(early):
                 gathered[early] = self.pad_values.take(index[early] % self.width)
+
+
+def reuse_key(channels: Sequence[Channel], data: Any, substeps: int, pad: bool,
+              schedules: list[Any]) -> tuple[Any, ...]:
+    """What a bank's layout depends on (`schedules`: each member's schedule settings): equal keys let a reset
+    keep the bank (FeatureBank, planned.DrawnBank), with this episode's channels (`rebind_noise`)."""
+    head: tuple[Any, ...] = (id(data), substeps, pad)
+    return head + tuple(
+        (_reader(ch).field, _reader(ch).index.shape, _reader(ch).index.tobytes(), schedule, ch.buffer_size,
+         getattr(ch.aggregator, "name", None), ch.has_buffer_dim, id(ch.noise))
+        for ch, schedule in zip(channels, schedules))
+
+
+def rebind_noise(noise: BankNoise | None, channels: Sequence[Channel]) -> None:
+    """A kept bank's noise takes this episode's channels' stages (the same pipelines, reset for it)."""
+    if noise is not None:
+        noise.programs = [program(ch.noise) or () for ch in channels]  # members qualify: never None
 
 
 def _snapshot_rows(phases: list[tuple[int, int, list[int]]], rows: int) -> list[bool]:

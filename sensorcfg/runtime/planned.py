@@ -16,7 +16,7 @@ from typing import Any, NamedTuple, cast
 
 import numpy as np
 
-from .bank import BankMember, ReadPlan, _reader, read_plan
+from .bank import BankMember, ReadPlan, _reader, read_plan, rebind_noise, reuse_key
 from .bank_noise import BankNoise, Program, ReadOp, program
 from .bank_read import compile_read, finish
 from .channels import DrawnChannel
@@ -132,17 +132,12 @@ class DrawnBank:
     @staticmethod
     def key(channels: list[DrawnChannel], data: Any, substeps: int, pad: bool) -> tuple[Any, ...]:
         """What the bank's layout depends on: equal keys let a reset reuse the bank (`rebind`)."""
-        head: tuple[Any, ...] = (id(data), substeps, pad)
-        return head + tuple(
-            (_reader(ch).field, _reader(ch).index.shape, _reader(ch).index.tobytes(), ch.drawn, ch.shape,
-             ch.buffered_shape, getattr(ch.aggregator, "name", None), ch.has_buffer_dim, id(ch.noise))
-            for ch in channels)
+        return reuse_key(channels, data, substeps, pad, [ch.drawn for ch in channels])
 
     def rebind(self, channels: list[DrawnChannel]) -> None:
         """Take this episode's channels (same settings as the ones the bank was built for)."""
         self.channels = channels
-        if self.noise is not None:
-            self.noise.programs = [program(ch.noise) or () for ch in channels]
+        rebind_noise(self.noise, channels)
 
     def members(self) -> list[DrawnMember]:
         return [DrawnMember(cast(Any, self), i, cast(Any, ch)) for i, ch in enumerate(self.channels)]
