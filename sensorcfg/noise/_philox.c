@@ -92,13 +92,9 @@ static inline uint32_t abs32(int32_t v) { return v < 0 ? 0u - (uint32_t)v : (uin
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__)
 __attribute__((target_clones("avx512f", "avx2", "default")))
 #endif
-static void to_normals(int n, const uint32_t *restrict w, double *restrict out, uint8_t *restrict rejected) {
-    for (int j = 0; j < n; j++) {
-        int32_t hz = (int32_t)w[j];
-        uint32_t iz = w[j] & 127u;
-        out[j] = (double)hz * WN[iz];
-        rejected[j] = abs32(hz) >= KN[iz];
-    }
+static void to_normals(int n, const uint32_t *restrict w, double *restrict out, uint32_t *restrict rejected) {
+    for (int j = 0; j < n; j++) out[j] = (double)(int32_t)w[j] * WN[w[j] & 127u];
+    for (int j = 0; j < n; j++) rejected[j] = abs32((int32_t)w[j]) >= KN[w[j] & 127u];
 }
 
 /* streams._fallback for one rejected word hz, word `word` of counter (c0, c1, c2, c3) under key (k0, k1) */
@@ -144,7 +140,7 @@ typedef struct {
 /* The numbers of one lane for a block (value v of counter i at val[4 i + v]), scaled and shifted. */
 static void lane_block(const Lane *lane, const Block *b, const uint64_t *k, const int64_t *s, double *val) {
     uint32_t x[4][BLOCK], kk[2][BLOCK], w[4 * BLOCK];
-    uint8_t rejected[4 * BLOCK];
+    uint32_t rejected[4 * BLOCK];
     int n = b->n;
     for (int i = 0; i < n; i++) {
         Py_ssize_t r = b->row_of[i];
@@ -158,16 +154,7 @@ static void lane_block(const Lane *lane, const Block *b, const uint64_t *k, cons
     philox_block(n, x[0], x[1], x[2], x[3], kk[0], kk[1], w);
     if (lane->normal) {
         to_normals(4 * n, w, val, rejected);
-        memset(rejected + 4 * n, 0, sizeof(rejected) - 4 * (size_t)n);
         for (int j = 0; j < 4 * n; j++) {
-            uint64_t eight;
-            if ((j & 7) == 0) { /* eight flags at a time: about one word in a hundred is rejected */
-                memcpy(&eight, rejected + j, 8);
-                if (!eight) {
-                    j += 7;
-                    continue;
-                }
-            }
             if (!rejected[j]) continue;
             int i = j / 4;
             Py_ssize_t r = b->row_of[i];
