@@ -358,13 +358,14 @@ def make_channel(label: str, observable: Any, physics: Any, random_state: Any, e
     else:
         shape, dtype = spec.shape, spec.dtype
     noise = getattr(observable, "noise", None)
+    key = sensor_key(entropy or [], label)  # its noise streams and planned schedule
     if noise is not None:  # sample j of a constant interval is the j-th nominal sample
-        noise.reset(sensor_key(entropy or [], label), 1 if callable(interval) else interval)
+        noise.reset(key, 1 if callable(interval) else interval)
     aggregator = observable.aggregator
     channel = ChannelSpec(label, sampler, getattr(sampler, "read_into", None), tuple(shape), np.dtype(dtype),
                           int(buffer_size), strip, pad, substeps, aggregator, builtin(aggregator) is not None,
                           noise)
-    return _scheduled(channel, observable, interval, delay, sensor_key(entropy or [], label))
+    return _scheduled(channel, observable, interval, delay, key)
 
 
 def _scheduled(channel: ChannelSpec, observable: Any, interval: int | Callable[[], int],
