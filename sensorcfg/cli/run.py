@@ -20,7 +20,7 @@ import numpy as np
 
 from .._version import __version__
 from ..errors import printable
-from .common import (EXIT_INVALID, EXIT_OK, HelpFormatter, UsageError, add_suite_args, importable_cwd, load_model,
+from .common import (EXIT_INVALID, EXIT_OK, HelpFormatter, UsageError, add_suite_args, importable_cwd,
                      load_suite, model_path, positive_float, positive_int, require_matplotlib, seed, suite_model,
                      writable)
 from .describe import SensorRow, describe, naive_samples

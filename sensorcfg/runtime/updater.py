@@ -16,7 +16,7 @@ import numpy as np
 from dm_env import specs
 
 from ..draws import episode_entropy, planned
-from ..errors import ArgumentError, SuiteError
+from ..errors import ArgumentError
 from ..observables.aggregators import aggregated_bounds
 from ..noise.bounds import noisy_bounds
 from .mujoco_structs import structs_of as raw_structs
