@@ -1,10 +1,10 @@
-"""The optional compiled noise kernel (sensorcfg/noise/_philox.c). Everything else is in pyproject.toml.
+"""The optional compiled kernels (sensorcfg/_kernel.c). Everything else is in pyproject.toml.
 
-`optional=True`: without a C compiler the package installs without it, and sensorcfg/noise/streams.py
-computes the same numbers with numpy (the reference the tests compare the kernel against).
+`optional=True`: without a C compiler the package installs without it, and sensorcfg does the same work
+with numpy (sensorcfg/compiled.py; the noise numbers' reference is sensorcfg/noise/streams.py).
 """
 
 from setuptools import Extension, setup
 
-setup(ext_modules=[Extension("sensorcfg.noise._philox", ["sensorcfg/noise/_philox.c"], optional=True,
+setup(ext_modules=[Extension("sensorcfg._kernel", ["sensorcfg/_kernel.c"], optional=True,
                              libraries=["m"], extra_compile_args=["-O3", "-ffp-contract=off", "-fno-fast-math"])])

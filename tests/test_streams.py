@@ -13,6 +13,7 @@ import sys
 import numpy as np
 import pytest
 
+from sensorcfg import compiled
 from sensorcfg.noise import streams
 from sensorcfg.noise.streams import Draw, numbers, philox
 
@@ -151,7 +152,7 @@ def test_sums_added_in_place_equal_the_numpy_arithmetic_on_both_paths():
                  streams.Affine(np.full(size, 0.5), np.zeros(size))]
         jobs.append((draws, terms, lo, rows))
         lo += size
-    assert sum(m * size * 3 for size, m in shapes) > streams._SPLIT_VALUES
+    assert sum(m * size * 3 for size, m in shapes) > compiled.SPLIT_VALUES
     expected = table.copy()
     for draws, terms, lo, rows in jobs:
         raw = numbers(draws, compiled=False)
@@ -159,9 +160,9 @@ def test_sums_added_in_place_equal_the_numpy_arithmetic_on_both_paths():
         for x, term in zip(raw[1:], terms[1:]):
             total = total + (x * term.scale + term.offset)
         expected[rows, lo:lo + draws[0].size] = expected[rows, lo:lo + draws[0].size] + total
-    for compiled in (False, _path(True)):
+    for kernel in (False, _path(True)):
         got = table.copy()
-        streams.add_sums([streams.Sum(draws, terms, got, lo, rows) for draws, terms, lo, rows in jobs], compiled=compiled)
+        streams.add_sums([streams.Sum(draws, terms, got, lo, rows) for draws, terms, lo, rows in jobs], compiled=kernel)
         assert np.array_equal(expected.view(np.uint64), got.view(np.uint64))
     every = [d for draws, *_ in jobs for d in draws]  # numbers split between threads too
     for a, b in zip(numbers(every, compiled=False), numbers(every, compiled=True)):

@@ -36,6 +36,7 @@ from ..runtime.bank import _reader
 from ..runtime.channels import Channel, DrawnChannel, FixedChannel, RandomChannel, make_channel
 from ..runtime.updater import observation_spec
 from .layout import Layout
+from .. import compiled
 from ..noise.streams import add_sums
 from .noise import BatchPipeline, prefetch
 from .random_schedules import Timelines
@@ -272,7 +273,7 @@ class BatchUpdater:
         """After a control step's rollout (into `record_out`): store, sample and corrupt its substeps steps."""
         substeps, gp = self.substeps, self.G % self.rows
         source, target = self.layout.snapshot(gp, self.t)
-        self.flat.put(target, self.flat.take(source), "clip")
+        compiled.put(self.flat, target, compiled.take(self.flat, source))
         everyone = bool(active.all())
         if self.noisy:
             calls = self._noise_calls(gp, active, everyone)
@@ -354,7 +355,7 @@ class BatchUpdater:
         if self.fixed:
             layout = self.layout
             # one take of every value read (positions are valid by construction), then views
-            values = self.flat.take(layout.gathers(self.G % self.rows, self.t), mode="clip")
+            values = compiled.take(self.flat, layout.gathers(self.G % self.rows, self.t))
             gathered, windows = layout.read_parts(values)
             for i, part, shape in layout.plain:
                 out[i] = gathered[:, part].reshape(shape)

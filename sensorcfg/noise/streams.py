@@ -14,8 +14,8 @@ gives four 32-bit words w0..w3 for values 4(v // 4) .. 4(v // 4) + 3. A uniform 
 100) going on with words of its own (`_fallback`). The few exponentials and logarithms that takes are the C
 library's (Python's `math`), not numpy's, whose vectorised ones differ from it in the last bit on some CPUs.
 
-The compiled kernel (`_philox.c`, built by setup.py when a C compiler is present) computes the same numbers
-bit for bit, about ten times faster; numpy is the reference (tests/test_streams.py compares the two) and the
+The compiled kernel (`sensorcfg/_kernel.c`'s `add`, loaded by `sensorcfg.compiled`) computes the same numbers
+bit for bit, several times faster; numpy is the reference (tests/test_streams.py compares the two) and the
 path without a compiler. `KERNEL` says which one runs; SENSORCFG_NUMPY_STREAMS=1 forces numpy.
 
 Per-episode draws (bias, scale, a random walk's start, a custom stage's seed, drawn parameters) come from
@@ -25,12 +25,13 @@ numpy's Philox generator keyed by the same key (`Streams.at`), counter (0, purpo
 from __future__ import annotations
 
 import math
-import os
 import sys
 from collections.abc import Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
+
+from .. import compiled
 
 __all__ = ["Affine", "Draw", "KERNEL", "Streams", "Sum", "add_sums", "numbers", "philox", "stream_key"]
 
@@ -126,18 +127,13 @@ _R = 3.442620  # the start of the tail
 
 def _kernel() -> Any:
     """The compiled kernel, given the ziggurat's tables; None where it was not built or is switched off."""
-    if os.environ.get("SENSORCFG_NUMPY_STREAMS", "") not in ("", "0"):
-        return None
-    try:
-        from . import _philox  # type: ignore[attr-defined]
-    except ImportError:
-        return None
-    _philox.tables(_KN, _WN, _FN)
-    return _philox
+    if compiled.MODULE is not None:
+        compiled.MODULE.tables(_KN, _WN, _FN)
+    return compiled.MODULE
 
 
 _COMPILED = _kernel()
-KERNEL = "compiled" if _COMPILED is not None else "numpy"
+KERNEL = compiled.KERNEL
 
 
 def _libm(fn: Any, x: np.ndarray) -> np.ndarray:
@@ -319,28 +315,7 @@ def _run(jobs: list[_Job], accumulate: bool) -> None:
                      for d, t in zip(draws, terms)]
             kernel(keys, samples, first.size, lanes, out, out.shape[-1], lo, rows, accumulate)
 
-    _split(run, [np.size(job.draws[0].samples) * job.draws[0].size * len(job.draws) for job in jobs])
-
-
-_POOL: Any = None
-_SPLIT_VALUES = 50_000  # below this many numbers, one thread (a handoff costs tens of microseconds)
-
-
-def _split(run: Any, work: Sequence[int]) -> None:
-    """run(indices) over the indices of `work` (their sizes), in two halves on two threads when it pays."""
-    global _POOL
-    total = sum(work)
-    if total < _SPLIT_VALUES or (os.cpu_count() or 1) < 2:
-        run(range(len(work)))
-        return
-    at = int(np.searchsorted(np.cumsum(work), total / 2))
-    if _POOL is None:
-        from concurrent.futures import ThreadPoolExecutor
-
-        _POOL = ThreadPoolExecutor(1, thread_name_prefix="sensorcfg-noise")
-    half = _POOL.submit(run, range(at + 1, len(work)))
-    run(range(at + 1))
-    half.result()
+    compiled.split(run, [np.size(job.draws[0].samples) * job.draws[0].size * len(job.draws) for job in jobs])
 
 
 class Streams:

@@ -1,4 +1,10 @@
-/* The optional compiled form of sensorcfg.noise.streams.numbers: one draw's numbers, bit-identical to the
+/* sensorcfg's optional compiled kernels (loaded by sensorcfg/compiled.py; numpy does the same work where they
+ * are not built):
+ * - `add`: the counter-based noise numbers of sensorcfg.noise.streams, summed and added into rows of a table;
+ * - `gather` / `scatter`: a batch's copies between its recording and its history (numpy's take / put with
+ *   mode="clip"), which two threads can share.
+ *
+ * `add` is the compiled form of sensorcfg.noise.streams.numbers: one draw's numbers, bit-identical to the
  * numpy reference in streams.py (tests/test_streams.py compares the two). Philox4x32-10 on the counters
  * (sample, tag | q, lo32(k1), hi32(k1)) with key (lo32(k0), hi32(k0)); uniforms w 2^-32; normals by
  * Marsaglia and Tsang's ziggurat on each 32-bit word, a rejected word going on with words of its own
@@ -305,6 +311,42 @@ done:
     return result;
 }
 
+/* gather(table float64, index int64, out float64, start, stop): out[i] = table[clip(index[i])] for i in
+ * [start, stop); scatter(table, index, values, start, stop): table[clip(index[i])] = values[i]. Clip: an
+ * index outside the table takes the nearest end, as numpy's mode="clip". */
+static PyObject *copy(PyObject *args, int scatter) {
+    Py_buffer table, index, other;
+    Py_ssize_t start, stop;
+    if (!PyArg_ParseTuple(args, "w*y*w*nn", &table, &index, &other, &start, &stop)) return NULL;
+    Py_ssize_t n = table.len / 8, m = index.len / 8;
+    PyObject *result = NULL;
+    if (other.len != index.len || start < 0 || stop > m || start > stop || n < 1) {
+        PyErr_SetString(PyExc_ValueError, "gather/scatter: table, index and values disagree");
+        goto done;
+    }
+    double *t = (double *)table.buf, *o = (double *)other.buf;
+    const int64_t *ix = (const int64_t *)index.buf;
+    Py_BEGIN_ALLOW_THREADS
+    for (Py_ssize_t i = start; i < stop; i++) {
+        int64_t at = ix[i] < 0 ? 0 : (ix[i] >= n ? n - 1 : ix[i]);
+        if (scatter)
+            t[at] = o[i];
+        else
+            o[i] = t[at];
+    }
+    Py_END_ALLOW_THREADS
+    result = Py_None;
+    Py_INCREF(result);
+done:
+    PyBuffer_Release(&table);
+    PyBuffer_Release(&index);
+    PyBuffer_Release(&other);
+    return result;
+}
+
+static PyObject *gather(PyObject *self, PyObject *args) { return copy(args, 0); }
+static PyObject *scatter(PyObject *self, PyObject *args) { return copy(args, 1); }
+
 static PyObject *tables(PyObject *self, PyObject *args) {
     PyObject *kn, *wn, *fn;
     if (!PyArg_ParseTuple(args, "OOO", &kn, &wn, &fn)) return NULL;
@@ -316,9 +358,11 @@ static PyMethodDef methods[] = {
     {"add", add, METH_VARARGS,
      "add(keys, samples, size, lanes, out, lo, rows, accumulate): the lanes' numbers, summed, into out's rows."},
     {"tables", tables, METH_VARARGS, "tables(kn, wn, fn): the ziggurat's tables (from streams.py)."},
+    {"gather", gather, METH_VARARGS, "gather(table, index, out, start, stop): out[i] = table[index[i]] (clipped)."},
+    {"scatter", scatter, METH_VARARGS, "scatter(table, index, values, start, stop): table[index[i]] = values[i] (clipped)."},
     {NULL, NULL, 0, NULL}};
 
-static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_philox",
-                                    "Compiled counter-based numbers (see sensorcfg/noise/streams.py).", -1, methods};
+static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_kernel",
+                                    "sensorcfg's optional compiled kernels (see sensorcfg/compiled.py).", -1, methods};
 
-PyMODINIT_FUNC PyInit__philox(void) { return PyModule_Create(&module); }
+PyMODINIT_FUNC PyInit__kernel(void) { return PyModule_Create(&module); }

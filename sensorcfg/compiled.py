@@ -1,0 +1,83 @@
+"""sensorcfg's optional compiled kernels (`_kernel.c`, built by setup.py where a C compiler is present).
+
+Each kernel does what a few numpy calls do, bit for bit, faster: the counter-based noise numbers
+(`noise/streams.py` holds the numpy reference and calls the kernel), and a batch's copies between its
+recording and its history (`take`, `put`; here, on two threads when large). `KERNEL` says which path runs;
+SENSORCFG_NUMPY_STREAMS=1 forces numpy everywhere. Observations are the same either way.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+__all__ = ["KERNEL", "MODULE", "split", "take", "put"]
+
+
+def _load() -> Any:
+    if os.environ.get("SENSORCFG_NUMPY_STREAMS", "") not in ("", "0"):
+        return None
+    try:
+        from . import _kernel  # type: ignore[attr-defined]
+    except ImportError:
+        return None
+    return _kernel
+
+
+MODULE: Any = _load()
+KERNEL = "compiled" if MODULE is not None else "numpy"
+
+_POOL: Any = None
+SPLIT_VALUES = 50_000  # below this much work, one thread (a handoff costs tens of microseconds)
+
+
+def split(run: Callable[[Sequence[int]], None], work: Sequence[int]) -> None:
+    """run(indices) over the indices of `work` (their sizes), in two halves on two threads when it pays (the
+    kernels release the GIL; each index's work must touch memory of its own)."""
+    global _POOL
+    total = sum(work)
+    if total < SPLIT_VALUES or (os.cpu_count() or 1) < 2:
+        run(range(len(work)))
+        return
+    at = int(np.searchsorted(np.cumsum(work), total / 2))
+    if _POOL is None:
+        from concurrent.futures import ThreadPoolExecutor
+
+        _POOL = ThreadPoolExecutor(1, thread_name_prefix="sensorcfg-kernel")
+    half = _POOL.submit(run, range(at + 1, len(work)))
+    run(range(at + 1))
+    half.result()
+
+
+def _halves(n: int) -> list[tuple[int, int]]:
+    return [(0, n // 2), (n // 2, n)]
+
+
+def take(table: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """`table.take(index, mode="clip")` of a float64 table and int64 positions, as a new float64 array."""
+    if (MODULE is None or table.dtype != np.float64 or index.dtype != np.int64 or not table.flags.c_contiguous
+            or not table.size):
+        return table.take(index, mode="clip")
+    index = np.ascontiguousarray(index)
+    out = np.empty(index.shape)
+    parts = _halves(index.size)
+
+    def run(ids: Sequence[int]) -> None:
+        for i in ids:
+            MODULE.gather(table, index, out, *parts[i])
+
+    split(run, [b - a for a, b in parts])
+    return out
+
+
+def put(table: np.ndarray, index: np.ndarray, values: np.ndarray) -> None:
+    """`table.put(index, values, mode="clip")` of a float64 table, int64 positions and as many values, in
+    order (where positions repeat, the last value wins, as in numpy)."""
+    if (MODULE is None or table.dtype != np.float64 or index.dtype != np.int64 or not table.flags.c_contiguous
+            or values.dtype != np.float64 or values.size != index.size or not table.size):
+        table.put(index, values, mode="clip")
+        return
+    MODULE.scatter(table, np.ascontiguousarray(index), np.ascontiguousarray(values), 0, index.size)

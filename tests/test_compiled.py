@@ -1,0 +1,41 @@
+"""The compiled kernels' copies (`sensorcfg.compiled.take` / `put`, a batch's recording <-> history) equal
+numpy's `take` / `put` with mode="clip" bit for bit: positions past either end, repeated positions (the last
+write wins), and arrays large enough to be split between two threads. Without the kernel they are numpy's
+own calls; where it is meant to be built (SENSORCFG_REQUIRE_KERNEL=1) a missing kernel fails."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+from sensorcfg import compiled
+
+
+@pytest.fixture(autouse=True)
+def _kernel_present():
+    if compiled.KERNEL != "compiled" and os.environ.get("SENSORCFG_REQUIRE_KERNEL", "") not in ("", "0"):
+        pytest.fail("the compiled kernel is not built (SENSORCFG_REQUIRE_KERNEL=1)", pytrace=False)
+
+
+@pytest.mark.parametrize("n", [7, 3 * compiled.SPLIT_VALUES])
+def test_take_and_put_are_numpys_with_clip(n):
+    rng = np.random.default_rng(n)
+    table = rng.normal(size=max(n // 3, 5))
+    table[0] = -0.0
+    index = rng.integers(-3, table.size + 3, n)  # some past either end, many repeated
+    assert np.array_equal(table.take(index, mode="clip").view(np.int64), compiled.take(table, index).view(np.int64))
+    values = rng.normal(size=n)
+    expected, got = table.copy(), table.copy()
+    expected.put(index, values, mode="clip")
+    compiled.put(got, index, values)
+    assert np.array_equal(expected.view(np.int64), got.view(np.int64))
+
+
+def test_other_dtypes_and_layouts_take_numpys_path():
+    table = np.arange(12, dtype=np.int32)
+    index = np.array([0, 11, 20])
+    assert compiled.take(table, index).tolist() == [0, 11, 11]
+    strided = np.arange(20.0)[::2]
+    assert compiled.take(strided, np.array([1, 3])).tolist() == [2.0, 6.0]
