@@ -1,4 +1,4 @@
-"""Counter-based random numbers: each sensor's noise streams for one episode. Numpy only.
+"""Counter-based random numbers: each sensor's noise streams for one episode (numpy, and the compiled kernel).
 
 Per-sample numbers are a function of (episode key, sample index, stage, lane, value index) alone:
 Philox4x32-10 (Salmon et al. 2011, as in Random123), written with numpy array arithmetic so that one call
@@ -17,6 +17,10 @@ library's (Python's `math`), not numpy's, whose vectorised ones differ from it i
 The compiled kernel (`sensorcfg/_kernel.c`'s `add`, loaded by `sensorcfg.compiled`) computes the same numbers
 bit for bit, several times faster; numpy is the reference (tests/test_streams.py compares the two) and the
 path without a compiler. `KERNEL` says which one runs; SENSORCFG_NUMPY_STREAMS=1 forces numpy.
+`add_sums` adds sums of such numbers, scaled and shifted, into rows of a table in place (the batch's
+additive noise, straight into its history).
+
+Planned schedules draw from the same numbers, under a schedule key (`runtime/drawn.py`).
 
 Per-episode draws (bias, scale, a random walk's start, a custom stage's seed, drawn parameters) come from
 numpy's Philox generator keyed by the same key (`Streams.at`), counter (0, purpose, 0, stage).
