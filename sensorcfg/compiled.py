@@ -31,7 +31,9 @@ MODULE: Any = _load()
 KERNEL = "compiled" if MODULE is not None else "numpy"
 
 _POOL: Any = None
-SPLIT_VALUES = 50_000  # below this much work, one thread (a handoff costs tens of microseconds)
+SPLIT_VALUES = 150_000  # below this much work, one thread: each job or half hands the GIL between the two
+# threads, which costs more than the second core gives below this (64 and 128 simulations of the humanoid
+# benchmark with noise ran faster on one thread, 256 and 512 on two)
 
 
 def split(run: Callable[[Sequence[int]], None], work: Sequence[int]) -> None:
