@@ -11,9 +11,9 @@
  * (lane 3, the key's second word xor (1 + word + 16 a) at attempt a), exactly as streams._fallback does.
  * exp and log are the C library's, which the reference also calls (through Python's math module).
  *
- * One entry point, `add`: any number of lanes (a stage's numbers, scaled and shifted) summed per value and
- * written or added into rows of a table, which serves streams.numbers (one lane, written), streams.sums
- * and the batch's additive noise applied in place in its history (streams.add_into).
+ * Its entry point, `add`: up to 8 lanes (a stage's numbers, scaled and shifted) summed per value and
+ * written or added into rows of a table, which serves streams.numbers (one lane, written) and the batch's
+ * additive noise applied in place in its history (streams.add_sums).
  *
  * Built by setup.py as an optional extension: without a C compiler the package installs without it and
  * streams.py uses numpy. No numpy C API: arrays arrive through the buffer protocol. */
@@ -50,6 +50,8 @@ static int set_tables(PyObject *kn, PyObject *wn, PyObject *fn) {
     return 0;
 }
 
+/* one counter's Philox, inlined into the ziggurat's fallback (calling philox_block there for one counter
+ * made the whole kernel about 20% slower); the same rounds as philox_block */
 static inline void philox1(uint32_t x[4], uint32_t k0, uint32_t k1) {
     for (int r = 0; r < ROUNDS; r++) {
         if (r) {

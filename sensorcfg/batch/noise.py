@@ -102,7 +102,8 @@ class _Additive(_Drawn):
             self.values = [np.zeros((nsim, *p.value.shape), p.value.dtype)
                            for p in template.parts if isinstance(p, rt.EpisodeDraw)]
         self.keyed = type(self).keyed and not self.values
-        # numbers x scale (+ offset), added up: computed in one pass (`streams.sums`) where nothing per episode joins
+        # numbers x scale (+ offset), added up: added in place in one pass (`streams.add_sums`) where nothing
+        # per episode joins
         self.terms: list[Affine] | None = None if self.values else template.affine()
 
     def load(self, i: int | np.ndarray, stage: Any) -> None:

@@ -28,16 +28,16 @@ from dm_env import specs
 
 from ..draws import (DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, ChoiceSteps, UniformSteps,
                      episode_entropy, sensor_keys)
+from .. import compiled
 from ..checks import per_simulation_refusal
 from ..errors import ArgumentError, SuiteError
 from ..observables.aggregators import AGGREGATORS, builtin
 from ..observables.feature import batch_on_demand_problem
+from ..noise.streams import add_sums
 from ..runtime.bank import _reader
 from ..runtime.channels import Channel, DrawnChannel, FixedChannel, RandomChannel, make_channel
 from ..runtime.updater import observation_spec
 from .layout import Layout
-from .. import compiled
-from ..noise.streams import add_sums
 from .noise import BatchPipeline, prefetch
 from .random_schedules import Timelines
 
@@ -276,11 +276,14 @@ class BatchUpdater:
         compiled.put(self.flat, target, compiled.take(self.flat, source))
         everyone = bool(active.all())
         if self.noisy:
-            calls = self._noise_calls(gp, active, everyone)
-            fused = [call for call in calls if self.noise[call[1]].fused is not None]
-            add_sums([self.noise[c].sum(self.history[gp + k - 1], int(self.cols[c]), sims, steps)
-                      for k, c, sims, steps in fused])
-            calls = [call for call in calls if self.noise[call[1]].fused is None]
+            sums, calls = [], []
+            for call in self._noise_calls(gp, active, everyone):  # additive-only pipelines: in place, at once
+                k, c, sims, steps = call
+                if self.noise[c].fused is not None:
+                    sums.append(self.noise[c].sum(self.history[gp + k - 1], int(self.cols[c]), sims, steps))
+                else:
+                    calls.append(call)
+            add_sums(sums)
             prefetch([(self.noise[c], sims, steps) for _, c, sims, steps in calls])
             for k, c, sims, steps in calls:
                 self._corrupt(self.history[gp + k - 1], c, sims, steps)

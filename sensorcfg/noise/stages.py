@@ -70,7 +70,7 @@ class _PerSample(Stage):
         raise NotImplementedError
 
     def affine(self) -> list[Affine] | None:
-        """Where `shape` is, lane by lane, numbers x scale (+ offset) added up in float64 (`streams.sums`
+        """Where `shape` is, lane by lane, numbers x scale (+ offset) added up in float64 (`streams.add_sums`
         computes it in one pass): those terms; else None."""
         return None
 

@@ -99,6 +99,7 @@ class Updater:
         self._pad: bool = bool(pad_with_initial_value)
         self._step: int = 0
         self._layout: list[tuple[type, list[tuple[str, _Reader]]]] | None = None
+        self._drawn_cache: tuple[Any, DrawnBank] | None = None  # the last drawn bank, reused for the same sensors
 
     @property
     def physics_steps_per_control_step(self) -> int:
@@ -198,7 +199,7 @@ class Updater:
             return None  # a dm_control physics: per sample
         channels = cast(list[DrawnChannel], members)
         key = DrawnBank.key(channels, data, self._substeps, self._pad)
-        cached = getattr(self, "_drawn_cache", None)
+        cached = self._drawn_cache
         if cached is not None and cached[0] == key:  # same sensors: keep the layout and compiled read
             cached[1].rebind(channels)
             return cached[1]
