@@ -356,12 +356,86 @@ static PyObject *tables(PyObject *self, PyObject *args) {
     Py_RETURN_NONE;
 }
 
+/* read(program int64, index int64): a feature bank's compiled read (sensorcfg/runtime/read_kernel.py encodes
+ * it; the numpy steps of runtime/bank_read.py and runtime/bank_noise.py are the reference, compared bit for bit
+ * by tests/test_read_kernel.py). `program` holds records of READ_SLOTS int64s: an op code and its operands,
+ * raw addresses of float64 / int64 arrays the encoder keeps alive, counts. `index`: the history positions
+ * the read gathers (n of them). Each op is numpy's elementwise arithmetic in numpy's order, so the bits are
+ * numpy's: maximum and minimum keep the second operand on ties and the first NaN, as numpy's loops do;
+ * reductions run along the buffer axis row by row, sums from +0.0 (numpy's add.reduce over axis 0). */
+#define READ_SLOTS 6
+enum { R_GATHER = 1, R_TERM, R_ADD, R_MUL, R_QUANTIZE, R_CLIP, R_TAKE, R_SUM, R_MAX, R_MIN, R_DIVIDE };
+
+static inline double np_maximum(double a, double b) { return (a > b || isnan(a)) ? a : b; }
+static inline double np_minimum(double a, double b) { return (a < b || isnan(a)) ? a : b; }
+static inline int64_t clip_index(int64_t i, int64_t n) { return i < 0 ? 0 : (i >= n ? n - 1 : i); }
+
+static void read_op(const int64_t *op, const int64_t *ix, Py_ssize_t n) {
+    double *g = (double *)(intptr_t)op[1];
+    const double *a = (const double *)(intptr_t)op[2], *b = (const double *)(intptr_t)op[3];
+    const int64_t *pos = (const int64_t *)(intptr_t)op[4];
+    int64_t count = op[5];
+    switch (op[0]) {
+    case R_GATHER: /* g[i] = a[clip(ix[i])], a of op[3] values */
+        for (Py_ssize_t i = 0; i < n; i++) g[i] = a[clip_index(ix[i], op[3])];
+        break;
+    case R_TERM: /* a noise field a (op[3] values) at the gathered positions, added at pos */
+        for (int64_t k = 0; k < count; k++) g[pos[k]] = g[pos[k]] + a[clip_index(ix[pos[k]], op[3])];
+        break;
+    case R_ADD: /* this episode's draws a at columns b (int64) */
+        for (int64_t k = 0; k < count; k++) g[pos[k]] = g[pos[k]] + a[((const int64_t *)b)[k]];
+        break;
+    case R_MUL:
+        for (int64_t k = 0; k < count; k++) g[pos[k]] = g[pos[k]] * a[((const int64_t *)b)[k]];
+        break;
+    case R_QUANTIZE: /* divide, rint, multiply: arithmetic.quantize */
+        for (int64_t k = 0; k < count; k++) g[pos[k]] = rint(g[pos[k]] / a[k]) * a[k];
+        break;
+    case R_CLIP: /* maximum with a, then minimum with b: arithmetic.clip */
+        for (int64_t k = 0; k < count; k++) g[pos[k]] = np_minimum(np_maximum(g[pos[k]], a[k]), b[k]);
+        break;
+    case R_TAKE: /* g[k] = a[pos[k]]: the families' blocks stacked from the gathered windows and pads */
+        for (int64_t k = 0; k < count; k++) g[k] = a[pos[k]];
+        break;
+    case R_SUM: case R_MAX: case R_MIN: { /* out g (width op[5]) from the block a (op[4] rows) */
+        int64_t rows = op[4], width = count;
+        for (int64_t j = 0; j < width; j++) g[j] = op[0] == R_SUM ? 0.0 + a[j] : a[j];
+        for (int64_t r = 1; r < rows; r++) {
+            const double *row = a + r * width;
+            if (op[0] == R_SUM)
+                for (int64_t j = 0; j < width; j++) g[j] = g[j] + row[j];
+            else if (op[0] == R_MAX)
+                for (int64_t j = 0; j < width; j++) g[j] = np_maximum(g[j], row[j]);
+            else
+                for (int64_t j = 0; j < width; j++) g[j] = np_minimum(g[j], row[j]);
+        }
+        break;
+    }
+    case R_DIVIDE: /* the means: g / a */
+        for (int64_t k = 0; k < count; k++) g[k] = g[k] / a[k];
+        break;
+    }
+}
+
+static PyObject *read_bank(PyObject *self, PyObject *args) {
+    Py_buffer program, index;
+    if (!PyArg_ParseTuple(args, "y*y*", &program, &index)) return NULL;
+    const int64_t *ops = (const int64_t *)program.buf;
+    Py_ssize_t nops = program.len / (8 * READ_SLOTS);
+    for (Py_ssize_t o = 0; o < nops; o++) read_op(ops + o * READ_SLOTS, (const int64_t *)index.buf, index.len / 8);
+    PyBuffer_Release(&program);
+    PyBuffer_Release(&index);
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
     {"add", add, METH_VARARGS,
      "add(keys, samples, size, lanes, out, lo, rows, accumulate): the lanes' numbers, summed, into out's rows."},
     {"tables", tables, METH_VARARGS, "tables(kn, wn, fn): the ziggurat's tables (from streams.py)."},
     {"gather", gather, METH_VARARGS, "gather(table, index, out, start, stop): out[i] = table[index[i]] (clipped)."},
     {"scatter", scatter, METH_VARARGS, "scatter(table, index, values, start, stop): table[index[i]] = values[i] (clipped)."},
+    {"read", read_bank, METH_VARARGS,
+     "read(program, index): a feature bank's compiled read on its work buffer (sensorcfg/runtime/read_kernel.py)."},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_kernel",

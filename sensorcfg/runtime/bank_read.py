@@ -26,19 +26,33 @@ from typing import Any, NamedTuple, cast
 import numpy as np
 
 from ..observables.aggregators import AGGREGATORS, FAMILIES, Family, family
+from .bank_noise import Layer, ops_of
 from .channels import FixedChannel
 
-__all__ = ["PADS", "CompiledRead", "Reduction", "compile_read", "finish"]
+__all__ = ["PADS", "CompiledRead", "Reduction", "Step", "compile_read", "cut", "finish"]
 
 PADS = [f.pad for f in FAMILIES.values()]  # what the families' blocks are padded with
 
 
 class Reduction(NamedTuple):
-    """`reduce(window, out)`: both views of the work buffer."""
+    """`reduce(window, out)`: both views of the work buffer; `family`: the family's reduction ("sum", "max",
+    "min"), or None for a reduction that runs alone."""
 
     reduce: Callable[..., np.ndarray]
     window: np.ndarray  # (buffer, width)
     out: np.ndarray  # (width,)
+    family: str | None
+
+
+class Step(NamedTuple):
+    """One step of a read after its gather, on the work buffer: "take" (out = source.take(positions)), a
+    `Reduction`'s family or "alone" (out = reduce(source)), "divide" (out /= source)."""
+
+    kind: str
+    out: np.ndarray
+    source: np.ndarray
+    positions: np.ndarray | None
+    run: Callable[[], Any]
 
 
 class CompiledRead(NamedTuple):
@@ -47,10 +61,13 @@ class CompiledRead(NamedTuple):
     source: np.ndarray  # the history positions gathered, in the order of `gathered`
     gathered: np.ndarray  # the windows' part of the work buffer
     steps: list[Callable[[], Any]]  # on the work buffer, in order: the families' take, reductions, divisions
+    records: list[Step]  # the same steps, as records (`read_kernel` compiles them)
     shown: np.ndarray  # the part of the work buffer the observations show, (1, n)
     cut: Callable[[np.ndarray], tuple[Any, ...]]  # a copy of `shown` -> every member's value
     reshapes: list[tuple[int, tuple[int, ...]]]  # members whose cut needs a reshape: (member, shape)
     noise: list[Any]  # the bank noise's read program for `source` ([] without noise)
+    layers: list[Layer]  # the same program, as records
+    kernel: Any = None  # the whole read as one compiled call, where a bank made one (`read_kernel.KernelRead`)
 
 
 class _Group(NamedTuple):
@@ -96,11 +113,10 @@ class _Cuts:
         return operator.itemgetter(*self.keys)
 
 
-def compile_read(channels: Sequence[FixedChannel], plan: Any,
-                 noise_plan: Callable[[np.ndarray, np.ndarray], list[Any]] | None,
+def compile_read(channels: Sequence[FixedChannel], plan: Any, noise_plan: Callable[[np.ndarray], list[Layer]] | None,
                  pads_at: int | None) -> CompiledRead:
-    """`plan`: `read_plan(...)` of one phase; `noise_plan(source, gathered)`: the bank noise's read program for
-    the values gathered from `source` into the work buffer's `gathered` (None without noise);
+    """`plan`: `read_plan(...)` of one phase; `noise_plan(source)`: the bank noise's read layers for the
+    values gathered from `source` (None without noise);
     `pads_at`: where the history's source holds the families' pads (`PADS`): the gather fills the families'
     blocks too; or None: noise applies to the gathered windows first, and a second take stacks them."""
     index, groups, plain = plan
@@ -121,11 +137,12 @@ def compile_read(channels: Sequence[FixedChannel], plan: Any,
     source = index[order]
     if pads_at is not None:  # the gather fills the blocks too
         source = np.concatenate([source, *stacked.index])
-    steps = _steps(work[0], nreduced, stacked, pads_at is None)
+    records = _steps(work[0], nreduced, stacked, pads_at is None)
     cuts = _Cuts(channels, plain, ordered, starts)
     gathered = work[0, nreduced:nreduced + len(source)]
-    return CompiledRead(source, gathered, steps, work[:, :int(starts[len(plain)])], cuts.getter(), cuts.reshapes,
-                        noise_plan(source, gathered) if noise_plan else [])
+    layers = noise_plan(source) if noise_plan else []
+    return CompiledRead(source, gathered, [step.run for step in records], records, work[:, :int(starts[len(plain)])],
+                        cuts.getter(), cuts.reshapes, ops_of(layers, gathered), layers)
 
 
 def finish(plan: CompiledRead) -> Sequence[Any]:
@@ -133,6 +150,12 @@ def finish(plan: CompiledRead) -> Sequence[Any]:
     observation (fresh arrays: views of this read's own copy)."""
     for step in plan.steps:
         step()
+    return cut(plan)
+
+
+def cut(plan: CompiledRead) -> Sequence[Any]:
+    """Every member's observation from the work buffer's reduced values and plain windows: fresh arrays
+    (views of this read's own copy)."""
     values = plan.cut(plan.shown.copy())
     if not plan.reshapes:
         return values
@@ -142,15 +165,19 @@ def finish(plan: CompiledRead) -> Sequence[Any]:
     return cut
 
 
-def _steps(row: np.ndarray, nreduced: int, stacked: _Stacked, stack: bool) -> list[Callable[[], Any]]:
-    """A read's work after its gather, as zero-argument calls on the work buffer `row`: (with `stack`) a take
-    stacking the gathered windows and pads into the families' blocks, the reductions, the means' divisions."""
-    steps: list[Callable[[], Any]] = []
+def _steps(row: np.ndarray, nreduced: int, stacked: _Stacked, stack: bool) -> list[Step]:
+    """A read's work after its gather, on the work buffer `row`, each with its zero-argument call: (with
+    `stack`) a take stacking the gathered windows and pads into the families' blocks, the reductions, the
+    means' divisions."""
+    steps: list[Step] = []
     if stack and stacked.index:
-        steps.append(functools.partial(row[nreduced:stacked.first_block].take, np.concatenate(stacked.index), None,
-                                       row[stacked.first_block:stacked.block_at], "clip"))
-    steps += [functools.partial(reduce, window, out) for reduce, window, out in stacked.reductions]
-    steps += [functools.partial(np.true_divide, out, counts, out) for out, counts in stacked.divisions]
+        source, index, out = row[nreduced:stacked.first_block], np.concatenate(stacked.index), row[
+            stacked.first_block:stacked.block_at]
+        steps.append(Step("take", out, source, index, functools.partial(source.take, index, None, out, "clip")))
+    steps += [Step(r.family or "alone", r.out, r.window, None, functools.partial(r.reduce, r.window, r.out))
+              for r in stacked.reductions]
+    steps += [Step("divide", out, counts, None, functools.partial(np.true_divide, out, counts, out))
+              for out, counts in stacked.divisions]
     return steps
 
 
@@ -218,7 +245,7 @@ class _Stacked:
             col += w
         block = self.row[self.block_at:self.block_at + source.size].reshape(source.shape)
         out = self.row[self.at:self.at + width]
-        self.reductions.append(Reduction(AGGREGATORS[fam.reduce].reduce, block, out))
+        self.reductions.append(Reduction(AGGREGATORS[fam.reduce].reduce, block, out, fam.reduce))
         if (counts != 1).any():
             self.divisions.append((out, counts))
         self.index.append(source.ravel())
@@ -229,5 +256,5 @@ class _Stacked:
         """A group reduced on its own, from its window at `start` in the work row."""
         buffer, width = group.positions.shape
         window = self.row[start:start + buffer * width].reshape(buffer, width)
-        self.reductions.append(Reduction(group.reduce, window, self.row[self.at:self.at + width]))
+        self.reductions.append(Reduction(group.reduce, window, self.row[self.at:self.at + width], None))
         self.at += width

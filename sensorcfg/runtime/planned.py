@@ -17,10 +17,11 @@ from typing import Any, NamedTuple, cast
 import numpy as np
 
 from .bank import BankMember, ReadPlan, _reader, read_plan, rebind_noise, reuse_key
-from .bank_noise import BankNoise, Program, ReadOp, program
-from .bank_read import compile_read, finish
+from .bank_noise import BankNoise, Layer, Program, ReadOp, ops_of, program
+from .bank_read import compile_read, cut, finish
 from .channels import DrawnChannel
 from .drawn import Planner, Round, chunk_steps
+from .read_kernel import kernel_read
 from ..observables.aggregators import builtin
 
 __all__ = ["DrawnBank", "DrawnMember", "joins"]
@@ -96,6 +97,7 @@ class DrawnBank:
         self.pads: dict[int, np.ndarray] = {}  # read slot -> its gathered values before the reset sample
         self.pad_values = np.zeros(self.width)
         self._noise([program(ch.noise) or () for ch in channels])
+        self.kernel = kernel_read(self.compiled, self.noise_layers, self.flat)  # the read in one call, where built
         self._read_step, self._outputs = -1, cast(Sequence[Any], [])
 
     def _compile(self, channels: list[DrawnChannel]) -> None:
@@ -117,6 +119,7 @@ class DrawnBank:
         chunk at a time), and the read's noise program."""
         self.noise: BankNoise | None = None
         self.noise_program: list[ReadOp] = []
+        self.noise_layers: list[Layer] = []
         self.walkers: set[int] = set()
         self.drawing: list[int] = []  # noisy members drawn per sample taken
         if not any(programs):
@@ -127,7 +130,8 @@ class DrawnBank:
         walks = [self.noise.walks(i) for i in range(len(programs))]
         self.walkers = {i for i, ops in enumerate(programs) if ops and walks[i]}
         self.drawing = [i for i, ops in enumerate(programs) if ops and not walks[i]]
-        self.noise_program = self.noise.read_program(self.column, self.compiled.gathered)
+        self.noise_layers = self.noise.read_layers(self.column)
+        self.noise_program = ops_of(self.noise_layers, self.compiled.gathered)
 
     @staticmethod
     def key(channels: list[DrawnChannel], data: Any, substeps: int, pad: bool) -> tuple[Any, ...]:
@@ -229,11 +233,15 @@ class DrawnBank:
         slot = (step // self.n) % len(self.gathers)
         index = self.gathers[slot]
         plan = self.compiled
+        pads = self.pads.get(slot)
+        if pads is None and self.kernel is not None:  # the gather, noise and reductions in one call
+            self.kernel.run(index)
+            self._read_step, self._outputs = step, cut(plan)
+            return self._outputs
         gathered = plan.gathered
         self.flat.take(index, None, gathered, "clip")
         if self.noise is not None:
             self.noise.apply(index, self.noise_program)
-        pads = self.pads.get(slot)
         if pads is not None:
             gathered[pads] = self.pad_values.take(self.column[pads])
         self._read_step, self._outputs = step, finish(plan)
