@@ -428,6 +428,125 @@ static PyObject *read_bank(PyObject *self, PyObject *args) {
     Py_RETURN_NONE;
 }
 
+/* plan(g, t, a, prev, tail, reads, floor, windows, take_sim, take_step, buffer, substeps, length): the
+ * ordering, windows and samples to take of a planning round (sensorcfg/runtime/drawn.py, Planner.round; its
+ * numpy steps are the reference, compared by tests/test_planned_kernel.py). The round's delivered samples
+ * of simulations 0..m-1 (g: position, t: time, a: arrival, all <= the round's end) are put in order per
+ * simulation by (arrival, time), ties in their given order (numpy's stable argsort of the same key); each
+ * simulation's sequence is its `tail` (the last `buffer` delivered before, -1: none) followed by them; the
+ * read at prev + substeps - prev % substeps + k substeps (k < reads per round; the one read at step 0 when
+ * length is 0) shows the last `buffer` entries delivered by it. `tail` becomes each sequence's last
+ * `buffer`. With length > 0, the entries shown (> floor of their simulation, where `reads` (m, buffer)
+ * uint8 allows, when given) are the samples to take, in (simulation, read, entry) order; returns their count. */
+static int before(const int64_t *a, const int64_t *t, int64_t i, int64_t j) {
+    return a[i] < a[j] || (a[i] == a[j] && t[i] < t[j]);
+}
+
+static void merge_sort(int64_t *x, int64_t *tmp, Py_ssize_t n, const int64_t *a, const int64_t *t) {
+    if (n < 2) return;
+    Py_ssize_t h = n / 2;
+    merge_sort(x, tmp, h, a, t);
+    merge_sort(x + h, tmp, n - h, a, t);
+    if (!before(a, t, x[h], x[h - 1])) return; /* already in order (the usual case: nearly sorted) */
+    memcpy(tmp, x, sizeof(int64_t) * n);
+    Py_ssize_t i = 0, j = h, k = 0;
+    while (i < h && j < n) x[k++] = before(a, t, tmp[j], tmp[i]) ? tmp[j++] : tmp[i++];
+    while (i < h) x[k++] = tmp[i++];
+    while (j < n) x[k++] = tmp[j++];
+}
+
+/* insertion sort while it moves few entries (arrivals are nearly in order of time: a delay displaces a sample
+ * by a few places), merge sort past 8 moves per entry; both stable */
+static void sort_arrivals(int64_t *x, int64_t *tmp, Py_ssize_t n, const int64_t *a, const int64_t *t) {
+    Py_ssize_t moves = 0;
+    for (Py_ssize_t i = 1; i < n; i++) {
+        int64_t v = x[i];
+        Py_ssize_t j = i;
+        while (j > 0 && before(a, t, v, x[j - 1])) {
+            x[j] = x[j - 1];
+            j--;
+        }
+        x[j] = v;
+        moves += i - j;
+        if (moves > 8 * n) {
+            merge_sort(x, tmp, n, a, t);
+            return;
+        }
+    }
+}
+
+static PyObject *plan_round(PyObject *self, PyObject *args) {
+    Py_buffer gb, tb, ab, prevb, tailb, readsb, floorb, winb, simb, stepb;
+    Py_ssize_t b, n, length;
+    if (!PyArg_ParseTuple(args, "y*y*y*y*w*y*y*w*w*w*nnn", &gb, &tb, &ab, &prevb, &tailb, &readsb, &floorb, &winb,
+                          &simb, &stepb, &b, &n, &length))
+        return NULL;
+    Py_ssize_t N = gb.len / 8, m = prevb.len / 8, R = length ? (length / n > 1 ? length / n : 1) : 1;
+    PyObject *result = NULL;
+    int64_t *order = NULL, *tmp = NULL, *start = NULL, *seq = NULL;
+    if (tb.len != gb.len || ab.len != gb.len || tailb.len != 8 * m * b || winb.len != 8 * m * R * b ||
+        floorb.len != 8 * m || (readsb.len && readsb.len != m * b) || simb.len < 8 * m * R * b ||
+        stepb.len < 8 * m * R * b || b < 1 || n < 1) {
+        PyErr_SetString(PyExc_ValueError, "plan: arrays and sizes disagree");
+        goto done;
+    }
+    const int64_t *g = gb.buf, *t = tb.buf, *a = ab.buf, *prev = prevb.buf, *floor_ = floorb.buf;
+    const uint8_t *reads = readsb.len ? (const uint8_t *)readsb.buf : NULL;
+    int64_t *tail = tailb.buf, *win = winb.buf, *take_sim = simb.buf, *take_step = stepb.buf;
+    order = PyMem_Malloc(sizeof(int64_t) * (N + 1));
+    tmp = PyMem_Malloc(sizeof(int64_t) * (N + 1));
+    seq = PyMem_Malloc(sizeof(int64_t) * (N + b));
+    start = PyMem_Calloc(m + 1, sizeof(int64_t));
+    if (!order || !tmp || !seq || !start) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    for (Py_ssize_t i = 0; i < N; i++) {
+        if (g[i] < 0 || g[i] >= m) {
+            PyErr_SetString(PyExc_ValueError, "plan: a sample of no simulation");
+            goto done;
+        }
+        start[g[i] + 1]++;
+    }
+    for (Py_ssize_t s = 0; s < m; s++) start[s + 1] += start[s];
+    for (Py_ssize_t i = 0; i < N; i++) order[start[g[i]]++] = i; /* by simulation, in their given order */
+    for (Py_ssize_t s = m; s > 0; s--) start[s] = start[s - 1];
+    start[0] = 0;
+    Py_ssize_t taken = 0;
+    for (Py_ssize_t s = 0; s < m; s++) {
+        int64_t *mine = order + start[s];
+        Py_ssize_t count = start[s + 1] - start[s];
+        sort_arrivals(mine, tmp, count, a, t);
+        for (Py_ssize_t e = 0; e < b; e++) seq[e] = tail[s * b + e];
+        for (Py_ssize_t k = 0; k < count; k++) seq[b + k] = t[mine[k]];
+        int64_t first = length ? prev[s] + n - ((prev[s] % n) + n) % n : 0;
+        Py_ssize_t delivered = 0;
+        for (Py_ssize_t r = 0; r < R; r++) {
+            int64_t read = first + n * r;
+            while (delivered < count && a[mine[delivered]] <= read) delivered++;
+            int64_t *w = win + (s * R + r) * b;
+            for (Py_ssize_t e = 0; e < b; e++) {
+                w[e] = seq[delivered + e];
+                if (length && w[e] > floor_[s] && (!reads || reads[s * b + e])) {
+                    take_sim[taken] = s;
+                    take_step[taken++] = w[e];
+                }
+            }
+        }
+        for (Py_ssize_t e = 0; e < b; e++) tail[s * b + e] = seq[count + e];
+    }
+    result = PyLong_FromSsize_t(taken);
+done:
+    PyMem_Free(order);
+    PyMem_Free(tmp);
+    PyMem_Free(seq);
+    PyMem_Free(start);
+    PyBuffer_Release(&gb), PyBuffer_Release(&tb), PyBuffer_Release(&ab), PyBuffer_Release(&prevb);
+    PyBuffer_Release(&tailb), PyBuffer_Release(&readsb), PyBuffer_Release(&floorb), PyBuffer_Release(&winb);
+    PyBuffer_Release(&simb), PyBuffer_Release(&stepb);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"add", add, METH_VARARGS,
      "add(keys, samples, size, lanes, out, lo, rows, accumulate): the lanes' numbers, summed, into out's rows."},
@@ -436,6 +555,9 @@ static PyMethodDef methods[] = {
     {"scatter", scatter, METH_VARARGS, "scatter(table, index, values, start, stop): table[index[i]] = values[i] (clipped)."},
     {"read", read_bank, METH_VARARGS,
      "read(program, index): a feature bank's compiled read on its work buffer (sensorcfg/runtime/read_kernel.py)."},
+    {"plan", plan_round, METH_VARARGS,
+     "plan(g, t, a, prev, tail, reads, floor, windows, take_sim, take_step, buffer, substeps, length): a planning "
+     "round's windows and samples to take (sensorcfg/runtime/drawn.py)."},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_kernel",
