@@ -9,6 +9,7 @@ random-walk state survives from one episode to the next.
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 import warnings
@@ -212,6 +213,7 @@ class Environment(ControlLoop, dm_env.Environment):
         self._warning_counts = self._physics.data.warning.number  # a live view of MjData's counters
         self._bad_counts = None if _BAD_SPAN is None else self._warning_counts[_BAD_SPAN]
         self._ctrl = self._physics.data.ctrl  # a live view too
+        self._physics_step = functools.partial(mujoco.mj_step, self._model, self._physics.data)
         suite_keyframe = kwargs.pop("keyframe", None)
         self._n, self._control_timestep, self._step_limit = episode_timing(
             self._model, physics_steps_per_control_step, control_timestep, time_limit,
@@ -294,11 +296,8 @@ class Environment(ControlLoop, dm_env.Environment):
     def _step(self, ctrl: np.ndarray) -> dm_env.TimeStep:
         data = self._physics.data
         self._ctrl[:] = ctrl
-        updater, model = self._updater, self._model
-        updater.prepare_for_next_control_step()
-        for _ in range(self._n):
-            mujoco.mj_step(model, data)
-            updater.update()
+        updater = self._updater
+        updater.control_step(self._physics_step)  # n x (mj_step, then the Updater's update)
         self._steps += 1
         observation = updater.get_observation()
         reward = 0.0 if self._reward_fn is None else float(self._reward_fn(self._physics))

@@ -11,7 +11,7 @@ and the reductions run as the fixed-schedule bank's do.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple, cast
 
 import numpy as np
@@ -221,10 +221,18 @@ class DrawnBank:
     def due(self, step: int) -> bool:
         return bool(self.need[step % self.rows])
 
-    def snapshot(self, step: int) -> None:
-        row = step % self.rows
-        self.need[row] = False
-        self.raw.take(self.source, None, self.history_rows[row], "clip")
+    def snapshot_task(self) -> Callable[[int], None]:
+        """The Updater's task at every step: copy every member's values into the history row of `step` when
+        some member samples then (a closure over what it uses)."""
+        need, take, source, rows, count = self.need, self.raw.take, self.source, self.history_rows, self.rows
+
+        def snapshot(step: int) -> None:
+            row = step % count
+            if need[row]:
+                need[row] = False
+                take(source, None, rows[row], "clip")  # mode="clip": no buffered output (indices are valid)
+
+        return snapshot
 
     def read(self, step: int) -> Sequence[Any]:
         """Every member's observation at `step` (computed once per step)."""
