@@ -94,10 +94,12 @@ class DrawnBank:
         self._compile(channels)
         slots = self.rows // substeps
         self.gathers = np.zeros((slots, len(self.column)), np.intp)
+        self.gather_rows, self.slots = list(self.gathers), slots  # (row views: a read indexes a list)
         self.pads: dict[int, np.ndarray] = {}  # read slot -> its gathered values before the reset sample
         self.pad_values = np.zeros(self.width)
         self._noise([program(ch.noise) or () for ch in channels])
         self.kernel = kernel_read(self.compiled, self.noise_layers, self.flat)  # the read in one call, where built
+        self.run = None if self.kernel is None else self.kernel.run
         self._read_step, self._outputs = -1, cast(Sequence[Any], [])
 
     def _compile(self, channels: list[DrawnChannel]) -> None:
@@ -208,9 +210,9 @@ class DrawnBank:
         windows = plan.windows.transpose(1, 0, 2).reshape(plan.windows.shape[1], -1)  # (reads, member x buffer)
         rows = np.where(windows >= 0, windows % self.rows, 0)
         index = rows[:, self.entry] * self.width + self.column
-        slots = (first + np.arange(max(count, 1))) % len(self.gathers)
+        slots = (first + np.arange(max(count, 1))) % self.slots
         self.gathers[slots] = index
-        for slot in [slot for slot in self.pads if (slot - first) % len(self.gathers) < max(count, 1)]:
+        for slot in [slot for slot in self.pads if (slot - first) % self.slots < max(count, 1)]:
             del self.pads[slot]  # a slot of an earlier round
         padded = windows[:, self.entry] < 0  # only reads early in an episode show padding
         for read in np.flatnonzero(padded.any(axis=1)).tolist():
@@ -238,22 +240,26 @@ class DrawnBank:
         """Every member's observation at `step` (computed once per step)."""
         if step == self._read_step:
             return self._outputs
-        slot = (step // self.n) % len(self.gathers)
-        index = self.gathers[slot]
-        plan = self.compiled
+        slot = (step // self.n) % self.slots
         pads = self.pads.get(slot)
-        if pads is None and self.kernel is not None:  # the gather, noise and reductions in one call
-            self.kernel.run(index)
-            self._read_step, self._outputs = step, cut(plan)
-            return self._outputs
+        if pads is None and self.run is not None:  # the gather, noise and reductions in one call
+            self.run(self.gather_rows[slot])
+            outputs = cut(self.compiled)
+        else:
+            outputs = self._read_numpy(self.gather_rows[slot], pads)
+        self._read_step, self._outputs = step, outputs
+        return outputs
+
+    def _read_numpy(self, index: np.ndarray, pads: np.ndarray | None) -> Sequence[Any]:
+        """`read` in numpy calls (the reference; also reads whose windows show padding, early in an episode)."""
+        plan = self.compiled
         gathered = plan.gathered
         self.flat.take(index, None, gathered, "clip")
         if self.noise is not None:
             self.noise.apply(index, self.noise_program)
         if pads is not None:
             gathered[pads] = self.pad_values.take(self.column[pads])
-        self._read_step, self._outputs = step, finish(plan)
-        return self._outputs
+        return finish(plan)
 
 
 class _Stride(NamedTuple):
