@@ -64,7 +64,7 @@ class CompiledRead(NamedTuple):
     records: list[Step]  # the same steps, as records (`read_kernel` compiles them)
     shown: np.ndarray  # the part of the work buffer the observations show, (1, n)
     cut: Callable[[np.ndarray], tuple[Any, ...]]  # a copy of `shown` -> every member's value
-    reshapes: list[tuple[int, tuple[int, ...]]]  # members whose cut needs a reshape: (member, shape)
+    reshapes: list[tuple[int, np.ndarray]]  # members whose cut needs a reshape: (member, its value's view of `shown`)
     noise: list[Any]  # the bank noise's read program for `source` ([] without noise)
     layers: list[Layer]  # the same program, as records
     kernel: Any = None  # the whole read as one compiled call, where a bank made one (`read_kernel.KernelRead`)
@@ -81,7 +81,7 @@ class _Group(NamedTuple):
 
 class _Cuts:
     """Per member, the index into a (1, n) copy that gives its value in one step where its shape allows
-    ((1, k) and (k,) arrays, numpy scalars), else a flat cut and a reshape."""
+    ((1, k) and (k,) arrays, numpy scalars), else a copy of its own reshaped view (`reshaped`)."""
 
     def __init__(self, channels: Sequence[FixedChannel], plain: list[Any], ordered: list[_Group], starts: np.ndarray):
         """Plain members' windows start at `starts`; reduced values lie first, in the groups' `ordered` order."""
@@ -105,6 +105,11 @@ class _Cuts:
             self.keys[i] = (0, span)
             if len(shape) != 1:
                 self.reshapes.append((i, shape))
+
+    def reshaped(self, shown: np.ndarray) -> list[tuple[int, np.ndarray]]:
+        """(member, its value as a view of `shown`, the (1, n) part of the work buffer a read copies) of the
+        members whose shape a cut does not give."""
+        return [(i, shown[self.keys[i]].reshape(shape)) for i, shape in self.reshapes]
 
     def getter(self) -> Callable[[np.ndarray], tuple[Any, ...]]:
         if len(self.keys) == 1:
@@ -141,8 +146,9 @@ def compile_read(channels: Sequence[FixedChannel], plan: Any, noise_plan: Callab
     cuts = _Cuts(channels, plain, ordered, starts)
     gathered = work[0, nreduced:nreduced + len(source)]
     layers = noise_plan(source) if noise_plan else []
-    return CompiledRead(source, gathered, [step.run for step in records], records, work[:, :int(starts[len(plain)])],
-                        cuts.getter(), cuts.reshapes, ops_of(layers, gathered), layers)
+    shown = work[:, :int(starts[len(plain)])]
+    return CompiledRead(source, gathered, [step.run for step in records], records, shown, cuts.getter(),
+                        cuts.reshaped(shown), ops_of(layers, gathered), layers)
 
 
 def finish(plan: CompiledRead) -> Sequence[Any]:
@@ -155,13 +161,13 @@ def finish(plan: CompiledRead) -> Sequence[Any]:
 
 def cut(plan: CompiledRead) -> Sequence[Any]:
     """Every member's observation from the work buffer's reduced values and plain windows: fresh arrays
-    (views of this read's own copy)."""
+    (views of this read's own copy; a member whose shape the cut does not give, a copy of its own)."""
     values = plan.cut(plan.shown.copy())
     if not plan.reshapes:
         return values
     cut = list(values)
-    for i, shape in plan.reshapes:
-        cut[i] = cut[i].reshape(shape)
+    for i, view in plan.reshapes:
+        cut[i] = view.copy()
     return cut
 
 
