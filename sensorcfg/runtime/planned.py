@@ -157,18 +157,17 @@ class DrawnBank:
         self.recent = []
         self.raw.take(self.source, None, self.history[0], "clip")
         if self.noise is not None:
-            self.noise.start(fill=False)  # noise with the rounds' samples, the reset sample first:
+            self.noise.start(fill=False)  # noise with the rounds' samples (the reset sample's with the first)
             self.noise.fill(0, self.walkers)  # (random walks a chunk at a time)
-            self.noise.fill_samples([(i, _ZERO) for i in self.drawing])
+        self.pads.clear()
+        self._store(self.planner.start(self.members_, [ch.key for ch in self.channels]), 0, 0)
+        self._plan_round(0)
         if self.pad:
             self.pad_values = self.history[0].copy()
             if self.noise is not None:  # padding repeats the first sample as delivered: with its noise
                 self._apply_noise(self.pad_values, np.arange(self.width))
         else:
             self.pad_values = np.zeros(self.width)
-        self.pads.clear()
-        self._store(self.planner.start(self.members_, [ch.key for ch in self.channels]), 0, 0)
-        self._plan_round(0)
         self.next_round = self.chunk
         self.plan(0)
 
@@ -197,8 +196,9 @@ class DrawnBank:
                 self.noise.fill(base, self.walkers)
             keys = self.recent[-1]
             bounds = keys.searchsorted(np.arange(len(self.channels) + 1) * _KEY)
-            self.noise.fill_samples([(i, keys[bounds[i]:bounds[i + 1]] - i * _KEY) for i in self.drawing
-                                     if bounds[i + 1] > bounds[i]])
+            first = _ZERO if base == 0 else _ZERO[:0]  # the first round draws the reset sample's too
+            self.noise.fill_samples([(i, np.concatenate((first, keys[bounds[i]:bounds[i + 1]] - i * _KEY)))
+                                     for i in self.drawing if bounds[i + 1] > bounds[i] or base == 0])
 
     def samples(self, position: int, step: int) -> int:
         """Samples member `position` has taken by `step` (the reset sample included)."""
