@@ -11,6 +11,9 @@ observation from that copy. The copy is the read's own: each observation is a fr
 dm_control's are. With noise, the take gathers the windows only, noise is applied to them, and a second
 take stacks them (with the pads, then kept in the work buffer).
 
+Where the compiled kernel is built, `runtime/read_kernel.py` runs the same steps (gather, noise, take,
+reductions, divisions) as one call; these numpy steps are its reference.
+
 Work buffer, one row: [reduced values | plain windows | windows reduced alone | (with noise: the
 families' windows, pads) | family blocks]; the copy takes the first two parts.
 """

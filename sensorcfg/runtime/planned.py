@@ -6,7 +6,8 @@ steps run. Per step that some member samples, one `numpy.take` copies every memb
 main buffer into a step-indexed history; a read is compiled once (`bank_read.compile_read`; only the rows
 it gathers change, an index computed with the round): one gather builds every window, noise is applied to
 the gathered values (`BankNoise`: the same numbers as the per-sample pipeline, drawn for the samples taken),
-and the reductions run as the fixed-schedule bank's do.
+and the reductions run as the fixed-schedule bank's do: all of it one call of the compiled kernel where it is
+built (`runtime/read_kernel.py`), except reads early in an episode, whose windows show padding.
 """
 
 from __future__ import annotations
