@@ -164,6 +164,11 @@ def test_sums_added_in_place_equal_the_numpy_arithmetic_on_both_paths():
         got = table.copy()
         streams.add_sums([streams.Sum(draws, terms, got, lo, rows) for draws, terms, lo, rows in jobs], compiled=kernel)
         assert np.array_equal(expected.view(np.uint64), got.view(np.uint64))
+        # a flat table (the batch's read values): rows are where each sample's values start
+        flat = table.copy().ravel()
+        streams.add_sums([streams.Sum(draws, terms, flat, lo, rows * width) for draws, terms, lo, rows in jobs],
+                         compiled=kernel)
+        assert np.array_equal(expected.ravel().view(np.uint64), flat.view(np.uint64))
     every = [d for draws, *_ in jobs for d in draws]  # numbers split between threads too
     for a, b in zip(numbers(every, compiled=False), numbers(every, compiled=True)):
         assert np.array_equal(a.view(np.uint64), b.view(np.uint64))
