@@ -328,8 +328,8 @@ def _run(jobs: list[_Job], accumulate: bool) -> None:
                  for d, t in zip(draws, terms)]
         width = out.shape[-1] if out.ndim == 2 else 0
         per_sample = first.size * len(draws)
-        pieces = min(m, max(1, -(-m * per_sample * _PIECES // max(total, 1))))
-        for a, b in zip(*(np.linspace(0, m, pieces + 1).astype(np.intp)[k:k + pieces] for k in (0, 1))):
+        pieces = min(m, max(1, -(-m * per_sample * _PIECES // total))) if total >= compiled.SPLIT_VALUES else 1
+        for a, b in ((m * p // pieces, m * (p + 1) // pieces) for p in range(pieces)):
             if rows is None:  # the samples' own rows of `out`
                 calls.append((keys[a:b], samples[a:b], first.size, lanes, out[a:b], width, lo, None, accumulate))
             else:
