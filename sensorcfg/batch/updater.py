@@ -40,7 +40,7 @@ from ..runtime.channels import Channel, DrawnChannel, FixedChannel, RandomChanne
 from ..runtime.updater import observation_spec
 from .layout import Layout
 from .noise import BatchPipeline, prefetch
-from .read_noise import ReadNoise
+from .read_noise import ReadNoise, added_as_read
 from .random_schedules import Timelines
 
 __all__ = ["BatchUpdater"]
@@ -132,9 +132,9 @@ class BatchUpdater:
         self.noise = {i: BatchPipeline(e.channel.noise, self.nsim, e.name)
                       for i, e in enumerate(ordered) if e.channel.noise is not None}
         self.noisy = bool(self.noise) or any(e.channel.noise is not None for e in cameras)  # as the Updater draws
-        # fixed channels whose noise only adds numbers: added as they are read (`batch.read_noise`); the others'
-        # samples are corrupted in the history, at their own steps
-        read = {c: p for c, p in self.noise.items() if c < self.nfixed and p.additive is not None}
+        # fixed channels whose noise only adds numbers: added as they are read (`batch.read_noise`) where that
+        # draws fewer numbers; the others' samples are corrupted in the history, at their own steps
+        read = {c: p for c, p in self.noise.items() if c < self.nfixed and added_as_read(p, self.fixed[c])}
         self.corrupted = {c: p for c, p in self.noise.items() if c not in read}
         layout = self.layout = self._layout(physics, cameras, drawn)
         self.read_noise = ReadNoise(read, self.fixed, layout, self.pad) if read else None
