@@ -13,7 +13,7 @@
  *
  * Its entry point, `add`: up to 8 lanes (a stage's numbers, scaled and shifted) summed per value and
  * written or added into rows of a table, which serves streams.numbers (one lane, written) and the batch's
- * additive noise applied in place in its history (streams.add_sums).
+ * additive noise added in place (streams.add_sums) to the values a read gathered or to its history.
  *
  * Built by setup.py as an optional extension: without a C compiler the package installs without it and
  * streams.py uses numpy. No numpy C API: arrays arrive through the buffer protocol. */
@@ -232,7 +232,8 @@ static void release_lanes(Lane *lanes, int count) {
 /* add(keys (m, 2) uint64, samples (m,) int64, size, lanes, out (rows, width) float64, lo, rows (m,) int64
  * or None, accumulate): per sample r the total of its lanes' numbers (x scale, + offset), lane after lane
  * (the first written, the others added: numpy's total = t0; total += t1 ...), then written to, or added to
- * (accumulate: out = out + total), out[rows[r] (r when None), lo:lo + size]. */
+ * (accumulate: out = out + total), out[rows[r] (r when None), lo:lo + size].
+ * width 0: out is flat and rows[r] is where sample r's values start (out[rows[r] + lo:rows[r] + lo + size]). */
 static PyObject *add(PyObject *self, PyObject *args) {
     Py_buffer keys, samples, out, rows_buf = {0};
     Py_ssize_t size, width, lo;
@@ -242,17 +243,20 @@ static PyObject *add(PyObject *self, PyObject *args) {
     if (!PyArg_ParseTuple(args, "y*y*nOw*nnOp", &keys, &samples, &size, &lanes_obj, &out, &width, &lo, &rows_obj,
                           &accumulate))
         return NULL;
+    int flat = width == 0;
     Py_ssize_t m = samples.len / 8, nrows = out.len / (Py_ssize_t)sizeof(double) / (width > 0 ? width : 1);
+    Py_ssize_t stride = flat ? 1 : width; /* doubles between rows */
     const int64_t *rows = NULL;
     if (get_lanes(lanes_obj, size, lanes, &nl) < 0) goto done;
     if (rows_obj != Py_None) {
         if (PyObject_GetBuffer(rows_obj, &rows_buf, PyBUF_C_CONTIGUOUS) < 0) goto done;
         rows = (const int64_t *)rows_buf.buf;
     }
-    int bad = keys.len != 16 * m || size < 0 || width < 1 || lo < 0 || lo + size > width ||
-              out.len != (Py_ssize_t)sizeof(double) * nrows * width || (rows && rows_buf.len != 8 * m) ||
-              (!rows && m > nrows);
-    for (Py_ssize_t r = 0; rows && !bad && r < m; r++) bad = rows[r] < 0 || rows[r] >= nrows;
+    int bad = keys.len != 16 * m || size < 0 || width < 0 || lo < 0 || (!flat && lo + size > width) ||
+              (!flat && out.len != (Py_ssize_t)sizeof(double) * nrows * width) || (rows && rows_buf.len != 8 * m) ||
+              (!rows && (flat || m > nrows));
+    for (Py_ssize_t r = 0; rows && !bad && r < m; r++)
+        bad = rows[r] < 0 || (flat ? rows[r] + lo + size > nrows : rows[r] >= nrows);
     if (bad) {
         PyErr_SetString(PyExc_ValueError, "add: keys (m, 2), samples (m,), rows (m,) and out (rows, width) disagree");
         goto done;
@@ -292,7 +296,7 @@ static PyObject *add(PyObject *self, PyObject *args) {
             for (int j = 0; j < 4 * n; j++) total[j] = total[j] + term[j];
         }
         for (int g = 0; g < blk.nseg; g++) {
-            double *dst = o + (rows ? rows[blk.seg_row[g]] : blk.seg_row[g]) * width + lo + blk.seg_t0[g];
+            double *dst = o + (rows ? rows[blk.seg_row[g]] : blk.seg_row[g]) * stride + lo + blk.seg_t0[g];
             const double *src = total + blk.seg_j[g];
             Py_ssize_t len = blk.seg_len[g];
             if (accumulate)
@@ -549,7 +553,7 @@ done:
 
 static PyMethodDef methods[] = {
     {"add", add, METH_VARARGS,
-     "add(keys, samples, size, lanes, out, lo, rows, accumulate): the lanes' numbers, summed, into out's rows."},
+     "add(keys, samples, size, lanes, out, width, lo, rows, accumulate): the lanes' numbers, summed, into out's rows."},
     {"tables", tables, METH_VARARGS, "tables(kn, wn, fn): the ziggurat's tables (from streams.py)."},
     {"gather", gather, METH_VARARGS, "gather(table, index, out, start, stop): out[i] = table[index[i]] (clipped)."},
     {"scatter", scatter, METH_VARARGS, "scatter(table, index, values, start, stop): table[index[i]] = values[i] (clipped)."},

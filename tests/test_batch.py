@@ -198,6 +198,58 @@ sensors:
         check_sim(b, [e.reset()] + [e.step(a[i]) for a in actions], i, f"{stages} stages")
 
 
+READ_NOISE_SUITE = """
+version: 1
+options: {{pad_with_initial_value: {pad}}}
+sensors:
+  qpos: {{kind: qpos, element: "joint:*", buffer: 3, delay: 2, noise: [{{type: gaussian, std: 0.1}}]}}
+  gyro: {{kind: sensordata, element: "sensor:imu_gyro", interval: 2, delay: 1, buffer: 2, aggregator: mean,
+          noise: [{{type: gaussian, std: 0.1}}, {{type: uniform, low: -0.01, high: 0.02}}]}}
+  hand: {{kind: xpos, element: "site:hand_site", interval: 2, buffer: 2, noise: [{{type: uniform, low: 0, high: 0.1}}]}}
+  elbow: {{kind: qvel, element: "joint:elbow", buffer: 4, aggregator: max, noise: [{{type: gaussian, mean: 1, std: 0.5}}]}}
+  walk: {{kind: qvel, element: "joint:shoulder", delay: 1, noise: [{{type: random_walk, std: 0.1}}]}}
+  stack: {{kind: qpos, element: "joint:elbow", buffer: 7, noise: [{{type: gaussian, std: 0.1}}]}}
+"""
+
+
+@needs_batch
+@pytest.mark.parametrize("pad", [False, True])
+def test_additive_noise_added_as_the_batch_reads_is_the_single_environments(pad):
+    """Fixed-schedule sensors whose noise only adds numbers get it as the batch reads (`batch.read_noise`), the
+    others in the history (a stateful stage, or a buffer that shows each sample more than 1.5 times: the history
+    path draws fewer numbers): buffered, delayed, aggregated, padded or not, through partial resets that leave the
+    simulations at different phases and noise levels (0.3 and 0 blend after the addition). Every simulation
+    equals its Environment bit for bit."""
+    text = READ_NOISE_SUITE.format(pad=str(pad).lower())
+    nsim, n = 4, 3
+    env = BatchEnvironment(ROBOT, sensorcfg.loads(text), nsim, physics_steps_per_control_step=n, seed=4)
+    updater = env.updater
+    assert sorted(updater.labels[c] for c in updater.corrupted) == ["stack", "walk"]
+    assert updater.read_noise is not None and len(updater.read_noise.sensors) == 4
+    singles = [sensorcfg.Environment(ROBOT, sensorcfg.loads(text), physics_steps_per_control_step=n,
+                                     seed=sim_seed(4, i)) for i in range(nsim)]
+    actions = np.random.default_rng(5).uniform(-1, 1, (30, nsim, 3)) * [1, 1, 0.04]
+    resets = {4: (0.3, [1, 2]), 11: (0.0, [2, 3]), 19: (1.0, [0, 2])}  # step: (level, simulations reset)
+    b, s = [env.reset()], [[e.reset()] for e in singles]
+    for step, a in enumerate(actions):
+        if step in resets:
+            level, ids = resets[step]
+            env.set_noise_level(level)
+            b.append(env.reset(ids))
+            for i, e in enumerate(singles):
+                if i in ids:
+                    e.set_noise_level(level)
+                s[i].append(e.reset() if i in ids else s[i][-1]._replace(step_type=dm_env.StepType.MID,
+                                                                        reward=0.0, discount=1.0))
+        b.append(env.step(a))
+        for i, e in enumerate(singles):
+            s[i].append(e.step(a[i]))
+    for i in range(nsim):
+        check_sim(b, s[i], i, f"pad {pad}")
+    noisy = np.array([t.observation["elbow"][1] for t in b[8:12]])  # simulation 1, at level 0.3: noise scaled
+    assert np.all(noisy != 0)
+
+
 OPTIONS_SUITE = """
 version: 1
 options: {pad_with_initial_value: true, strip_singleton_buffer_dim: true}

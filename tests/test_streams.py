@@ -164,6 +164,27 @@ def test_sums_added_in_place_equal_the_numpy_arithmetic_on_both_paths():
         got = table.copy()
         streams.add_sums([streams.Sum(draws, terms, got, lo, rows) for draws, terms, lo, rows in jobs], compiled=kernel)
         assert np.array_equal(expected.view(np.uint64), got.view(np.uint64))
+        # a flat table (the batch's read values): rows are where each sample's values start
+        flat = table.copy().ravel()
+        streams.add_sums([streams.Sum(draws, terms, flat, lo, rows * width) for draws, terms, lo, rows in jobs],
+                         compiled=kernel)
+        assert np.array_equal(expected.ravel().view(np.uint64), flat.view(np.uint64))
     every = [d for draws, *_ in jobs for d in draws]  # numbers split between threads too
     for a, b in zip(numbers(every, compiled=False), numbers(every, compiled=True)):
         assert np.array_equal(a.view(np.uint64), b.view(np.uint64))
+
+
+def test_the_kernel_refuses_rows_outside_its_table():
+    """A flat table's rows are where samples start: one whose values would run past the end is refused
+    (as a row past a 2-D table's last), never written."""
+    _path(True)
+    keys, samples = np.zeros((2, 2), np.uint64), np.arange(2, dtype=np.int64)
+    lanes = [(1 << 24, True, None, None)]
+    table = np.zeros(10)
+    compiled.MODULE.add(keys, samples, 3, lanes, table, 0, 0, np.array([0, 7]), True)  # values 7..9: the last
+    assert np.count_nonzero(table) == 6
+    for rows, width in ((np.array([0, 8]), 0), (np.array([-1, 0]), 0), (np.array([0, 5]), 2)):
+        before = table.copy()
+        with pytest.raises(ValueError):
+            compiled.MODULE.add(keys, samples, 2 if width else 3, lanes, table, width, 0, rows, True)
+        assert np.array_equal(before, table)

@@ -7,8 +7,8 @@ control step the same for every simulation whatever its episode's age; a read sh
 read plan (`runtime.bank.read_plan`) by that age, per simulation.
 
 A read takes the noise-free samples of its own control step straight from the records, so the history
-keeps only the samples that a later read needs (and every sample of noisy channels, which are corrupted
-there, and of random-schedule channels). A control step is one `rollout` recording the fields the
+keeps only the samples that a later read needs (and every sample of channels whose noise is applied
+there, `noisy`, and of random-schedule channels). A control step is one `rollout` recording the fields the
 suite reads, or with cameras one per run of substeps up to a substep at which a camera may render
 (`segments`).
 """

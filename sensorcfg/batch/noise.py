@@ -320,6 +320,12 @@ class BatchPipeline:
         self._blend = next((b.template for b in batched if isinstance(b.template, Blend)), None)
 
     @property
+    def additive(self) -> _Additive | None:
+        """The fused sum when the pipeline only adds numbers x scale (+ offset), at any noise level (a level
+        other than 1 blends after it): a batch may add it as it reads (`batch.read_noise`)."""
+        return cast(_Additive | None, self._fusable)
+
+    @property
     def fused(self) -> _Additive | None:
         blending = self._blend is not None and self._blend.batch_active  # type: ignore[attr-defined]
         return None if blending else cast(_Additive | None, self._fusable)

@@ -5,8 +5,9 @@ store of a `Layout` (`batch.layout`); one `take`/`put` keeps in the history what
 read is one gather per output group over every simulation (the bank's read plan, shifted by each
 episode's age), then one reduction per (aggregator, buffer) group.
 
-Noise runs at each sample's own step on the simulations that sample then, in place in the history
-(`batch.noise`); random intervals and delays are planned per simulation by the single-simulation
+A fixed-schedule sensor whose noise only adds numbers (gaussian and uniform stages) gets it as the batch
+reads (`batch.read_noise`): its history keeps raw samples, as a noise-free sensor's. Other noise runs at each
+sample's own step on the simulations that sample then, in place in the history (`batch.noise`); random intervals and delays are planned per simulation by the single-simulation
 channel itself (`batch.random_schedules`). Scheduling, buffers and noise are the single-simulation Updater's to
 the bit: the per-simulation state is its episode's age (`t`), random state, noise and random plans.
 
@@ -39,6 +40,7 @@ from ..runtime.channels import Channel, DrawnChannel, FixedChannel, RandomChanne
 from ..runtime.updater import observation_spec
 from .layout import Layout
 from .noise import BatchPipeline, prefetch
+from .read_noise import ReadNoise, added_as_read
 from .random_schedules import Timelines
 
 __all__ = ["BatchUpdater"]
@@ -130,7 +132,12 @@ class BatchUpdater:
         self.noise = {i: BatchPipeline(e.channel.noise, self.nsim, e.name)
                       for i, e in enumerate(ordered) if e.channel.noise is not None}
         self.noisy = bool(self.noise) or any(e.channel.noise is not None for e in cameras)  # as the Updater draws
+        # fixed channels whose noise only adds numbers: added as they are read (`batch.read_noise`) where that
+        # draws fewer numbers; the others' samples are corrupted in the history, at their own steps
+        read = {c: p for c, p in self.noise.items() if c < self.nfixed and added_as_read(p, self.fixed[c])}
+        self.corrupted = {c: p for c, p in self.noise.items() if c not in read}
         layout = self.layout = self._layout(physics, cameras, drawn)
+        self.read_noise = ReadNoise(read, self.fixed, layout, self.pad) if read else None
         self.reset_values = layout.reset_values
         self.history, self.flat, self.cols, self.rows = layout.history, layout.flat, layout.cols, layout.rows
         self.timelines = Timelines([(e.name, cast(DrawnChannel, e.channel).drawn) for e in drawn], self.nsim,
@@ -149,7 +156,7 @@ class BatchUpdater:
         fields = _fields(physics, self.channels)
         span = max((_random_span(e, substeps) for e in drawn), default=0)  # how long a drawn sample may wait
         stops = set().union(*(_camera_stops(cast(FixedChannel, e.channel), substeps) for e in cameras))
-        return Layout(self.channels, self.nfixed, set(self.noise), span, fields, self.nsim, substeps, stops)
+        return Layout(self.channels, self.nfixed, set(self.corrupted), span, fields, self.nsim, substeps, stops)
 
     def _bind(self, observables: Mapping[str, Any], physics: Any, strip: bool) -> list[_Entry]:
         """Each enabled observable bound to `physics` with its channel, as the single-simulation Updater
@@ -227,10 +234,12 @@ class BatchUpdater:
         keys = self._start_episodes(ids, random_states)
         for c, channel_keys in zip(self.noise, keys):
             self.noise[c].start(ids, channel_keys)
+        if self.read_noise is not None:
+            self.read_noise.restart()
         self.started[ids] = True
         values = self.flat.take(self.layout.reset_index[ids])  # (m, width): the reset sample
         zeros = np.zeros(ids.size, np.int64)
-        for c, pipeline in self.noise.items():
+        for c, pipeline in self.corrupted.items():
             lo, hi = self.cols[c], self.cols[c + 1]
             ch = self.channels[c]
             values[:, lo:hi] = pipeline(values[:, lo:hi].reshape(ids.size, *ch.shape), ids, zeros).reshape(ids.size, -1)
@@ -275,16 +284,16 @@ class BatchUpdater:
         source, target = self.layout.snapshot(gp, self.t)
         compiled.put(self.flat, target, compiled.take(self.flat, source))
         everyone = bool(active.all())
-        if self.noisy:
+        if self.corrupted:
             sums, calls = [], []
             for call in self._noise_calls(gp, active, everyone):  # additive-only pipelines: in place, at once
                 k, c, sims, steps = call
-                if self.noise[c].fused is not None:
-                    sums.append(self.noise[c].sum(self.history[gp + k - 1], int(self.cols[c]), sims, steps))
+                if self.corrupted[c].fused is not None:
+                    sums.append(self.corrupted[c].sum(self.history[gp + k - 1], int(self.cols[c]), sims, steps))
                 else:
                     calls.append(call)
             add_sums(sums)
-            prefetch([(self.noise[c], sims, steps) for _, c, sims, steps in calls])
+            prefetch([(self.corrupted[c], sims, steps) for _, c, sims, steps in calls])
             for k, c, sims, steps in calls:
                 self._corrupt(self.history[gp + k - 1], c, sims, steps)
         self.G += substeps
@@ -310,7 +319,7 @@ class BatchUpdater:
                     calls.append((k, c, sims, self.t[sims] + k))
             for r in range(len(self.timelines.specs)):
                 c = self.nfixed + r
-                if c in self.noise:
+                if c in self.corrupted:
                     sims = np.flatnonzero(cast(np.ndarray, taken)[:, r, k - 1] & active)
                     if sims.size:
                         calls.append((k, c, sims, self.t[sims] + k))
@@ -324,12 +333,12 @@ class BatchUpdater:
         shape = self.channels[c].shape
         if sims.size == self.nsim:
             samples = row[:, lo:hi].reshape(self.nsim, *shape)  # a view: columns are contiguous in a row
-            noisy = self.noise[c](samples, sims, steps, out=samples)
+            noisy = self.corrupted[c](samples, sims, steps, out=samples)
             if not np.shares_memory(samples, row):
                 row[:, lo:hi] = noisy.reshape(self.nsim, -1)
         else:
             raw = row[sims, lo:hi]
-            row[sims, lo:hi] = self.noise[c](raw.reshape(sims.size, *shape), sims, steps).reshape(sims.size, -1)
+            row[sims, lo:hi] = self.corrupted[c](raw.reshape(sims.size, *shape), sims, steps).reshape(sims.size, -1)
 
     def _plan(self, gp: int) -> list[list[tuple[int, np.ndarray]]]:
         """Per substep, the noisy fixed channels and the simulations that sample them (cached per phase)."""
@@ -338,7 +347,7 @@ class BatchUpdater:
             local = self.t % self.rows
             plan = [[] for _ in range(self.substeps)]
             for c in range(self.nfixed):
-                if c not in self.noise:
+                if c not in self.corrupted:
                     continue
                 needed = cast(FixedChannel, self.channels[c]).schedule.needed_mask()  # the first nfixed are fixed
                 for k in range(1, self.substeps + 1):
@@ -359,6 +368,8 @@ class BatchUpdater:
             layout = self.layout
             # one take of every value read (positions are valid by construction), then views
             values = compiled.take(self.flat, layout.gathers(self.G % self.rows, self.t))
+            if self.read_noise is not None:
+                self.read_noise.apply(values, self.t)
             gathered, windows = layout.read_parts(values)
             for i, part, shape in layout.plain:
                 out[i] = gathered[:, part].reshape(shape)

@@ -18,7 +18,7 @@ The compiled kernel (`sensorcfg/_kernel.c`'s `add`, loaded by `sensorcfg.compile
 bit for bit, several times faster; numpy is the reference (tests/test_streams.py compares the two) and the
 path without a compiler. `KERNEL` says which one runs; SENSORCFG_NUMPY_STREAMS=1 forces numpy.
 `add_sums` adds sums of such numbers, scaled and shifted, into rows of a table in place (the batch's
-additive noise, straight into its history).
+additive noise, added to the values a read gathered or into its history).
 
 Planned schedules draw from the same numbers, under a schedule key (`runtime/drawn.py`).
 
@@ -257,7 +257,8 @@ class Affine(NamedTuple):
 
 class Sum(NamedTuple):
     """Numbers of draws of the same samples (their keys, samples and size), each scaled and shifted, summed
-    in order and added to table[rows[r], lo:lo + size] for sample r: `table` (n, width) float64, C-contiguous."""
+    in order and added to table[rows[r], lo:lo + size] for sample r: `table` (n, width) float64, C-contiguous;
+    or, `table` flat (n,), to table[rows[r] + lo:rows[r] + lo + size] (rows: where each sample's values start)."""
 
     draws: Sequence[Draw]
     terms: Sequence[Affine]
@@ -287,7 +288,11 @@ def add_sums(jobs: Sequence[Sum], compiled: bool = True) -> None:
                     total += x
             assert total is not None
             hi = job.lo + job.draws[0].size
-            job.table[job.rows, job.lo:hi] = job.table[job.rows, job.lo:hi] + total
+            if job.table.ndim == 1:
+                at = np.asarray(job.rows)[:, None] + np.arange(job.lo, hi)
+                job.table[at] = job.table[at] + total
+            else:
+                job.table[job.rows, job.lo:hi] = job.table[job.rows, job.lo:hi] + total
         return
     _run([_Job(job.draws, job.terms, job.table, job.lo, np.ascontiguousarray(job.rows, np.int64)) for job in jobs],
          accumulate=True)
@@ -301,25 +306,41 @@ class _Job(NamedTuple):
     rows: np.ndarray | None
 
 
+_PIECES = 16  # a job larger than 1/_PIECES of a call's numbers is cut into runs of samples of about that size,
+# so that the two threads' halves come out even
+
+
 def _run(jobs: list[_Job], accumulate: bool) -> None:
     """The kernel's `add` over the jobs, in two halves on two threads when there are many numbers."""
     assert _COMPILED is not None
     kernel = _COMPILED.add
+    calls: list[tuple[Any, ...]] = []
+    work: list[int] = []
+    total = sum(np.size(job.draws[0].samples) * job.draws[0].size * len(job.draws) for job in jobs)
+    for draws, terms, out, lo, rows in jobs:
+        first = draws[0]
+        m = np.size(first.samples)
+        if not first.size or not m:
+            continue
+        samples = np.ascontiguousarray(first.samples, np.int64).ravel()
+        keys = np.ascontiguousarray(np.broadcast_to(np.asarray(first.keys, np.uint64).reshape(-1, 2), (m, 2)))
+        lanes = [(d.stage << 24 | d.lane << 22, d.normal, *(t if t is not None else (None, None)))
+                 for d, t in zip(draws, terms)]
+        width = out.shape[-1] if out.ndim == 2 else 0
+        per_sample = first.size * len(draws)
+        pieces = min(m, max(1, -(-m * per_sample * _PIECES // total))) if total >= compiled.SPLIT_VALUES else 1
+        for a, b in ((m * p // pieces, m * (p + 1) // pieces) for p in range(pieces)):
+            if rows is None:  # the samples' own rows of `out`
+                calls.append((keys[a:b], samples[a:b], first.size, lanes, out[a:b], width, lo, None, accumulate))
+            else:
+                calls.append((keys[a:b], samples[a:b], first.size, lanes, out, width, lo, rows[a:b], accumulate))
+            work.append(int(b - a) * per_sample)
 
     def run(indices: Sequence[int]) -> None:
         for i in indices:
-            draws, terms, out, lo, rows = jobs[i]
-            first = draws[0]
-            if not first.size or not np.size(first.samples):
-                continue
-            samples = np.ascontiguousarray(first.samples, np.int64).ravel()
-            keys = np.ascontiguousarray(np.broadcast_to(np.asarray(first.keys, np.uint64).reshape(-1, 2),
-                                                        (samples.size, 2)))
-            lanes = [(d.stage << 24 | d.lane << 22, d.normal, *(t if t is not None else (None, None)))
-                     for d, t in zip(draws, terms)]
-            kernel(keys, samples, first.size, lanes, out, out.shape[-1], lo, rows, accumulate)
+            kernel(*calls[i])
 
-    compiled.split(run, [np.size(job.draws[0].samples) * job.draws[0].size * len(job.draws) for job in jobs])
+    compiled.split(run, work)
 
 
 class Streams:

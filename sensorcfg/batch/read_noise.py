@@ -1,0 +1,134 @@
+"""Additive noise added as a batch reads, not where its history keeps samples.
+
+A fixed-schedule sensor whose noise only adds numbers (gaussian and uniform stages, fused into one sum:
+`BatchPipeline.additive`) gets sample j's noise from its simulation's episode key and j alone
+(`noise.streams`). So the batch keeps that sensor's raw samples, as it keeps a noise-free sensor's (only
+those a later read needs, the rest read straight from the control step's records), and a read adds each
+sample's noise to the values it gathered (`streams.add_sums` on the flat read, one job per sensor) before
+any reduction. A sample in the windows of several reads gets the same numbers each time. Padding before
+the reset sample is the reset sample's noisy value (`pad_with_initial_value`) or zeros, which no noise
+touches, as in the single-simulation Updater.
+
+A simulation whose episode has a noise level other than 1 blends the result with the raw value
+(`noise.level.blend`, as the pipeline's last stage does).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any, NamedTuple, cast
+
+import numpy as np
+
+from ..noise.level import Blend, blend
+from ..noise.streams import Affine, Sum, add_sums
+from ..runtime.channels import FixedChannel
+from .layout import Layout
+from .noise import BatchPipeline, _Additive
+
+__all__ = ["ReadNoise", "added_as_read"]
+
+# A sample's noise costs about 16 ns on the history path (two gaussian lanes, 512 simulations), plus about 9 ns
+# to copy it there; read by read it costs the 16 ns at every read that shows it. Reading each sample at most
+# this many times on average, the read path costs less (a long buffer of a fast sensor, a frame stack, does not).
+_MAX_READS_PER_SAMPLE = 1.5
+
+
+def added_as_read(pipeline: BatchPipeline, channel: FixedChannel) -> bool:
+    """Whether the batch adds the channel's noise as it reads: the pipeline only adds numbers, and reads show
+    each sample taken at most `_MAX_READS_PER_SAMPLE` times on average (per period of the schedule: slots
+    read over samples taken)."""
+    if pipeline.additive is None:
+        return False
+    schedule = channel.schedule
+    shown = schedule.period // schedule.substeps * schedule.buffer
+    return shown <= _MAX_READS_PER_SAMPLE * len(schedule.needed_phases())
+
+
+class _Sensor(NamedTuple):
+    stage: _Additive  # the pipeline's fused sum: its keys and terms
+    terms: list[Affine]
+    size: int  # values per sample
+    span: slice  # its (simulation, slot) pairs in the concatenated arrays of `ReadNoise`
+    blend: Any  # the pipeline's batched `Blend` (its per-simulation levels), or None
+
+
+def _starts(layout: Layout, c: int, size: int, buffer: int) -> np.ndarray:
+    """Where simulation i's slot s of fixed channel c starts in the values of one read (`Layout.read_parts`)."""
+    nsim, plain_width = layout.nsim, layout.plain_cols.size
+    sims, slots = np.arange(nsim)[:, None], np.arange(buffer)[None, :]
+    for i, part, _ in layout.plain:
+        if i == c:
+            return cast(np.ndarray, sims * plain_width + part.start + slots * size)
+    at = nsim * plain_width
+    for _, part, block, members in layout.groups:
+        for i, sub, _ in members:
+            if i == c:
+                return cast(np.ndarray, at + (slots * nsim + sims) * block[1] + sub.start)
+        at += nsim * part.size
+    raise ValueError(f"channel {c} is not read")
+
+
+class ReadNoise:
+    """The read-time noise of fixed channels `pipelines` (channel -> its batch pipeline) of a batch.
+
+    Every sensor's (simulation, slot) pairs are laid end to end, so that a read computes all their sample
+    indices in one pass; the keys, which change only at resets (`restart`), are kept in that order too."""
+
+    def __init__(self, pipelines: dict[int, BatchPipeline], channels: Sequence[FixedChannel], layout: Layout, pad: bool):
+        self.pad = pad
+        self.nsim = nsim = layout.nsim
+        self.sensors: list[_Sensor] = []
+        columns: list[tuple[np.ndarray, ...]] = []
+        at = 0
+        for c, pipeline in pipelines.items():
+            stage = cast(_Additive, pipeline.additive)
+            schedule, size = channels[c].schedule, int(np.prod(channels[c].shape, dtype=np.int64))
+            count = nsim * schedule.buffer
+            blend_stage = next((b for b in pipeline.batched if isinstance(b.template, Blend)), None)
+            self.sensors.append(_Sensor(stage, cast(list[Affine], stage.terms), size, slice(at, at + count), blend_stage))
+            at += count
+            # the read at t sees sample (t - delay) // interval - buffer + 1 + slot in slot `slot`
+            columns.append((np.repeat(np.arange(nsim), schedule.buffer), _starts(layout, c, size, schedule.buffer).ravel(),
+                            np.tile(np.arange(schedule.buffer) - schedule.buffer + 1, nsim),
+                            *(np.full(count, v) for v in (schedule.delay, schedule.interval, pipeline.stride))))
+        self.sims, self.starts, self.first, self.delay, self.interval, self.stride = (
+            np.concatenate(column).astype(np.int64) for column in zip(*columns))
+        self.keys = np.zeros((at, 2), np.uint64)
+
+    def restart(self) -> None:
+        """Take the sensors' episode keys (after a reset of some simulations)."""
+        for sensor in self.sensors:
+            self.keys[sensor.span] = sensor.stage.keys[self.sims[sensor.span]]
+
+    def apply(self, values: np.ndarray, t: np.ndarray) -> None:
+        """Add each read sample's noise to `values`, one read of every simulation (`t`: steps since reset)."""
+        sample = (t[self.sims] - self.delay) // self.interval + self.first  # < 0: padding
+        padding = bool((sample < 0).any())
+        if self.pad:
+            np.maximum(sample, 0, out=sample)  # the reset sample's value
+        sample = sample * self.interval // self.stride  # the noise numbers' index
+        jobs, blends = [], []
+        for sensor in self.sensors:
+            sims, starts, j, keys = (a[sensor.span] for a in (self.sims, self.starts, sample, self.keys))
+            if padding and not self.pad:  # zeros: no noise
+                kept = np.flatnonzero(j >= 0)
+                sims, starts, j, keys = sims[kept], starts[kept], j[kept], keys[kept]
+            if not j.size:
+                continue
+            jobs.append(Sum(sensor.stage.template.draws(j, keys), sensor.terms, values, 0, starts))
+            if sensor.blend is not None and sensor.blend.template.batch_active:
+                blends.append(self._blended(values, sensor, sims, starts))
+        add_sums(jobs)
+        for at, raw, level in blends:
+            out = np.empty_like(raw)
+            blend(raw, values[at], level, out)
+            values[at] = out
+
+    @staticmethod
+    def _blended(values: np.ndarray, sensor: _Sensor, sims: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The positions of the samples of simulations at a level other than 1, their raw values and levels."""
+        levels = sensor.blend.levels[sims]
+        rows = np.flatnonzero(levels != 1.0)
+        at = starts[rows, None] + np.arange(sensor.size)
+        return at, values[at], levels[rows, None]
