@@ -165,7 +165,7 @@ class Planner:
         if isinstance(interval, numbers.Integral):
             counts = np.maximum(end // int(interval) - first + 1, 0)
             g = np.repeat(np.arange(len(sims)), counts)
-            j = first[g] + np.arange(g.size) - np.repeat(np.cumsum(counts) - counts, counts)
+            j = np.repeat(first - (np.cumsum(counts) - counts), counts) + np.arange(g.size)
             t = j * int(interval)
         else:
             least = max(int(interval.minimum), 1)
@@ -185,7 +185,7 @@ class Planner:
             self.last[sims[had]] = times[had, counts[had] - 1]
         self.next[sims] = first + counts
         d = (np.full(g.size, int(delay), np.int64) if isinstance(delay, numbers.Integral)
-             else _drawn(delay, self.keys[sims[g]], j, 1))
+             else _drawn(delay, np.repeat(self.keys[sims], counts, axis=0), j, 1))  # g: sorted, counts per sim
         return g, t, d
 
     def round(self, sims: np.ndarray, length: int) -> Round:
