@@ -250,8 +250,9 @@ class FeatureBank:
         plan = self._gathers.get(phase)
         if plan is None:
             plan = self._compile(phase)
-            # its index, noise positions and work buffer (the noise plan's fields are the bank's own)
-            self._gathers.put(phase, plan, 4 * plan.source.nbytes)
+            # its index, noise positions and work buffer (the noise plan's fields are the bank's own), and the
+            # compiled program's
+            self._gathers.put(phase, plan, 4 * plan.source.nbytes + (plan.kernel.nbytes if plan.kernel else 0))
         if plan.kernel is not None and (not plan.noise or step >= self.rows):  # no padding after the noise
             plan.kernel.run(plan.source)
             return cut(plan)

@@ -37,6 +37,7 @@ class KernelRead(NamedTuple):
 
     run: Callable[[np.ndarray], None]
     arrays: tuple[np.ndarray, ...]
+    nbytes: int  # of the program and the index arrays it made (the others are the bank's and the read's)
 
 
 class _Program:
@@ -45,6 +46,7 @@ class _Program:
     def __init__(self) -> None:
         self.records: list[tuple[int, ...]] = []
         self.arrays: list[np.ndarray] = []
+        self.made = 0  # bytes of the arrays made here
 
     def at(self, array: np.ndarray | None, dtype: Any = np.float64) -> int:
         """The address of `array` (0 for None), kept alive; it must be contiguous of `dtype` (views of the
@@ -59,26 +61,31 @@ class _Program:
     def add(self, kind: str, out: np.ndarray, a: np.ndarray, b: int, positions: int, count: int) -> None:
         self.records.append((_CODES[kind], self.at(out), self.at(a), b, positions, count))
 
+    def made_here(self, array: np.ndarray, dtype: Any) -> int:
+        """The address of a contiguous copy of `array` (positions, columns, constants) made for the program."""
+        copy = np.array(array, dtype, order="C")
+        self.made += copy.nbytes
+        return self.at(copy, dtype)
+
     def layer(self, layer: Layer, gathered: np.ndarray) -> None:
-        pos = np.ascontiguousarray(layer.pos, np.int64)
-        at = self.at(pos, np.int64)
+        at, count = self.made_here(layer.pos, np.int64), len(layer.pos)
         table = layer.table
         if layer.kind == "term":
             assert table is not None
-            self.add("term", gathered, table, table.size, at, len(pos))
+            self.add("term", gathered, table, table.size, at, count)
         elif layer.kind in ("add", "mul"):
             assert table is not None
-            self.add(layer.kind, gathered, table, self.at(np.ascontiguousarray(layer.args[0], np.int64), np.int64),
-                     at, len(pos))
+            self.add(layer.kind, gathered, table, self.made_here(layer.args[0], np.int64), at, count)
         else:  # quantize (step) and clip (low, high)
-            args = [np.ascontiguousarray(a, np.float64) for a in layer.args]
-            self.add(layer.kind, gathered, args[0], self.at(args[1]) if len(args) > 1 else 0, at, len(pos))
+            first = np.array(layer.args[0], np.float64, order="C")
+            self.made += first.nbytes
+            high = self.made_here(layer.args[1], np.float64) if len(layer.args) > 1 else 0
+            self.add(layer.kind, gathered, first, high, at, count)
 
     def step(self, step: Step) -> None:
         if step.kind == "take":
             assert step.positions is not None
-            index = np.ascontiguousarray(step.positions, np.int64)
-            self.add("take", step.out, step.source, 0, self.at(index, np.int64), len(index))
+            self.add("take", step.out, step.source, 0, self.made_here(step.positions, np.int64), len(step.positions))
         elif step.kind == "divide":
             self.add("divide", step.out, step.source, 0, 0, len(step.out))
         else:  # a family's reduction of a (buffer, width) window
@@ -98,4 +105,4 @@ def kernel_read(plan: CompiledRead, layers: Sequence[Layer], history: np.ndarray
     for step in plan.records:
         program.step(step)
     code = np.array(program.records, np.int64).tobytes()
-    return KernelRead(functools.partial(read, code), tuple(program.arrays))
+    return KernelRead(functools.partial(read, code), tuple(program.arrays), program.made + len(code))
