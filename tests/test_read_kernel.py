@@ -14,12 +14,11 @@ import pytest
 
 import sensorcfg
 from sensorcfg import assets, compiled
-from sensorcfg.draws import ChoiceSteps, UniformSteps
-from sensorcfg.noise import build_noise
 from sensorcfg.observables.aggregators import AGGREGATORS
 from sensorcfg.runtime import bank, planned, read_kernel
 from sensorcfg.runtime.bank_noise import Layer, ops_of
 from sensorcfg.runtime.bank_read import CompiledRead, Step
+from test_planned_schedules import _ELEMENTS, _STAGES, _noisy_suite
 
 KERNEL = getattr(compiled.MODULE, "read", None) is not None
 
@@ -95,27 +94,10 @@ def test_each_op_is_its_numpy_reference(seed) -> None:
 
 def _suite(seed: int, drawn: bool) -> dict[str, sensorcfg.Observable]:
     """Every bank noise stage and every family (sum, mean and median of two, max, min, with plain members)."""
-    rng = np.random.default_rng(seed)
-    physics = sensorcfg.Physics(mujoco.MjModel.from_xml_path(str(assets.path("robot.xml"))))
-    stages = [[{"type": "gaussian", "std": 0.01}], [{"type": "bias", "std": 0.1}, {"type": "quantize", "step": 0.01}],
-              [{"type": "random_walk", "std": 0.01, "correlation_time": 0.05}, {"type": "clip", "min": -0.2, "max": 0.2}],
-              [{"type": "gaussian", "std": 0.01}, {"type": "scale", "std": 0.1}, {"type": "clip", "min": 0.0}], None]
-    out = {}
-    for j, (kind, element) in enumerate([("qpos", "joint:*"), ("qvel", "joint:*"), ("xpos", "site:fingertip"),
-                                          ("qpos", "joint:wrist"), ("xpos", "body:base")] * 2):
-        interval = [1, UniformSteps(1, 4), ChoiceSteps((2, 5)), 3][int(rng.integers(4))] if drawn else int(rng.integers(1, 4))
-        delay = [UniformSteps(0, 3), ChoiceSteps((1, 7), (0.7, 0.3)), 2][int(rng.integers(3))] if drawn else int(rng.integers(0, 4))
-        buffer = int(rng.integers(1, 4))
-        aggregator = [None, "mean", "max", "sum", "min", "median"][int(rng.integers(6))]
-        obs = sensorcfg.Feature(kind, element, update_interval=interval, delay=delay, buffer_size=buffer,
-                                aggregator="mean" if aggregator == "median" and buffer > 2 else aggregator)
-        obs.reader(physics)
-        noise = stages[int(rng.integers(len(stages)))]
-        if noise:
-            obs.noise = build_noise(noise, obs.array_spec.shape, np.float64, physics.timestep)
-        obs.enabled = True
-        out[f"s{j}"] = obs
-    return out
+    stages = [*_STAGES, [{"type": "gaussian", "std": 0.01}, {"type": "scale", "std": 0.1}, {"type": "clip", "min": 0.0}]]
+    fixed = {} if drawn else {"intervals": [1, 2, 3], "delays": [0, 1, 2, 3]}
+    return _noisy_suite(seed, **fixed, stages=stages, aggregators=[None, "mean", "max", "sum", "min", "median"],
+                        elements=[*_ELEMENTS, ("xpos", "body:base")])
 
 
 def _run(seed: int, drawn: bool, pad: bool) -> tuple[list[dict[str, np.ndarray]], sensorcfg.Updater]:
