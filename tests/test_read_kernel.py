@@ -6,6 +6,7 @@ reduction, padding) with and without the kernel. Where the kernel is meant to be
 
 from __future__ import annotations
 
+import functools
 import os
 
 import mujoco
@@ -105,6 +106,7 @@ def _run(seed: int, drawn: bool, pad: bool) -> tuple[list[dict[str, np.ndarray]]
     physics = sensorcfg.Physics(model)
     updater = sensorcfg.Updater(_suite(seed, drawn), 3, pad_with_initial_value=pad)
     controls = np.random.default_rng(seed).uniform(-1, 1, (1500, model.nu))
+    physics_step = functools.partial(mujoco.mj_step, model, physics.data)
     seen = []
     for episode, steps in enumerate((1500, 200)):  # past the fixed bank's early reads and over planning rounds
         mujoco.mj_resetData(model, physics.data)
@@ -112,10 +114,7 @@ def _run(seed: int, drawn: bool, pad: bool) -> tuple[list[dict[str, np.ndarray]]
         seen.append(updater.get_observation())
         for control in controls[:steps]:
             physics.data.ctrl[:] = control
-            updater.prepare_for_next_control_step()
-            for _ in range(3):
-                mujoco.mj_step(model, physics.data)
-                updater.update()
+            updater.control_step(physics_step)  # (the Environment's loop)
             seen.append(updater.get_observation())
     return seen, updater
 
