@@ -201,10 +201,7 @@ class BankNoise:
                 everywhere = not has_term[key, member[rest]].any()
                 out.append(Layer(kind, np.arange(len(columns)) if everywhere else pos, self.flat_fields[key], ()))
                 continue
-            args = tuple(np.concatenate([params[a].take(columns[p]) for p, params in entries])[order]
-                         for a in range(len(entries[0][1])))  # their constants at `pos` (episode draws: whole)
-            out.append(Layer(kind, pos, entries[0][1][0] if kind in ("add", "mul") else None,
-                             (columns[pos],) if kind in ("add", "mul") else args))
+            out.append(_elementwise_layer(kind, pos, order, entries, columns))
         return out
 
     def read_program(self, columns: np.ndarray, gathered: np.ndarray) -> list[ReadOp]:
@@ -229,6 +226,17 @@ class Layer(NamedTuple):
     pos: np.ndarray
     table: np.ndarray | None
     args: tuple[np.ndarray, ...]
+
+
+def _elementwise_layer(kind: str, pos: np.ndarray, order: np.ndarray, entries: list[tuple[np.ndarray, Any]],
+                      columns: np.ndarray) -> Layer:
+    """An episode draw's layer (its group's values, read at its columns) or quantize's and clip's (their
+    constants at `pos`, gathered from each entry's (positions, parameters) in the order `order`)."""
+    if kind in ("add", "mul"):
+        return Layer(kind, pos, entries[0][1][0], (columns[pos],))
+    args = tuple(np.concatenate([params[a].take(columns[p]) for p, params in entries])[order]
+                 for a in range(len(entries[0][1])))
+    return Layer(kind, pos, None, args)
 
 
 def ops_of(layers: list[Layer], gathered: np.ndarray) -> list[ReadOp]:
