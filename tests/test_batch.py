@@ -407,8 +407,9 @@ def test_unvectorisable_suites_raise_before_stepping():
     custom["arm"].noise = build_noise([{"type": "gaussian", "std": 0.1},
                                        {"type": "custom", "callable": lambda value, random_state: value}],
                                       (2,), np.float64, 0.002)
-    with pytest.raises(SuiteError, match=r"sensor 'arm': its custom noise stage \(custom noise callable '.*<lambda>'\) "
-                                         r"cannot be vectorised across simulations"):
+    with pytest.raises(SuiteError, match=r"sensor 'arm': a custom noise stage \(custom noise callable '.*<lambda>'\) "
+                                         r"runs Python once per sample and simulation, which a BatchEnvironment "
+                                         r"cannot vectorise"):
         BatchEnvironment(ROBOT, custom, 2)
     with pytest.raises(SuiteError, match=r"sensor 'arm': its delay is a callable .* cannot be vectorised"):
         BatchEnvironment(ROBOT, _one(delay=lambda random_state: 1), 2)
@@ -418,7 +419,7 @@ def test_unvectorisable_suites_raise_before_stepping():
         BatchEnvironment(ROBOT, _one(buffer_size=2, aggregator=lambda x: x.sum(0)), 2)
     generic = {"time": sensorcfg.Generic(lambda physics: np.array([physics.data.time]))}
     generic["time"].enabled = True
-    with pytest.raises(SuiteError, match=r"sensor 'time' \(a Generic\) cannot run in a BatchEnvironment"):
+    with pytest.raises(SuiteError, match=r"sensor 'time' \(Generic\): a generic callable runs Python per sample"):
         BatchEnvironment(ROBOT, generic, 2)
     with pytest.raises(ArgumentError, match=r"nsim must be a positive integer"):
         BatchEnvironment(ROBOT, _one(), 0)
