@@ -22,7 +22,7 @@ from .errors import did_you_mean
 from .kinds import CONSTANT, INTERNAL, STATE, kinds_of, offered_kinds, state_twin
 from .observables.feature import batch_on_demand_problem
 
-__all__ = ["kind_problems", "sensor_problems", "batch_problems", "per_simulation_refusal"]
+__all__ = ["kind_problems", "sensor_problems", "batch_problems", "batch_refusal", "per_simulation_refusal"]
 
 Found = list[tuple[tuple[str | int, ...], str]]  # (key path inside the sensor, message)
 
@@ -84,6 +84,26 @@ def per_simulation_refusal(camera: bool, what: str) -> str:
     return f"a BatchEnvironment {does} per simulation and cannot apply {what} to them; {_SINGLE}"
 
 
+# Why a BatchEnvironment refuses a feature, by rule: the one wording `batch_problems` puts at a suite's line and
+# the batch raises for Python observables (`batch.updater`, `batch.noise`).
+_BATCH_REFUSALS = {
+    "generic": "a generic callable runs Python per sample and simulation, which a BatchEnvironment cannot "
+               "vectorise; use the single-simulation Environment for it",
+    "constant": f"a BatchEnvironment reads mjData fields across simulations, not model constants; {_SINGLE}",
+    "dtype": "{what} is {dtype}; a BatchEnvironment vectorises float64 features only; " + _SINGLE,
+    "noise stage": "a {kind} noise stage{detail} runs Python once per sample and simulation, which a "
+                   "BatchEnvironment cannot vectorise; express it with built-in stages, or use the "
+                   "single-simulation Environment",
+    "corruptor": "a corruptor runs a Python callable per sample and simulation, which a BatchEnvironment cannot "
+                 "vectorise; use noise stages instead, or the single-simulation Environment",
+}
+
+
+def batch_refusal(rule: str, **details: str) -> str:
+    """Why a BatchEnvironment refuses a feature by `rule` (a key of `_BATCH_REFUSALS`), with its details."""
+    return _BATCH_REFUSALS[rule].format(**details)
+
+
 def batch_problems(cfg: SensorConfig, dtype: Any, field: str | None, model: mujoco.MjModel) -> Found:
     """What `BatchEnvironment` cannot run, by key."""
     found: Found = []
@@ -94,20 +114,15 @@ def batch_problems(cfg: SensorConfig, dtype: Any, field: str | None, model: mujo
                 found.append(((key,), per_simulation_refusal(cfg.kind in IMAGE_KINDS, _PER_SIMULATION_WHAT[key])))
         return found
     if cfg.kind == GENERIC_KIND:
-        return [(("kind",), "a generic callable runs Python per sample and simulation, which a BatchEnvironment "
-                 "cannot vectorise; use the single-simulation Environment for it")]
+        return [(("kind",), batch_refusal("generic"))]
     if cfg.constant:
-        found.append((("constant",), "a BatchEnvironment reads mjData fields across simulations, not model "
-                      f"constants; {_SINGLE}"))
+        found.append((("constant",), batch_refusal("constant")))
     elif dtype is not None and np.dtype(dtype) != np.float64:
-        found.append((("kind",), f"{cfg.kind} is {np.dtype(dtype)}; a BatchEnvironment vectorises float64 "
-                      f"features only; {_SINGLE}"))
+        found.append((("kind",), batch_refusal("dtype", what=cfg.kind, dtype=str(np.dtype(dtype)))))
     problem = batch_on_demand_problem(model, field) if field else None
     if problem:
         found.append((("kind",), problem))
     for i, stage in enumerate(cfg.noise or ()):
         if stage.type == "custom":
-            found.append((("noise", i), "a custom noise stage runs Python once per sample and simulation, which a "
-                          "BatchEnvironment cannot vectorise; express it with built-in stages, or use the "
-                          "single-simulation Environment"))
+            found.append((("noise", i), batch_refusal("noise stage", kind="custom", detail="")))
     return found

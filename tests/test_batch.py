@@ -203,12 +203,12 @@ version: 1
 options: {{pad_with_initial_value: {pad}}}
 sensors:
   qpos: {{kind: qpos, element: "joint:*", buffer: 3, delay: 2, noise: [{{type: gaussian, std: 0.1}}]}}
-  gyro: {{kind: sensordata, element: "sensor:imu_gyro", interval: 2, delay: 1, buffer: 2, aggregator: mean,
+  gyro: {{kind: sensordata, element: "sensor:imu_gyro", delay: 1, buffer: 3, aggregator: mean,
           noise: [{{type: gaussian, std: 0.1}}, {{type: uniform, low: -0.01, high: 0.02}}]}}
-  hand: {{kind: xpos, element: "site:hand_site", interval: 2, buffer: 2, noise: [{{type: uniform, low: 0, high: 0.1}}]}}
-  elbow: {{kind: qvel, element: "joint:elbow", buffer: 4, aggregator: max, noise: [{{type: gaussian, mean: 1, std: 0.5}}]}}
+  hand: {{kind: xpos, element: "site:hand_site", interval: 3, delay: 4, noise: [{{type: uniform, low: 0, high: 0.1}}]}}
+  elbow: {{kind: qvel, element: "joint:elbow", buffer: 3, aggregator: max, noise: [{{type: gaussian, mean: 1, std: 0.5}}]}}
   walk: {{kind: qvel, element: "joint:shoulder", delay: 1, noise: [{{type: random_walk, std: 0.1}}]}}
-  stack: {{kind: qpos, element: "joint:elbow", buffer: 7, noise: [{{type: gaussian, std: 0.1}}]}}
+  stack: {{kind: qpos, element: "joint:elbow", interval: 3, buffer: 2, noise: [{{type: gaussian, std: 0.1}}]}}
 """
 
 
@@ -216,7 +216,7 @@ sensors:
 @pytest.mark.parametrize("pad", [False, True])
 def test_additive_noise_added_as_the_batch_reads_is_the_single_environments(pad):
     """Fixed-schedule sensors whose noise only adds numbers get it as the batch reads (`batch.read_noise`), the
-    others in the history (a stateful stage, or a buffer that shows each sample more than 1.5 times: the history
+    others in the history (a stateful stage, or a buffer that shows each sample twice: the history
     path draws fewer numbers): buffered, delayed, aggregated, padded or not, through partial resets that leave the
     simulations at different phases and noise levels (0.3 and 0 blend after the addition). Every simulation
     equals its Environment bit for bit."""
@@ -407,8 +407,9 @@ def test_unvectorisable_suites_raise_before_stepping():
     custom["arm"].noise = build_noise([{"type": "gaussian", "std": 0.1},
                                        {"type": "custom", "callable": lambda value, random_state: value}],
                                       (2,), np.float64, 0.002)
-    with pytest.raises(SuiteError, match=r"sensor 'arm': its custom noise stage \(custom noise callable '.*<lambda>'\) "
-                                         r"cannot be vectorised across simulations"):
+    with pytest.raises(SuiteError, match=r"sensor 'arm': a custom noise stage \(custom noise callable '.*<lambda>'\) "
+                                         r"runs Python once per sample and simulation, which a BatchEnvironment "
+                                         r"cannot vectorise"):
         BatchEnvironment(ROBOT, custom, 2)
     with pytest.raises(SuiteError, match=r"sensor 'arm': its delay is a callable .* cannot be vectorised"):
         BatchEnvironment(ROBOT, _one(delay=lambda random_state: 1), 2)
@@ -418,7 +419,7 @@ def test_unvectorisable_suites_raise_before_stepping():
         BatchEnvironment(ROBOT, _one(buffer_size=2, aggregator=lambda x: x.sum(0)), 2)
     generic = {"time": sensorcfg.Generic(lambda physics: np.array([physics.data.time]))}
     generic["time"].enabled = True
-    with pytest.raises(SuiteError, match=r"sensor 'time' \(a Generic\) cannot run in a BatchEnvironment"):
+    with pytest.raises(SuiteError, match=r"sensor 'time' \(Generic\): a generic callable runs Python per sample"):
         BatchEnvironment(ROBOT, generic, 2)
     with pytest.raises(ArgumentError, match=r"nsim must be a positive integer"):
         BatchEnvironment(ROBOT, _one(), 0)

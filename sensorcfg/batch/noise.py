@@ -23,6 +23,7 @@ from typing import Any, cast
 
 import numpy as np
 
+from ..checks import batch_refusal
 from ..errors import SuiteError
 from ..noise import arithmetic as ar
 from ..noise import stages as rt
@@ -303,12 +304,9 @@ class BatchPipeline:
         for stage in stages:
             make = BATCHED.get(type(stage))
             if make is None:
-                kind = type(stage).__name__.lower()
                 what = getattr(stage, "name", None)
-                raise SuiteError(f"sensor {sensor!r}: its {kind} noise stage{f' ({what})' if what else ''} cannot be "
-                                 "vectorised across simulations (it runs a Python callable once per sample and "
-                                 "simulation); use it with the single-simulation Environment, or express it with "
-                                 "built-in stages")
+                raise SuiteError(f"sensor {sensor!r}: " + batch_refusal("noise stage", kind=type(stage).__name__.lower(),
+                                                                        detail=f" ({what})" if what else ""))
             batched.append(make(stage, nsim, stride))
         self.stages = stages
         self.batched = batched

@@ -28,10 +28,11 @@ from .noise import BatchPipeline, _Additive
 
 __all__ = ["ReadNoise", "added_as_read"]
 
-# A sample's noise costs about 16 ns on the history path (two gaussian lanes, 512 simulations), plus about 9 ns
-# to copy it there; read by read it costs the 16 ns at every read that shows it. Reading each sample at most
-# this many times on average, the read path costs less (a long buffer of a fast sensor, a frame stack, does not).
-_MAX_READS_PER_SAMPLE = 1.5
+# Reads that show each sample once cost less than the history path (which also copies every sample and runs a
+# call per substep); reads that show each sample twice cost more. `benchmarks/batch_noise_paths.py` (512
+# simulations, two gaussian stages per sensor, update and read per control step) gives history / read 1.35-1.61
+# where each sample is read once, 0.73 twice, 0.63 three times: the break-even lies between 1 and 2 reads.
+_MAX_READS_PER_SAMPLE = 1.25
 
 
 def added_as_read(pipeline: BatchPipeline, channel: FixedChannel) -> bool:

@@ -30,7 +30,7 @@ from dm_env import specs
 from ..draws import (DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, ChoiceSteps, UniformSteps,
                      episode_entropy, sensor_keys)
 from .. import compiled
-from ..checks import per_simulation_refusal
+from ..checks import batch_refusal, per_simulation_refusal
 from ..errors import ArgumentError, SuiteError
 from ..observables.aggregators import AGGREGATORS, builtin
 from ..observables.feature import batch_on_demand_problem
@@ -193,18 +193,13 @@ class BatchUpdater:
     @staticmethod
     def _check(name: str, obs: Any, ch: Channel) -> None:
         if getattr(obs, "corruptor", None) is not None:
-            raise SuiteError(f"sensor {name!r}: a corruptor runs a Python callable per sample and simulation and "
-                             "cannot be vectorised; use noise stages instead")
+            raise SuiteError(f"sensor {name!r}: {batch_refusal('corruptor')}")
         sampler = ch.sampler
-        what = type(obs).__name__
         if getattr(sampler, "struct", None) != "data" or not hasattr(sampler, "index"):
-            kind = "a model field" if getattr(sampler, "struct", None) == "model" else f"a {what}"
-            raise SuiteError(f"sensor {name!r} ({kind}) cannot run in a BatchEnvironment: it takes features of "
-                             "mjData fields (vectorised across simulations) and cameras (rendered per simulation); "
-                             "a generic callable would run Python per sample and simulation: use the "
-                             "single-simulation Environment for it")
+            rule = "constant" if getattr(sampler, "struct", None) == "model" else "generic"
+            raise SuiteError(f"sensor {name!r} ({type(obs).__name__}): {batch_refusal(rule)}")
         if ch.dtype != np.float64:
-            raise SuiteError(f"sensor {name!r}: {ch.dtype} features cannot be vectorised (float64 only)")
+            raise SuiteError(f"sensor {name!r}: {batch_refusal('dtype', what=type(obs).__name__, dtype=str(ch.dtype))}")
         aggregator = ch.aggregator
         if aggregator is not None and not (ch.builtin_aggregator and ch.has_buffer_dim
                                            and builtin(aggregator) is not None):
