@@ -360,12 +360,208 @@ static PyObject *tables(PyObject *self, PyObject *args) {
     Py_RETURN_NONE;
 }
 
+/* read(program int64, index int64): a feature bank's compiled read (sensorcfg/runtime/read_kernel.py encodes
+ * it; the numpy steps of runtime/bank_read.py and runtime/bank_noise.py are the reference, compared bit for bit
+ * by tests/test_read_kernel.py). `program` holds records of READ_SLOTS int64s: an op code and its operands,
+ * raw addresses of float64 / int64 arrays the encoder keeps alive, counts. `index`: the history positions
+ * the read gathers (n of them). Each op is numpy's elementwise arithmetic in numpy's order, so the bits are
+ * numpy's: maximum and minimum keep the second operand on ties and the first NaN, as numpy's loops do;
+ * reductions run along the buffer axis row by row, sums from +0.0 (numpy's add.reduce over axis 0). */
+#define READ_SLOTS 6
+enum { R_GATHER = 1, R_TERM, R_ADD, R_MUL, R_QUANTIZE, R_CLIP, R_TAKE, R_SUM, R_MAX, R_MIN, R_DIVIDE };
+
+static inline double np_maximum(double a, double b) { return (a > b || isnan(a)) ? a : b; }
+static inline double np_minimum(double a, double b) { return (a < b || isnan(a)) ? a : b; }
+static inline int64_t clip_index(int64_t i, int64_t n) { return i < 0 ? 0 : (i >= n ? n - 1 : i); }
+
+static void read_op(const int64_t *op, const int64_t *ix, Py_ssize_t n) {
+    double *g = (double *)(intptr_t)op[1];
+    const double *a = (const double *)(intptr_t)op[2], *b = (const double *)(intptr_t)op[3];
+    const int64_t *pos = (const int64_t *)(intptr_t)op[4];
+    int64_t count = op[5];
+    switch (op[0]) {
+    case R_GATHER: /* g[i] = a[clip(ix[i])], a of op[3] values */
+        for (Py_ssize_t i = 0; i < n; i++) g[i] = a[clip_index(ix[i], op[3])];
+        break;
+    case R_TERM: /* a noise field a (op[3] values) at the gathered positions, added at pos */
+        for (int64_t k = 0; k < count; k++) g[pos[k]] = g[pos[k]] + a[clip_index(ix[pos[k]], op[3])];
+        break;
+    case R_ADD: /* this episode's draws a at columns b (int64) */
+        for (int64_t k = 0; k < count; k++) g[pos[k]] = g[pos[k]] + a[((const int64_t *)b)[k]];
+        break;
+    case R_MUL:
+        for (int64_t k = 0; k < count; k++) g[pos[k]] = g[pos[k]] * a[((const int64_t *)b)[k]];
+        break;
+    case R_QUANTIZE: /* divide, rint, multiply: arithmetic.quantize */
+        for (int64_t k = 0; k < count; k++) g[pos[k]] = rint(g[pos[k]] / a[k]) * a[k];
+        break;
+    case R_CLIP: /* maximum with a, then minimum with b: arithmetic.clip */
+        for (int64_t k = 0; k < count; k++) g[pos[k]] = np_minimum(np_maximum(g[pos[k]], a[k]), b[k]);
+        break;
+    case R_TAKE: /* g[k] = a[pos[k]]: the families' blocks stacked from the gathered windows and pads */
+        for (int64_t k = 0; k < count; k++) g[k] = a[pos[k]];
+        break;
+    case R_SUM: case R_MAX: case R_MIN: { /* out g (width op[5]) from the block a (op[4] rows) */
+        int64_t rows = op[4], width = count;
+        for (int64_t j = 0; j < width; j++) g[j] = op[0] == R_SUM ? 0.0 + a[j] : a[j];
+        for (int64_t r = 1; r < rows; r++) {
+            const double *row = a + r * width;
+            if (op[0] == R_SUM)
+                for (int64_t j = 0; j < width; j++) g[j] = g[j] + row[j];
+            else if (op[0] == R_MAX)
+                for (int64_t j = 0; j < width; j++) g[j] = np_maximum(g[j], row[j]);
+            else
+                for (int64_t j = 0; j < width; j++) g[j] = np_minimum(g[j], row[j]);
+        }
+        break;
+    }
+    case R_DIVIDE: /* the means: g / a */
+        for (int64_t k = 0; k < count; k++) g[k] = g[k] / a[k];
+        break;
+    }
+}
+
+static PyObject *read_bank(PyObject *self, PyObject *args) {
+    Py_buffer program, index;
+    if (!PyArg_ParseTuple(args, "y*y*", &program, &index)) return NULL;
+    const int64_t *ops = (const int64_t *)program.buf;
+    Py_ssize_t nops = program.len / (8 * READ_SLOTS);
+    for (Py_ssize_t o = 0; o < nops; o++) read_op(ops + o * READ_SLOTS, (const int64_t *)index.buf, index.len / 8);
+    PyBuffer_Release(&program);
+    PyBuffer_Release(&index);
+    Py_RETURN_NONE;
+}
+
+/* plan(g, t, a, prev, tail, reads, floor, windows, take_sim, take_step, buffer, substeps, length): the
+ * ordering, windows and samples to take of a planning round (sensorcfg/runtime/drawn.py, Planner.round; its
+ * numpy steps are the reference, compared by tests/test_planned_kernel.py). The round's delivered samples
+ * of simulations 0..m-1 (g: position, t: time, a: arrival, all <= the round's end) are put in order per
+ * simulation by (arrival, time), ties in their given order (numpy's stable argsort of the same key); each
+ * simulation's sequence is its `tail` (the last `buffer` delivered before, -1: none) followed by them; the
+ * read at prev + substeps - prev % substeps + k substeps (k < reads per round; the one read at step 0 when
+ * length is 0) shows the last `buffer` entries delivered by it. `tail` becomes each sequence's last
+ * `buffer`. With length > 0, the entries shown (> floor of their simulation, where `reads` (m, buffer)
+ * uint8 allows, when given) are the samples to take, in (simulation, read, entry) order; returns their count. */
+static int before(const int64_t *a, const int64_t *t, int64_t i, int64_t j) {
+    return a[i] < a[j] || (a[i] == a[j] && t[i] < t[j]);
+}
+
+static void merge_sort(int64_t *x, int64_t *tmp, Py_ssize_t n, const int64_t *a, const int64_t *t) {
+    if (n < 2) return;
+    Py_ssize_t h = n / 2;
+    merge_sort(x, tmp, h, a, t);
+    merge_sort(x + h, tmp, n - h, a, t);
+    if (!before(a, t, x[h], x[h - 1])) return; /* already in order (the usual case: nearly sorted) */
+    memcpy(tmp, x, sizeof(int64_t) * n);
+    Py_ssize_t i = 0, j = h, k = 0;
+    while (i < h && j < n) x[k++] = before(a, t, tmp[j], tmp[i]) ? tmp[j++] : tmp[i++];
+    while (i < h) x[k++] = tmp[i++];
+    while (j < n) x[k++] = tmp[j++];
+}
+
+/* insertion sort while it moves few entries (arrivals are nearly in order of time: a delay displaces a sample
+ * by a few places), merge sort past 8 moves per entry; both stable */
+static void sort_arrivals(int64_t *x, int64_t *tmp, Py_ssize_t n, const int64_t *a, const int64_t *t) {
+    Py_ssize_t moves = 0;
+    for (Py_ssize_t i = 1; i < n; i++) {
+        int64_t v = x[i];
+        Py_ssize_t j = i;
+        while (j > 0 && before(a, t, v, x[j - 1])) {
+            x[j] = x[j - 1];
+            j--;
+        }
+        x[j] = v;
+        moves += i - j;
+        if (moves > 8 * n) {
+            merge_sort(x, tmp, n, a, t);
+            return;
+        }
+    }
+}
+
+static PyObject *plan_round(PyObject *self, PyObject *args) {
+    Py_buffer gb, tb, ab, prevb, tailb, readsb, floorb, winb, simb, stepb;
+    Py_ssize_t b, n, length;
+    if (!PyArg_ParseTuple(args, "y*y*y*y*w*y*y*w*w*w*nnn", &gb, &tb, &ab, &prevb, &tailb, &readsb, &floorb, &winb,
+                          &simb, &stepb, &b, &n, &length))
+        return NULL;
+    Py_ssize_t N = gb.len / 8, m = prevb.len / 8, R = length ? (length / n > 1 ? length / n : 1) : 1;
+    PyObject *result = NULL;
+    int64_t *order = NULL, *tmp = NULL, *start = NULL, *seq = NULL;
+    if (tb.len != gb.len || ab.len != gb.len || tailb.len != 8 * m * b || winb.len != 8 * m * R * b ||
+        floorb.len != 8 * m || (readsb.len && readsb.len != m * b) || simb.len < 8 * m * R * b ||
+        stepb.len < 8 * m * R * b || b < 1 || n < 1) {
+        PyErr_SetString(PyExc_ValueError, "plan: arrays and sizes disagree");
+        goto done;
+    }
+    const int64_t *g = gb.buf, *t = tb.buf, *a = ab.buf, *prev = prevb.buf, *floor_ = floorb.buf;
+    const uint8_t *reads = readsb.len ? (const uint8_t *)readsb.buf : NULL;
+    int64_t *tail = tailb.buf, *win = winb.buf, *take_sim = simb.buf, *take_step = stepb.buf;
+    order = PyMem_Malloc(sizeof(int64_t) * (N + 1));
+    tmp = PyMem_Malloc(sizeof(int64_t) * (N + 1));
+    seq = PyMem_Malloc(sizeof(int64_t) * (N + b));
+    start = PyMem_Calloc(m + 1, sizeof(int64_t));
+    if (!order || !tmp || !seq || !start) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    for (Py_ssize_t i = 0; i < N; i++) {
+        if (g[i] < 0 || g[i] >= m) {
+            PyErr_SetString(PyExc_ValueError, "plan: a sample of no simulation");
+            goto done;
+        }
+        start[g[i] + 1]++;
+    }
+    for (Py_ssize_t s = 0; s < m; s++) start[s + 1] += start[s];
+    for (Py_ssize_t i = 0; i < N; i++) order[start[g[i]]++] = i; /* by simulation, in their given order */
+    for (Py_ssize_t s = m; s > 0; s--) start[s] = start[s - 1];
+    start[0] = 0;
+    Py_ssize_t taken = 0;
+    for (Py_ssize_t s = 0; s < m; s++) {
+        int64_t *mine = order + start[s];
+        Py_ssize_t count = start[s + 1] - start[s];
+        sort_arrivals(mine, tmp, count, a, t);
+        for (Py_ssize_t e = 0; e < b; e++) seq[e] = tail[s * b + e];
+        for (Py_ssize_t k = 0; k < count; k++) seq[b + k] = t[mine[k]];
+        int64_t first = length ? prev[s] + n - ((prev[s] % n) + n) % n : 0;
+        Py_ssize_t delivered = 0;
+        for (Py_ssize_t r = 0; r < R; r++) {
+            int64_t read = first + n * r;
+            while (delivered < count && a[mine[delivered]] <= read) delivered++;
+            int64_t *w = win + (s * R + r) * b;
+            for (Py_ssize_t e = 0; e < b; e++) {
+                w[e] = seq[delivered + e];
+                if (length && w[e] > floor_[s] && (!reads || reads[s * b + e])) {
+                    take_sim[taken] = s;
+                    take_step[taken++] = w[e];
+                }
+            }
+        }
+        for (Py_ssize_t e = 0; e < b; e++) tail[s * b + e] = seq[count + e];
+    }
+    result = PyLong_FromSsize_t(taken);
+done:
+    PyMem_Free(order);
+    PyMem_Free(tmp);
+    PyMem_Free(seq);
+    PyMem_Free(start);
+    PyBuffer_Release(&gb), PyBuffer_Release(&tb), PyBuffer_Release(&ab), PyBuffer_Release(&prevb);
+    PyBuffer_Release(&tailb), PyBuffer_Release(&readsb), PyBuffer_Release(&floorb), PyBuffer_Release(&winb);
+    PyBuffer_Release(&simb), PyBuffer_Release(&stepb);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"add", add, METH_VARARGS,
      "add(keys, samples, size, lanes, out, width, lo, rows, accumulate): the lanes' numbers, summed, into out's rows."},
     {"tables", tables, METH_VARARGS, "tables(kn, wn, fn): the ziggurat's tables (from streams.py)."},
     {"gather", gather, METH_VARARGS, "gather(table, index, out, start, stop): out[i] = table[index[i]] (clipped)."},
     {"scatter", scatter, METH_VARARGS, "scatter(table, index, values, start, stop): table[index[i]] = values[i] (clipped)."},
+    {"read", read_bank, METH_VARARGS,
+     "read(program, index): a feature bank's compiled read on its work buffer (sensorcfg/runtime/read_kernel.py)."},
+    {"plan", plan_round, METH_VARARGS,
+     "plan(g, t, a, prev, tail, reads, floor, windows, take_sim, take_step, buffer, substeps, length): a planning "
+     "round's windows and samples to take (sensorcfg/runtime/drawn.py)."},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_kernel",

@@ -7,6 +7,8 @@ path against the per-sample path, bit for bit, noise included.
 
 from __future__ import annotations
 
+from typing import Any
+
 import mujoco
 import numpy as np
 import pytest
@@ -95,21 +97,30 @@ def test_updater_follows_the_stream_rule(interval, delay, buffer, substeps) -> N
             np.testing.assert_array_equal(got, np.array(want) + 1, err_msg=f"read {read} ({list(observables)})")
 
 
-def _noisy_suite(seed: int) -> dict[str, sensorcfg.Observable]:
+_STAGES = [[{"type": "gaussian", "std": 0.01}], [{"type": "bias", "std": 0.1}, {"type": "quantize", "step": 0.01}],
+           [{"type": "random_walk", "std": 0.01, "correlation_time": 0.05}, {"type": "clip", "min": -0.2, "max": 0.2}],
+           None]
+_ELEMENTS = [("qpos", "joint:*"), ("qvel", "joint:*"), ("xpos", "site:fingertip"), ("qpos", "joint:wrist")]
+
+
+def _noisy_suite(seed: int, intervals: list[Any] | None = None, delays: list[Any] | None = None,
+                 stages: list[Any] = _STAGES, aggregators: list[Any] = [None, "mean", "max", "sum"],
+                 elements: list[tuple[str, str]] = _ELEMENTS) -> dict[str, sensorcfg.Observable]:
+    """Features of the bundled robot with random schedules (drawn ones by default), buffers, aggregators and
+    noise stages (also `tests/test_read_kernel.py`'s)."""
     rng = np.random.default_rng(seed)
     model = mujoco.MjModel.from_xml_path(str(assets.path("robot.xml")))
     physics = sensorcfg.Physics(model)
-    stages = [[{"type": "gaussian", "std": 0.01}], [{"type": "bias", "std": 0.1}, {"type": "quantize", "step": 0.01}],
-              [{"type": "random_walk", "std": 0.01, "correlation_time": 0.05}, {"type": "clip", "min": -0.2, "max": 0.2}],
-              None]
+    intervals = intervals or [1, UniformSteps(1, 4), ChoiceSteps((2, 5))]
+    delays = delays or [UniformSteps(0, 3), ChoiceSteps((1, 7), (0.7, 0.3)), 2]
     out = {}
-    for j, (kind, element) in enumerate([("qpos", "joint:*"), ("qvel", "joint:*"), ("xpos", "site:fingertip"),
-                                          ("qpos", "joint:wrist")] * 2):
-        interval = [1, UniformSteps(1, 4), ChoiceSteps((2, 5))][int(rng.integers(3))]
-        delay = [UniformSteps(0, 3), ChoiceSteps((1, 7), (0.7, 0.3)), 2][int(rng.integers(3))]
-        obs = sensorcfg.Feature(kind, element, update_interval=interval, delay=delay,
-                                buffer_size=int(rng.integers(1, 5)),
-                                aggregator=[None, "mean", "max", "sum"][int(rng.integers(4))])
+    for j, (kind, element) in enumerate(elements * 2):
+        interval = intervals[int(rng.integers(len(intervals)))]
+        delay = delays[int(rng.integers(len(delays)))]
+        buffer = int(rng.integers(1, 5))
+        aggregator = aggregators[int(rng.integers(len(aggregators)))]
+        obs = sensorcfg.Feature(kind, element, update_interval=interval, delay=delay, buffer_size=buffer,
+                                aggregator="mean" if aggregator == "median" and buffer > 2 else aggregator)
         obs.reader(physics)
         noise = stages[int(rng.integers(len(stages)))]
         if noise:

@@ -19,6 +19,7 @@ from dm_env import specs
 
 import sensorcfg
 from sensorcfg import ArgumentError
+from sensorcfg.draws import UniformSteps
 
 OFFSET = 100
 
@@ -469,3 +470,35 @@ def test_an_updater_without_observables_returns_an_empty_observation(observables
     updater.update()
     assert updater.get_observation() == observables
     assert updater.observation_spec() == observables
+
+
+@pytest.mark.parametrize("schedules", [
+    pytest.param([(1, 0, 1), (3, 2, 2), (2, 5, 3)], id="fixed"),
+    pytest.param([(1, 0, 1), (lambda: 2, lambda: 1, 2)], id="dm_control-random"),
+    pytest.param([(2, 1, 1), (UniformSteps(1, 3), UniformSteps(0, 4), 3)], id="planned"),
+])
+@pytest.mark.parametrize("n", [1, 4])
+def test_control_step_is_prepare_then_each_step_and_update(schedules: list[Any], n: int) -> None:
+    """`Updater.control_step(physics_step)` (the Environment's loop, with the per-step work inlined) reads what
+    prepare_for_next_control_step() and n x (step, update()) read."""
+    def make() -> sensorcfg.Updater:
+        return sensorcfg.Updater({f"c{k}": clock_observable(update_interval=i, delay=d, buffer_size=b)
+                                  for k, (i, d, b) in enumerate(schedules)}, n)
+
+    clock = Clock()
+    expected = [obs for _, obs in run(make(), clock, 150)]
+    clock = Clock()
+    updater = make()
+    updater.reset(clock, np.random.RandomState(0))
+    seen = [updater.get_observation()]
+
+    def physics_step() -> None:
+        clock.t += 1
+
+    for _ in range(150):
+        updater.control_step(physics_step)
+        seen.append(updater.get_observation())
+    assert updater.step_count == 150 * n and clock.t == 150 * n
+    for a, b in zip(seen, expected, strict=True):
+        for name in a:
+            np.testing.assert_array_equal(a[name], b[name])

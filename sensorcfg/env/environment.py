@@ -9,6 +9,7 @@ random-walk state survives from one episode to the next.
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 import warnings
@@ -33,6 +34,7 @@ _BAD_STATE = np.array([int(getattr(mujoco.mjtWarning, f"mjWARN_BAD{w}")) for w i
 # adjacent in MuJoCo's enum (3..6): a slice of the counters is then a live view, compared as bytes
 _BAD_SPAN = (slice(int(_BAD_STATE.min()), int(_BAD_STATE.max()) + 1)
              if np.array_equal(_BAD_STATE, np.arange(_BAD_STATE.min(), _BAD_STATE.max() + 1)) else None)
+_MID = dm_env.StepType.MID
 RewardFn = Callable[[Physics], float]
 TerminationFn = Callable[[Physics], bool]
 InitializeFn = Callable[[Physics, np.random.RandomState], None]
@@ -212,6 +214,7 @@ class Environment(ControlLoop, dm_env.Environment):
         self._warning_counts = self._physics.data.warning.number  # a live view of MjData's counters
         self._bad_counts = None if _BAD_SPAN is None else self._warning_counts[_BAD_SPAN]
         self._ctrl = self._physics.data.ctrl  # a live view too
+        self._physics_step = functools.partial(mujoco.mj_step, self._model, self._physics.data)
         suite_keyframe = kwargs.pop("keyframe", None)
         self._n, self._control_timestep, self._step_limit = episode_timing(
             self._model, physics_steps_per_control_step, control_timestep, time_limit,
@@ -225,6 +228,7 @@ class Environment(ControlLoop, dm_env.Environment):
         self._steps = 0
         self.last_divergence: str | None = None
         self._action_spec = action_spec(self._model)
+        self._action_shape = self._action_spec.shape
         # Specs need one bound reset; it uses its own random state so the episode streams stay untouched.
         self._reset_physics(np.random.RandomState(0), initialize=False)
         self._updater.reset(self._physics, np.random.RandomState(0))
@@ -292,31 +296,27 @@ class Environment(ControlLoop, dm_env.Environment):
             raise
 
     def _step(self, ctrl: np.ndarray) -> dm_env.TimeStep:
-        data = self._physics.data
         self._ctrl[:] = ctrl
-        updater, model = self._updater, self._model
-        updater.prepare_for_next_control_step()
-        for _ in range(self._n):
-            mujoco.mj_step(model, data)
-            updater.update()
+        updater = self._updater
+        updater.control_step(self._physics_step)  # n x (mj_step, then the Updater's update)
         self._steps += 1
         observation = updater.get_observation()
         reward = 0.0 if self._reward_fn is None else float(self._reward_fn(self._physics))
         divergence = self._divergence()
         if divergence is not None:
             self.last_divergence = divergence
-            warnings.warn(f"sensorcfg: the simulation diverged at t={data.time:.4f}s ({divergence}); "
+            warnings.warn(f"sensorcfg: the simulation diverged at t={self._physics.data.time:.4f}s ({divergence}); "
                           "the episode ends here (discount 0)", RuntimeWarning, stacklevel=3)
         terminated = divergence is None and self._termination_fn is not None and self._termination_fn(self._physics)
         last, discount = episode_end(divergence is not None, bool(terminated), self._steps, self._step_limit)
         if last:
             self._needs_reset = True
             return dm_env.TimeStep(dm_env.StepType.LAST, reward, float(discount), observation)
-        return dm_env.TimeStep(dm_env.StepType.MID, reward, 1.0, observation)  # dm_env.transition's
+        return dm_env.TimeStep(_MID, reward, 1.0, observation)  # dm_env.transition's
 
     def _check_action(self, action: Any) -> np.ndarray:
         action = np.asarray(action, dtype=np.float64)
-        if action.shape != (self._model.nu,):
+        if action.shape != self._action_shape:
             raise ArgumentError(f"action must have shape ({self._model.nu},) (one control per actuator), "
                                 f"got {action.shape}")
         return action

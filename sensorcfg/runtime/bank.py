@@ -21,8 +21,9 @@ import numpy as np
 from ..observables.aggregators import AGGREGATORS, builtin
 from .cache import BoundedCache
 from .bank_noise import BankNoise, Program, program
-from .bank_read import PADS, CompiledRead, compile_read, finish
+from .bank_read import PADS, CompiledRead, compile_read, cut, finish
 from .channels import Channel, FixedChannel
+from .read_kernel import kernel_read
 
 __all__ = ["FeatureBank", "BankMember", "GroupMember", "PlainRead", "ReadPlan", "ReductionGroup", "buffer_view",
            "fields_of", "read_plan", "rebind_noise", "reuse_key"]
@@ -237,10 +238,11 @@ class FeatureBank:
     def _compile(self, phase: int) -> CompiledRead:
         plan = read_plan(self.channels, self.cols, self.rows, phase)
         if self.noise is None:  # gather the families' blocks straight from the history
-            return compile_read(self.channels, plan, None, self.rows * self.width)
-        noise = self.noise
-        return compile_read(self.channels, plan, lambda source, gathered: noise.read_program(source % self.width, gathered),
-                            None)
+            compiled = compile_read(self.channels, plan, None, self.rows * self.width)
+        else:
+            noise = self.noise
+            compiled = compile_read(self.channels, plan, lambda source: noise.read_layers(source % self.width), None)
+        return compiled._replace(kernel=kernel_read(compiled, compiled.layers, self.flat))
 
     def read(self, step: int) -> Sequence[Any]:
         """Every member's observation at `step`: fresh arrays (views of this read's own copy)."""
@@ -248,8 +250,12 @@ class FeatureBank:
         plan = self._gathers.get(phase)
         if plan is None:
             plan = self._compile(phase)
-            # its index, noise positions and work buffer (the noise plan's fields are the bank's own)
-            self._gathers.put(phase, plan, 4 * plan.source.nbytes)
+            # its index, noise positions and work buffer (the noise plan's fields are the bank's own), and the
+            # compiled program's
+            self._gathers.put(phase, plan, 4 * plan.source.nbytes + (plan.kernel.nbytes if plan.kernel else 0))
+        if plan.kernel is not None and (not plan.noise or step >= self.rows):  # no padding after the noise
+            plan.kernel.run(plan.source)
+            return cut(plan)
         self.flat.take(plan.source, None, plan.gathered, "clip")
         if plan.noise:  # a noise program: the bank has noise
             self._apply_noise(step, plan)

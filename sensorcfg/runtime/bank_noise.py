@@ -17,7 +17,7 @@ Bit-identity with the per-sample pipeline is the contract (the tests compare bot
 from __future__ import annotations
 
 from collections.abc import Callable, Collection
-from typing import Any
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 
@@ -25,7 +25,7 @@ from ..noise import arithmetic as ar
 from ..noise import stages as rt
 from ..noise.streams import Draw, numbers
 
-__all__ = ["BankNoise", "ReadOp", "program"]
+__all__ = ["BankNoise", "Layer", "ReadOp", "ops_of", "program"]
 
 Program = tuple[tuple[str, Any], ...]  # (kind, stage) pairs
 ReadOp = Callable[[np.ndarray], None]  # op(the gathered values' history positions): in place, on its work buffer
@@ -172,12 +172,10 @@ class BankNoise:
 
     # -- reads ------------------------------------------------------------------------------------
 
-    def read_program(self, columns: np.ndarray, gathered: np.ndarray) -> list[ReadOp]:
-        """The noise of a read whose values are gathered into `gathered` (a read's own work buffer) from bank
-        columns `columns`: stage q of every group at once, layer by layer (the groups' values are disjoint,
-        and each value still goes through its own stages in order, so the bits are those of the per-sample
-        pipeline). Each op is `op(index)`, `index` being the read's history positions (a term is looked up
-        there in its noise field)."""
+    def read_layers(self, columns: np.ndarray) -> list[Layer]:
+        """The noise of a read of bank columns `columns` (one per gathered value): stage q of every group at
+        once, layer by layer (the groups' values are disjoint, and each value still goes through its own
+        stages in order, so the bits are those of the per-sample pipeline)."""
         member = np.searchsorted(self.cols, columns, side="right") - 1
         layers: dict[tuple[int, str, int], list[tuple[np.ndarray, Any]]] = {}
         has_term = np.zeros((self.nfields, len(self.shapes)), bool)  # [j, member]: it has a j-th term
@@ -190,7 +188,7 @@ class BankNoise:
                 if kind == "term":
                     has_term[j, members] = True
                     j += 1
-        ops = []
+        out = []
         for (_, kind, key), entries in sorted(layers.items(), key=lambda item: item[0][0]):
             pos = np.concatenate([p for p, _ in entries])
             order = np.argsort(pos)
@@ -201,19 +199,56 @@ class BankNoise:
                 rest = np.ones(len(columns), bool)
                 rest[pos] = False
                 everywhere = not has_term[key, member[rest]].any()
-                ops.append(_term_op(self.flat_fields[key], gathered, None if everywhere else _where(pos, len(columns))))
+                out.append(Layer(kind, np.arange(len(columns)) if everywhere else pos, self.flat_fields[key], ()))
                 continue
-            args = tuple(np.concatenate([params[a].take(columns[p]) for p, params in entries])[order]
-                         for a in range(len(entries[0][1])))  # quantize and clip: their constants at `pos`
-            fn = _elementwise(kind, entries[0][1], columns[pos], args)
-            ops.append(_on(fn, gathered, _where(pos, len(columns))))
-        return ops
+            out.append(_elementwise_layer(kind, pos, order, entries, columns))
+        return out
+
+    def read_program(self, columns: np.ndarray, gathered: np.ndarray) -> list[ReadOp]:
+        """`read_layers(columns)` as ops on a read's own work buffer `gathered`. Each op is `op(index)`,
+        `index` being the read's history positions (a term is looked up there in its noise field)."""
+        return ops_of(self.read_layers(columns), gathered)
 
     @staticmethod
     def apply(index: np.ndarray, program: list[ReadOp]) -> None:
         """Apply a read program to its work buffer's values, gathered from history positions `index`."""
         for op in program:
             op(index)
+
+
+class Layer(NamedTuple):
+    """One noise op of a read: `kind` ("term", "add", "mul", "quantize", "clip") at the gathered values'
+    positions `pos` (sorted); `table`: a term's noise field (flat, looked up at the history positions) or an
+    episode draw's full-width values; `args`: an episode draw's columns at `pos`, or the constants of
+    quantize (step) and clip (low, high) at `pos`."""
+
+    kind: str
+    pos: np.ndarray
+    table: np.ndarray | None
+    args: tuple[np.ndarray, ...]
+
+
+def _elementwise_layer(kind: str, pos: np.ndarray, order: np.ndarray, entries: list[tuple[np.ndarray, Any]],
+                      columns: np.ndarray) -> Layer:
+    """An episode draw's layer (its group's values, read at its columns) or quantize's and clip's (their
+    constants at `pos`, gathered from each entry's (positions, parameters) in the order `order`)."""
+    if kind in ("add", "mul"):
+        return Layer(kind, pos, entries[0][1][0], (columns[pos],))
+    args = tuple(np.concatenate([params[a].take(columns[p]) for p, params in entries])[order]
+                 for a in range(len(entries[0][1])))
+    return Layer(kind, pos, None, args)
+
+
+def ops_of(layers: list[Layer], gathered: np.ndarray) -> list[ReadOp]:
+    """The layers as numpy ops on `gathered`, the reference the compiled read (`read_kernel`) is held to."""
+    ops = []
+    for layer in layers:
+        where = _where(layer.pos, len(gathered))
+        if layer.kind == "term":
+            ops.append(_term_op(cast(np.ndarray, layer.table), gathered, where))
+            continue
+        ops.append(_on(_elementwise(layer), gathered, where))
+    return ops
 
 
 def _where(pos: np.ndarray, n: int) -> slice | np.ndarray | None:
@@ -242,12 +277,12 @@ def _term_op(field: np.ndarray, g: np.ndarray, where: slice | np.ndarray | None)
     return scattered
 
 
-def _elementwise(kind: str, params: tuple[np.ndarray, ...], cols: np.ndarray,
-                 args: tuple[np.ndarray, ...]) -> Callable[[np.ndarray], None]:
-    """An elementwise stage, in place: quantize and clip with their constants (`args`), an episode draw
-    with this episode's values (`params`, filled at `start`) at columns `cols`."""
+def _elementwise(layer: Layer) -> Callable[[np.ndarray], None]:
+    """An elementwise stage, in place: quantize and clip with their constants, an episode draw with this
+    episode's values (filled at `start`) at its columns."""
+    kind, args = layer.kind, layer.args
     if kind in ("add", "mul"):
-        values, arithmetic = params[0], ar.add if kind == "add" else ar.multiply
+        values, cols, arithmetic = cast(np.ndarray, layer.table), args[0], ar.add if kind == "add" else ar.multiply
         return lambda v: arithmetic(v, values.take(cols), v)
     if kind == "quantize":
         step, quantize = args[0], ar.quantize

@@ -11,6 +11,9 @@ observation from that copy. The copy is the read's own: each observation is a fr
 dm_control's are. With noise, the take gathers the windows only, noise is applied to them, and a second
 take stacks them (with the pads, then kept in the work buffer).
 
+Where the compiled kernel is built, `runtime/read_kernel.py` runs the same steps (gather, noise, take,
+reductions, divisions) as one call; these numpy steps are its reference.
+
 Work buffer, one row: [reduced values | plain windows | windows reduced alone | (with noise: the
 families' windows, pads) | family blocks]; the copy takes the first two parts.
 """
@@ -26,19 +29,33 @@ from typing import Any, NamedTuple, cast
 import numpy as np
 
 from ..observables.aggregators import AGGREGATORS, FAMILIES, Family, family
+from .bank_noise import Layer, ops_of
 from .channels import FixedChannel
 
-__all__ = ["PADS", "CompiledRead", "Reduction", "compile_read", "finish"]
+__all__ = ["PADS", "CompiledRead", "Reduction", "Step", "compile_read", "cut", "finish"]
 
 PADS = [f.pad for f in FAMILIES.values()]  # what the families' blocks are padded with
 
 
 class Reduction(NamedTuple):
-    """`reduce(window, out)`: both views of the work buffer."""
+    """`reduce(window, out)`: both views of the work buffer; `family`: the family's reduction ("sum", "max",
+    "min"), or None for a reduction that runs alone."""
 
     reduce: Callable[..., np.ndarray]
     window: np.ndarray  # (buffer, width)
     out: np.ndarray  # (width,)
+    family: str | None
+
+
+class Step(NamedTuple):
+    """One step of a read after its gather, on the work buffer: "take" (out = source.take(positions)), a
+    `Reduction`'s family or "alone" (out = reduce(source)), "divide" (out /= source)."""
+
+    kind: str
+    out: np.ndarray
+    source: np.ndarray
+    positions: np.ndarray | None
+    run: Callable[[], Any]
 
 
 class CompiledRead(NamedTuple):
@@ -47,10 +64,13 @@ class CompiledRead(NamedTuple):
     source: np.ndarray  # the history positions gathered, in the order of `gathered`
     gathered: np.ndarray  # the windows' part of the work buffer
     steps: list[Callable[[], Any]]  # on the work buffer, in order: the families' take, reductions, divisions
+    records: list[Step]  # the same steps, as records (`read_kernel` compiles them)
     shown: np.ndarray  # the part of the work buffer the observations show, (1, n)
     cut: Callable[[np.ndarray], tuple[Any, ...]]  # a copy of `shown` -> every member's value
-    reshapes: list[tuple[int, tuple[int, ...]]]  # members whose cut needs a reshape: (member, shape)
+    reshapes: list[tuple[int, np.ndarray]]  # members whose cut needs a reshape: (member, its value's view of `shown`)
     noise: list[Any]  # the bank noise's read program for `source` ([] without noise)
+    layers: list[Layer]  # the same program, as records
+    kernel: Any = None  # the whole read as one compiled call, where a bank made one (`read_kernel.KernelRead`)
 
 
 class _Group(NamedTuple):
@@ -64,7 +84,7 @@ class _Group(NamedTuple):
 
 class _Cuts:
     """Per member, the index into a (1, n) copy that gives its value in one step where its shape allows
-    ((1, k) and (k,) arrays, numpy scalars), else a flat cut and a reshape."""
+    ((1, k) and (k,) arrays, numpy scalars), else a copy of its own reshaped view (`reshaped`)."""
 
     def __init__(self, channels: Sequence[FixedChannel], plain: list[Any], ordered: list[_Group], starts: np.ndarray):
         """Plain members' windows start at `starts`; reduced values lie first, in the groups' `ordered` order."""
@@ -89,6 +109,11 @@ class _Cuts:
             if len(shape) != 1:
                 self.reshapes.append((i, shape))
 
+    def reshaped(self, shown: np.ndarray) -> list[tuple[int, np.ndarray]]:
+        """(member, its value as a view of `shown`, the (1, n) part of the work buffer a read copies) of the
+        members whose shape a cut does not give."""
+        return [(i, shown[self.keys[i]].reshape(shape)) for i, shape in self.reshapes]
+
     def getter(self) -> Callable[[np.ndarray], tuple[Any, ...]]:
         if len(self.keys) == 1:
             key = self.keys[0]
@@ -96,11 +121,10 @@ class _Cuts:
         return operator.itemgetter(*self.keys)
 
 
-def compile_read(channels: Sequence[FixedChannel], plan: Any,
-                 noise_plan: Callable[[np.ndarray, np.ndarray], list[Any]] | None,
+def compile_read(channels: Sequence[FixedChannel], plan: Any, noise_plan: Callable[[np.ndarray], list[Layer]] | None,
                  pads_at: int | None) -> CompiledRead:
-    """`plan`: `read_plan(...)` of one phase; `noise_plan(source, gathered)`: the bank noise's read program for
-    the values gathered from `source` into the work buffer's `gathered` (None without noise);
+    """`plan`: `read_plan(...)` of one phase; `noise_plan(source)`: the bank noise's read layers for the
+    values gathered from `source` (None without noise);
     `pads_at`: where the history's source holds the families' pads (`PADS`): the gather fills the families'
     blocks too; or None: noise applies to the gathered windows first, and a second take stacks them."""
     index, groups, plain = plan
@@ -121,11 +145,13 @@ def compile_read(channels: Sequence[FixedChannel], plan: Any,
     source = index[order]
     if pads_at is not None:  # the gather fills the blocks too
         source = np.concatenate([source, *stacked.index])
-    steps = _steps(work[0], nreduced, stacked, pads_at is None)
+    records = _steps(work[0], nreduced, stacked, pads_at is None)
     cuts = _Cuts(channels, plain, ordered, starts)
     gathered = work[0, nreduced:nreduced + len(source)]
-    return CompiledRead(source, gathered, steps, work[:, :int(starts[len(plain)])], cuts.getter(), cuts.reshapes,
-                        noise_plan(source, gathered) if noise_plan else [])
+    layers = noise_plan(source) if noise_plan else []
+    shown = work[:, :int(starts[len(plain)])]
+    return CompiledRead(source, gathered, [step.run for step in records], records, shown, cuts.getter(),
+                        cuts.reshaped(shown), ops_of(layers, gathered), layers)
 
 
 def finish(plan: CompiledRead) -> Sequence[Any]:
@@ -133,24 +159,34 @@ def finish(plan: CompiledRead) -> Sequence[Any]:
     observation (fresh arrays: views of this read's own copy)."""
     for step in plan.steps:
         step()
+    return cut(plan)
+
+
+def cut(plan: CompiledRead) -> Sequence[Any]:
+    """Every member's observation from the work buffer's reduced values and plain windows: fresh arrays
+    (views of this read's own copy; a member whose shape the cut does not give, a copy of its own)."""
     values = plan.cut(plan.shown.copy())
     if not plan.reshapes:
         return values
     cut = list(values)
-    for i, shape in plan.reshapes:
-        cut[i] = cut[i].reshape(shape)
+    for i, view in plan.reshapes:
+        cut[i] = view.copy()
     return cut
 
 
-def _steps(row: np.ndarray, nreduced: int, stacked: _Stacked, stack: bool) -> list[Callable[[], Any]]:
-    """A read's work after its gather, as zero-argument calls on the work buffer `row`: (with `stack`) a take
-    stacking the gathered windows and pads into the families' blocks, the reductions, the means' divisions."""
-    steps: list[Callable[[], Any]] = []
+def _steps(row: np.ndarray, nreduced: int, stacked: _Stacked, stack: bool) -> list[Step]:
+    """A read's work after its gather, on the work buffer `row`, each with its zero-argument call: (with
+    `stack`) a take stacking the gathered windows and pads into the families' blocks, the reductions, the
+    means' divisions."""
+    steps: list[Step] = []
     if stack and stacked.index:
-        steps.append(functools.partial(row[nreduced:stacked.first_block].take, np.concatenate(stacked.index), None,
-                                       row[stacked.first_block:stacked.block_at], "clip"))
-    steps += [functools.partial(reduce, window, out) for reduce, window, out in stacked.reductions]
-    steps += [functools.partial(np.true_divide, out, counts, out) for out, counts in stacked.divisions]
+        source, index, out = row[nreduced:stacked.first_block], np.concatenate(stacked.index), row[
+            stacked.first_block:stacked.block_at]
+        steps.append(Step("take", out, source, index, functools.partial(source.take, index, None, out, "clip")))
+    steps += [Step(r.family or "alone", r.out, r.window, None, functools.partial(r.reduce, r.window, r.out))
+              for r in stacked.reductions]
+    steps += [Step("divide", out, counts, None, functools.partial(np.true_divide, out, counts, out))
+              for out, counts in stacked.divisions]
     return steps
 
 
@@ -218,7 +254,7 @@ class _Stacked:
             col += w
         block = self.row[self.block_at:self.block_at + source.size].reshape(source.shape)
         out = self.row[self.at:self.at + width]
-        self.reductions.append(Reduction(AGGREGATORS[fam.reduce].reduce, block, out))
+        self.reductions.append(Reduction(AGGREGATORS[fam.reduce].reduce, block, out, fam.reduce))
         if (counts != 1).any():
             self.divisions.append((out, counts))
         self.index.append(source.ravel())
@@ -229,5 +265,5 @@ class _Stacked:
         """A group reduced on its own, from its window at `start` in the work row."""
         buffer, width = group.positions.shape
         window = self.row[start:start + buffer * width].reshape(buffer, width)
-        self.reductions.append(Reduction(group.reduce, window, self.row[self.at:self.at + width]))
+        self.reductions.append(Reduction(group.reduce, window, self.row[self.at:self.at + width], None))
         self.at += width

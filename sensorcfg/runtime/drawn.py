@@ -25,15 +25,17 @@ from __future__ import annotations
 import math
 import numbers
 from collections.abc import Sequence
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 
+from .. import compiled
 from ..noise import streams
 
 __all__ = ["Drawn", "Planner", "Round", "chunk_steps"]
 
 _MIN_CHUNK = 1024  # steps per planning round, at least
+_PLAN = getattr(compiled.MODULE, "plan", None)  # a round's ordering, windows and samples taken, compiled
 
 
 def _largest(value: Any) -> int:
@@ -163,7 +165,7 @@ class Planner:
         if isinstance(interval, numbers.Integral):
             counts = np.maximum(end // int(interval) - first + 1, 0)
             g = np.repeat(np.arange(len(sims)), counts)
-            j = first[g] + np.arange(g.size) - np.repeat(np.cumsum(counts) - counts, counts)
+            j = np.repeat(first - (np.cumsum(counts) - counts), counts) + np.arange(g.size)
             t = j * int(interval)
         else:
             least = max(int(interval.minimum), 1)
@@ -183,17 +185,31 @@ class Planner:
             self.last[sims[had]] = times[had, counts[had] - 1]
         self.next[sims] = first + counts
         d = (np.full(g.size, int(delay), np.int64) if isinstance(delay, numbers.Integral)
-             else _drawn(delay, self.keys[sims[g]], j, 1))
+             else _drawn(delay, np.repeat(self.keys[sims], counts, axis=0), j, 1))  # g: sorted, counts per sim
         return g, t, d
 
     def round(self, sims: np.ndarray, length: int) -> Round:
         """Plan the next `length` steps of simulations `sims` (0 after `start`: step 0 only)."""
-        b, n = self.buffer, self.substeps
         prev = self.end[sims]
         end = prev + (length if length else 1)
         g, t, d = self._until(sims, end)
         new = (g, t)
         g, t, a = self._in_flight(sims, end, g, t, t + d)
+        mask = self._mask(sims)
+        floor = np.maximum(prev - length, 0)
+        if _PLAN is None:  # numpy: the reference
+            windows = self._windows(sims, g, t, a, prev, length)
+            sim, steps = _shown(windows, floor, mask) if length else (np.zeros(0, np.intp), np.zeros(0, np.int64))
+        else:  # the same steps compiled (`_kernel.plan`)
+            windows, sim, steps = self._compiled(sims, (g, t, a), prev, floor, mask, length)
+        self.end[sims] = end
+        return Round(windows, *self._every(sims, new, sim, steps, length))
+
+    def _windows(self, sims: np.ndarray, g: np.ndarray, t: np.ndarray, a: np.ndarray, prev: np.ndarray,
+                 length: int) -> np.ndarray:
+        """Each read's window of the delivered samples (g, t, a) of `sims` after their tails, which become
+        the last `buffer` delivered."""
+        b, n = self.buffer, self.substeps
         # delivery order per simulation: by arrival (after the round's start), ties by time (longer delay first)
         w1, w2 = length + 2, self.ties
         rel = a - prev[g]
@@ -212,8 +228,39 @@ class Planner:
              - dstart[:, None])
         windows = seq[(offset[:, None] + k)[..., None] + np.arange(b)]
         self.tail[sims] = seq[offset[:, None] + delivered[:, None] + np.arange(b)]
-        self.end[sims] = end
-        return Round(windows, *self._taken(sims, windows, new, prev, length))
+        return windows
+
+    def _compiled(self, sims: np.ndarray, delivered: tuple[np.ndarray, np.ndarray, np.ndarray], prev: np.ndarray,
+                  floor: np.ndarray, mask: np.ndarray | None, length: int) -> tuple[np.ndarray, ...]:
+        """`_windows` and `_shown` in one kernel call: (windows, simulation and step of the samples shown)."""
+        b, m = self.buffer, len(sims)
+        reads = max(1, length // self.substeps) if length else 1
+        windows = np.empty((m, reads, b), np.int64)
+        tail = np.ascontiguousarray(self.tail[sims])
+        sim, steps = np.empty(windows.size, np.int64), np.empty(windows.size, np.int64)
+        g, t, a = (np.ascontiguousarray(x, np.int64) for x in delivered)
+        count = cast(Any, _PLAN)(g, t, a, np.ascontiguousarray(prev, np.int64), tail,
+                                 b"" if mask is None else np.ascontiguousarray(mask, np.uint8), floor.astype(np.int64),
+                                 windows, sim, steps, b, self.substeps, length)
+        self.tail[sims] = tail
+        return windows, sim[:count], steps[:count]
+
+    def _mask(self, sims: np.ndarray) -> np.ndarray | None:
+        """Per simulation, the window entries whose samples it takes (None: all): not those before a smaller
+        buffer's entries, none with stateful noise (it takes every sample instead)."""
+        if self.uneven or self.every[sims].any():
+            return self.reads[sims] & ~self.every[sims][:, None]
+        return None
+
+    def _every(self, sims: np.ndarray, new: tuple[np.ndarray, np.ndarray], sim: np.ndarray, steps: np.ndarray,
+               length: int) -> tuple[np.ndarray, np.ndarray]:
+        """The samples to take: those shown, and every new one of a simulation with stateful noise."""
+        every = self.every[sims]
+        if length and every.any():
+            g, t = new
+            pick = every[g]
+            sim, steps = np.concatenate((sim, g[pick])), np.concatenate((steps, t[pick]))
+        return sim, steps
 
     def _in_flight(self, sims: np.ndarray, end: np.ndarray, g: np.ndarray, t: np.ndarray,
                    a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -232,21 +279,12 @@ class Planner:
         self.flight = np.concatenate((keep, np.stack((sims[g[late]], t[late], a[late]))), axis=1)
         return g[due], t[due], a[due]
 
-    def _taken(self, sims: np.ndarray, windows: np.ndarray, new: tuple[np.ndarray, np.ndarray],
-               prev: np.ndarray, length: int) -> tuple[np.ndarray, np.ndarray]:
-        """The samples to take: every new one (stateful noise), or those some read of the round shows that
-        are not yet decided (older than a round: decided by an earlier round)."""
-        if not length:  # the reset sample is always taken
-            return np.zeros(0, np.intp), np.zeros(0, np.int64)
-        every = self.every[sims]
-        floor = np.maximum(prev - length, 0)
-        shown = windows > floor[:, None, None]
-        if self.uneven or every.any():  # entries before a smaller buffer's, or stateful noise: not shown
-            shown &= (self.reads[sims] & ~every[:, None])[:, None, :]
-        sim = np.repeat(np.arange(len(sims)), np.count_nonzero(shown.reshape(len(sims), -1), axis=1))
-        steps = windows[shown]
-        if every.any():
-            g, t = new
-            pick = every[g]
-            sim, steps = np.concatenate((sim, g[pick])), np.concatenate((steps, t[pick]))
-        return sim, steps
+
+def _shown(windows: np.ndarray, floor: np.ndarray, mask: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """(simulation, step) of the entries some read of the round shows that are not yet decided (older than a
+    round: decided by an earlier round), where `mask` (simulation, entry) allows."""
+    shown = windows > floor[:, None, None]
+    if mask is not None:
+        shown &= mask[:, None, :]
+    sim = np.repeat(np.arange(len(windows)), np.count_nonzero(shown.reshape(len(windows), -1), axis=1))
+    return sim, windows[shown]

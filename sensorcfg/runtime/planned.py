@@ -6,21 +6,23 @@ steps run. Per step that some member samples, one `numpy.take` copies every memb
 main buffer into a step-indexed history; a read is compiled once (`bank_read.compile_read`; only the rows
 it gathers change, an index computed with the round): one gather builds every window, noise is applied to
 the gathered values (`BankNoise`: the same numbers as the per-sample pipeline, drawn for the samples taken),
-and the reductions run as the fixed-schedule bank's do.
+and the reductions run as the fixed-schedule bank's do: all of it one call of the compiled kernel where it is
+built (`runtime/read_kernel.py`), except reads early in an episode, whose windows show padding.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple, cast
 
 import numpy as np
 
 from .bank import BankMember, ReadPlan, _reader, read_plan, rebind_noise, reuse_key
-from .bank_noise import BankNoise, Program, ReadOp, program
-from .bank_read import compile_read, finish
+from .bank_noise import BankNoise, Layer, Program, ReadOp, ops_of, program
+from .bank_read import compile_read, cut, finish
 from .channels import DrawnChannel
 from .drawn import Planner, Round, chunk_steps
+from .read_kernel import kernel_read
 from ..observables.aggregators import builtin
 
 __all__ = ["DrawnBank", "DrawnMember", "joins"]
@@ -93,9 +95,12 @@ class DrawnBank:
         self._compile(channels)
         slots = self.rows // substeps
         self.gathers = np.zeros((slots, len(self.column)), np.intp)
+        self.gather_rows, self.slots = list(self.gathers), slots  # (row views: a read indexes a list)
         self.pads: dict[int, np.ndarray] = {}  # read slot -> its gathered values before the reset sample
         self.pad_values = np.zeros(self.width)
         self._noise([program(ch.noise) or () for ch in channels])
+        self.kernel = kernel_read(self.compiled, self.noise_layers, self.flat)  # the read in one call, where built
+        self.run = None if self.kernel is None else self.kernel.run
         self._read_step, self._outputs = -1, cast(Sequence[Any], [])
 
     def _compile(self, channels: list[DrawnChannel]) -> None:
@@ -117,6 +122,7 @@ class DrawnBank:
         chunk at a time), and the read's noise program."""
         self.noise: BankNoise | None = None
         self.noise_program: list[ReadOp] = []
+        self.noise_layers: list[Layer] = []
         self.walkers: set[int] = set()
         self.drawing: list[int] = []  # noisy members drawn per sample taken
         if not any(programs):
@@ -127,7 +133,8 @@ class DrawnBank:
         walks = [self.noise.walks(i) for i in range(len(programs))]
         self.walkers = {i for i, ops in enumerate(programs) if ops and walks[i]}
         self.drawing = [i for i, ops in enumerate(programs) if ops and not walks[i]]
-        self.noise_program = self.noise.read_program(self.column, self.compiled.gathered)
+        self.noise_layers = self.noise.read_layers(self.column)
+        self.noise_program = ops_of(self.noise_layers, self.compiled.gathered)
 
     @staticmethod
     def key(channels: list[DrawnChannel], data: Any, substeps: int, pad: bool) -> tuple[Any, ...]:
@@ -151,18 +158,17 @@ class DrawnBank:
         self.recent = []
         self.raw.take(self.source, None, self.history[0], "clip")
         if self.noise is not None:
-            self.noise.start(fill=False)  # noise with the rounds' samples, the reset sample first:
+            self.noise.start(fill=False)  # noise with the rounds' samples (the reset sample's with the first)
             self.noise.fill(0, self.walkers)  # (random walks a chunk at a time)
-            self.noise.fill_samples([(i, _ZERO) for i in self.drawing])
+        self.pads.clear()
+        self._store(self.planner.start(self.members_, [ch.key for ch in self.channels]), 0, 0)
+        self._plan_round(0)
         if self.pad:
             self.pad_values = self.history[0].copy()
             if self.noise is not None:  # padding repeats the first sample as delivered: with its noise
                 self._apply_noise(self.pad_values, np.arange(self.width))
         else:
             self.pad_values = np.zeros(self.width)
-        self.pads.clear()
-        self._store(self.planner.start(self.members_, [ch.key for ch in self.channels]), 0, 0)
-        self._plan_round(0)
         self.next_round = self.chunk
         self.plan(0)
 
@@ -191,8 +197,9 @@ class DrawnBank:
                 self.noise.fill(base, self.walkers)
             keys = self.recent[-1]
             bounds = keys.searchsorted(np.arange(len(self.channels) + 1) * _KEY)
-            self.noise.fill_samples([(i, keys[bounds[i]:bounds[i + 1]] - i * _KEY) for i in self.drawing
-                                     if bounds[i + 1] > bounds[i]])
+            first = _ZERO if base == 0 else _ZERO[:0]  # the first round draws the reset sample's too
+            self.noise.fill_samples([(i, np.concatenate((first, keys[bounds[i]:bounds[i + 1]] - i * _KEY)))
+                                     for i in self.drawing if bounds[i + 1] > bounds[i] or base == 0])
 
     def samples(self, position: int, step: int) -> int:
         """Samples member `position` has taken by `step` (the reset sample included)."""
@@ -204,9 +211,9 @@ class DrawnBank:
         windows = plan.windows.transpose(1, 0, 2).reshape(plan.windows.shape[1], -1)  # (reads, member x buffer)
         rows = np.where(windows >= 0, windows % self.rows, 0)
         index = rows[:, self.entry] * self.width + self.column
-        slots = (first + np.arange(max(count, 1))) % len(self.gathers)
+        slots = (first + np.arange(max(count, 1))) % self.slots
         self.gathers[slots] = index
-        for slot in [slot for slot in self.pads if (slot - first) % len(self.gathers) < max(count, 1)]:
+        for slot in [slot for slot in self.pads if (slot - first) % self.slots < max(count, 1)]:
             del self.pads[slot]  # a slot of an earlier round
         padded = windows[:, self.entry] < 0  # only reads early in an episode show padding
         for read in np.flatnonzero(padded.any(axis=1)).tolist():
@@ -217,27 +224,43 @@ class DrawnBank:
     def due(self, step: int) -> bool:
         return bool(self.need[step % self.rows])
 
-    def snapshot(self, step: int) -> None:
-        row = step % self.rows
-        self.need[row] = False
-        self.raw.take(self.source, None, self.history_rows[row], "clip")
+    def snapshot_task(self) -> Callable[[int], None]:
+        """The Updater's task at every step: copy every member's values into the history row of `step` when
+        some member samples then (a closure over what it uses)."""
+        need, take, source, rows, count = self.need, self.raw.take, self.source, self.history_rows, self.rows
+
+        def snapshot(step: int) -> None:
+            row = step % count
+            if need[row]:
+                need[row] = False
+                take(source, None, rows[row], "clip")  # mode="clip": no buffered output (indices are valid)
+
+        return snapshot
 
     def read(self, step: int) -> Sequence[Any]:
         """Every member's observation at `step` (computed once per step)."""
         if step == self._read_step:
             return self._outputs
-        slot = (step // self.n) % len(self.gathers)
-        index = self.gathers[slot]
+        slot = (step // self.n) % self.slots
+        pads = self.pads.get(slot)
+        if pads is None and self.run is not None:  # the gather, noise and reductions in one call
+            self.run(self.gather_rows[slot])
+            outputs = cut(self.compiled)
+        else:
+            outputs = self._read_numpy(self.gather_rows[slot], pads)
+        self._read_step, self._outputs = step, outputs
+        return outputs
+
+    def _read_numpy(self, index: np.ndarray, pads: np.ndarray | None) -> Sequence[Any]:
+        """`read` in numpy calls (the reference; also reads whose windows show padding, early in an episode)."""
         plan = self.compiled
         gathered = plan.gathered
         self.flat.take(index, None, gathered, "clip")
         if self.noise is not None:
             self.noise.apply(index, self.noise_program)
-        pads = self.pads.get(slot)
         if pads is not None:
             gathered[pads] = self.pad_values.take(self.column[pads])
-        self._read_step, self._outputs = step, finish(plan)
-        return self._outputs
+        return finish(plan)
 
 
 class _Stride(NamedTuple):

@@ -237,6 +237,8 @@ class Updater:
                  if isinstance(ch, FixedChannel) and id(ch) not in banked]
         if bank:
             tasks[:0] = self._bank_tasks(bank)
+        if self._drawn:  # its snapshots, at the steps its rounds planned: a pure read of the state, first
+            tasks.insert(0, PlanTask(1, [0], BANK_ORDER, self._drawn.snapshot_task()))
         return tasks
 
     def _before_tasks(self) -> list[PlanTask]:
@@ -282,14 +284,28 @@ class Updater:
         if self._layout is None:
             raise RuntimeError("`reset` must be called before `update`.")
         step = self._step = self._step + 1
-        drawn = self._drawn
-        if drawn is not None and drawn.need[step % drawn.rows]:  # a pure read of the state: first
-            drawn.snapshot(step)
         tasks = self._plan[step % self._period]
         if self._irregular:
             tasks = self._merge_irregular(step, tasks)
         for sample in tasks:
             sample(step)
+
+    def control_step(self, physics_step: Callable[[], None]) -> None:
+        """One control step: `prepare_for_next_control_step()`, then `physics_step()` and `update()`
+        physics_steps_per_control_step times, as an environment's loop does (the same calls, with the
+        Updater's per-step work inlined)."""
+        self.prepare_for_next_control_step()
+        if self._irregular:  # tasks off the periodic plan: merged per step
+            for _ in range(self._substeps):
+                physics_step()
+                self.update()
+            return
+        plan, period = self._plan, self._period
+        for _ in range(self._substeps):
+            physics_step()
+            step = self._step = self._step + 1
+            for sample in plan[step % period]:
+                sample(step)
 
     def _merge_irregular(self, step: int, tasks: tuple[_Task, ...]) -> Any:
         """This step's tasks with the due random channels and off-plan tasks, in observable order."""

@@ -1,0 +1,65 @@
+"""A planning round's ordering, windows and samples to take compiled (`_kernel.plan`, runtime/drawn.py) equal
+the numpy steps they stand for: the same rounds, tails and samples in flight, for one simulation's members and
+for subsets of many simulations restarted at different times (the batch's use), with buffers of different
+sizes, stateful noise (every sample taken) and delays longer than a round's reads apart. Where the kernel is
+meant to be built (SENSORCFG_REQUIRE_KERNEL=1) a missing kernel fails."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+from sensorcfg import compiled
+from sensorcfg.draws import ChoiceSteps, UniformSteps
+from sensorcfg.runtime import drawn
+from sensorcfg.runtime.drawn import Drawn, Planner
+
+KERNEL = getattr(compiled.MODULE, "plan", None) is not None
+pytestmark = pytest.mark.skipif(not KERNEL, reason="the kernel is not built: numpy plans every round")
+
+
+@pytest.fixture(autouse=True)
+def _kernel_present():
+    if not KERNEL and os.environ.get("SENSORCFG_REQUIRE_KERNEL", "") not in ("", "0"):
+        pytest.fail("the compiled kernel is not built (SENSORCFG_REQUIRE_KERNEL=1)", pytrace=False)
+
+
+def _schedules(rng: np.random.Generator, count: int, substeps: int) -> list[Drawn]:
+    intervals = [1, 3, UniformSteps(1, 4), ChoiceSteps((2, 7)), UniformSteps(1, 2)]  # planned: at least 1
+    delays = [0, 2, UniformSteps(0, 3), UniformSteps(1, 40), ChoiceSteps((1, 9), (0.7, 0.3))]
+    return [Drawn(intervals[int(rng.integers(len(intervals)))], delays[int(rng.integers(len(delays)))],
+                  int(rng.integers(1, 5)), substeps, bool(rng.random() < 0.2)) for _ in range(count)]
+
+
+def _plan(schedules: list[Drawn], seed: int, kernel: bool, monkeypatch: pytest.MonkeyPatch) -> list[object]:
+    """Rounds of random lengths for random subsets of the simulations (restarted at random), and the state
+    after each."""
+    monkeypatch.setattr(drawn, "_PLAN", drawn._PLAN if kernel else None)
+    rng = np.random.default_rng(seed)
+    planner = Planner(schedules, len(schedules))
+    everyone = np.arange(len(schedules))
+    keys = rng.integers(0, 2**63, (len(schedules), 2), dtype=np.uint64)
+    out: list[object] = [planner.start(everyone, keys)]
+    substeps = schedules[0].substeps
+    for _ in range(12):
+        sims = everyone if rng.random() < 0.5 else np.sort(rng.choice(everyone, int(rng.integers(1, len(everyone) + 1)),
+                                                                      replace=False))
+        if rng.random() < 0.2:
+            out.append(planner.start(sims, keys[sims] + np.uint64(1)))
+        out.append(planner.round(sims, substeps * int(rng.integers(1, 60))))
+        out += [planner.tail.copy(), planner.flight.copy(), planner.end.copy(), planner.next.copy()]
+    return out
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_the_compiled_round_is_the_numpy_round(seed, monkeypatch) -> None:
+    rng = np.random.default_rng(100 + seed)
+    schedules = _schedules(rng, int(rng.integers(1, 7)), int(rng.integers(1, 6)))
+    with_kernel = _plan(schedules, seed, True, monkeypatch)
+    numpy_only = _plan(schedules, seed, False, monkeypatch)
+    for i, (a, b) in enumerate(zip(with_kernel, numpy_only)):
+        parts_a, parts_b = (tuple(a), tuple(b)) if isinstance(a, tuple) else ((a,), (b,))
+        for x, y in zip(parts_a, parts_b):
+            assert x.dtype == y.dtype and x.shape == y.shape and np.array_equal(x, y), f"output {i}"
