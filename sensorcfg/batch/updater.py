@@ -129,13 +129,7 @@ class BatchUpdater:
         self.cameras = self._cameras(cameras, physics)  # the caller sets `cameras.batch`
         self.labels = [e.name for e in ordered]
         self.channels = [e.channel for e in ordered]
-        self.noise = {i: BatchPipeline(e.channel.noise, self.nsim, e.name)
-                      for i, e in enumerate(ordered) if e.channel.noise is not None}
-        self.noisy = bool(self.noise) or any(e.channel.noise is not None for e in cameras)  # as the Updater draws
-        # fixed channels whose noise only adds numbers: added as they are read (`batch.read_noise`) where that
-        # draws fewer numbers; the others' samples are corrupted in the history, at their own steps
-        read = {c: p for c, p in self.noise.items() if c < self.nfixed and added_as_read(p, self.fixed[c])}
-        self.corrupted = {c: p for c, p in self.noise.items() if c not in read}
+        read = self._noise(ordered, cameras)
         layout = self.layout = self._layout(physics, cameras, drawn)
         self.read_noise = ReadNoise(read, self.fixed, layout, self.pad) if read else None
         self.reset_values = layout.reset_values
@@ -149,6 +143,17 @@ class BatchUpdater:
         self._noise_plans: dict[int, list[list[tuple[int, np.ndarray]]]] = {}
 
     # -- construction -----------------------------------------------------------------------------
+
+    def _noise(self, ordered: list[_Entry], cameras: list[_Entry]) -> dict[int, BatchPipeline]:
+        """Every noisy channel's pipeline (`noise`), and those corrupted in the history (`corrupted`); returns
+        the others: fixed channels whose noise only adds numbers, added as they are read (`batch.read_noise`)
+        where that draws fewer numbers."""
+        self.noise = {i: BatchPipeline(e.channel.noise, self.nsim, e.name)
+                      for i, e in enumerate(ordered) if e.channel.noise is not None}
+        self.noisy = bool(self.noise) or any(e.channel.noise is not None for e in cameras)  # as the Updater draws
+        read = {c: p for c, p in self.noise.items() if c < self.nfixed and added_as_read(p, self.fixed[c])}
+        self.corrupted = {c: p for c, p in self.noise.items() if c not in read}
+        return read
 
     def _layout(self, physics: Any, cameras: list[_Entry], drawn: list[_Entry]) -> Layout:
         """The store the rollouts record into and the history the reads gather from."""
