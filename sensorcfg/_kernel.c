@@ -252,11 +252,13 @@ static PyObject *add(PyObject *self, PyObject *args) {
         if (PyObject_GetBuffer(rows_obj, &rows_buf, PyBUF_C_CONTIGUOUS) < 0) goto done;
         rows = (const int64_t *)rows_buf.buf;
     }
-    int bad = keys.len != 16 * m || size < 0 || width < 0 || lo < 0 || (!flat && lo + size > width) ||
+    /* bounds compared without sums that could overflow: lo + size <= width (2-D), rows[r] + lo + size <= n (flat) */
+    int bad = keys.len != 16 * m || size < 0 || width < 0 || lo < 0 || (!flat && (lo > width || size > width - lo)) ||
+              (flat && (lo > nrows || size > nrows - lo)) ||
               (!flat && out.len != (Py_ssize_t)sizeof(double) * nrows * width) || (rows && rows_buf.len != 8 * m) ||
               (!rows && (flat || m > nrows));
     for (Py_ssize_t r = 0; rows && !bad && r < m; r++)
-        bad = rows[r] < 0 || (flat ? rows[r] + lo + size > nrows : rows[r] >= nrows);
+        bad = rows[r] < 0 || (flat ? rows[r] > nrows - lo - size : rows[r] >= nrows);
     if (bad) {
         PyErr_SetString(PyExc_ValueError, "add: keys (m, 2), samples (m,), rows (m,) and out (rows, width) disagree");
         goto done;
@@ -380,7 +382,7 @@ static void read_op(const int64_t *op, const int64_t *ix, Py_ssize_t n) {
     const int64_t *pos = (const int64_t *)(intptr_t)op[4];
     int64_t count = op[5];
     switch (op[0]) {
-    case R_GATHER: /* g[i] = a[clip(ix[i])], a of op[3] values */
+    case R_GATHER: /* g[i] = a[clip(ix[i])], a of op[3] values, g of count (the index's length, checked) */
         for (Py_ssize_t i = 0; i < n; i++) g[i] = a[clip_index(ix[i], op[3])];
         break;
     case R_TERM: /* a noise field a (op[3] values) at the gathered positions, added at pos */
@@ -426,9 +428,17 @@ static PyObject *read_bank(PyObject *self, PyObject *args) {
     if (!PyArg_ParseTuple(args, "y*y*", &program, &index)) return NULL;
     const int64_t *ops = (const int64_t *)program.buf;
     Py_ssize_t nops = program.len / (8 * READ_SLOTS);
-    for (Py_ssize_t o = 0; o < nops; o++) read_op(ops + o * READ_SLOTS, (const int64_t *)index.buf, index.len / 8);
+    int bad = program.len % (8 * READ_SLOTS) != 0;
+    for (Py_ssize_t o = 0; o < nops && !bad; o++) /* a gather fills its work buffer: the index is that long */
+        bad = ops[o * READ_SLOTS] == R_GATHER && ops[o * READ_SLOTS + 5] != index.len / 8;
+    if (!bad)
+        for (Py_ssize_t o = 0; o < nops; o++) read_op(ops + o * READ_SLOTS, (const int64_t *)index.buf, index.len / 8);
     PyBuffer_Release(&program);
     PyBuffer_Release(&index);
+    if (bad) {
+        PyErr_SetString(PyExc_ValueError, "read: the index is not as long as the program's work buffer");
+        return NULL;
+    }
     Py_RETURN_NONE;
 }
 

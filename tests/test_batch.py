@@ -250,6 +250,31 @@ def test_additive_noise_added_as_the_batch_reads_is_the_single_environments(pad)
     assert np.all(noisy != 0)
 
 
+LONG_BUFFERS_SUITE = """
+version: 1
+sensors:
+  sum: {kind: qvel, element: "joint:shoulder", buffer: 12, aggregator: sum}
+  mean: {kind: qpos, element: "joint:elbow", delay: 2, buffer: 9, aggregator: mean, noise: [{type: gaussian, std: 0.1}]}
+  median: {kind: qvel, element: "joint:elbow", buffer: 10, aggregator: median}
+  drawn: {kind: qvel, element: "joint:elbow", delay: {uniform: [0, 3]}, buffer: 11, aggregator: sum}
+  wide: {kind: qvel, element: "joint:*", buffer: 12, aggregator: sum}
+"""
+
+
+@needs_batch
+def test_long_buffers_of_one_value_samples_are_summed_as_the_single_environment_sums_them():
+    """numpy sums a contiguous buffer pairwise from 8 values on: a one-value sensor's buffer is contiguous in the
+    Environment's read, so each simulation's is made contiguous in the batch too (fixed and drawn schedules)."""
+    nsim = 3
+    env = BatchEnvironment(ROBOT, sensorcfg.loads(LONG_BUFFERS_SUITE), nsim, physics_steps_per_control_step=4, seed=4)
+    singles = [sensorcfg.Environment(ROBOT, sensorcfg.loads(LONG_BUFFERS_SUITE), physics_steps_per_control_step=4,
+                                     seed=sim_seed(4, i)) for i in range(nsim)]
+    actions = np.random.default_rng(5).uniform(-1, 1, (12, nsim, 3)) * [1, 1, 0.04]
+    b = [env.reset()] + [env.step(a) for a in actions]
+    for i, e in enumerate(singles):
+        check_sim(b, [e.reset()] + [e.step(a[i]) for a in actions], i, "long buffers")
+
+
 OPTIONS_SUITE = """
 version: 1
 options: {pad_with_initial_value: true, strip_singleton_buffer_dim: true}

@@ -183,8 +183,25 @@ def test_the_kernel_refuses_rows_outside_its_table():
     table = np.zeros(10)
     compiled.MODULE.add(keys, samples, 3, lanes, table, 0, 0, np.array([0, 7]), True)  # values 7..9: the last
     assert np.count_nonzero(table) == 6
-    for rows, width in ((np.array([0, 8]), 0), (np.array([-1, 0]), 0), (np.array([0, 5]), 2)):
+    big = 2**63 - 2  # a start or offset whose sum with the size overflows 64 bits must not wrap past the check
+    for rows, width, lo in ((np.array([0, 8]), 0, 0), (np.array([-1, 0]), 0, 0), (np.array([0, 5]), 2, 0),
+                            (np.array([0, big]), 0, 0), (np.array([0, 1]), 0, big), (np.array([0, 1]), 2, big)):
         before = table.copy()
         with pytest.raises(ValueError):
-            compiled.MODULE.add(keys, samples, 2 if width else 3, lanes, table, width, 0, rows, True)
+            compiled.MODULE.add(keys, samples, 2 if width else 3, lanes, table, width, lo, rows, True)
         assert np.array_equal(before, table)
+
+
+def test_the_read_kernel_refuses_an_index_of_another_length():
+    """A compiled read's gather fills its work buffer from the index: an index of another length is refused
+    before anything runs (`runtime/read_kernel.py` records the buffer's length)."""
+    _path(True)
+    history, work = np.arange(5.0), np.zeros(3)
+    program = np.array([[1, work.__array_interface__["data"][0], history.__array_interface__["data"][0], 5, 0, 3]],
+                       np.int64).tobytes()
+    for index in (np.array([0, 1], np.int64), np.array([0, 1, 2, 3], np.int64)):
+        with pytest.raises(ValueError, match="not as long as"):
+            compiled.MODULE.read(program, index)
+        assert not work.any()
+    compiled.MODULE.read(program, np.array([4, 0, 9], np.int64))  # positions past the end clip, as numpy's take
+    assert work.tolist() == [4.0, 0.0, 4.0]

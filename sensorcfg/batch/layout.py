@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import NamedTuple, cast
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 
@@ -25,7 +25,7 @@ from ..runtime.bank import PlainRead, ReductionGroup, _reader, read_plan
 from ..runtime.cache import DEFAULT_BUDGET, BoundedCache
 from ..runtime.channels import DrawnChannel, FixedChannel, RandomChannel
 
-__all__ = ["Layout", "Segment"]
+__all__ = ["Layout", "Segment", "reduce_window"]
 
 
 class Segment(NamedTuple):
@@ -318,3 +318,13 @@ class Layout:
         row = np.where(codes == 0, rows + 1, np.where(codes == 1, rows, (start + step - 1) % rows))
         return (row[:, :, None] * (nsim * w) + (np.arange(nsim) * w)[:, None, None]
                 + np.arange(self.cols[c], self.cols[c + 1]))
+
+
+def reduce_window(reduce: Any, window: np.ndarray) -> np.ndarray:
+    """`reduce` of a (buffer, nsim, width) window, as the Updater reduces each simulation's (buffer, width) one: a
+    buffer of one-value samples is contiguous there, which numpy sums pairwise from 8 values on (not row by
+    row), so each simulation's buffer is made contiguous here too; returns (nsim, width)."""
+    if window.shape[2] != 1:
+        return cast(np.ndarray, reduce(np.ascontiguousarray(window)))
+    buffers = np.ascontiguousarray(window[:, :, 0].T)  # (nsim, buffer): reduced along contiguous memory
+    return cast(np.ndarray, reduce(buffers.T))[:, None]

@@ -2,8 +2,10 @@
 
 A fixed-schedule sensor whose noise only adds numbers (gaussian and uniform stages, fused into one sum:
 `BatchPipeline.additive`) gets sample j's noise from its simulation's episode key and j alone
-(`noise.streams`). So the batch keeps that sensor's raw samples, as it keeps a noise-free sensor's (only
-those a later read needs, the rest read straight from the control step's records), and a read adds each
+(`noise.streams`). So where its reads show each sample about once (`added_as_read`; a frame stack keeps the
+history path, which draws a sample's numbers once), the batch keeps that sensor's raw samples, as it keeps a
+noise-free sensor's (only those a later read needs, the rest read straight from the control step's
+records), and a read adds each
 sample's noise to the values it gathered (`streams.add_sums` on the flat read, one job per sensor) before
 any reduction. A sample in the windows of several reads gets the same numbers each time. Padding before
 the reset sample is the reset sample's noisy value (`pad_with_initial_value`) or zeros, which no noise

@@ -6,7 +6,8 @@ read is one gather per output group over every simulation (the bank's read plan,
 episode's age), then one reduction per (aggregator, buffer) group.
 
 A fixed-schedule sensor whose noise only adds numbers (gaussian and uniform stages) gets it as the batch
-reads (`batch.read_noise`): its history keeps raw samples, as a noise-free sensor's. Other noise runs at each
+reads (`batch.read_noise`) when its reads show each sample about once (`added_as_read`): its history keeps raw
+samples, as a noise-free sensor's. Other noise runs at each
 sample's own step on the simulations that sample then, in place in the history (`batch.noise`); random intervals and delays are planned per simulation by the single-simulation
 channel itself (`batch.random_schedules`). Scheduling, buffers and noise are the single-simulation Updater's to
 the bit: the per-simulation state is its episode's age (`t`), random state, noise and random plans.
@@ -38,7 +39,7 @@ from ..noise.streams import add_sums
 from ..runtime.bank import _reader
 from ..runtime.channels import Channel, DrawnChannel, FixedChannel, RandomChannel, make_channel
 from ..runtime.updater import observation_spec
-from .layout import Layout
+from .layout import Layout, reduce_window
 from .noise import BatchPipeline, prefetch
 from .read_noise import ReadNoise, added_as_read
 from .random_schedules import Timelines
@@ -374,7 +375,7 @@ class BatchUpdater:
             for i, part, shape in layout.plain:
                 out[i] = gathered[:, part].reshape(shape)
             for (reduce, _, _, members), window in zip(layout.groups, windows):
-                reduced = reduce(window)
+                reduced = reduce_window(reduce, window)
                 for i, sub, shape in members:
                     out[i] = reduced[:, sub].reshape(self.nsim, *shape)
         if self.timelines.specs:
@@ -387,7 +388,7 @@ class BatchUpdater:
             ch = self.channels[c]
             values = self.flat.take(self.layout.drawn(c, codes, self.t, self.G))  # (nsim, buffer, width)
             if ch.aggregator is not None:
-                reduced = AGGREGATORS[cast(Any, ch.aggregator).name].reduce(np.ascontiguousarray(values.transpose(1, 0, 2)))
+                reduced = reduce_window(AGGREGATORS[cast(Any, ch.aggregator).name].reduce, values.transpose(1, 0, 2))
                 out[c] = reduced.reshape(self.nsim, *ch.shape)
             elif ch.has_buffer_dim:
                 out[c] = values.reshape(self.nsim, ch.buffer_size, *ch.shape)

@@ -99,7 +99,7 @@ def kernel_read(plan: CompiledRead, layers: Sequence[Layer], history: np.ndarray
     if read is None or any(step.kind not in _CODES for step in plan.records):
         return None
     program = _Program()
-    program.add("gather", plan.gathered, history, history.size, 0, 0)
+    program.add("gather", plan.gathered, history, history.size, 0, len(plan.gathered))  # the kernel checks the index
     for layer in layers:
         program.layer(layer, plan.gathered)
     for step in plan.records:
