@@ -77,7 +77,7 @@ def random_suite(seed: int, *, drawn: bool = True, noise: bool = True) -> dict[s
     out = {}
     for j in range(int(rng.integers(3, 8))):
         kind, element = FEATURES[int(rng.integers(len(FEATURES)))]
-        buffer = int(rng.integers(1, 6))
+        buffer = int(rng.integers(1, 6)) if rng.random() < 0.8 else int(rng.integers(8, 14))  # long ones sum pairwise
         aggregator = [None, None, "min", "max", "sum", "mean", "median"][int(rng.integers(7))]
         obs = sensorcfg.Feature(kind, element, update_interval=_schedule(rng, 1, 8, drawn),
                                 delay=_schedule(rng, 0, 8, drawn), buffer_size=buffer, aggregator=aggregator)

@@ -194,3 +194,18 @@ def test_the_bank_follows_the_per_sample_path_over_rounds_and_episodes(suite, mo
     controls = np.random.default_rng(4).uniform(-1, 1, (1300, ROBOT.nu))
     banked = _bank_and_per_sample(make, monkeypatch, [(0, controls), (1, controls[:400])], counts_every=97)
     assert (banked._drawn.ahead == banked._drawn.chunk) == (suite == "long-span")
+
+
+@pytest.mark.parametrize("aggregator", ["", ", aggregator: sum"])
+def test_a_second_reset_in_a_row_reads_its_own_episode(aggregator: str) -> None:
+    """Two resets with no step between them: the second episode's first read is its own (the planned bank once
+    kept the first episode's read, as both are at step 0), and no sample is due before its step 8, so the
+    first step shows the same window."""
+    text = ("version: 1\nsensors:\n  x: {kind: qvel, element: 'joint:elbow', interval: {uniform: [8, 9]}, buffer: 3"
+            f"{aggregator}, noise: [{{type: gaussian, std: 1.0}}]}}\n")
+    env = sensorcfg.Environment(str(assets.path("robot.xml")), sensorcfg.loads(text), seed=0,
+                                physics_steps_per_control_step=5)
+    first = env.reset().observation["x"]
+    second = env.reset().observation["x"]
+    assert not np.array_equal(first, second)  # a new episode: new noise
+    np.testing.assert_array_equal(env.step(np.zeros(env.action_spec().shape)).observation["x"], second)

@@ -170,6 +170,7 @@ class DrawnBank:
         else:
             self.pad_values = np.zeros(self.width)
         self.next_round = self.chunk
+        self._read_step = -1  # a read at step 0 of this episode is not the last episode's (two resets in a row)
         self.plan(0)
 
     def _apply_noise(self, values: np.ndarray, index: np.ndarray) -> None:
