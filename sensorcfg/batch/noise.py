@@ -325,8 +325,10 @@ class BatchPipeline:
 
     @property
     def fused(self) -> _Additive | None:
+        """`additive` while every simulation is at noise level 1 (in the history the sum is added in place,
+        where a blend would need the raw values)."""
         blending = self._blend is not None and self._blend.batch_active  # type: ignore[attr-defined]
-        return None if blending else cast(_Additive | None, self._fusable)
+        return None if blending else self.additive
 
     def sum(self, table: np.ndarray, lo: int, sims: np.ndarray, steps: np.ndarray) -> Sum:
         """The fused pipeline's noise of `sims` at `steps`, added to table[sims, lo:...] (`streams.add_sums`)."""

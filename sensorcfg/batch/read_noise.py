@@ -50,7 +50,6 @@ def added_as_read(pipeline: BatchPipeline, channel: FixedChannel) -> bool:
 
 class _Sensor(NamedTuple):
     stage: _Additive  # the pipeline's fused sum: its keys and terms
-    terms: list[Affine]
     size: int  # values per sample
     span: slice  # its (simulation, slot) pairs in the concatenated arrays of `ReadNoise`
     blend: Any  # the pipeline's batched `Blend` (its per-simulation levels), or None
@@ -89,7 +88,7 @@ class ReadNoise:
             schedule, size = channels[c].schedule, int(np.prod(channels[c].shape, dtype=np.int64))
             count = nsim * schedule.buffer
             blend_stage = next((b for b in pipeline.batched if isinstance(b.template, Blend)), None)
-            self.sensors.append(_Sensor(stage, cast(list[Affine], stage.terms), size, slice(at, at + count), blend_stage))
+            self.sensors.append(_Sensor(stage, size, slice(at, at + count), blend_stage))
             at += count
             # the read at t sees sample (t - delay) // interval - buffer + 1 + slot in slot `slot`
             columns.append((np.repeat(np.arange(nsim), schedule.buffer), _starts(layout, c, size, schedule.buffer).ravel(),
@@ -119,7 +118,7 @@ class ReadNoise:
                 sims, starts, j, keys = sims[kept], starts[kept], j[kept], keys[kept]
             if not j.size:
                 continue
-            jobs.append(Sum(sensor.stage.template.draws(j, keys), sensor.terms, values, 0, starts))
+            jobs.append(Sum(sensor.stage.template.draws(j, keys), cast(list[Affine], sensor.stage.terms), values, 0, starts))
             if sensor.blend is not None and sensor.blend.template.batch_active:
                 blends.append(self._blended(values, sensor, sims, starts))
         add_sums(jobs)
