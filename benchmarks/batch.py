@@ -1,25 +1,27 @@
 """Environment steps per second on mujoco.batch: physics alone, with the suite, and a loop of Environments.
 
 Setting: dm_control's suite/humanoid.xml, 5 physics steps per control step, the 20-observable suite of
-benchmarks/_humanoid.py, random controls. For each nsim (64 and 512 by default), each repeat times K
-control steps of:
+benchmarks/_humanoid.py, random controls. The environment gets the robot as an MjSpec (as from a path), so
+that it may add relay sensors (`sensorcfg.batch.relay`; `--mjmodel` gives it the compiled MjModel
+instead: no relays). For each nsim (64 and 512 by default), each repeat times K control steps of:
 
   batched    `BatchEnvironment.step`: one rollout recording the suite's fields, plus the vectorised updater
-  physics    `Batch.rollout(5, control=...)` recording nothing, on the environment's own Batch from the
-             same state (saved before the step, restored after): the floor for any batched suite
-  null       the same physics again: the noise floor of the comparison (ideally 0%)
-  recording  the same rollout recording what the environment records, without the updater: MuJoCo's
-             share of the suite cost (the rest is the vectorised updater in Python)
+  physics    `Batch.rollout(5, control=...)` recording nothing, on a Batch of the robot as written (no
+             relay sensors) from the same state: the floor for any batched suite
+  null       the same on a second such Batch: the noise floor of the comparison (ideally 0%), instances
+             included (identical instances differ by up to 2% here)
+  recording  the environment's rollout recording what it records, without the updater: MuJoCo's share
+             of the suite cost (the rest is the vectorised updater in Python)
   floor      recording, plus the environment's copies of bound fields and one `take` of every value its
              reads need: the least a suite that records with `rollout` and reads the records can add
   loop       nsim single-simulation `Environment.step`s with the same suite (one MjData each)
 
-Paired measurement: physics, null and batched run every control step from the same simulation state on
-the same Batch (their order rotates), so that neither the state (contacts make steps dearer) nor the
-memory placement of a Batch instance (identical instances differ by up to 2% here) tilts the ratio.
+Paired measurement: every variant runs every control step from the same simulation state (copied into
+its Batch; their order rotates), so that the state (contacts make steps dearer) does not tilt the ratio.
 Physics and null also copy out the fields the environment binds (`Batch.bind`: those read only after a
 control step's last substep), which MuJoCo does after every call; measured against unbound Batches from
-the same state, that is within their own spread (+-0.5%). The suite cost includes everything else.
+the same state, that is within their own spread (+-0.5%). The suite cost includes everything else, the
+relay sensors' computation too.
 
 Prints medians over repeats of environment steps per second (control steps times simulations, per second
 of wall time) and the ratios. Targets: the suite adds at most 5% to batched physics at 512 simulations;
@@ -41,12 +43,14 @@ import os
 import statistics
 import sys
 import time
+from collections.abc import Callable
 from typing import Any
 
 sys.path.insert(0, os.path.dirname(__file__))
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 import mujoco  # noqa: E402
+from mujoco.batch import Batch  # noqa: E402
 import numpy as np  # noqa: E402
 from _humanoid import SUITE, humanoid_xml, sensorcfg_observables  # noqa: E402
 
@@ -77,6 +81,8 @@ def main() -> None:
     parser.add_argument("--no-loop", action="store_true", help="skip the single-simulation loop")
     parser.add_argument("--noise", action="store_true", help="two gaussian noise stages on every sensor")
     parser.add_argument("--sim2real", action="store_true", help="the bundled robot with configs/sim2real.yaml")
+    parser.add_argument("--mjmodel", action="store_true",
+                        help="give the environment the compiled MjModel (no relays) instead of the MjSpec")
     args = parser.parse_args()
 
     if args.sim2real:
@@ -84,11 +90,13 @@ def main() -> None:
 
         from sensorcfg import assets as bundled
 
-        model = mujoco.MjModel.from_xml_path(str(bundled.path("robot.xml")))
+        source: Any = mujoco.MjSpec.from_file(str(bundled.path("robot.xml")))
         sim2real = sensorcfg.load(Path(__file__).parent.parent / "configs" / "sim2real.yaml")
     else:
         xml, assets = humanoid_xml()
-        model = mujoco.MjModel.from_xml_string(xml, assets)
+        source = mujoco.MjSpec.from_string(xml, assets)
+    model = source.copy().compile()  # the robot as written: what "physics" steps
+    given = model if args.mjmodel else source  # a spec (as a path): the environment may add relays
     k = args.control_steps
     what = "bundled robot + configs/sim2real.yaml" if args.sim2real else f"humanoid, {len(SUITE)} observables"
     print(f"{what}, {N} physics steps per control step"
@@ -108,15 +116,19 @@ def main() -> None:
             observables = sensorcfg_observables()
             return noisy(observables, model) if args.noise else observables
 
-        env = BatchEnvironment(model, suite(), nsim, nthread=args.nthread, physics_steps_per_control_step=N, seed=0)
+        env = BatchEnvironment(given, suite(), nsim, nthread=args.nthread, physics_steps_per_control_step=N, seed=0)
         loop = [] if args.no_loop else [
             sensorcfg.Environment(model, suite(), physics_steps_per_control_step=N, seed=i) for i in range(nsim)]
         state = env.batch.state  # (nsim, nstate): every simulation's mjSTATE_INTEGRATION row, writable
-
-        def physics_step(a: np.ndarray, env: BatchEnvironment = env) -> None:
-            env.batch.rollout(N, control=a[:, None, :], record=())
-
         layout = env.updater.layout
+        # physics and null: the robot as written (no relay sensors), binding what the environment binds
+        bare = {name: Batch(model, nsim, args.nthread) for name in ("physics", "null")}
+        for batch in bare.values():
+            for f in {f for bound in layout.bound for f in bound}:
+                batch.bind(f)
+
+        def physics_of(batch: Any) -> Callable[[np.ndarray], None]:
+            return lambda a: batch.rollout(N, control=a[:, None, :], record=())
 
         def record_step(a: np.ndarray, env: BatchEnvironment = env, layout: Any = layout) -> None:
             for (first, last, _), out in zip(layout.segments, layout.record_out):
@@ -140,14 +152,15 @@ def main() -> None:
             reset = time.perf_counter() - t0
             for e in loop:
                 e.reset()
-            paired = [("physics", physics_step), ("null", physics_step), ("recording", record_step),
-                      ("floor", floor_step), ("batched", env.step)]
+            paired = [("physics", physics_of(bare["physics"])), ("null", physics_of(bare["null"])),
+                      ("recording", record_step), ("floor", floor_step), ("batched", env.step)]
+            states = {name: bare[name].state if name in bare else state for name, _ in paired}
             wall = dict.fromkeys([name for name, _ in paired] + (["loop"] if loop else []), 0.0)
             for i, a in enumerate(actions):
                 start = state.copy()
                 after = None
                 for name, fn in paired[i % len(paired):] + paired[:i % len(paired)]:
-                    state[:] = start
+                    states[name][:] = start
                     t0 = time.perf_counter()
                     fn(a)
                     wall[name] += time.perf_counter() - t0

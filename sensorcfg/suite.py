@@ -20,6 +20,7 @@ from .errors import ArgumentError, Problem, SuiteError, quote
 if TYPE_CHECKING:
     import mujoco
 
+    from .native.plan import Added
     from .observables import Observable
 
 __all__ = ["Suite", "load", "loads"]
@@ -70,7 +71,8 @@ class Suite:
         """The sensors that may add MuJoCo sensors: clean twins read their source's."""
         return {k: v for k, v in self._loaded.sensors.items() if k not in self._loaded.twins}
 
-    def _compiled(self, model: ModelLike, batch: bool = False) -> tuple[mujoco.MjModel, dict[str, str]]:
+    def _compiled(self, model: ModelLike, batch: bool = False, extra: Sequence[Added] = ()
+                  ) -> tuple[mujoco.MjModel, dict[str, str]]:
         """The model to bind to, and MuJoCo's message for each native sensor it refused. A path (or the
         suite's `model:`, or an MjSpec) is compiled with the suite's native sensors (for a batch, also with
         sensors that make MuJoCo fill the on-demand fields the suite reads); an MjModel is taken as it is
@@ -82,7 +84,7 @@ class Suite:
         if isinstance(model, mujoco.MjSpec):
             from .native import compile_model
 
-            return compile_model(model, self._sources(), batch)
+            return compile_model(model, self._sources(), batch, extra)
         if model is not None and not isinstance(model, (str, os.PathLike)):
             from .physics import raw_structs
 
@@ -102,8 +104,8 @@ class Suite:
             from .native import compile_model, native_names, reads_on_demand
             from .physics import read_model
 
-            if native_names(self._sources()) or (batch and reads_on_demand(self._sources())):
-                return compile_model(path, self._sources(), batch)
+            if native_names(self._sources()) or (batch and reads_on_demand(self._sources())) or extra:
+                return compile_model(path, self._sources(), batch, extra)
             return read_model(path), {}
         except (ValueError, OSError) as e:
             message = f"cannot load the model {quote(str(path), 160)}: {str(e).strip()}"
@@ -127,7 +129,11 @@ class Suite:
         The file is not edited. Raises SuiteError listing every problem of the suite against the model
         when MuJoCo refuses one of its sensors.
         """
-        mjmodel, refused = self._compiled(model, batch)
+        return self._compile(model, batch)
+
+    def _compile(self, model: ModelLike, batch: bool, extra: Sequence[Added] = ()) -> mujoco.MjModel:
+        """`compile`, with `extra` sensors added last (a batch's relays, `batch.relay`)."""
+        mjmodel, refused = self._compiled(model, batch, extra)
         if refused:
             from .binding import bind
 

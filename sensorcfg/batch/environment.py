@@ -29,6 +29,13 @@ makes: MuJoCo checks qpos, qvel and qacc at every step) ends its episode with di
 its first warning, so the observation of that last step may differ from a single simulation's (which
 MuJoCo resets and steps on).
 
+Relays: given the model as a path or an MjSpec, the batch may compile it with a few more MuJoCo sensors,
+appended after the model's own (whose `sensordata` positions do not move), that copy the values a suite
+reads of a wide field (a body's orientation, a site's frame) so that a control step records `sensordata`
+instead of the whole field (`batch.relay`: they are used only where they pay and only once checked to copy
+bit for bit; never with RK4). The observations are the same; the batch's model (`batch.get_model()`) has
+those sensors. An MjModel is used as it is.
+
 Cameras render per simulation: each sampled frame costs a `get_data` and a render of that simulation
 (a Python loop over the simulations that sample it), the batch keeps one MjData per simulation
 (`persistent=True`), and a control step becomes one rollout per substep at which a camera samples.
@@ -63,6 +70,7 @@ from ..env.environment import (_BAD_STATE, ControlLoop, action_spec, episode_tim
 from ..errors import ArgumentError, SuiteError, UnsupportedError
 from ..noise.level import leveled, set_level
 from ..physics import Physics
+from . import relay
 from .updater import BatchUpdater
 
 if TYPE_CHECKING:
@@ -149,7 +157,7 @@ class BatchTimeStep(NamedTuple):
 class BatchEnvironment(ControlLoop):
     """nsim simulations of one MuJoCo model, stepped together and observed through one sensor suite."""
 
-    def __init__(self, model: mujoco.MjModel | str | os.PathLike, suite: Any, nsim: int, *,
+    def __init__(self, model: mujoco.MjModel | mujoco.MjSpec | str | os.PathLike, suite: Any, nsim: int, *,
                  nthread: int | None = None, physics_steps_per_control_step: int | None = None,
                  control_timestep: float | None = None, time_limit: float | None = None,
                  seed: int | np.random.SeedSequence | None = None, reward_fn: BatchRewardFn | None = None,
@@ -166,10 +174,11 @@ class BatchEnvironment(ControlLoop):
         self._substeps, self._control_timestep, self._step_limit = episode_timing(
             self._model, physics_steps_per_control_step, control_timestep, time_limit,
             options.get("physics_steps_per_control_step"))
-        physics = Physics(self._model)
-        mujoco.mj_forward(self._model, physics.data)
-        flags = {k: bool(options[k]) for k in ("strip_singleton_buffer_dim", "pad_with_initial_value") if k in options}
-        self._updater = BatchUpdater(observables, physics, self._nsim, self._substeps, **flags)
+        flags: dict[str, bool] = {k: bool(options[k]) for k in ("strip_singleton_buffer_dim", "pad_with_initial_value")
+                                  if k in options}
+        self._updater = self._updater_for(self._model, observables, flags)
+        if isinstance(model, (str, os.PathLike, mujoco.MjSpec)):
+            self._relay(model, suite, flags)
         cameras = self._updater.cameras
         # cameras render a simulation's whole MjData after its step: one MjData per simulation
         self._batch = batch_module.Batch(self._model, self._nsim, 0 if nthread is None else int(nthread),
@@ -190,6 +199,30 @@ class BatchEnvironment(ControlLoop):
         self.last_divergence: list[str | None] = [None] * self._nsim
         self._action_spec = action_spec(self._model, (self._nsim,))
         self._observation_spec = self._updater.observation_spec()
+
+    def _updater_for(self, model: mujoco.MjModel, observables: dict[str, Any], flags: dict[str, bool],
+                     relays: Any = None) -> BatchUpdater:
+        physics = Physics(model)
+        mujoco.mj_forward(model, physics.data)
+        return BatchUpdater(observables, physics, self._nsim, self._substeps, **flags, relays=relays)
+
+    def _relay(self, source: Any, suite: Any, flags: dict[str, bool]) -> None:
+        """The model compiled again with relays (`batch.relay`) where they pay and copy exactly, and the
+        updater reading them; else the model as it is."""
+        layout = self._updater.layout
+        chosen = relay.plan(self._model, layout.sources, layout.recorded(), self._substeps)
+        if chosen is None:
+            return
+        try:
+            model, observables, _ = model_and_observables(source, suite, batch=True, extra=chosen.records)
+        except SuiteError:
+            return
+        where = relay.positions(model, chosen)
+        if not relay.exact(model, where):
+            return
+        leveled(observables)
+        self._model, self._observables = model, observables
+        self._updater = self._updater_for(model, observables, flags, where)
 
     def _rollout_segments(self) -> list[_Rollout]:
         """One `rollout` call per segment of the control step (`Layout.segments`)."""

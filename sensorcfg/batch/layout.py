@@ -21,11 +21,18 @@ from typing import Any, NamedTuple, cast
 
 import numpy as np
 
-from ..runtime.bank import PlainRead, ReductionGroup, _reader, read_plan
+from ..runtime.bank import PlainRead, ReductionGroup, read_plan
 from ..runtime.cache import DEFAULT_BUDGET, BoundedCache
 from ..runtime.channels import DrawnChannel, FixedChannel, RandomChannel
 
-__all__ = ["Layout", "Segment", "reduce_window"]
+__all__ = ["Layout", "Segment", "Source", "reduce_window"]
+
+
+class Source(NamedTuple):
+    """Where a channel's values are: an mjData field, and their positions in one simulation's field."""
+
+    field: str
+    at: np.ndarray
 
 
 class Segment(NamedTuple):
@@ -40,10 +47,13 @@ class Layout:
     """Columns, store and gather positions for `channels` (fixed-schedule ones first) of nsim simulations."""
 
     def __init__(self, channels: Sequence[FixedChannel | RandomChannel | DrawnChannel], nfixed: int, noisy: set[int], span: int,
-                 fields: dict[str, tuple[int, ...]], nsim: int, substeps: int, stops: set[int] | frozenset[int] = frozenset()):
+                 sources: Sequence[Source], fields: dict[str, tuple[int, ...]], nsim: int, substeps: int,
+                 stops: set[int] | frozenset[int] = frozenset()):
         """`span`: steps a sample of a random-schedule channel may wait to be read (0 without any);
-        `stops`: substeps after which a rollout must return (cameras render there)."""
+        `sources`: where each channel's values are in an mjData field (`relay.Source`); `stops`: substeps
+        after which a rollout must return (cameras render there)."""
         self.channels, self.nfixed, self.nsim, self.substeps = channels, nfixed, nsim, substeps
+        self.sources = sources
         self.fixed = cast("list[FixedChannel]", channels[:nfixed])
         self.cols = np.cumsum([0] + [math.prod(ch.shape) for ch in channels]).astype(np.intp)
         self.width = int(self.cols[-1])
@@ -103,9 +113,18 @@ class Layout:
             for q in range(self.nphase):
                 recent = self.from_record[q]
                 needed[self.substep[q][recent] - 1, self.col[recent]] = True
-        owner = {f: np.concatenate([np.arange(self.cols[c], self.cols[c + 1]) for c, ch in enumerate(self.channels)
-                                    if _reader(ch).field == f]) for f in fields}
+        owner = {f: np.concatenate([np.arange(self.cols[c], self.cols[c + 1]) for c, s in enumerate(self.sources)
+                                    if s.field == f]) for f in fields}
         return [{f for f in fields if needed[k, owner[f]].any()} for k in range(self.substeps)]
+
+    def recorded(self) -> dict[str, int]:
+        """Each recorded field (not bound): after how many substeps of a control step it is recorded."""
+        out: dict[str, int] = {}
+        for s, segment in enumerate(self.segments):
+            for f in segment.fields:
+                if f not in self.bound[s]:
+                    out[f] = out.get(f, 0) + self._steps(s, f)
+        return out
 
     def _steps(self, s: int, field: str) -> int:
         """Substeps of segment s whose values of `field` the store holds (1 for a bound field)."""
@@ -135,7 +154,7 @@ class Layout:
                 self.record_offset[(s, f)] = r
                 view = self.flat[r:r + size].reshape(nsim, steps, *fields[f])
                 if f in self.bound[s]:  # only the span of values some channel reads is copied
-                    read = np.concatenate([_reader(ch).index.ravel() for ch in self.channels if _reader(ch).field == f])
+                    read = np.concatenate([s.at.ravel() for s in self.sources if s.field == f])
                     span = slice(int(read.min()), int(read.max()) + 1)
                     bound[f] = (view.reshape(nsim, -1)[:, span], span)
                 else:
@@ -156,10 +175,9 @@ class Layout:
         self.record_base = np.zeros((substeps, self.width), np.intp)
         self.record_stride = np.zeros((substeps, self.width), np.intp)
         reset = []
-        for c, ch in enumerate(self.channels):
-            field = _reader(ch).field
+        for c, (field, index) in enumerate(self.sources):
             size = self.sizes[field]
-            within = _reader(ch).index.ravel().astype(np.intp)
+            within = index.ravel().astype(np.intp)
             cols = slice(self.cols[c], self.cols[c + 1])
             for s, (a, b, fs) in enumerate(self.segments):
                 if field in fs:

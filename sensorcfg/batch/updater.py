@@ -39,10 +39,11 @@ from ..noise.streams import add_sums
 from ..runtime.bank import _reader
 from ..runtime.channels import Channel, DrawnChannel, FixedChannel, RandomChannel, make_channel
 from ..runtime.updater import observation_spec
-from .layout import Layout, reduce_window
+from .layout import Layout, Source, reduce_window
 from .noise import BatchPipeline, prefetch
 from .read_noise import ReadNoise, added_as_read
 from .random_schedules import Timelines
+from .relay import relayed
 
 __all__ = ["BatchUpdater"]
 
@@ -70,12 +71,12 @@ class _Entry(NamedTuple):
     channel: FixedChannel | RandomChannel | DrawnChannel
 
 
-def _fields(physics: Any, channels: list[Any]) -> dict[str, tuple[int, ...]]:
+def _fields(physics: Any, sources: list[Source]) -> dict[str, tuple[int, ...]]:
     """The mjData fields the channels read, in order of first use, with their shapes."""
     data = physics.data if not hasattr(physics.data, "ptr") else physics.data.ptr
     fields: dict[str, tuple[int, ...]] = {}
-    for ch in channels:
-        fields.setdefault(_reader(ch).field, tuple(getattr(data, _reader(ch).field).shape))
+    for source in sources:
+        fields.setdefault(source.field, tuple(getattr(data, source.field).shape))
     return fields
 
 
@@ -111,9 +112,11 @@ class BatchUpdater:
     """
 
     def __init__(self, observables: Mapping[str, Any], physics: Any, nsim: int, substeps: int, *,
-                 strip_singleton_buffer_dim: bool = False, pad_with_initial_value: bool = False):
+                 strip_singleton_buffer_dim: bool = False, pad_with_initial_value: bool = False,
+                 relays: Mapping[str, Mapping[int, int]] | None = None):
         """`physics`: a single-simulation physics of the model (its MjData tells field shapes; the
-        observables are bound to it once, as the single-simulation Updater binds them, for checks and specs)."""
+        observables are bound to it once, as the single-simulation Updater binds them, for checks and specs).
+        `relays`: per field, its positions copied by the model's relay sensors (`batch.relay`), read there."""
         if not isinstance(observables, Mapping):
             raise ArgumentError("BatchEnvironment needs a dict of observables (or a Suite); got "
                              f"{type(observables).__name__}")
@@ -130,6 +133,8 @@ class BatchUpdater:
         self.cameras = self._cameras(cameras, physics)  # the caller sets `cameras.batch`
         self.labels = [e.name for e in ordered]
         self.channels = [e.channel for e in ordered]
+        sources = [Source(_reader(ch).field, _reader(ch).index) for ch in self.channels]
+        self.sources = relayed(sources, relays) if relays else sources
         read = self._noise(ordered, cameras)
         layout = self.layout = self._layout(physics, cameras, drawn)
         self.read_noise = ReadNoise(read, self.fixed, layout, self.pad) if read else None
@@ -159,10 +164,11 @@ class BatchUpdater:
     def _layout(self, physics: Any, cameras: list[_Entry], drawn: list[_Entry]) -> Layout:
         """The store the rollouts record into and the history the reads gather from."""
         substeps = self.substeps
-        fields = _fields(physics, self.channels)
+        fields = _fields(physics, self.sources)
         span = max((_random_span(e, substeps) for e in drawn), default=0)  # how long a drawn sample may wait
         stops = set().union(*(_camera_stops(cast(FixedChannel, e.channel), substeps) for e in cameras))
-        return Layout(self.channels, self.nfixed, set(self.corrupted), span, fields, self.nsim, substeps, stops)
+        return Layout(self.channels, self.nfixed, set(self.corrupted), span, self.sources, fields, self.nsim, substeps,
+                      stops)
 
     def _bind(self, observables: Mapping[str, Any], physics: Any, strip: bool) -> list[_Entry]:
         """Each enabled observable bound to `physics` with its channel, as the single-simulation Updater

@@ -13,7 +13,7 @@ import functools
 import math
 import os
 import warnings
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import dm_env
@@ -127,13 +127,22 @@ def action_spec(model: mujoco.MjModel, leading: tuple[int, ...] = ()) -> specs.B
                               minimum=np.where(limited, lo, -np.inf), maximum=np.where(limited, hi, np.inf))
 
 
-def model_and_observables(model: Any, suite: Any, batch: bool = False
+def model_and_observables(model: Any, suite: Any, batch: bool = False, extra: Sequence[Any] = ()
                           ) -> tuple[mujoco.MjModel, dict[str, Any], dict[str, Any]]:
-    """The model (a path or an MjSpec compiled with the suite's MuJoCo sensor kinds), its observables and
-    the Updater's keyword arguments, from a Suite, a suite path, or a dict of observables; the suite's
-    `options.keyframe` too, under "keyframe" (the environment pops it). With `batch`, what a
-    BatchEnvironment cannot run is a problem too."""
+    """The model (a path or an MjSpec compiled with the suite's MuJoCo sensor kinds, then the `extra`
+    sensors: a batch's relays), its observables and the Updater's keyword arguments, from a Suite, a suite
+    path, or a dict of observables; the suite's `options.keyframe` too, under "keyframe" (the environment
+    pops it). With `batch`, what a BatchEnvironment cannot run is a problem too."""
     if isinstance(suite, Mapping):
+        if isinstance(model, (str, os.PathLike, mujoco.MjSpec)) and (extra or isinstance(model, mujoco.MjSpec)):
+            from ..native import compile_model
+
+            if not isinstance(model, mujoco.MjSpec):
+                load_model(model)  # a missing or broken file: the same error as without extra sensors
+            try:
+                return compile_model(model, {}, False, extra)[0], dict(suite), {}
+            except ValueError as e:
+                raise SuiteError(f"MuJoCo could not compile the model: {str(e).strip()}") from None
         return load_model(model), dict(suite), {}
     if isinstance(suite, (str, os.PathLike)):
         from .. import load
@@ -142,7 +151,7 @@ def model_and_observables(model: Any, suite: Any, batch: bool = False
     if isinstance(model, (str, os.PathLike, mujoco.MjSpec)):
         if not isinstance(model, mujoco.MjSpec):
             load_model(model)  # a missing or broken file: the same error as without a suite
-        model = suite.compile(model, batch=batch)
+        model = suite._compile(model, batch, extra)
     model = load_model(model)
     observables = suite.build(model, batch=True) if batch else suite.build(model)
     return model, observables, {**suite.updater_kwargs(model), "keyframe": getattr(suite.options, "keyframe", None)}

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import os
 import re
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import mujoco
@@ -103,9 +103,11 @@ def _enable_on_demand(spec: mujoco.MjSpec, plain: mujoco.MjModel, sensors: Mappi
     return added
 
 
-def compile_model(source: Any, sensors: Mapping[str, SensorConfig], batch: bool = False) -> Compiled:
+def compile_model(source: Any, sensors: Mapping[str, SensorConfig], batch: bool = False,
+                  extra: Sequence[Added] = ()) -> Compiled:
     """`source` (an MJCF path or an MjSpec, which is copied) compiled with the native sensors of `sensors`
-    (and, for a batch, the sensors that make MuJoCo fill the on-demand fields the suite reads).
+    (and, for a batch, the sensors that make MuJoCo fill the on-demand fields the suite reads), then the
+    `extra` sensors (a batch's relays, `batch.relay`), last.
 
     Raises ValueError when MuJoCo cannot read or compile the file itself.
     """
@@ -113,13 +115,15 @@ def compile_model(source: Any, sensors: Mapping[str, SensorConfig], batch: bool 
     plain = spec.compile()
     names = native_names(sensors)
     enabled = batch and _enable_on_demand(spec, plain, sensors)
-    if not names and not enabled:
+    if not names and not enabled and not extra:
         return plain, {}
     made: dict[str, list[Any]] = {}
     for name in names:
         records = plan_sensor(plain, name, sensors[name], lambda path, message: None)
         if records:
             made[name] = [element for added in records for element in _add(spec, added)]
+    for added in extra:
+        _add(spec, added)
     refused: dict[str, str] = {}
     while True:
         try:
