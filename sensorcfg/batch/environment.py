@@ -215,7 +215,7 @@ class BatchEnvironment(ControlLoop):
             return
         try:
             model, observables, _ = model_and_observables(source, suite, batch=True, extra=chosen.records)
-        except SuiteError:
+        except (SuiteError, ValueError):  # MuJoCo refused a relay: the model as it is
             return
         where = relay.positions(model, chosen)
         if not relay.exact(model, where):
