@@ -64,21 +64,25 @@ RELAYS: dict[str, _Relay] = {
 }
 
 
+_Copies = list[tuple[str, tuple[int, ...]]]  # (sensor name, the field positions it copies, in order)
+
+
 class Plan(NamedTuple):
     """The sensors to add, and per relayed field which of its positions each one copies."""
 
     records: list[Added]
-    copies: dict[str, list[tuple[str, tuple[int, ...]]]]  # field -> (sensor name, field positions in order)
+    copies: dict[str, _Copies]  # per field
 
 
 def _name(field: str, element: int, sensor: str) -> str:
     return f"sensorcfg-relay:{field}:{element}:{sensor}"
 
 
-def _field_plan(model: mujoco.MjModel, field: str, positions: np.ndarray) -> tuple[list[Added], list[tuple[str, tuple[int, ...]]]] | None:
+def _field_plan(model: mujoco.MjModel, field: str, positions: np.ndarray) -> tuple[list[Added], _Copies] | None:
     """The sensors relaying `positions` of `field`, or None when an element has no name to attach them to."""
     relay = RELAYS[field]
-    records, copies = [], []
+    records: list[Added] = []
+    copies: _Copies = []
     for element in np.unique(positions // relay.width).tolist():
         objname = mujoco.mj_id2name(model, getattr(mujoco.mjtObj, f"mjOBJ_{relay.names}"), element)
         if not objname:
@@ -102,10 +106,11 @@ def plan(model: mujoco.MjModel, sources: Sequence[Source], recorded: Mapping[str
     A field pays when its relays' sensors (computed at every substep) and values (recorded with
     `sensordata`) cost less than recording it; with them all, `sensordata` itself, if it was recorded
     after fewer substeps or not at all."""
-    if model.opt.integrator == mujoco.mjtIntegrator.mjINT_RK4 or model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_SENSOR:
+    if (model.opt.integrator == mujoco.mjtIntegrator.mjINT_RK4
+            or model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_SENSOR):
         return None
     records: list[Added] = []
-    copies: dict[str, list[tuple[str, tuple[int, ...]]]] = {}
+    copies: dict[str, _Copies] = {}
     gain, before = 0, recorded.get("sensordata", 0)
     after = before
     for field, steps in recorded.items():
@@ -153,7 +158,8 @@ def exact(model: mujoco.MjModel, where: Mapping[str, Mapping[int, int]], steps: 
     data.qvel[:] = rng.normal(0.0, 0.3, model.nv)
     lo, hi = model.actuator_ctrlrange.T if model.nu else (np.zeros(0), np.zeros(0))
     for _ in range(steps):
-        data.ctrl[:] = np.where(model.actuator_ctrllimited.astype(bool), rng.uniform(lo, hi), rng.normal(0.0, 1.0, model.nu))
+        limited = model.actuator_ctrllimited.astype(bool)
+        data.ctrl[:] = np.where(limited, rng.uniform(lo, hi), rng.normal(0.0, 1.0, model.nu))
         mujoco.mj_step(model, data)
         for field, lookup in where.items():
             field_pos = np.fromiter(lookup.keys(), np.intp)
