@@ -112,8 +112,12 @@ def compile_model(source: Any, sensors: Mapping[str, SensorConfig], batch: bool 
     Raises ValueError when MuJoCo cannot read or compile the file itself.
     """
     spec = _spec(source)
-    plain = spec.compile()
     names = native_names(sensors)
+    if extra and not names and not batch:  # nothing to resolve against the model as written: one compile
+        for added in extra:
+            _add(spec, added)
+        return spec.compile(), {}
+    plain = spec.compile()
     enabled = batch and _enable_on_demand(spec, plain, sensors)
     if not names and not enabled and not extra:
         return plain, {}
