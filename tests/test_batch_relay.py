@@ -206,3 +206,23 @@ def test_a_suite_file_and_a_spec_take_relays(tmp_path):
     assert relay_sensors(from_path._model) and relay_sensors(from_spec._model)
     for a, b, c in zip(run(from_path, 12), run(from_spec, 12), run(as_written, 12)):
         assert same(a, c) and same(b, c)
+
+
+@needs_batch
+def test_relays_next_to_a_camera_read_the_persistent_batchs_sensordata(tmp_path):
+    """A camera makes the batch keep one MjData per simulation: reset samples come from there, relays too."""
+    path = model_file(tmp_path)
+
+    def with_camera() -> dict[str, sensorcfg.Observable]:
+        out = suite(path)
+        camera = sensorcfg.Camera("eye", width=32, height=24, update_interval=3)
+        camera.enabled = True
+        out["eye"] = camera
+        return out
+
+    relayed = BatchEnvironment(path, with_camera(), 2, physics_steps_per_control_step=3, seed=5)
+    as_written = BatchEnvironment(mujoco.MjModel.from_xml_path(path), with_camera(), 2,
+                                  physics_steps_per_control_step=3, seed=5)
+    assert relayed.batch.persistent and relay_sensors(relayed._model)
+    for s, (a, b) in enumerate(zip(run(relayed, 10), run(as_written, 10))):
+        assert same(a, b), f"step {s}"
