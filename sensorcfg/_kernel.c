@@ -561,6 +561,54 @@ done:
     return result;
 }
 
+/* uniforms(keys uint64 (m, 2), first int64 (m), counts int64 (m), tag, out float64): the uniform of value 0 of
+ * samples first[s] .. first[s] + counts[s] - 1 of key s, key after key, into out (word 0 of the Philox of
+ * counter (j, tag, lo32(k1), hi32(k1)) times 2^-32): streams.numbers of size-1 uniform draws over runs of
+ * samples, without a key per sample (the planned schedules' intervals and delays, runtime/drawn.py). */
+static PyObject *uniform_runs(PyObject *self, PyObject *args) {
+    Py_buffer keysb, firstb, countsb, outb;
+    unsigned int tag;
+    if (!PyArg_ParseTuple(args, "y*y*y*Iw*", &keysb, &firstb, &countsb, &tag, &outb)) return NULL;
+    Py_ssize_t m = firstb.len / 8, total = 0;
+    const int64_t *first = firstb.buf, *counts = countsb.buf;
+    const uint64_t *k = keysb.buf;
+    int bad = keysb.len != 16 * m || countsb.len != 8 * m;
+    for (Py_ssize_t s = 0; !bad && s < m; s++) {
+        bad = counts[s] < 0;
+        total += counts[s];
+    }
+    if (bad || outb.len != 8 * total) {
+        PyErr_SetString(PyExc_ValueError, "uniforms: keys (m, 2), first (m,), counts (m,) and out (sum of counts) disagree");
+        PyBuffer_Release(&keysb), PyBuffer_Release(&firstb), PyBuffer_Release(&countsb), PyBuffer_Release(&outb);
+        return NULL;
+    }
+    double *out = outb.buf;
+    Py_BEGIN_ALLOW_THREADS
+    uint32_t x[4][BLOCK], kk[2][BLOCK], w[4 * BLOCK];
+    for (Py_ssize_t s = 0; s < m; s++) {
+        uint32_t k0lo = (uint32_t)k[2 * s], k0hi = (uint32_t)(k[2 * s] >> 32);
+        uint32_t k1lo = (uint32_t)k[2 * s + 1], k1hi = (uint32_t)(k[2 * s + 1] >> 32);
+        for (int64_t done = 0; done < counts[s];) {
+            int n = counts[s] - done < BLOCK ? (int)(counts[s] - done) : BLOCK;
+            for (int i = 0; i < n; i++) {
+                x[0][i] = (uint32_t)(uint64_t)(first[s] + done + i);
+                x[1][i] = tag;
+                x[2][i] = k1lo;
+                x[3][i] = k1hi;
+                kk[0][i] = k0lo;
+                kk[1][i] = k0hi;
+            }
+            philox_block(n, x[0], x[1], x[2], x[3], kk[0], kk[1], w);
+            for (int i = 0; i < n; i++) out[i] = (double)w[4 * i] * TWO_M32;
+            out += n;
+            done += n;
+        }
+    }
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&keysb), PyBuffer_Release(&firstb), PyBuffer_Release(&countsb), PyBuffer_Release(&outb);
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
     {"add", add, METH_VARARGS,
      "add(keys, samples, size, lanes, out, width, lo, rows, accumulate): the lanes' numbers, summed, into out's rows."},
@@ -572,6 +620,9 @@ static PyMethodDef methods[] = {
     {"plan", plan_round, METH_VARARGS,
      "plan(g, t, a, prev, tail, reads, floor, windows, take_sim, take_step, buffer, substeps, length): a planning "
      "round's windows and samples to take (sensorcfg/runtime/drawn.py)."},
+    {"uniforms", uniform_runs, METH_VARARGS,
+     "uniforms(keys, first, counts, tag, out): size-1 uniforms of runs of samples, one key per run "
+     "(sensorcfg.noise.streams.uniform_runs)."},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_kernel",

@@ -86,12 +86,10 @@ class Round(NamedTuple):
 _SCHEDULE = np.array([0, 1 << 63], np.uint64)  # xor of a sensor key that gives its schedule key
 
 
-def _drawn(setting: Any, keys: np.ndarray, j: np.ndarray, lane: int) -> np.ndarray:
-    """Draws of `setting` for samples j of schedule keys `keys` (len(j), 2), from lane `lane`."""
-    if not j.size:
-        return np.zeros(0, np.int64)
-    u = streams.numbers([streams.Draw(keys, j, 0, lane, 1, False)])[0][:, 0]
-    return np.asarray(setting.of_uniform(u), np.int64)
+def _drawn(setting: Any, keys: np.ndarray, first: np.ndarray, counts: np.ndarray, lane: int) -> np.ndarray:
+    """Draws of `setting` for samples first[s] .. first[s] + counts[s] - 1 of schedule keys `keys` (one per
+    run, (len(first), 2)), run after run, from lane `lane`."""
+    return np.asarray(setting.of_uniform(streams.uniform_runs(keys, first, counts, lane)), np.int64)
 
 
 class Planner:
@@ -175,8 +173,9 @@ class Planner:
             j = first[:, None] + k
             fits = k < bound[:, None]
             gaps = np.zeros(j.shape, np.int64)
-            drawn = fits & (j > 0)  # sample 0 is at step 0: no interval
-            gaps[drawn] = _drawn(interval, np.repeat(self.keys[sims], drawn.sum(1), axis=0), j[drawn], 0)
+            drawn = fits & (j > 0)  # sample 0 is at step 0: no interval (a run per simulation: its j in order)
+            lo = np.maximum(first, 1)
+            gaps[drawn] = _drawn(interval, self.keys[sims], lo, np.maximum(first + bound - lo, 0), 0)
             times = np.where(first == 0, 0, self.last[sims])[:, None] + np.cumsum(gaps, axis=1)
             shown = fits & (times <= end[:, None])
             g, j, t = np.nonzero(shown)[0], j[shown], times[shown]
@@ -185,7 +184,7 @@ class Planner:
             self.last[sims[had]] = times[had, counts[had] - 1]
         self.next[sims] = first + counts
         d = (np.full(g.size, int(delay), np.int64) if isinstance(delay, numbers.Integral)
-             else _drawn(delay, np.repeat(self.keys[sims], counts, axis=0), j, 1))  # g: sorted, counts per sim
+             else _drawn(delay, self.keys[sims], first, counts, 1))  # g: sorted, j from first, counts per sim
         return g, t, d
 
     def round(self, sims: np.ndarray, length: int) -> Round:
