@@ -287,10 +287,11 @@ class Sum(NamedTuple):
     rows: np.ndarray
 
 
-def add_sums(jobs: Sequence[Sum], compiled: bool = True) -> None:
-    """Each job's total added to its rows in place, with numpy's roundings: per term x *= scale; x += offset,
-    total = first term; total += each other; then row = row + total (the regions must not overlap). The
-    compiled kernel does it in one pass per job, splitting many jobs between two threads."""
+def add_sums(jobs: Sequence[Sum], compiled: bool = True, accumulate: bool = True) -> None:
+    """Each job's total added to its rows in place (written there, without `accumulate`), with numpy's
+    roundings: per term x *= scale; x += offset, total = first term; total += each other; then row = row +
+    total (the regions must not overlap). The compiled kernel does it in one pass per job, splitting many jobs
+    between two threads."""
     if any(len(job.terms) > MAX_TERMS for job in jobs):
         raise ValueError(f"a sum adds at most {MAX_TERMS} terms in one pass")
     if not (compiled and _COMPILED is not None):
@@ -310,12 +311,12 @@ def add_sums(jobs: Sequence[Sum], compiled: bool = True) -> None:
             hi = job.lo + job.draws[0].size
             if job.table.ndim == 1:
                 at = np.asarray(job.rows)[:, None] + np.arange(job.lo, hi)
-                job.table[at] = job.table[at] + total
+                job.table[at] = job.table[at] + total if accumulate else total
             else:
-                job.table[job.rows, job.lo:hi] = job.table[job.rows, job.lo:hi] + total
+                job.table[job.rows, job.lo:hi] = job.table[job.rows, job.lo:hi] + total if accumulate else total
         return
     _run([_Job(job.draws, job.terms, job.table, job.lo, np.ascontiguousarray(job.rows, np.int64)) for job in jobs],
-         accumulate=True)
+         accumulate=accumulate)
 
 
 class _Job(NamedTuple):

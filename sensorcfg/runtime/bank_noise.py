@@ -23,7 +23,7 @@ import numpy as np
 
 from ..noise import arithmetic as ar
 from ..noise import stages as rt
-from ..noise.streams import Draw, numbers
+from ..noise.streams import KERNEL, Affine, Draw, Sum, add_sums, numbers
 
 __all__ = ["BankNoise", "Layer", "ReadOp", "ops_of", "program"]
 
@@ -76,6 +76,7 @@ class BankNoise:
             if ops:
                 groups.setdefault(tuple(kind for kind, _ in ops), []).append(i)
         self.programs = programs
+        self.affines: dict[tuple[int, int], tuple[Any, list[Affine] | None]] = {}  # (member, term): (stage, affine)
         self.groups = [(signature, members) for signature, members in groups.items()]
         self.nfields = max((sig.count("term") for sig, _ in self.groups), default=0)
         # -0.0 where nothing is drawn: adding it changes no value, so a read may add a whole field row
@@ -120,7 +121,7 @@ class BankNoise:
         sample steps; the steps of an episode's first chunk (the reset sample first, when it is not among
         them) and their positions."""
         def places(i: int, offsets: np.ndarray) -> np.ndarray:
-            return (offsets[:, None] * self.width + np.arange(self.cols[i], self.cols[i + 1])[None, :]).ravel()
+            return offsets * self.width + self.cols[i]
 
         first = [offsets if len(offsets) and offsets[0] == 0 else np.concatenate(([0], offsets)).astype(np.intp)
                  for offsets in sample_offsets]
@@ -145,30 +146,50 @@ class BankNoise:
     def fill_samples(self, samples: list[tuple[int, np.ndarray]]) -> None:
         """Write the per-sample terms of the given samples: (member, its sample steps), wherever they lie in
         the rows (a member without a random walk: its walk needs its indices in order, a chunk at a time)."""
-        self._write([(i, steps, ((steps % self.rows)[:, None] * self.width
-                                 + np.arange(self.cols[i], self.cols[i + 1])).ravel()) for i, steps in samples])
+        self._write([(i, steps, (steps % self.rows) * self.width + self.cols[i]) for i, steps in samples])
 
     def _write(self, items: list[tuple[int, np.ndarray, np.ndarray]]) -> None:
-        """(member, sample steps, their flat positions in a noise field): the numbers of those samples only,
-        of every member, from one Philox call (`streams.numbers`); a random walk walks every index
-        (`rows_at`)."""
+        """(member, sample steps, where each sample's values start in a noise field (flat)): the numbers of
+        those samples only, of every member, from one Philox call (`streams.numbers`); a random walk walks
+        every index (`rows_at`). Where the kernel is built, a term linear in its numbers (`affine`) is written
+        by it straight into its field (`add_sums`, the same roundings as the stage's `shape`)."""
         jobs: list[tuple[Any, int, np.ndarray, int, int]] = []
         draws: list[Draw] = []
-        for i, steps, places in items:
+        sums: list[Sum] = []
+        for i, steps, starts in items:
             indices = steps // self.strides[i]
             terms = [stage for kind, stage in self.programs[i] if kind == "term"]
+            places = None  # every value's flat position, where some term needs them
             for j, stage in enumerate(terms):
+                affine = self._affine(i, j, stage)
+                if affine is None and places is None:
+                    places = (starts[:, None] + np.arange(self.cols[i + 1] - self.cols[i])).ravel()
                 if isinstance(stage, rt.RandomWalk):
                     self.flat_fields[j].put(places, stage.rows_at(indices))
                     continue
                 drawn = stage.draws(indices, np.broadcast_to(stage.streams.keys, (len(indices), 2)))
-                jobs.append((stage, j, places, len(draws), len(drawn)))
+                if affine is not None:  # (a sample's values are contiguous in the field)
+                    sums.append(Sum(drawn, affine, self.flat_fields[j], 0, starts))
+                    continue
+                jobs.append((stage, j, cast(np.ndarray, places), len(draws), len(drawn)))
                 draws.extend(drawn)
+        if sums:
+            add_sums(sums, accumulate=False)
         if not draws:
             return
         raw = numbers(draws)
         for stage, j, places, at, count in jobs:
             self.flat_fields[j].put(places, stage.shape(raw[at:at + count], len(places) // stage.size))
+
+    def _affine(self, i: int, j: int, stage: Any) -> list[Affine] | None:
+        """Term j of member i as affine terms of its numbers, when the kernel writes it (cached per stage; a
+        random walk's rows are its states, not its numbers)."""
+        if KERNEL != "compiled" or isinstance(stage, rt.RandomWalk):
+            return None
+        cached = self.affines.get((i, j))
+        if cached is None or cached[0] is not stage:
+            cached = self.affines[(i, j)] = (stage, stage.affine())
+        return cast("list[Affine] | None", cached[1])
 
     # -- reads ------------------------------------------------------------------------------------
 
