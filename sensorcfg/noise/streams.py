@@ -344,7 +344,10 @@ def _run(jobs: list[_Job], accumulate: bool) -> None:
         if not first.size or not m:
             continue
         samples = np.ascontiguousarray(first.samples, np.int64).ravel()
-        keys = np.ascontiguousarray(np.broadcast_to(np.asarray(first.keys, np.uint64).reshape(-1, 2), (m, 2)))
+        keys = first.keys
+        if not (isinstance(keys, np.ndarray) and keys.shape == (m, 2) and keys.dtype == np.uint64
+                and keys.flags.c_contiguous):
+            keys = np.ascontiguousarray(np.broadcast_to(np.asarray(keys, np.uint64).reshape(-1, 2), (m, 2)))
         lanes = [(d.stage << 24 | d.lane << 22, d.normal, *(t if t is not None else (None, None)))
                  for d, t in zip(draws, terms)]
         width = out.shape[-1] if out.ndim == 2 else 0

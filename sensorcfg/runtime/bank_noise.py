@@ -167,7 +167,7 @@ class BankNoise:
                 if isinstance(stage, rt.RandomWalk):
                     self.flat_fields[j].put(places, stage.rows_at(indices))
                     continue
-                drawn = stage.draws(indices, np.broadcast_to(stage.streams.keys, (len(indices), 2)))
+                drawn = stage.draws(indices, np.repeat(stage.streams.keys, len(indices), axis=0))
                 if affine is not None:  # (a sample's values are contiguous in the field)
                     sums.append(Sum(drawn, affine, self.flat_fields[j], 0, starts))
                     continue

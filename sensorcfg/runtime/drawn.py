@@ -111,6 +111,8 @@ class Planner:
         self.schedule_of = np.zeros(nsim, np.intp)
         for k, members in enumerate(schedules.values()):
             self.schedule_of[members] = k
+        self.all = np.arange(nsim)  # sims = `all` (this array): every simulation, in order (shorter paths)
+        self.members = [np.array(members, np.intp) for members in schedules.values()]
         self.buffer = max(d.buffer for d in drawns)  # windows hold the largest buffer: the last `buffer` entries count
         self.substeps = drawns[0].substeps
         self.ties = max(_largest(d.delay) for d in drawns) + 1
@@ -149,7 +151,7 @@ class Planner:
         parts = []
         kinds = self.schedule_of[sims]
         for k, schedule in enumerate(self.schedules):
-            pos = np.flatnonzero(kinds == k)
+            pos = self.members[k] if sims is self.all else np.flatnonzero(kinds == k)
             if len(pos):
                 g, t, d = self._samples(schedule, sims[pos], end[pos])
                 parts.append((pos[g], t, d))
@@ -266,7 +268,10 @@ class Planner:
         """The new samples of `sims` with their samples in flight: those that arrive by the round's end
         (the rest stay in flight)."""
         keep = self.flight
-        if keep.shape[1]:
+        if keep.shape[1] and sims is self.all:  # every sample in flight is of `sims`
+            g, t, a = (np.concatenate((row, new)) for row, new in zip(keep, (g, t, a)))
+            keep = keep[:, :0]
+        elif keep.shape[1]:
             local = np.full(len(self.end), -1, np.intp)
             local[sims] = np.arange(len(sims))
             mine = local[keep[0]] >= 0

@@ -89,7 +89,7 @@ class DrawnBank:
         self.need = np.zeros(self.rows, bool)
         # every member's schedule in one planner, each a "simulation" of its own (one call per round)
         self.planner = Planner([ch.drawn for ch in channels], len(channels))
-        self.members_ = np.arange(len(channels))
+        self.members_ = self.planner.all  # (the planner's own array: its paths for every simulation)
         self.older = np.zeros(len(channels), np.int64)  # per member: samples of rounds past
         self.recent: list[np.ndarray] = []  # the recent rounds' new samples, as member * _KEY + step (sorted)
         self._compile(channels)
@@ -116,6 +116,7 @@ class DrawnBank:
         # in a round's windows (member, read, largest buffer): a member reads the last `buffer` entries
         self.entry = member * self.planner.buffer + self.planner.buffer - buffers[member] + template // self.width
         self.column = template % self.width
+        self._at: dict[int, np.ndarray] = {}  # `_entries` by reads per round
 
     def _noise(self, programs: list[Program]) -> None:
         """The members' noise (`BankNoise`), drawn with the rounds for the samples they take (random walks a
@@ -194,7 +195,7 @@ class DrawnBank:
         # a sample is shown first in its own round or the next: each counted once
         self.recent.append(_new(plan.take_sim * _KEY + plan.take_step, self.recent[-1] if self.recent else _ZERO[:0]))
         if self.noise is not None:  # the noise of the samples this round takes first
-            if base:  # (the reset drew the first chunk's random walks)
+            if base and self.walkers:  # (the reset drew the first chunk's random walks)
                 self.noise.fill(base, self.walkers)
             keys = self.recent[-1]
             bounds = keys.searchsorted(np.arange(len(self.channels) + 1) * _KEY)
@@ -209,16 +210,25 @@ class DrawnBank:
 
     def _store(self, plan: Round, first: int, count: int) -> None:
         """Gather indices of a round's reads (read slots first .. first + count, or the reset read)."""
-        windows = plan.windows.transpose(1, 0, 2).reshape(plan.windows.shape[1], -1)  # (reads, member x buffer)
-        rows = np.where(windows >= 0, windows % self.rows, 0)
-        index = rows[:, self.entry] * self.width + self.column
+        entries = plan.windows.take(self._entries(*plan.windows.shape))
         slots = (first + np.arange(max(count, 1))) % self.slots
-        self.gathers[slots] = index
+        # (padding, -1, gathers any row: a read that shows it writes the pad values over it)
+        self.gathers[slots] = entries % self.rows * self.width + self.column
         for slot in [slot for slot in self.pads if (slot - first) % self.slots < max(count, 1)]:
             del self.pads[slot]  # a slot of an earlier round
-        padded = windows[:, self.entry] < 0  # only reads early in an episode show padding
-        for read in np.flatnonzero(padded.any(axis=1)).tolist():
-            self.pads[int(slots[read])] = np.flatnonzero(padded[read])
+        padded = entries < 0  # only reads early in an episode show padding
+        if padded.any():
+            read, value = np.nonzero(padded)
+            for r, values in zip(*_runs(read, value)):
+                self.pads[int(slots[r])] = values
+
+    def _entries(self, members: int, reads: int, b: int) -> np.ndarray:
+        """Where each gathered value's window entry is in a round's windows (members, reads, b), read by read
+        (one array per shape: a round's and the reset read's)."""
+        at = self._at.get(reads)
+        if at is None:
+            at = self._at[reads] = (self.entry // b * (reads * b) + self.entry % b)[None, :] + (np.arange(reads) * b)[:, None]
+        return at
 
     # -- the physics loop -------------------------------------------------------------------------
 
@@ -269,6 +279,12 @@ class _Stride(NamedTuple):
 
     shape: tuple[int, ...]
     interval: int
+
+
+def _runs(keys: np.ndarray, values: np.ndarray) -> tuple[list[int], list[np.ndarray]]:
+    """The distinct `keys` (sorted) and the `values` of each."""
+    cut = np.flatnonzero(keys[1:] != keys[:-1]) + 1
+    return keys[np.concatenate(([0], cut))].tolist(), np.split(values, cut)
 
 
 def _new(steps: np.ndarray, before: np.ndarray) -> np.ndarray:
