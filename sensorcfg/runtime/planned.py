@@ -76,8 +76,12 @@ class DrawnBank:
         self.source = np.concatenate(
             [offsets[_reader(ch).field] + _reader(ch).index.ravel() for ch in channels]).astype(np.intp)
         self.chunk = chunk_steps([ch.drawn for ch in channels], substeps)
+        # The reset plans one chunk (what its latency pays for), later rounds _LONG chunks each (a round costs
+        # a fixed part, numpy calls, and a part per step). The history holds a planned round ahead and `span`
+        # steps back.
+        self.length = _LONG * self.chunk
         span = max(ch.drawn.span for ch in channels)
-        self.rows = self.chunk * -(-(span + 2 * self.chunk + 1) // self.chunk)
+        self.rows = self.chunk * -(-(span + self.chunk + self.length + 1) // self.chunk)
         # A round is planned this many steps before it starts: every sample its reads show is then still
         # ahead (a read shows samples at most `span` steps old), and so is every sample of the round before
         # whose first read falls in it (at most delay + substeps - 1 steps old).
@@ -163,7 +167,7 @@ class DrawnBank:
             self.noise.fill(0, self.walkers)  # (random walks a chunk at a time)
         self.pads.clear()
         self._store(self.planner.start(self.members_, [ch.key for ch in self.channels]), 0, 0)
-        self._plan_round(0)
+        self._plan_round(0, self.chunk)
         if self.pad:
             self.pad_values = self.history[0].copy()
             if self.noise is not None:  # padding repeats the first sample as delivered: with its noise
@@ -183,20 +187,20 @@ class DrawnBank:
         """Before the control step after `step`: plan the next round (and draw its noise) once it is
         `ahead` steps away."""
         if step + self.ahead >= self.next_round:
-            self._plan_round(self.next_round)
-            self.next_round += self.chunk
+            self._plan_round(self.next_round, self.length)
+            self.next_round += self.length
 
-    def _plan_round(self, base: int) -> None:
-        plan = self.planner.round(self.members_, self.chunk)
-        self._store(plan, base // self.n + 1, self.chunk // self.n)
+    def _plan_round(self, base: int, length: int) -> None:
+        plan = self.planner.round(self.members_, length)
+        self._store(plan, base // self.n + 1, length // self.n)
         self.need[plan.take_step % self.rows] = True
         if len(self.recent) == 3:  # rounds that ended before the current step
             self.older += np.bincount(self.recent.pop(0) // _KEY, minlength=len(self.channels))
         # a sample is shown first in its own round or the next: each counted once
         self.recent.append(_new(plan.take_sim * _KEY + plan.take_step, self.recent[-1] if self.recent else _ZERO[:0]))
         if self.noise is not None:  # the noise of the samples this round takes first
-            if base and self.walkers:  # (the reset drew the first chunk's random walks)
-                self.noise.fill(base, self.walkers)
+            for chunk in range(base, base + length, self.chunk) if base and self.walkers else ():
+                self.noise.fill(chunk, self.walkers)  # (the reset drew the first chunk's random walks)
             keys = self.recent[-1]
             bounds = keys.searchsorted(np.arange(len(self.channels) + 1) * _KEY)
             first = _ZERO if base == 0 else _ZERO[:0]  # the first round draws the reset sample's too
@@ -299,3 +303,4 @@ def _new(steps: np.ndarray, before: np.ndarray) -> np.ndarray:
 
 _ZERO = np.zeros(1, np.intp)
 _KEY = 1 << 40  # member * _KEY + step: a sample taken, as one sortable number
+_LONG = 2  # chunks per round after the reset's
