@@ -263,8 +263,7 @@ class DrawnChannel(Channel):
         super().__init__(spec)
         self.drawn = drawn._replace(every_sample=self.every_sample)
         self.key = key
-        self.chunk = chunk_steps([self.drawn], self.substeps)
-        self.rows = self.chunk * -(-(self.drawn.span + 2 * self.chunk + 1) // self.chunk)
+        self.chunk = self.rows = 0  # the per-sample path's round and history lengths, set at `start`
         self.fill: Any = None
         # the per-sample path's plan and samples, made at `start` (a channel the bank runs needs none)
         self.need = np.zeros(0, bool)
@@ -284,7 +283,9 @@ class DrawnChannel(Channel):
             self.need[plan.take_step % self.rows] = True
 
     def start(self, step: int) -> None:
-        if self.planner is None:
+        if self.planner is None:  # (a channel the bank runs is never started: it needs none of this)
+            self.chunk = chunk_steps([self.drawn], self.substeps)
+            self.rows = self.chunk * -(-(self.drawn.span + 2 * self.chunk + 1) // self.chunk)
             self.need = np.zeros(self.rows, bool)
             self.windows = np.full((self.rows // self.substeps, self.buffer_size), -1, np.int64)
             self.values = [None] * self.rows

@@ -106,6 +106,8 @@ class DrawnBank:
         self.kernel = kernel_read(self.compiled, self.noise_layers, self.flat)  # the read in one call, where built
         self.run = None if self.kernel is None else self.kernel.run
         self._read_step, self._outputs = -1, cast(Sequence[Any], [])
+        self._pad_program: list[ReadOp] | None = None
+        self._pad_work = np.zeros(0)
 
     def _compile(self, channels: list[DrawnChannel]) -> None:
         """A read compiled once (`bank_read`): only the rows it gathers change, each gathered value is
@@ -171,17 +173,23 @@ class DrawnBank:
         if self.pad:
             self.pad_values = self.history[0].copy()
             if self.noise is not None:  # padding repeats the first sample as delivered: with its noise
-                self._apply_noise(self.pad_values, np.arange(self.width))
+                self._pad_noise()
         else:
             self.pad_values = np.zeros(self.width)
         self.next_round = self.chunk
         self._read_step = -1  # a read at step 0 of this episode is not the last episode's (two resets in a row)
         self.plan(0)
 
-    def _apply_noise(self, values: np.ndarray, index: np.ndarray) -> None:
-        noise = self.noise
-        assert noise is not None
-        noise.apply(index, noise.read_program(index % self.width, values))
+    def _pad_noise(self) -> None:
+        """The reset sample's noise on `pad_values` (row 0 of the history): a read program of every column,
+        made once on a work row of its own (its layers hold this episode's draws in place)."""
+        noise = cast(BankNoise, self.noise)
+        if self._pad_program is None:
+            self._pad_work = np.zeros(self.width)
+            self._pad_program = noise.read_program(np.arange(self.width), self._pad_work)
+        self._pad_work[:] = self.pad_values
+        noise.apply(np.arange(self.width), self._pad_program)
+        self.pad_values = self._pad_work.copy()
 
     def plan(self, step: int) -> None:
         """Before the control step after `step`: plan the next round (and draw its noise) once it is
