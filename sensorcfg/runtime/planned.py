@@ -75,7 +75,7 @@ class DrawnBank:
         self.width = int(self.cols[-1])
         self.source = np.concatenate(
             [offsets[_reader(ch).field] + _reader(ch).index.ravel() for ch in channels]).astype(np.intp)
-        self.chunk = chunk_steps([ch.drawn for ch in channels], substeps)
+        self.chunk = chunk_steps([ch.drawn for ch in channels], substeps, _RESET_STEPS)
         # The reset plans one chunk (what its latency pays for), later rounds _LONG chunks each (a round costs
         # a fixed part, numpy calls, and a part per step). The history holds a planned round ahead and `span`
         # steps back.
@@ -311,4 +311,5 @@ def _new(steps: np.ndarray, before: np.ndarray) -> np.ndarray:
 
 _ZERO = np.zeros(1, np.intp)
 _KEY = 1 << 40  # member * _KEY + step: a sample taken, as one sortable number
-_LONG = 2  # chunks per round after the reset's
+_RESET_STEPS = 512  # a chunk, at least: what a reset plans
+_LONG = 4  # chunks per round after the reset's
