@@ -140,7 +140,29 @@ class Planner:
         restarted = np.zeros(len(self.end), bool)
         restarted[sims] = True
         self.flight = self.flight[:, ~restarted[self.flight[0]]]
-        return self.round(sims, 0)
+        return self._reset_round(sims)
+
+    def _reset_round(self, sims: np.ndarray) -> Round:
+        """`round(sims, 0)` of simulations just started, in closed form: sample 0 is at step 0 and arrives
+        after its delay D_0, so the reset read shows it when D_0 = 0 and padding before it; it is in flight
+        otherwise; nothing is taken (tests/test_planned_kernel.py compares the two)."""
+        delays = np.zeros(len(sims), np.int64)
+        kinds = self.schedule_of[sims]
+        for k, (_, delay) in enumerate(self.schedules):
+            pos = self.members[k] if sims is self.all else np.flatnonzero(kinds == k)
+            if len(pos) and not isinstance(delay, numbers.Integral):
+                delays[pos] = _drawn(delay, self.keys[sims[pos]], np.zeros(len(pos), np.int64),
+                                     np.ones(len(pos), np.int64), 1)
+            elif len(pos):
+                delays[pos] = int(delay)
+        self.next[sims] = 1
+        self.end[sims] = 0
+        late = delays > 0
+        self.flight = np.concatenate((self.flight, np.stack((sims[late], 0 * delays[late], delays[late]))), axis=1)
+        windows = np.full((len(sims), 1, self.buffer), -1, np.int64)
+        windows[~late, 0, -1] = 0
+        self.tail[sims] = windows[:, 0]
+        return Round(windows, np.zeros(0, np.intp), np.zeros(0, np.int64))
 
     def _until(self, sims: np.ndarray, end: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The samples of `sims` with times <= end not planned before: (position in sims, time, delay)."""

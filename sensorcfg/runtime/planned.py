@@ -90,7 +90,8 @@ class DrawnBank:
         self.history = np.zeros((self.rows, self.width))
         self.flat = self.history.reshape(-1)
         self.history_rows = list(self.history)
-        self.need = np.zeros(self.rows, bool)
+        self.needed = bytearray(self.rows)  # per history row: a sample is taken then (the snapshot reads bytes)
+        self.need = np.frombuffer(self.needed, bool)  # (the same memory: the rounds mark it with numpy)
         # every member's schedule in one planner, each a "simulation" of its own (one call per round)
         self.planner = Planner([ch.drawn for ch in channels], len(channels))
         self.members_ = self.planner.all  # (the planner's own array: its paths for every simulation)
@@ -250,12 +251,12 @@ class DrawnBank:
     def snapshot_task(self) -> Callable[[int], None]:
         """The Updater's task at every step: copy every member's values into the history row of `step` when
         some member samples then (a closure over what it uses)."""
-        need, take, source, rows, count = self.need, self.raw.take, self.source, self.history_rows, self.rows
+        need, take, source, rows, count = self.needed, self.raw.take, self.source, self.history_rows, self.rows
 
         def snapshot(step: int) -> None:
             row = step % count
             if need[row]:
-                need[row] = False
+                need[row] = 0
                 take(source, None, rows[row], "clip")  # mode="clip": no buffered output (indices are valid)
 
         return snapshot
