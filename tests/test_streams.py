@@ -174,6 +174,47 @@ def test_sums_added_in_place_equal_the_numpy_arithmetic_on_both_paths():
         assert np.array_equal(a.view(np.uint64), b.view(np.uint64))
 
 
+@pytest.mark.parametrize("kernel", PATHS)
+def test_uniform_runs_are_the_numbers_of_size_one_uniform_draws(kernel):
+    """`uniform_runs` (the planned schedules' draws: a key per run of samples) gives `numbers` of one size-1
+    uniform draw with a key per sample, bit for bit, on both paths; empty runs give nothing."""
+    rng = np.random.default_rng(21)
+    m = 9
+    keys = rng.integers(0, 2**64, (m, 2), dtype=np.uint64)
+    first = rng.integers(0, 2**33, m)  # (the counter takes the low 32 bits)
+    counts = rng.integers(0, 300, m)
+    counts[[2, 5]] = 0
+    for lane in (0, 1, 2):
+        got = streams.uniform_runs(keys, first, counts, lane, compiled=_path(kernel))
+        samples = np.concatenate([np.arange(f, f + c) for f, c in zip(first.tolist(), counts.tolist())])
+        draw = Draw(np.repeat(keys, counts, axis=0), samples, 0, lane, 1, False)
+        expected = numbers([draw], compiled=False)[0][:, 0]
+        assert got.shape == expected.shape and np.array_equal(got.view(np.uint64), expected.view(np.uint64))
+    assert streams.uniform_runs(keys, first, np.zeros(m, np.int64), 1, compiled=kernel).shape == (0,)
+
+
+@pytest.mark.parametrize("kernel", PATHS)
+def test_sums_written_replace_the_rows(kernel):
+    """`add_sums(..., accumulate=False)` (the bank's noise fields): the total written over the rows' values,
+    the same bits as the sum added to zeros would be, on both paths; other values are left alone."""
+    rng = np.random.default_rng(8)
+    m, size, width = 400, 3, 7
+    keys = rng.integers(0, 2**64, (m, 2), dtype=np.uint64)
+    samples = rng.integers(0, 2**32, m)
+    draws = [Draw(keys, samples, 4, 0, size, True), Draw(keys, samples, 5, 1, size, False)]
+    terms = [streams.Affine(rng.normal(size=size), None), streams.Affine(rng.normal(size=size), rng.normal(size=size))]
+    starts = np.sort(rng.choice(1000, m, replace=False)) * width + 2
+    flat = rng.normal(size=1000 * width)
+    zeros = np.zeros_like(flat)
+    streams.add_sums([streams.Sum(draws, terms, zeros, 0, starts)], compiled=False)
+    written = flat.copy()
+    streams.add_sums([streams.Sum(draws, terms, written, 0, starts)], compiled=_path(kernel), accumulate=False)
+    at = (starts[:, None] + np.arange(size)).ravel()
+    assert np.array_equal(written[at].view(np.uint64), zeros[at].view(np.uint64))
+    rest = np.ones(flat.size, bool)
+    rest[at] = False
+    assert np.array_equal(written[rest], flat[rest])
+
 def test_the_kernel_refuses_rows_outside_its_table():
     """A flat table's rows are where samples start: one whose values would run past the end is refused
     (as a row past a 2-D table's last), never written."""
