@@ -270,6 +270,12 @@ class DrawnBank:
         if pads is None and self.run is not None:  # the gather, noise and reductions in one call
             self.run(self.gather_rows[slot])
             outputs = cut(self.compiled)
+        elif self.kernel is not None:  # (padding, early in an episode: written between the two calls)
+            index = self.gather_rows[slot]
+            self.kernel.noised(index)
+            self._pad(cast(np.ndarray, pads))
+            self.kernel.reduced(index)
+            outputs = cut(self.compiled)
         else:
             outputs = self._read_numpy(self.gather_rows[slot], pads)
         self._read_step, self._outputs = step, outputs
@@ -283,8 +289,12 @@ class DrawnBank:
         if self.noise is not None:
             self.noise.apply(index, self.noise_program)
         if pads is not None:
-            gathered[pads] = self.pad_values.take(self.column[pads])
+            self._pad(pads)
         return finish(plan)
+
+    def _pad(self, pads: np.ndarray) -> None:
+        """Padding over the gathered values at `pads` (after their noise: it is the first sample's as delivered)."""
+        self.compiled.gathered[pads] = self.pad_values.take(self.column[pads])
 
 
 class _Stride(NamedTuple):

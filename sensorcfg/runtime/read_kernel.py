@@ -8,8 +8,9 @@ arithmetic, in the same order, on the same arrays, so the bits are numpy's (the 
 reference; tests/test_read_kernel.py compares the two). The encoder keeps every array it points to alive.
 
 A read with a step the kernel does not have (a reduction that runs alone: a median of 3 or more, a one-value
-sum or mean) keeps its numpy steps; so does a read that writes padding between its noise and its reductions
-(early in an episode), and every read when the kernel is not built or SENSORCFG_NUMPY_STREAMS=1.
+sum or mean) keeps its numpy steps, and so does every read when the kernel is not built or
+SENSORCFG_NUMPY_STREAMS=1. A read that writes padding between its noise and its reductions (early in an
+episode) runs the program in two calls around it (`noised`, `reduced`).
 """
 
 from __future__ import annotations
@@ -32,12 +33,15 @@ _CODES = {"gather": 1, "term": 2, "add": 3, "mul": 4, "quantize": 5, "clip": 6, 
 
 
 class KernelRead(NamedTuple):
-    """`run(index)`: the whole read, from the gather of history positions `index` to the divisions;
-    `arrays`: what the program points to (kept alive with it)."""
+    """`run(index)`: the whole read, from the gather of history positions `index` to the divisions; the same
+    in two calls, `noised(index)` (the gather and the noise) then `reduced(index)` (the rest), for a read
+    that writes padding between them; `arrays`: what the program points to (kept alive with it)."""
 
     run: Callable[[np.ndarray], None]
     arrays: tuple[np.ndarray, ...]
     nbytes: int  # of the program and the index arrays it made (the others are the bank's and the read's)
+    noised: Callable[[np.ndarray], None]
+    reduced: Callable[[np.ndarray], None]
 
 
 class _Program:
@@ -102,7 +106,10 @@ def kernel_read(plan: CompiledRead, layers: Sequence[Layer], history: np.ndarray
     program.add("gather", plan.gathered, history, history.size, 0, len(plan.gathered))  # the kernel checks the index
     for layer in layers:
         program.layer(layer, plan.gathered)
+    noised = len(program.records)
     for step in plan.records:
         program.step(step)
-    code = np.array(program.records, np.int64).tobytes()
-    return KernelRead(functools.partial(read, code), tuple(program.arrays), program.made + len(code))
+    records = np.array(program.records, np.int64).reshape(-1, 6)  # (an empty program: no records at all)
+    code, before, after = (part.tobytes() for part in (records, records[:noised], records[noised:]))
+    return KernelRead(functools.partial(read, code), tuple(program.arrays), program.made + len(code),
+                      functools.partial(read, before), functools.partial(read, after))
