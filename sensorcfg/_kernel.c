@@ -573,9 +573,9 @@ static PyObject *uniform_runs(PyObject *self, PyObject *args) {
     const int64_t *first = firstb.buf, *counts = countsb.buf;
     const uint64_t *k = keysb.buf;
     int bad = keysb.len != 16 * m || countsb.len != 8 * m;
-    for (Py_ssize_t s = 0; !bad && s < m; s++) {
-        bad = counts[s] < 0;
-        total += counts[s];
+    for (Py_ssize_t s = 0; !bad && s < m; s++) { /* compared without sums that could overflow */
+        bad = counts[s] < 0 || counts[s] > outb.len / 8 - total;
+        if (!bad) total += counts[s];
     }
     if (bad || outb.len != 8 * total) {
         PyErr_SetString(PyExc_ValueError, "uniforms: keys (m, 2), first (m,), counts (m,) and out (sum of counts) disagree");

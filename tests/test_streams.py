@@ -233,6 +233,21 @@ def test_the_kernel_refuses_rows_outside_its_table():
         assert np.array_equal(before, table)
 
 
+def test_the_uniforms_kernel_refuses_counts_that_disagree_with_its_output():
+    """Runs whose counts are negative, sum past the output, or would overflow a 64-bit sum are refused
+    before anything is written."""
+    _path(True)
+    keys, first = np.zeros((2, 2), np.uint64), np.zeros(2, np.int64)
+    out = np.full(4, 7.0)
+    compiled.MODULE.uniforms(keys, first, np.array([1, 3]), 0, out)
+    assert not np.any(out == 7.0)
+    for counts in ([1, 4], [-1, 5], [2**62, 2**62], [2**63 - 1, 1], [2**61, 4]):  # 8 x (2**61 + 4) wraps to 32
+        before = np.full(4, 7.0)
+        with pytest.raises(ValueError):
+            compiled.MODULE.uniforms(keys, first, np.array(counts, np.int64), 0, before)
+        assert np.all(before == 7.0)
+
+
 def test_the_read_kernel_refuses_an_index_of_another_length():
     """A compiled read's gather fills its work buffer from the index: an index of another length is refused
     before anything runs (`runtime/read_kernel.py` records the buffer's length)."""
