@@ -609,6 +609,36 @@ static PyObject *uniform_runs(PyObject *self, PyObject *args) {
     Py_RETURN_NONE;
 }
 
+/* snapshot(program, keep, step): a drawn bank's snapshot at `step` (sensorcfg/runtime/planned.py): program is
+ * int64 (need, raw, n, source, width, history, rows), addresses and counts; when need[step % rows], clear it and
+ * copy raw[clip(source[i])] into row step % rows of history for i < width (numpy's take, mode="clip").
+ * `keep` holds the arrays the addresses point to (unused here). */
+static PyObject *snapshot(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    if (nargs != 3 || !PyBytes_Check(args[0]) || PyBytes_GET_SIZE(args[0]) != 7 * 8) {
+        PyErr_SetString(PyExc_TypeError, "snapshot(program, keep, step): program is 7 int64s");
+        return NULL;
+    }
+    const int64_t *p = (const int64_t *)PyBytes_AS_STRING(args[0]);
+    long long step = PyLong_AsLongLong(args[2]);
+    if (step == -1 && PyErr_Occurred()) return NULL;
+    int64_t rows = p[6], n = p[2], width = p[4];
+    if (rows < 1 || n < 1 || width < 0) {
+        PyErr_SetString(PyExc_ValueError, "snapshot: empty history or state");
+        return NULL;
+    }
+    int64_t row = step % rows;
+    if (row < 0) row += rows;
+    uint8_t *need = (uint8_t *)(intptr_t)p[0];
+    if (need[row]) {
+        need[row] = 0;
+        const double *raw = (const double *)(intptr_t)p[1];
+        const int64_t *source = (const int64_t *)(intptr_t)p[3];
+        double *out = (double *)(intptr_t)p[5] + row * width;
+        for (int64_t i = 0; i < width; i++) out[i] = raw[clip_index(source[i], n)];
+    }
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
     {"add", add, METH_VARARGS,
      "add(keys, samples, size, lanes, out, width, lo, rows, accumulate): the lanes' numbers, summed, into out's rows."},
@@ -623,6 +653,8 @@ static PyMethodDef methods[] = {
     {"uniforms", uniform_runs, METH_VARARGS,
      "uniforms(keys, first, counts, tag, out): size-1 uniforms of runs of samples, one key per run "
      "(sensorcfg.noise.streams.uniform_runs)."},
+    {"snapshot", (PyCFunction)(void (*)(void))snapshot, METH_FASTCALL,
+     "snapshot(program, keep, step): a drawn bank's snapshot of the state at `step` (sensorcfg/runtime/planned.py)."},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_kernel",

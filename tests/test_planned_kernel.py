@@ -6,6 +6,7 @@ meant to be built (SENSORCFG_REQUIRE_KERNEL=1) a missing kernel fails."""
 
 from __future__ import annotations
 
+import functools
 import os
 
 import numpy as np
@@ -100,3 +101,48 @@ def test_the_reset_round_in_closed_form_is_the_general_round(seed, monkeypatch) 
         length = schedules[0].substeps * int(rng.integers(1, 40))
         for x, y in zip(closed.round(everyone, length), general.round(everyone, length)):
             assert np.array_equal(x, y)
+
+
+SNAPSHOT_SUITE = """
+version: 1
+sensors:
+  q: {kind: qpos, element: "joint:*", delay: {uniform: [0, 3]}, buffer: 2}
+  v: {kind: qvel, element: "joint:*", interval: {choice: [1, 3]}, delay: 1}
+  f: {kind: force, element: "actuator:*", interval: {uniform: [1, 4]}}
+"""
+
+
+def test_the_compiled_snapshot_is_the_numpy_snapshot(monkeypatch) -> None:
+    """`_kernel.snapshot` copies the state into the history row of a step, where and only where a sample is
+    taken then, and clears the mark: the same history and marks as numpy's take, over steps past the
+    history's length (rows wrap) and state changing every step."""
+    import mujoco
+
+    import sensorcfg
+    from sensorcfg import assets
+
+    model = mujoco.MjModel.from_xml_path(str(assets.path("robot.xml")))
+    env = sensorcfg.Environment(model, sensorcfg.loads(SNAPSHOT_SUITE), physics_steps_per_control_step=2, seed=3)
+    env.reset()
+    bank = env.updater._drawn
+    assert bank is not None
+    kernel_task = bank.snapshot_task()
+    monkeypatch.setattr(compiled, "MODULE", None)
+    numpy_task = bank.snapshot_task()
+    assert isinstance(kernel_task, functools.partial) and not isinstance(numpy_task, functools.partial)
+    marks = np.random.default_rng(0).random(bank.rows + 50) < 0.5
+    results = []
+    for task in (kernel_task, numpy_task):
+        bank.history[:] = -1.0
+        state = np.random.default_rng(1)
+        for step in range(bank.rows + 50):
+            bank.need[step % bank.rows] = marks[step]
+            env.physics.data.qpos[:] = state.standard_normal(model.nq)
+            env.physics.data.qvel[:] = state.standard_normal(model.nv)
+            env.physics.data.actuator_force[:] = state.standard_normal(model.nu)
+            task(step)
+        results.append((bank.history.copy(), bank.need.copy()))
+    (kernel_history, kernel_need), (numpy_history, numpy_need) = results
+    assert np.array_equal(kernel_history, numpy_history)
+    assert np.array_equal(kernel_need, numpy_need) and not kernel_need.any()
+    assert (kernel_history != -1.0).any() and (kernel_history == -1.0).any()  # rows written and rows skipped
