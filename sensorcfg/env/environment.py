@@ -305,13 +305,14 @@ class Environment(ControlLoop, dm_env.Environment):
             raise
 
     def _step(self, ctrl: np.ndarray) -> dm_env.TimeStep:
-        self._ctrl[:] = ctrl
+        self._ctrl[...] = ctrl
         updater = self._updater
         updater.control_step(self._physics_step)  # n x (mj_step, then the Updater's update)
         self._steps += 1
         observation = updater.get_observation()
         reward = 0.0 if self._reward_fn is None else float(self._reward_fn(self._physics))
-        divergence = self._divergence()
+        bad = self._warnings()
+        divergence = None if bad == self._bad_qacc else self._diverged(bad)
         if divergence is not None:
             self.last_divergence = divergence
             warnings.warn(f"sensorcfg: the simulation diverged at t={self._physics.data.time:.4f}s ({divergence}); "
@@ -330,19 +331,17 @@ class Environment(ControlLoop, dm_env.Environment):
                                 f"got {action.shape}")
         return action
 
-    def _warnings(self) -> bytes:
+    def _warnings(self) -> list[int]:
         """MuJoCo's counts of bad-state warnings. mj_step checks qpos, qvel (at its start) and qacc for
         non-finite or huge values, resets the state and counts a warning, silently otherwise; so a change of
         the counts is the whole divergence test (a NaN written after the last step is caught at the next one)."""
         counts = self._warning_counts.take(_BAD_STATE) if self._bad_counts is None else self._bad_counts
-        return counts.tobytes()
+        return counts.tolist()
 
-    def _divergence(self) -> str | None:
-        bad = self._warnings()
-        if bad != self._bad_qacc:
-            self._bad_qacc = bad
-            return "MuJoCo found a non-finite or huge qpos, qvel, qacc or ctrl and reset the state"
-        return None
+    def _diverged(self, bad: list[int]) -> str:
+        """After the counts changed: remember them, and the reason the episode ends."""
+        self._bad_qacc = bad
+        return "MuJoCo found a non-finite or huge qpos, qvel, qacc or ctrl and reset the state"
 
     def close(self) -> None:
         pass
