@@ -609,10 +609,10 @@ static PyObject *uniform_runs(PyObject *self, PyObject *args) {
     Py_RETURN_NONE;
 }
 
-/* snapshot(program, keep, step): a drawn bank's snapshot at `step` (sensorcfg/runtime/planned.py): program is
- * int64 (need, raw, n, source, width, history, rows), addresses and counts; when need[step % rows], clear it and
- * copy raw[clip(source[i])] into row step % rows of history for i < width (numpy's take, mode="clip").
- * `keep` holds the arrays the addresses point to (unused here). */
+/* snapshot(program, keep, step): a bank's snapshot at `step` (sensorcfg/runtime/read_kernel.py): program is
+ * int64 (need, raw, n, source, width, history, rows), addresses and counts; when need[step % rows] (need 0:
+ * always), clear it and copy raw[clip(source[i])] into row step % rows of history for i < width (numpy's
+ * take, mode="clip"). `keep` holds the arrays the addresses point to (unused here). */
 static PyObject *snapshot(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
     if (nargs != 3 || !PyBytes_Check(args[0]) || PyBytes_GET_SIZE(args[0]) != 7 * 8) {
         PyErr_SetString(PyExc_TypeError, "snapshot(program, keep, step): program is 7 int64s");
@@ -629,8 +629,8 @@ static PyObject *snapshot(PyObject *self, PyObject *const *args, Py_ssize_t narg
     int64_t row = step % rows;
     if (row < 0) row += rows;
     uint8_t *need = (uint8_t *)(intptr_t)p[0];
-    if (need[row]) {
-        need[row] = 0;
+    if (!need || need[row]) {
+        if (need) need[row] = 0;
         const double *raw = (const double *)(intptr_t)p[1];
         const int64_t *source = (const int64_t *)(intptr_t)p[3];
         double *out = (double *)(intptr_t)p[5] + row * width;
@@ -654,7 +654,7 @@ static PyMethodDef methods[] = {
      "uniforms(keys, first, counts, tag, out): size-1 uniforms of runs of samples, one key per run "
      "(sensorcfg.noise.streams.uniform_runs)."},
     {"snapshot", (PyCFunction)(void (*)(void))snapshot, METH_FASTCALL,
-     "snapshot(program, keep, step): a drawn bank's snapshot of the state at `step` (sensorcfg/runtime/planned.py)."},
+     "snapshot(program, keep, step): a bank's snapshot of the state at `step` (sensorcfg/runtime/read_kernel.py)."},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_kernel",

@@ -109,13 +109,30 @@ sensors:
   q: {kind: qpos, element: "joint:*", delay: {uniform: [0, 3]}, buffer: 2}
   v: {kind: qvel, element: "joint:*", interval: {choice: [1, 3]}, delay: 1}
   f: {kind: force, element: "actuator:*", interval: {uniform: [1, 4]}}
+  fixed_q: {kind: qpos, element: "joint:*", interval: 2, delay: 1, buffer: 3}
+  fixed_v: {kind: qvel, element: "joint:elbow"}
 """
 
 
+def _snapshots(bank, marks, task, physics, model) -> tuple[np.ndarray, np.ndarray | None]:
+    """The history (and marks) after `task` ran at steps past the history's length, the state changing every
+    step, `marks` setting the drawn bank's rows sampled (None: a fixed bank, sampled at every call)."""
+    bank.history[:] = -1.0
+    state = np.random.default_rng(1)
+    for step in range(bank.rows + 50):
+        if marks is not None:
+            bank.need[step % bank.rows] = marks[step]
+        physics.data.qpos[:] = state.standard_normal(model.nq)
+        physics.data.qvel[:] = state.standard_normal(model.nv)
+        physics.data.actuator_force[:] = state.standard_normal(model.nu)
+        task(step)
+    return bank.history.copy(), None if marks is None else bank.need.copy()
+
+
 def test_the_compiled_snapshot_is_the_numpy_snapshot(monkeypatch) -> None:
-    """`_kernel.snapshot` copies the state into the history row of a step, where and only where a sample is
-    taken then, and clears the mark: the same history and marks as numpy's take, over steps past the
-    history's length (rows wrap) and state changing every step."""
+    """`_kernel.snapshot` copies the state into the history row of a step: for the drawn bank where and only
+    where a sample is taken then (clearing the mark), for the fixed bank at every call; the same history and
+    marks as numpy's take, over steps past the history's length (rows wrap), the state changing every step."""
     import mujoco
 
     import sensorcfg
@@ -124,25 +141,20 @@ def test_the_compiled_snapshot_is_the_numpy_snapshot(monkeypatch) -> None:
     model = mujoco.MjModel.from_xml_path(str(assets.path("robot.xml")))
     env = sensorcfg.Environment(model, sensorcfg.loads(SNAPSHOT_SUITE), physics_steps_per_control_step=2, seed=3)
     env.reset()
-    bank = env.updater._drawn
-    assert bank is not None
-    kernel_task = bank.snapshot_task()
+    drawn, fixed = env.updater._drawn, env.updater._bank
+    assert drawn is not None and fixed is not None
+    kernel_tasks = drawn.snapshot_task(), fixed._snapshot_task(None)
     monkeypatch.setattr(compiled, "MODULE", None)
-    numpy_task = bank.snapshot_task()
-    assert isinstance(kernel_task, functools.partial) and not isinstance(numpy_task, functools.partial)
-    marks = np.random.default_rng(0).random(bank.rows + 50) < 0.5
-    results = []
-    for task in (kernel_task, numpy_task):
-        bank.history[:] = -1.0
-        state = np.random.default_rng(1)
-        for step in range(bank.rows + 50):
-            bank.need[step % bank.rows] = marks[step]
-            env.physics.data.qpos[:] = state.standard_normal(model.nq)
-            env.physics.data.qvel[:] = state.standard_normal(model.nv)
-            env.physics.data.actuator_force[:] = state.standard_normal(model.nu)
-            task(step)
-        results.append((bank.history.copy(), bank.need.copy()))
-    (kernel_history, kernel_need), (numpy_history, numpy_need) = results
+    numpy_tasks = drawn.snapshot_task(), fixed._snapshot_task(None)
+    assert all(isinstance(task, functools.partial) for task in kernel_tasks)
+    assert not any(isinstance(task, functools.partial) for task in numpy_tasks)
+    marks = np.random.default_rng(0).random(drawn.rows + 50) < 0.5
+    (kernel_history, kernel_need), (numpy_history, numpy_need) = (
+        _snapshots(drawn, marks, task, env.physics, model) for task in (kernel_tasks[0], numpy_tasks[0]))
     assert np.array_equal(kernel_history, numpy_history)
+    assert kernel_need is not None and numpy_need is not None
     assert np.array_equal(kernel_need, numpy_need) and not kernel_need.any()
     assert (kernel_history != -1.0).any() and (kernel_history == -1.0).any()  # rows written and rows skipped
+    (kernel_history, _), (numpy_history, _) = (_snapshots(fixed, None, task, env.physics, model)
+                                               for task in (kernel_tasks[1], numpy_tasks[1]))
+    assert np.array_equal(kernel_history, numpy_history) and not (kernel_history == -1.0).any()

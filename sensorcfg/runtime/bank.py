@@ -23,7 +23,7 @@ from .cache import BoundedCache
 from .bank_noise import BankNoise, Program, program
 from .bank_read import PADS, CompiledRead, compile_read, cut, finish
 from .channels import Channel, FixedChannel
-from .read_kernel import kernel_read
+from .read_kernel import kernel_read, kernel_snapshot
 
 __all__ = ["FeatureBank", "BankMember", "GroupMember", "PlainRead", "ReadPlan", "ReductionGroup", "buffer_view",
            "fields_of", "read_plan", "rebind_noise", "reuse_key"]
@@ -216,6 +216,9 @@ class FeatureBank:
         """Copy every member's values into the history row of `step`: a closure over what it uses (the plan
         calls it at every sampled step)."""
         take, source, rows, count = self.raw.take, self.source, self.history_rows, self.rows
+        compiled_snapshot = None if sync else kernel_snapshot(self.raw, source, self.history, None, self._data)
+        if compiled_snapshot is not None:
+            return compiled_snapshot
 
         def snapshot(step: int) -> None:
             # mode="clip": indices are valid by construction, and "raise" would buffer the output

@@ -12,19 +12,17 @@ built (`runtime/read_kernel.py`), except reads early in an episode, whose window
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple, cast
 
 import numpy as np
 
-from .. import compiled
 from .bank import BankMember, ReadPlan, _reader, read_plan, rebind_noise, reuse_key
 from .bank_noise import BankNoise, Layer, Program, ReadOp, ops_of, program
 from .bank_read import compile_read, cut, finish
 from .channels import DrawnChannel
 from .drawn import Planner, Round, chunk_steps
-from .read_kernel import kernel_read
+from .read_kernel import kernel_read, kernel_snapshot
 from ..observables.aggregators import builtin
 
 __all__ = ["DrawnBank", "DrawnMember", "joins"]
@@ -253,7 +251,7 @@ class DrawnBank:
     def snapshot_task(self) -> Callable[[int], None]:
         """The Updater's task at every step: copy every member's values into the history row of `step` when
         some member samples then (a closure over what it uses)."""
-        compiled_snapshot = self._compiled_snapshot()
+        compiled_snapshot = kernel_snapshot(self.raw, self.source, self.history, self.needed, self._data)
         if compiled_snapshot is not None:
             return compiled_snapshot
         need, take, source, rows, count = self.needed, self.raw.take, self.source, self.history_rows, self.rows
@@ -265,20 +263,6 @@ class DrawnBank:
                 take(source, None, rows[row], "clip")  # mode="clip": no buffered output (indices are valid)
 
         return snapshot
-
-    def _compiled_snapshot(self) -> Callable[[int], None] | None:
-        """The snapshot as one kernel call (`_kernel.snapshot`, the same copy), where the kernel is built and
-        the arrays are contiguous; the partial keeps the arrays its program points to alive."""
-        kernel = getattr(compiled.MODULE, "snapshot", None)
-        raw, source, history = self.raw, self.source, self.history
-        if (kernel is None or raw.ndim != 1 or raw.dtype != np.float64 or source.dtype != np.int64 or len(source) != self.width
-                or not (raw.flags.c_contiguous and source.flags.c_contiguous and history.flags.c_contiguous)):
-            return None
-        need = np.frombuffer(self.needed, np.uint8)
-        arrays = (need, raw, source, history)
-        program = np.array([need.ctypes.data, raw.ctypes.data, raw.size, source.ctypes.data, self.width,
-                            history.ctypes.data, self.rows], np.int64).tobytes()
-        return functools.partial(kernel, program, (arrays, self._data))
 
     def read(self, step: int) -> Sequence[Any]:
         """Every member's observation at `step` (computed once per step)."""

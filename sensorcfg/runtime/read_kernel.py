@@ -11,6 +11,9 @@ A read with a step the kernel does not have (a reduction that runs alone: a medi
 sum or mean) keeps its numpy steps, and so does every read when the kernel is not built or
 SENSORCFG_NUMPY_STREAMS=1. A read that writes padding between its noise and its reductions (early in an
 episode) runs the program in two calls around it (`noised`, `reduced`).
+
+A bank's snapshot (a take of the state into a history row, at every sampled step) is one kernel call too
+(`kernel_snapshot`), where the kernel is built; numpy's take otherwise.
 """
 
 from __future__ import annotations
@@ -25,7 +28,7 @@ from .. import compiled
 from .bank_noise import Layer
 from .bank_read import CompiledRead, Step
 
-__all__ = ["KernelRead", "kernel_read"]
+__all__ = ["KernelRead", "kernel_read", "kernel_snapshot"]
 
 # the kernel's op codes (`_kernel.c`, `read`), by the name of the numpy step they stand for
 _CODES = {"gather": 1, "term": 2, "add": 3, "mul": 4, "quantize": 5, "clip": 6, "take": 7, "sum": 8, "max": 9,
@@ -113,3 +116,22 @@ def kernel_read(plan: CompiledRead, layers: Sequence[Layer], history: np.ndarray
     code, before, after = (part.tobytes() for part in (records, records[:noised], records[noised:]))
     return KernelRead(functools.partial(read, code), tuple(program.arrays), program.made + len(code),
                       functools.partial(read, before), functools.partial(read, after))
+
+
+def kernel_snapshot(raw: np.ndarray, source: np.ndarray, history: np.ndarray, needed: bytearray | None,
+                    owner: Any) -> Callable[[int], None] | None:
+    """A bank's snapshot task as one kernel call (`_kernel.snapshot`): at `step`, row step % rows of `history`
+    takes raw[source] (numpy's take, mode="clip"), where `needed` marks the row (then cleared; None: at every
+    call); or None when the kernel is not built or an array is not contiguous. The task keeps the arrays its
+    program points to alive, and `owner` (what keeps `raw`'s memory)."""
+    kernel = getattr(compiled.MODULE, "snapshot", None)
+    arrays = (raw, source, history)
+    if (kernel is None or raw.ndim != 1 or history.ndim != 2 or history.shape[1] != len(source)
+            or not all(a.flags.c_contiguous for a in arrays)
+            or (raw.dtype, source.dtype, history.dtype) != (np.float64, np.int64, np.float64)):
+        return None
+    need = None if needed is None else np.frombuffer(needed, np.uint8)
+    at = 0 if need is None else need.ctypes.data
+    program = np.array([at, raw.ctypes.data, raw.size, source.ctypes.data, len(source), history.ctypes.data,
+                        history.shape[0]], np.int64).tobytes()
+    return functools.partial(kernel, program, (arrays, need, owner))
