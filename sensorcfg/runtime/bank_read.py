@@ -65,9 +65,9 @@ class CompiledRead(NamedTuple):
     gathered: np.ndarray  # the windows' part of the work buffer
     steps: list[Callable[[], Any]]  # on the work buffer, in order: the families' take, reductions, divisions
     records: list[Step]  # the same steps, as records (`read_kernel` compiles them)
-    shown: np.ndarray  # the part of the work buffer the observations show, (1, n)
+    shown: np.ndarray  # the part of the work buffer the observations show, (n,)
     cut: Callable[[np.ndarray], tuple[Any, ...]]  # a copy of `shown` -> every member's value
-    reshapes: list[tuple[int, np.ndarray]]  # members whose cut needs a reshape: (member, its value's view of `shown`)
+    reshapes: list[tuple[int, tuple[int, ...]]]  # members whose cut needs a reshape: (member, its shape)
     noise: list[Any]  # the bank noise's read program for `source` ([] without noise)
     layers: list[Layer]  # the same program, as records
     kernel: Any = None  # the whole read as one compiled call, where a bank made one (`read_kernel.KernelRead`)
@@ -83,8 +83,8 @@ class _Group(NamedTuple):
 
 
 class _Cuts:
-    """Per member, the index into a (1, n) copy that gives its value in one step where its shape allows
-    ((1, k) and (k,) arrays, numpy scalars), else a copy of its own reshaped view (`reshaped`)."""
+    """Per member, the index into an (n,) copy that gives its value in one step where its shape allows
+    ((1, k) and (k,) arrays, numpy scalars), else its (k,) span, reshaped (`reshapes`): views of the copy."""
 
     def __init__(self, channels: Sequence[FixedChannel], plain: list[Any], ordered: list[_Group], starts: np.ndarray):
         """Plain members' windows start at `starts`; reduced values lie first, in the groups' `ordered` order."""
@@ -101,18 +101,13 @@ class _Cuts:
     def place(self, i: int, start: int, shape: tuple[int, ...], scalar: bool) -> None:
         span = slice(start, start + math.prod(shape))
         if not shape and scalar:  # numpy reductions of scalar samples give numpy scalars (dm_control's type)
-            self.keys[i] = (0, start)
+            self.keys[i] = start
         elif len(shape) == 2 and shape[0] == 1:
-            self.keys[i] = (slice(None), span)
+            self.keys[i] = (None, span)
         else:
-            self.keys[i] = (0, span)
+            self.keys[i] = span
             if len(shape) != 1:
                 self.reshapes.append((i, shape))
-
-    def reshaped(self, shown: np.ndarray) -> list[tuple[int, np.ndarray]]:
-        """(member, its value as a view of `shown`, the (1, n) part of the work buffer a read copies) of the
-        members whose shape a cut does not give."""
-        return [(i, shown[self.keys[i]].reshape(shape)) for i, shape in self.reshapes]
 
     def getter(self) -> Callable[[np.ndarray], tuple[Any, ...]]:
         if len(self.keys) == 1:
@@ -149,9 +144,9 @@ def compile_read(channels: Sequence[FixedChannel], plan: Any, noise_plan: Callab
     cuts = _Cuts(channels, plain, ordered, starts)
     gathered = work[0, nreduced:nreduced + len(source)]
     layers = noise_plan(source) if noise_plan else []
-    shown = work[:, :int(starts[len(plain)])]
+    shown = work[0, :int(starts[len(plain)])]
     return CompiledRead(source, gathered, [step.run for step in records], records, shown, cuts.getter(),
-                        cuts.reshaped(shown), ops_of(layers, gathered), layers)
+                        cuts.reshapes, ops_of(layers, gathered), layers)
 
 
 def finish(plan: CompiledRead) -> Sequence[Any]:
@@ -164,13 +159,13 @@ def finish(plan: CompiledRead) -> Sequence[Any]:
 
 def cut(plan: CompiledRead) -> Sequence[Any]:
     """Every member's observation from the work buffer's reduced values and plain windows: fresh arrays
-    (views of this read's own copy; a member whose shape the cut does not give, a copy of its own)."""
+    (views of this read's own copy, reshaped where the cut does not give a member's shape)."""
     values = plan.cut(plan.shown.copy())
     if not plan.reshapes:
         return values
     cut = list(values)
-    for i, view in plan.reshapes:
-        cut[i] = view.copy()
+    for i, shape in plan.reshapes:
+        cut[i] = cut[i].reshape(shape)  # a contiguous span of the copy: a view of it
     return cut
 
 
