@@ -31,6 +31,7 @@ MODULE: Any = _load()
 KERNEL = "compiled" if MODULE is not None else "numpy"
 
 _POOL: Any = None
+_CPUS = os.cpu_count() or 1  # read once: each call reads /sys (7 us here), and split runs every control step
 SPLIT_VALUES = 150_000  # below this much work, one thread: each job or half hands the GIL between the two
 # threads, which costs more than the second core gives below this (64 and 128 simulations of the humanoid
 # benchmark with noise ran faster on one thread, 256 and 512 on two)
@@ -41,7 +42,7 @@ def split(run: Callable[[Sequence[int]], None], work: Sequence[int]) -> None:
     kernels release the GIL; each index's work must touch memory of its own)."""
     global _POOL
     total = sum(work)
-    if total < SPLIT_VALUES or (os.cpu_count() or 1) < 2:
+    if total < SPLIT_VALUES or _CPUS < 2:
         run(range(len(work)))
         return
     at = int(np.searchsorted(np.cumsum(work), total / 2))
