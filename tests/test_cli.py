@@ -394,6 +394,8 @@ def test_run_plot_without_matplotlib_says_how_to_install_it(tmp_path: Path, no_m
     pytest.param(["--model", "broken.xml"], 1, "broken.xml: error: MuJoCo cannot load this model", id="unreadable-model"),
     pytest.param(["--set", "sensors.joints.element=joint:knee"], 1, "override", id="bad-override-value"),
     pytest.param(["--steps", "100000000", "--out", "o.npz"], 2, "GiB; use fewer --steps", id="too-big-to-record"),
+    pytest.param(["--out", "o.txt"], 2, "o.txt: writes .npz files only; name it 'o.npz'", id="out-not-npz"),
+    pytest.param(["--plot", "p.txt"], 2, "p.txt: the file type must be one of .png, ", id="plot-type-unknown"),
 ])
 def test_run_user_mistakes(tmp_path: Path, args: list[str], code: int, message: str) -> None:
     write(tmp_path / "s.yaml", VALID)
@@ -401,6 +403,8 @@ def test_run_user_mistakes(tmp_path: Path, args: list[str], code: int, message: 
     proc = cli("run", "s.yaml", "--steps", "2", *args, cwd=tmp_path)
     assert proc.returncode == code, proc.stderr
     assert message in proc.stderr
+    if "name it" in message:  # refused before simulating: nothing written, under any name
+        assert proc.stdout == "" and sorted(p.name for p in tmp_path.iterdir()) == ["broken.xml", "s.yaml"]
 
 
 def test_run_error_in_the_users_sensor_code_points_at_it(tmp_path: Path) -> None:

@@ -12,7 +12,7 @@ import errno
 import os
 import stat
 import sys
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -127,7 +127,9 @@ def _stat(path: str) -> os.stat_result | None:
         raise UsageError(f"{printable(path)}: the path holds a NUL character") from None
 
 
-def writable(path: str | None) -> Path | None:
+def writable(path: str | None, formats: Collection[str] = ()) -> Path | None:
+    """`path` as a file that can be written (refused before any work: a directory, a missing folder, or a
+    name whose extension is not one of `formats`, the file types written, the first suggested)."""
     if path is None:
         return None
     p = Path(path)
@@ -137,6 +139,10 @@ def writable(path: str | None) -> Path | None:
     parent = _stat(str(p.parent))
     if parent is None or not stat.S_ISDIR(parent.st_mode):
         raise UsageError(f"{printable(path)}: the folder {printable(repr(str(p.parent)))} does not exist")
+    if formats and p.suffix[1:].lower() not in formats:
+        kinds = ", ".join("." + f for f in formats)
+        what = f"writes {kinds} files only" if len(formats) == 1 else f"the file type must be one of {kinds}"
+        raise UsageError(f"{printable(path)}: {what}; name it {printable(repr(p.stem + '.' + next(iter(formats))))}")
     return p
 
 

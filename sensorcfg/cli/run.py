@@ -311,8 +311,12 @@ def settings_from(args: argparse.Namespace) -> Settings:
 
 
 def command(args: argparse.Namespace) -> int:
+    formats: tuple[str, ...] = ()
     if args.plot:
         require_matplotlib()
-    out, plot = writable(args.out), writable(args.plot)
+        from matplotlib.backend_bases import FigureCanvasBase
+
+        formats = ("png", *sorted(set(FigureCanvasBase.get_supported_filetypes()) - {"png"}))
+    out, plot = writable(args.out, ("npz",)), writable(args.plot, formats)
     suite = load_suite(args.suite, args.overrides, args.extends_root)
     return execute(suite, model_path(suite, args.model), settings_from(args), out, plot, args.overrides)
