@@ -285,3 +285,29 @@ def test_the_read_kernel_refuses_an_index_of_another_length():
         assert not work.any()
     compiled.MODULE.read(program, np.array([4, 0, 9], np.int64))  # positions past the end clip, as numpy's take
     assert work.tolist() == [4.0, 0.0, 4.0]
+
+
+def test_prepared_rows_add_what_add_sums_adds():
+    """`add_rows` (a batch read's sums, prepared once: keys, lanes and starts) adds into a flat table what
+    `add_sums` adds from draws and terms, on numpy's path too, with enough numbers to split between threads."""
+    _path(True)
+    rng = np.random.default_rng(8)
+    shapes = [(21, 4000), (3, 9000), (48, 600), (10, 500)]
+    n = sum(size * m for size, m in shapes)
+    table = rng.normal(size=n + 7)
+    rows, sums, at = [], [], 3
+    for size, m in shapes:
+        keys = rng.integers(0, 2**64, (m, 2), dtype=np.uint64)
+        samples = rng.integers(0, 2**32, m)
+        starts = at + np.arange(m) * size
+        draws = [Draw(keys, samples, 4, 0, size, True), Draw(keys, samples, 5, 1, size, False)]
+        terms = [streams.Affine(rng.normal(size=size), None), streams.Affine(rng.normal(size=size), rng.normal(size=size))]
+        rows.append(streams.Rows(keys, samples, size, streams.kernel_lanes(draws, terms), starts))
+        sums.append(streams.Sum(draws, terms, None, 0, starts))
+        at += m * size
+    assert 2 * n > compiled.SPLIT_VALUES
+    expected = table.copy()
+    streams.add_sums([s._replace(table=expected) for s in sums], compiled=False)
+    got = table.copy()
+    streams.add_rows(rows, got)
+    assert np.array_equal(expected.view(np.uint64), got.view(np.uint64)) and not np.array_equal(got, table)

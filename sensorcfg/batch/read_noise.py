@@ -23,7 +23,7 @@ from typing import Any, NamedTuple, cast
 import numpy as np
 
 from ..noise.level import Blend, blend
-from ..noise.streams import Affine, Sum, add_sums
+from ..noise.streams import KERNEL, Affine, Rows, Sum, add_rows, add_sums, kernel_lanes
 from ..runtime.channels import FixedChannel
 from .layout import Layout
 from .noise import BatchPipeline, _Additive
@@ -53,6 +53,7 @@ class _Sensor(NamedTuple):
     size: int  # values per sample
     span: slice  # its (simulation, slot) pairs in the concatenated arrays of `ReadNoise`
     blend: Any  # the pipeline's batched `Blend` (its per-simulation levels), or None
+    lanes: list[tuple[Any, ...]]  # its terms as the compiled kernel takes them (`streams.kernel_lanes`)
 
 
 def _starts(layout: Layout, c: int, size: int, buffer: int) -> np.ndarray:
@@ -88,7 +89,9 @@ class ReadNoise:
             schedule, size = channels[c].schedule, int(np.prod(channels[c].shape, dtype=np.int64))
             count = nsim * schedule.buffer
             blend_stage = next((b for b in pipeline.batched if isinstance(b.template, Blend)), None)
-            self.sensors.append(_Sensor(stage, size, slice(at, at + count), blend_stage))
+            none = np.zeros(0, np.int64)
+            lanes = kernel_lanes(stage.template.draws(none, np.zeros((0, 2), np.uint64)), cast(list[Affine], stage.terms))
+            self.sensors.append(_Sensor(stage, size, slice(at, at + count), blend_stage, lanes))
             at += count
             # the read at t sees sample (t - delay) // interval - buffer + 1 + slot in slot `slot`
             columns.append((np.repeat(np.arange(nsim), schedule.buffer), _starts(layout, c, size, schedule.buffer).ravel(),
@@ -110,6 +113,13 @@ class ReadNoise:
         if self.pad:
             np.maximum(sample, 0, out=sample)  # the reset sample's value
         sample = sample * self.interval // self.stride  # the noise numbers' index
+        if KERNEL == "compiled" and not (padding and not self.pad):  # every pair read: the prepared sums
+            blends = [self._blended(values, s, self.sims[s.span], self.starts[s.span]) for s in self.sensors
+                      if s.blend is not None and s.blend.template.batch_active]  # their raw values first
+            add_rows([Rows(self.keys[s.span], sample[s.span], s.size, s.lanes, self.starts[s.span])
+                      for s in self.sensors], values)
+            self._blend(values, blends)
+            return
         jobs, blends = [], []
         for sensor in self.sensors:
             sims, starts, j, keys = (a[sensor.span] for a in (self.sims, self.starts, sample, self.keys))
@@ -122,6 +132,11 @@ class ReadNoise:
             if sensor.blend is not None and sensor.blend.template.batch_active:
                 blends.append(self._blended(values, sensor, sims, starts))
         add_sums(jobs)
+        self._blend(values, blends)
+
+    @staticmethod
+    def _blend(values: np.ndarray, blends: list[tuple[np.ndarray, ...]]) -> None:
+        """Samples at a noise level other than 1: raw + level (noisy - raw), from the raw values kept."""
         for at, raw, level in blends:
             out = np.empty_like(raw)
             blend(raw, values[at], level, out)

@@ -37,7 +37,8 @@ import numpy as np
 
 from .. import compiled
 
-__all__ = ["Affine", "Draw", "KERNEL", "Streams", "Sum", "add_sums", "numbers", "philox", "stream_key", "uniform_runs"]
+__all__ = ["Affine", "Draw", "KERNEL", "Rows", "Streams", "Sum", "add_rows", "add_sums", "kernel_lanes", "numbers", "philox",
+           "stream_key", "uniform_runs"]
 
 _M0, _M1 = np.uint64(0xD2511F53), np.uint64(0xCD9E8D57)  # Philox4x32 multipliers
 _W0, _W1 = np.uint32(0x9E3779B9), np.uint32(0xBB67AE85)  # its key schedule's increments
@@ -327,8 +328,10 @@ class _Job(NamedTuple):
     rows: np.ndarray | None
 
 
-_PIECES = 16  # a job larger than 1/_PIECES of a call's numbers is cut into runs of samples of about that size,
-# so that the two threads' halves come out even
+def kernel_lanes(draws: Sequence[Draw], terms: Sequence[Affine | None]) -> list[tuple[Any, ...]]:
+    """A sum's lanes as the kernel's `add` takes them: (counter tag, normal, scale, offset) per term."""
+    return [(d.stage << 24 | d.lane << 22, d.normal, *(t if t is not None else (None, None)))
+            for d, t in zip(draws, terms)]
 
 
 def _run(jobs: list[_Job], accumulate: bool) -> None:
@@ -348,23 +351,62 @@ def _run(jobs: list[_Job], accumulate: bool) -> None:
         if not (isinstance(keys, np.ndarray) and keys.shape == (m, 2) and keys.dtype == np.uint64
                 and keys.flags.c_contiguous):
             keys = np.ascontiguousarray(np.broadcast_to(np.asarray(keys, np.uint64).reshape(-1, 2), (m, 2)))
-        lanes = [(d.stage << 24 | d.lane << 22, d.normal, *(t if t is not None else (None, None)))
-                 for d, t in zip(draws, terms)]
         width = out.shape[-1] if out.ndim == 2 else 0
-        per_sample = first.size * len(draws)
-        pieces = min(m, max(1, -(-m * per_sample * _PIECES // total))) if total >= compiled.SPLIT_VALUES else 1
-        for a, b in ((m * p // pieces, m * (p + 1) // pieces) for p in range(pieces)):
-            if rows is None:  # the samples' own rows of `out`
-                calls.append((keys[a:b], samples[a:b], first.size, lanes, out[a:b], width, lo, None, accumulate))
-            else:
-                calls.append((keys[a:b], samples[a:b], first.size, lanes, out, width, lo, rows[a:b], accumulate))
-            work.append(int(b - a) * per_sample)
+        _pieces(calls, work, total, keys, samples, first.size, kernel_lanes(draws, terms), out, width, lo, rows,
+                accumulate)
+    _split(kernel, calls, work)
 
+
+_PIECES = 16  # a job larger than 1/_PIECES of a call's numbers is cut into runs of samples of about that size,
+# so that the two threads' halves come out even
+
+
+def _pieces(calls: list[tuple[Any, ...]], work: list[int], total: int, keys: np.ndarray, samples: np.ndarray,
+            size: int, lanes: list[tuple[Any, ...]], out: np.ndarray, width: int, lo: int, rows: np.ndarray | None,
+            accumulate: bool) -> None:
+    """One job's calls of the kernel's `add`, cut into runs of samples when the whole call is split between
+    two threads (`total` numbers); each call's numbers in `work`."""
+    m = samples.size
+    per_sample = size * len(lanes)
+    pieces = min(m, max(1, -(-m * per_sample * _PIECES // total))) if total >= compiled.SPLIT_VALUES else 1
+    for a, b in ((m * p // pieces, m * (p + 1) // pieces) for p in range(pieces)):
+        if rows is None:  # the samples' own rows of `out`
+            calls.append((keys[a:b], samples[a:b], size, lanes, out[a:b], width, lo, None, accumulate))
+        else:
+            calls.append((keys[a:b], samples[a:b], size, lanes, out, width, lo, rows[a:b], accumulate))
+        work.append(int(b - a) * per_sample)
+
+
+def _split(kernel: Any, calls: list[tuple[Any, ...]], work: list[int]) -> None:
     def run(indices: Sequence[int]) -> None:
         for i in indices:
             kernel(*calls[i])
 
     compiled.split(run, work)
+
+
+class Rows(NamedTuple):
+    """A sum prepared for the kernel: samples `samples` (m,) int64 of keys `keys` ((m, 2) uint64, C-contiguous),
+    `size` values each, the lanes of its terms (`kernel_lanes`), added to a flat table from `starts` (m,) int64."""
+
+    keys: np.ndarray
+    samples: np.ndarray
+    size: int
+    lanes: list[tuple[Any, ...]]
+    starts: np.ndarray
+
+
+def add_rows(sums: Sequence[Rows], out: np.ndarray) -> None:
+    """`add_sums` of prepared sums into the flat float64 table `out`, by the compiled kernel (which must be
+    built: `KERNEL == "compiled"`), without building draws: what a batch's read runs every control step."""
+    assert _COMPILED is not None
+    calls: list[tuple[Any, ...]] = []
+    work: list[int] = []
+    total = sum(r.samples.size * r.size * len(r.lanes) for r in sums)
+    for r in sums:
+        if r.size and r.samples.size:
+            _pieces(calls, work, total, r.keys, r.samples, r.size, r.lanes, out, 0, 0, r.starts, True)
+    _split(_COMPILED.add, calls, work)
 
 
 class Streams:
