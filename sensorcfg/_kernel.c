@@ -20,6 +20,13 @@
 
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
+/* numpy's roundings: a * b + c is two of them, never one fused multiply-add, whatever flags build this file
+ * (setup.py also passes -ffp-contract=off) */
+#if defined(__clang__)
+#pragma clang fp contract(off)
+#elif defined(__GNUC__)
+#pragma GCC optimize("fp-contract=off")
+#endif
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
@@ -797,9 +804,10 @@ static PyObject *simd(PyObject *self, PyObject *args) {
         PyErr_Format(PyExc_ValueError, "simd: %s is not a Philox this CPU runs", name);
         return NULL;
     }
-    philox_block = fn;
+    philox_block = fn; /* a switch for tests and benchmarks: not while other threads run `add` */
     for (int i = 0; i < count; i++)
         if (known[i].fn == fn) return PyUnicode_FromString(known[i].name);
+    PyErr_SetString(PyExc_RuntimeError, "simd: unknown Philox");
     return NULL;
 }
 

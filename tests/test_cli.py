@@ -475,3 +475,22 @@ def test_pre_commit_hook_runs_validate() -> None:
     assert hook["entry"].split()[:2] == ["sensorcfg", "validate"] and hook["language"] == "python"
     assert re.search(hook["files"], "configs/arm.yaml") and re.search(hook["files"], "a/b.yml")
     assert not re.search(hook["files"], "README.md")
+
+
+@pytest.mark.parametrize("name, message", [
+    ("sub/o.txt", "sub/o.txt: writes .npz files only; name it 'sub/o.npz'"),
+    (".npz", ".npz: writes .npz files only; name it 'npz.npz'"),
+    ("foo.", "foo.: writes .npz files only; name it 'foo.npz'"),
+    ("sub/", "sub/: is a directory; give a file name"),
+    ("o.npz/", "o.npz/: is a directory; give a file name"),
+])
+def test_an_output_name_is_refused_with_the_name_to_use(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                        name: str, message: str) -> None:
+    from sensorcfg.cli.common import UsageError, writable
+
+    (tmp_path / "sub").mkdir()
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(UsageError) as e:
+        writable(name, ("npz",))
+    assert str(e.value) == message
+    assert writable("sub/o.NPZ", ("npz",)) == Path("sub/o.NPZ")

@@ -128,13 +128,14 @@ def _stat(path: str) -> os.stat_result | None:
 
 
 def writable(path: str | None, formats: Collection[str] = ()) -> Path | None:
-    """`path` as a file that can be written (refused before any work: a directory, a missing folder, or a
-    name whose extension is not one of `formats`, the file types written, the first suggested)."""
+    """`path` as a file that can be written (refused before any work: a directory, a name ending in a
+    separator, a missing folder, or a name whose extension is not one of `formats`, the file types written,
+    the first suggested)."""
     if path is None:
         return None
     p = Path(path)
     info = _stat(path)
-    if info is not None and stat.S_ISDIR(info.st_mode):
+    if (info is not None and stat.S_ISDIR(info.st_mode)) or path.endswith(("/", os.sep)) or not p.name:
         raise UsageError(f"{printable(path)}: is a directory; give a file name")
     parent = _stat(str(p.parent))
     if parent is None or not stat.S_ISDIR(parent.st_mode):
@@ -142,7 +143,9 @@ def writable(path: str | None, formats: Collection[str] = ()) -> Path | None:
     if formats and p.suffix[1:].lower() not in formats:
         kinds = ", ".join("." + f for f in formats)
         what = f"writes {kinds} files only" if len(formats) == 1 else f"the file type must be one of {kinds}"
-        raise UsageError(f"{printable(path)}: {what}; name it {printable(repr(p.stem + '.' + next(iter(formats))))}")
+        stem = p.stem.rstrip(".") if p.suffix or not p.name.startswith(".") else p.name.lstrip(".")
+        fix = p.with_name(f"{stem or 'out'}.{next(iter(formats))}")
+        raise UsageError(f"{printable(path)}: {what}; name it {printable(repr(str(fix)))}")
     return p
 
 

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import printable
 from .common import UsageError
 from .describe import SensorRow
 
@@ -144,4 +145,4 @@ def plot_run(path: Path, rec: Any, rows: list[SensorRow], timings: dict[str, Any
     try:
         fig.savefig(path, dpi=100)
     except OSError as e:
-        raise UsageError(f"{path}: cannot write the plot: {e.strerror or e}") from None
+        raise UsageError(f"{printable(str(path))}: cannot write the plot: {printable(str(e.strerror or e))}") from None

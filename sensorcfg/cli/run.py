@@ -264,7 +264,8 @@ def save(rec: Recording, path: Path, sidecar: dict[str, Any]) -> Path:
             np.savez_compressed(f, **arrays)
         side.write_text(json.dumps(sidecar, indent=2) + "\n", encoding="utf-8")
     except OSError as e:
-        raise UsageError(f"{e.filename or path}: cannot write: {e.strerror or e}") from None
+        where, why = printable(str(e.filename or path)), printable(str(e.strerror or e))
+        raise UsageError(f"{where}: cannot write: {why}") from None
     return side
 
 
@@ -291,7 +292,7 @@ def execute(suite: Any, model_file: str, settings: Settings, out: Path | None, p
         print(f"\nwrote {printable(str(out))} ({count} observation{'s' if count != 1 else ''} x "
               f"{rec.steps_done + 1} steps) and {printable(str(side))}")
     if plot is not None and not rows:
-        print(f"no plot: the suite has no enabled observations to draw ({plot} not written)")
+        print(f"no plot: the suite has no enabled observations to draw ({printable(str(plot))} not written)")
     elif plot is not None:
         from . import timing
         from .plot import plot_run
@@ -316,7 +317,8 @@ def command(args: argparse.Namespace) -> int:
         require_matplotlib()
         from matplotlib.backend_bases import FigureCanvasBase
 
-        formats = ("png", *sorted(set(FigureCanvasBase.get_supported_filetypes()) - {"png"}))
+        # what matplotlib writes by itself (pgf needs LaTeX; avif a Pillow built with it)
+        formats = ("png", *sorted(set(FigureCanvasBase.get_supported_filetypes()) - {"png", "pgf", "avif"}))
     out, plot = writable(args.out, ("npz",)), writable(args.plot, formats)
     suite = load_suite(args.suite, args.overrides, args.extends_root)
     return execute(suite, model_path(suite, args.model), settings_from(args), out, plot, args.overrides)
