@@ -6,8 +6,10 @@ A fixed-schedule sensor whose noise only adds numbers (gaussian and uniform stag
 history path, which draws a sample's numbers once), the batch keeps that sensor's raw samples, as it keeps a
 noise-free sensor's (only those a later read needs, the rest read straight from the control step's
 records), and a read adds each
-sample's noise to the values it gathered (`streams.add_sums` on the flat read, one job per sensor) before
-any reduction. A sample in the windows of several reads gets the same numbers each time. Padding before
+sample's noise to the values it gathered, one sum per sensor, before any reduction: with the compiled kernel,
+sums prepared once per batch (`streams.Rows`: the sensor's keys, kernel lanes and positions, `add_rows`);
+while some pair shows padding without `pad_with_initial_value`, or without the kernel, `streams.add_sums`
+of the pairs that show samples. A sample in the windows of several reads gets the same numbers each time. Padding before
 the reset sample is the reset sample's noisy value (`pad_with_initial_value`) or zeros, which no noise
 touches, as in the single-simulation Updater.
 
