@@ -148,7 +148,7 @@ def _libm(fn: Any, x: np.ndarray) -> np.ndarray:
 
 def _normals(words: list[np.ndarray], counter: list[np.ndarray], key: list[np.ndarray]) -> np.ndarray:
     """Standard normals (n, 4) from the words by the ziggurat (one 32-bit word each). The few words it
-    rejects (about 1 in 100) go on with words of their own (`_fallback`), so every value stays a function
+    rejects (about 1 in 36: 2.7% of 32-bit words) go on with words of their own (`_fallback`), so every value stays a function
     of its counter."""
     both = np.stack(words, axis=1)  # (n, 4): value 4q + k from word k of counter q
     hz = both.view(np.int32)
