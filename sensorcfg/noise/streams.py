@@ -11,7 +11,7 @@ numbers, as an outlier's hits and jumps, uses lanes 0 and 1), with the sensor's 
 
 gives four 32-bit words w0..w3 for values 4(v // 4) .. 4(v // 4) + 3. A uniform is w 2^-32 (in [0, 1),
 32 bits); a normal comes from its own word by Marsaglia and Tsang's ziggurat, a word it rejects (about 1 in
-100) going on with words of its own (`_fallback`). The few exponentials and logarithms that takes are the C
+36) going on with words of its own (`_fallback`). The few exponentials and logarithms that takes are the C
 library's (Python's `math`), not numpy's, whose vectorised ones differ from it in the last bit on some CPUs.
 
 The compiled kernel (`sensorcfg/_kernel.c`'s `add`, loaded by `sensorcfg.compiled`) computes the same numbers
@@ -148,8 +148,8 @@ def _libm(fn: Any, x: np.ndarray) -> np.ndarray:
 
 def _normals(words: list[np.ndarray], counter: list[np.ndarray], key: list[np.ndarray]) -> np.ndarray:
     """Standard normals (n, 4) from the words by the ziggurat (one 32-bit word each). The few words it
-    rejects (about 1 in 36: 2.7% of 32-bit words) go on with words of their own (`_fallback`), so every value stays a function
-    of its counter."""
+    rejects (about 1 in 36) go on with words of their own (`_fallback`), so every value stays a function of
+    its counter."""
     both = np.stack(words, axis=1)  # (n, 4): value 4q + k from word k of counter q
     hz = both.view(np.int32)
     iz = both & np.uint32(127)
