@@ -305,7 +305,7 @@ def test_prepared_rows_add_what_add_sums_adds():
         starts = at + np.arange(m) * size
         draws = [Draw(keys, samples, 4, 0, size, True), Draw(keys, samples, 5, 1, size, False)]
         terms = [streams.Affine(rng.normal(size=size), None), streams.Affine(rng.normal(size=size), rng.normal(size=size))]
-        rows.append(streams.Rows(keys, samples, size, streams.kernel_lanes(draws, terms), starts))
+        rows.append(streams.Rows(streams.prepare(draws, terms), keys, samples, starts))
         sums.append(streams.Sum(draws, terms, None, 0, starts))
         at += m * size
     assert 2 * n > compiled.SPLIT_VALUES
@@ -313,4 +313,20 @@ def test_prepared_rows_add_what_add_sums_adds():
     streams.add_sums([s._replace(table=expected) for s in sums], compiled=False)
     got = table.copy()
     streams.add_rows(rows, got)
+    assert np.array_equal(expected.view(np.uint64), got.view(np.uint64)) and not np.array_equal(got, table)
+
+
+def test_prepared_rows_without_the_kernel_are_add_sums_on_numpy():
+    """`add_rows` where the kernel is not built (or not asked for): numpy's `add_sums` of the same draws."""
+    rng = np.random.default_rng(9)
+    table = rng.normal(size=400)
+    keys = rng.integers(0, 2**64, (30, 2), dtype=np.uint64)
+    samples = rng.integers(0, 2**32, 30)
+    starts = np.arange(30) * 13
+    draws = [Draw(keys, samples, 2, 0, 13, True), Draw(keys, samples, 3, 1, 13, False)]
+    terms = [streams.Affine(rng.normal(size=13), None), streams.Affine(rng.normal(size=13), rng.normal(size=13))]
+    expected, got = table.copy(), table.copy()
+    streams.add_sums([streams.Sum(draws, terms, expected, 0, starts)], compiled=False)
+    template = [d._replace(keys=np.zeros((0, 2), np.uint64), samples=np.zeros(0, np.int64)) for d in draws]
+    streams.add_rows([streams.Rows(streams.prepare(template, terms), keys, samples, starts)], got, compiled=False)
     assert np.array_equal(expected.view(np.uint64), got.view(np.uint64)) and not np.array_equal(got, table)

@@ -6,10 +6,8 @@ A fixed-schedule sensor whose noise only adds numbers (gaussian and uniform stag
 history path, which draws a sample's numbers once), the batch keeps that sensor's raw samples, as it keeps a
 noise-free sensor's (only those a later read needs, the rest read straight from the control step's
 records), and a read adds each
-sample's noise to the values it gathered, one sum per sensor, before any reduction: with the compiled kernel,
-sums prepared once per batch (`streams.Rows`: the sensor's keys, kernel lanes and positions, `add_rows`);
-while some pair shows padding without `pad_with_initial_value`, or without the kernel, `streams.add_sums`
-of the pairs that show samples. A sample in the windows of several reads gets the same numbers each time. Padding before
+sample's noise to the values it gathered, one sum per sensor, before any reduction (`streams.add_rows`: each
+sensor's sum prepared once per batch, its keys, samples and positions per read). A sample in the windows of several reads gets the same numbers each time. Padding before
 the reset sample is the reset sample's noisy value (`pad_with_initial_value`) or zeros, which no noise
 touches, as in the single-simulation Updater.
 
@@ -25,7 +23,7 @@ from typing import Any, NamedTuple, cast
 import numpy as np
 
 from ..noise.level import Blend, blend
-from ..noise.streams import KERNEL, Affine, Rows, Sum, add_rows, add_sums, kernel_lanes
+from ..noise.streams import Affine, Prepared, Rows, add_rows, prepare
 from ..runtime.channels import FixedChannel
 from .layout import Layout
 from .noise import BatchPipeline, _Additive
@@ -57,7 +55,7 @@ class _Sensor(NamedTuple):
     size: int  # values per sample
     span: slice  # its (simulation, slot) pairs in the concatenated arrays of `ReadNoise`
     blend: Any  # the pipeline's batched `Blend` (its per-simulation levels), or None
-    lanes: list[tuple[Any, ...]]  # its terms as the compiled kernel takes them (`streams.kernel_lanes`)
+    sum: Prepared  # its draws and terms, made once (`streams.prepare`)
 
 
 def _starts(layout: Layout, c: int, size: int, buffer: int) -> np.ndarray:
@@ -93,9 +91,9 @@ class ReadNoise:
             schedule, size = channels[c].schedule, int(np.prod(channels[c].shape, dtype=np.int64))
             count = nsim * schedule.buffer
             blend_stage = next((b for b in pipeline.batched if isinstance(b.template, Blend)), None)
-            none = np.zeros(0, np.int64)
-            lanes = kernel_lanes(stage.template.draws(none, np.zeros((0, 2), np.uint64)), cast(list[Affine], stage.terms))
-            self.sensors.append(_Sensor(stage, size, slice(at, at + count), blend_stage, lanes))
+            templates = stage.template.draws(np.zeros(0, np.int64), np.zeros((0, 2), np.uint64))
+            prepared = prepare(templates, cast(list[Affine], stage.terms))
+            self.sensors.append(_Sensor(stage, size, slice(at, at + count), blend_stage, prepared))
             at += count
             # the read at t sees sample (t - delay) // interval - buffer + 1 + slot in slot `slot`
             columns.append((np.repeat(np.arange(nsim), schedule.buffer), _starts(layout, c, size, schedule.buffer).ravel(),
@@ -117,30 +115,19 @@ class ReadNoise:
         if self.pad:
             np.maximum(sample, 0, out=sample)  # the reset sample's value
         sample = sample * self.interval // self.stride  # the noise numbers' index
-        if KERNEL == "compiled" and not (padding and not self.pad):  # every pair read: the prepared sums
-            blends = [self._blended(values, s, self.sims[s.span], self.starts[s.span]) for s in self.sensors
-                      if s.blend is not None and s.blend.template.batch_active]  # their raw values first
-            add_rows([Rows(self.keys[s.span], sample[s.span], s.size, s.lanes, self.starts[s.span])
-                      for s in self.sensors], values)
-            self._blend(values, blends)
-            return
-        jobs, blends = [], []
+        rows, blends = [], []
         for sensor in self.sensors:
-            sims, starts, j, keys = (a[sensor.span] for a in (self.sims, self.starts, sample, self.keys))
+            span = sensor.span
+            sims, starts, j, keys = self.sims[span], self.starts[span], sample[span], self.keys[span]
             if padding and not self.pad:  # zeros: no noise
                 kept = np.flatnonzero(j >= 0)
                 sims, starts, j, keys = sims[kept], starts[kept], j[kept], keys[kept]
             if not j.size:
                 continue
-            jobs.append(Sum(sensor.stage.template.draws(j, keys), cast(list[Affine], sensor.stage.terms), values, 0, starts))
+            rows.append(Rows(sensor.sum, keys, j, starts))
             if sensor.blend is not None and sensor.blend.template.batch_active:
-                blends.append(self._blended(values, sensor, sims, starts))
-        add_sums(jobs)
-        self._blend(values, blends)
-
-    @staticmethod
-    def _blend(values: np.ndarray, blends: list[tuple[np.ndarray, ...]]) -> None:
-        """Samples at a noise level other than 1: raw + level (noisy - raw), from the raw values kept."""
+                blends.append(self._blended(values, sensor, sims, starts))  # their raw values, before the noise
+        add_rows(rows, values)
         for at, raw, level in blends:
             out = np.empty_like(raw)
             blend(raw, values[at], level, out)

@@ -37,8 +37,8 @@ import numpy as np
 
 from .. import compiled
 
-__all__ = ["Affine", "Draw", "KERNEL", "Rows", "Streams", "Sum", "add_rows", "add_sums", "kernel_lanes", "numbers", "philox",
-           "stream_key", "uniform_runs"]
+__all__ = ["Affine", "Draw", "KERNEL", "Prepared", "Rows", "Streams", "Sum", "add_rows", "add_sums", "kernel_lanes",
+           "numbers", "philox", "prepare", "stream_key", "uniform_runs"]
 
 _M0, _M1 = np.uint64(0xD2511F53), np.uint64(0xCD9E8D57)  # Philox4x32 multipliers
 _W0, _W1 = np.uint32(0x9E3779B9), np.uint32(0xBB67AE85)  # its key schedule's increments
@@ -246,7 +246,6 @@ def numbers(draws: Sequence[Draw], compiled: bool = True) -> list[np.ndarray]:
     return out
 
 
-
 def uniform_runs(keys: np.ndarray, first: np.ndarray, counts: np.ndarray, lane: int, compiled: bool = True
                  ) -> np.ndarray:
     """The uniform (value 0, stage 0, lane `lane`) of samples first[s] .. first[s] + counts[s] - 1 of key s
@@ -265,6 +264,7 @@ def uniform_runs(keys: np.ndarray, first: np.ndarray, counts: np.ndarray, lane: 
     samples = np.repeat(np.asarray(first, np.int64) - starts, counts) + np.arange(total)
     draw = Draw(np.repeat(np.asarray(keys, np.uint64).reshape(-1, 2), counts, axis=0), samples, 0, lane, 1, False)
     return numbers([draw], compiled=False)[0][:, 0]
+
 
 MAX_TERMS = 8  # terms of one sum the kernel adds in one pass (`add_sums`); a longer sum is not fused
 
@@ -385,27 +385,43 @@ def _split(kernel: Any, calls: list[tuple[Any, ...]], work: list[int]) -> None:
     compiled.split(run, work)
 
 
-class Rows(NamedTuple):
-    """A sum prepared for the kernel: samples `samples` (m,) int64 of keys `keys` ((m, 2) uint64, C-contiguous),
-    `size` values each, the lanes of its terms (`kernel_lanes`), added to a flat table from `starts` (m,) int64."""
+class Prepared(NamedTuple):
+    """A sum's fixed parts, made once (`prepare`): its draws (stage, lane, size, kind; their keys and samples
+    unused), its terms, and both as the kernel's lanes."""
 
+    draws: list[Draw]
+    terms: list[Affine]
+    lanes: list[tuple[Any, ...]]
+
+
+def prepare(draws: Sequence[Draw], terms: Sequence[Affine]) -> Prepared:
+    return Prepared(list(draws), list(terms), kernel_lanes(draws, terms))
+
+
+class Rows(NamedTuple):
+    """A prepared sum for samples `samples` (m,) int64 of keys `keys` ((m, 2) uint64, C-contiguous), added to a
+    flat table from `starts` (m,) int64."""
+
+    sum: Prepared
     keys: np.ndarray
     samples: np.ndarray
-    size: int
-    lanes: list[tuple[Any, ...]]
     starts: np.ndarray
 
 
-def add_rows(sums: Sequence[Rows], out: np.ndarray) -> None:
-    """`add_sums` of prepared sums into the flat float64 table `out`, by the compiled kernel (which must be
-    built: `KERNEL == "compiled"`), without building draws: what a batch's read runs every control step."""
-    assert _COMPILED is not None
+def add_rows(rows: Sequence[Rows], out: np.ndarray, compiled: bool = True) -> None:
+    """`add_sums` of prepared sums into the flat float64 table `out` (what a batch's read runs every control
+    step): the kernel's calls straight from the prepared lanes, without building draws; numpy's `add_sums`
+    where the kernel is not built (or not `compiled`)."""
+    rows = [r for r in rows if r.samples.size and r.sum.draws[0].size]
+    if not (compiled and _COMPILED is not None):
+        add_sums([Sum([d._replace(keys=r.keys, samples=r.samples) for d in r.sum.draws], r.sum.terms, out, 0, r.starts)
+                  for r in rows], compiled=False)
+        return
     calls: list[tuple[Any, ...]] = []
     work: list[int] = []
-    total = sum(r.samples.size * r.size * len(r.lanes) for r in sums)
-    for r in sums:
-        if r.size and r.samples.size:
-            _pieces(calls, work, total, r.keys, r.samples, r.size, r.lanes, out, 0, 0, r.starts, True)
+    total = sum(r.samples.size * r.sum.draws[0].size * len(r.sum.lanes) for r in rows)
+    for r in rows:
+        _pieces(calls, work, total, r.keys, r.samples, r.sum.draws[0].size, r.sum.lanes, out, 0, 0, r.starts, True)
     _split(_COMPILED.add, calls, work)
 
 
