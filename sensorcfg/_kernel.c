@@ -463,7 +463,18 @@ done:
 
 /* gather(table float64, index int64, out float64, start, stop): out[i] = table[clip(index[i])] for i in
  * [start, stop); scatter(table, index, values, start, stop): table[clip(index[i])] = values[i]. Clip: an
- * index outside the table takes the nearest end, as numpy's mode="clip". */
+ * index outside the table takes the nearest end, as numpy's mode="clip".
+ * A batch gathers right after a rollout has filled the caches with other memory, from positions spread over
+ * tens of MB: each value's line is asked for AHEAD positions early, so that the loads overlap instead of
+ * waiting one by one (0.77 -> 0.45 ms for the humanoid suite's 217,088 values at 512 simulations). */
+#define AHEAD 128
+#if defined(__GNUC__) || defined(__clang__)
+#define PREFETCH(p) __builtin_prefetch((p), 0, 0)
+#else
+#define PREFETCH(p) ((void)0)
+#endif
+static inline int64_t clip_index(int64_t i, int64_t n) { return i < 0 ? 0 : (i >= n ? n - 1 : i); }
+
 static PyObject *copy(PyObject *args, int scatter) {
     Py_buffer table, index, other;
     Py_ssize_t start, stop;
@@ -478,7 +489,8 @@ static PyObject *copy(PyObject *args, int scatter) {
     const int64_t *ix = (const int64_t *)index.buf;
     Py_BEGIN_ALLOW_THREADS
     for (Py_ssize_t i = start; i < stop; i++) {
-        int64_t at = ix[i] < 0 ? 0 : (ix[i] >= n ? n - 1 : ix[i]);
+        if (i + AHEAD < stop) PREFETCH(t + clip_index(ix[i + AHEAD], n));
+        int64_t at = clip_index(ix[i], n);
         if (scatter)
             t[at] = o[i];
         else
@@ -516,7 +528,6 @@ enum { R_GATHER = 1, R_TERM, R_ADD, R_MUL, R_QUANTIZE, R_CLIP, R_TAKE, R_SUM, R_
 
 static inline double np_maximum(double a, double b) { return (a > b || isnan(a)) ? a : b; }
 static inline double np_minimum(double a, double b) { return (a < b || isnan(a)) ? a : b; }
-static inline int64_t clip_index(int64_t i, int64_t n) { return i < 0 ? 0 : (i >= n ? n - 1 : i); }
 
 static void read_op(const int64_t *op, const int64_t *ix, Py_ssize_t n) {
     double *g = (double *)(intptr_t)op[1];

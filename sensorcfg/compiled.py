@@ -2,7 +2,7 @@
 
 Each kernel does what a few numpy calls do, bit for bit, faster: the counter-based noise numbers
 (`noise/streams.py` holds the numpy reference and calls the kernel), and a batch's copies between its
-recording and its history (`take`, `put`; here, on two threads when large). `KERNEL` says which path runs;
+recording and its history (`take`, `put`, each value's memory asked for ahead). `KERNEL` says which path runs;
 SENSORCFG_NUMPY_STREAMS=1 forces numpy everywhere. Observations are the same either way.
 """
 
@@ -58,10 +58,6 @@ def split(run: Callable[[Sequence[int]], None], work: Sequence[int]) -> None:
     half.result()
 
 
-def _halves(n: int) -> list[tuple[int, int]]:
-    return [(0, n // 2), (n // 2, n)]
-
-
 def take(table: np.ndarray, index: np.ndarray) -> np.ndarray:
     """`table.take(index, mode="clip")` of a float64 table and int64 positions, as a new float64 array."""
     if (MODULE is None or table.dtype != np.float64 or index.dtype != np.int64 or not table.flags.c_contiguous
@@ -69,13 +65,9 @@ def take(table: np.ndarray, index: np.ndarray) -> np.ndarray:
         return table.take(index, mode="clip")
     index = np.ascontiguousarray(index)
     out = np.empty(index.shape)
-    parts = _halves(index.size)
-
-    def run(ids: Sequence[int]) -> None:
-        for i in ids:
-            MODULE.gather(table, index, out, *parts[i])
-
-    split(run, [b - a for a, b in parts])
+    # One thread: the copy waits on memory, not on the core (its loads are asked for ahead); a second thread
+    # made the humanoid batch's 217,088-value read slower, 0.65-0.70 against 0.59 ms a control step.
+    MODULE.gather(table, index, out, 0, index.size)
     return out
 
 

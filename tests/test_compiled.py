@@ -1,6 +1,6 @@
 """The compiled kernels' copies (`sensorcfg.compiled.take` / `put`, a batch's recording <-> history) equal
 numpy's `take` / `put` with mode="clip" bit for bit: positions past either end, repeated positions (the last
-write wins), and arrays large enough to be split between two threads. Without the kernel they are numpy's
+write wins), and arrays longer than the kernel's prefetch distance. Without the kernel they are numpy's
 own calls; where it is meant to be built (SENSORCFG_REQUIRE_KERNEL=1) a missing kernel fails."""
 
 from __future__ import annotations
