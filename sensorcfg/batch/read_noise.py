@@ -89,6 +89,8 @@ class ReadNoise:
         for c, pipeline in pipelines.items():
             stage = cast(_Additive, pipeline.additive)
             schedule, size = channels[c].schedule, int(np.prod(channels[c].shape, dtype=np.int64))
+            if pipeline.stride != schedule.interval:  # a fixed schedule's is: sample j's numbers are the j-th
+                raise RuntimeError(f"read noise of channel {c}: its noise stride is not its interval (an internal error)")
             count = nsim * schedule.buffer
             blend_stage = next((b for b in pipeline.batched if isinstance(b.template, Blend)), None)
             templates = stage.template.draws(np.zeros(0, np.int64), np.zeros((0, 2), np.uint64))
@@ -98,10 +100,14 @@ class ReadNoise:
             # the read at t sees sample (t - delay) // interval - buffer + 1 + slot in slot `slot`
             columns.append((np.repeat(np.arange(nsim), schedule.buffer), _starts(layout, c, size, schedule.buffer).ravel(),
                             np.tile(np.arange(schedule.buffer) - schedule.buffer + 1, nsim),
-                            *(np.full(count, v) for v in (schedule.delay, schedule.interval, pipeline.stride))))
-        self.sims, self.starts, self.first, self.delay, self.interval, self.stride = (
+                            *(np.full(count, v) for v in (schedule.delay, schedule.interval))))
+        self.sims, self.starts, self.first, self.delay, self.interval = (
             np.concatenate(column).astype(np.int64) for column in zip(*columns))
         self.keys = np.zeros((at, 2), np.uint64)
+        # a read divides each simulation's step once per (delay, interval) pair, not once per (sensor, slot)
+        pairs, pair = np.unique(np.stack([self.delay, self.interval], axis=1), axis=0, return_inverse=True)
+        self.pair_delay, self.pair_interval = pairs[:, :1], pairs[:, 1:]
+        self.pair_at = pair.ravel() * nsim + self.sims  # each entry's (pair, simulation) in their raveled steps
 
     def restart(self) -> None:
         """Take the sensors' episode keys (after a reset of some simulations)."""
@@ -110,11 +116,12 @@ class ReadNoise:
 
     def apply(self, values: np.ndarray, t: np.ndarray) -> None:
         """Add each read sample's noise to `values`, one read of every simulation (`t`: steps since reset)."""
-        sample = (t[self.sims] - self.delay) // self.interval + self.first  # < 0: padding
+        steps = (t[None, :] - self.pair_delay) // self.pair_interval  # (pair, simulation)
+        sample = steps.ravel().take(self.pair_at)
+        sample += self.first  # < 0: padding
         padding = bool((sample < 0).any())
         if self.pad:
             np.maximum(sample, 0, out=sample)  # the reset sample's value
-        sample = sample * self.interval // self.stride  # the noise numbers' index
         rows, blends = [], []
         for sensor in self.sensors:
             span = sensor.span
