@@ -8,7 +8,9 @@ SENSORCFG_NUMPY_STREAMS=1 forces numpy everywhere. Observations are the same eit
 
 from __future__ import annotations
 
+import itertools
 import os
+import threading
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -40,22 +42,35 @@ SPLIT_VALUES = 150_000  # below this much work, one thread: each job or half han
 # benchmark with noise ran faster on one thread, 256 and 512 on two)
 
 
-def split(run: Callable[[Sequence[int]], None], work: Sequence[int]) -> None:
-    """run(indices) over the indices of `work` (their sizes), in two halves on two threads when it pays (the
-    kernels release the GIL; each index's work must touch memory of its own)."""
+def split(run: Callable[[int], None], work: Sequence[int]) -> None:
+    """run(i) for each index of `work` (their sizes), on two threads when it pays, each taking the next index
+    until none is left, so that a slower thread (one just woken, its caches cold) takes fewer (the kernels
+    release the GIL; each index's work must touch memory of its own)."""
     global _POOL
-    total = sum(work)
-    if total < SPLIT_VALUES or _CPUS < 2:
-        run(range(len(work)))
+    n = len(work)
+    if sum(work) < SPLIT_VALUES or _CPUS < 2:
+        for i in range(n):
+            run(i)
         return
-    at = int(np.searchsorted(np.cumsum(work), total / 2))
     if _POOL is None:
         from concurrent.futures import ThreadPoolExecutor
 
         _POOL = ThreadPoolExecutor(1, thread_name_prefix="sensorcfg-kernel")
-    half = _POOL.submit(run, range(at + 1, len(work)))
-    run(range(at + 1))
-    half.result()
+    tickets, lock = itertools.count(), threading.Lock()
+
+    def worker() -> None:
+        while True:
+            with lock:
+                i = next(tickets)
+            if i >= n:
+                return
+            run(i)
+
+    other = _POOL.submit(worker)
+    try:
+        worker()
+    finally:
+        other.result()  # never return (or raise) while the other thread still writes
 
 
 def take(table: np.ndarray, index: np.ndarray) -> np.ndarray:

@@ -1,11 +1,14 @@
 """The compiled kernels' copies (`sensorcfg.compiled.take` / `put`, a batch's recording <-> history) equal
 numpy's `take` / `put` with mode="clip" bit for bit: positions past either end, repeated positions (the last
 write wins), and arrays longer than the kernel's prefetch distance. Without the kernel they are numpy's
-own calls; where it is meant to be built (SENSORCFG_REQUIRE_KERNEL=1) a missing kernel fails."""
+own calls; where it is meant to be built (SENSORCFG_REQUIRE_KERNEL=1) a missing kernel fails. `split`, which
+shares the kernels' calls between two threads, runs each once and returns only when both threads are done."""
 
 from __future__ import annotations
 
 import os
+import threading
+import time
 
 import numpy as np
 import pytest
@@ -39,3 +42,35 @@ def test_other_dtypes_and_layouts_take_numpys_path():
     assert compiled.take(table, index).tolist() == [0, 11, 11]
     strided = np.arange(20.0)[::2]
     assert compiled.take(strided, np.array([1, 3])).tolist() == [2.0, 6.0]
+
+
+def test_split_runs_every_index_once_and_waits_for_both_threads(monkeypatch):
+    monkeypatch.setattr(compiled, "_CPUS", 2)
+    seen, threads = [], set()
+
+    def run(i):
+        time.sleep(0.001)  # the GIL is let go, as the kernels do
+        seen.append(i)
+        threads.add(threading.get_ident())
+
+    compiled.split(run, [compiled.SPLIT_VALUES // 10] * 40)
+    assert sorted(seen) == list(range(40)) and len(threads) == 2
+
+    finished = []
+
+    def failing(i):
+        time.sleep(0.002)
+        if i == 0:
+            raise ValueError("index 0")
+        finished.append(i)
+
+    with pytest.raises(ValueError, match="index 0"):
+        compiled.split(failing, [compiled.SPLIT_VALUES] * 6)
+    assert sorted(finished) == [1, 2, 3, 4, 5]  # the other thread's indices ran to the end before the raise
+
+
+def test_split_stays_on_one_thread_below_its_threshold(monkeypatch):
+    monkeypatch.setattr(compiled, "_CPUS", 2)
+    threads = set()
+    compiled.split(lambda i: threads.add(threading.get_ident()), [10] * 8)
+    assert threads == {threading.get_ident()}

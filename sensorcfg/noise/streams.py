@@ -335,7 +335,7 @@ def kernel_lanes(draws: Sequence[Draw], terms: Sequence[Affine | None]) -> list[
 
 
 def _run(jobs: list[_Job], accumulate: bool) -> None:
-    """The kernel's `add` over the jobs, in two halves on two threads when there are many numbers."""
+    """The kernel's `add` over the jobs, on two threads when there are many numbers (`compiled.split`)."""
     assert _COMPILED is not None
     kernel = _COMPILED.add
     calls: list[tuple[Any, ...]] = []
@@ -358,7 +358,7 @@ def _run(jobs: list[_Job], accumulate: bool) -> None:
 
 
 _PIECES = 16  # a job larger than 1/_PIECES of a call's numbers is cut into runs of samples of about that size,
-# so that the two threads' halves come out even
+# so that the two threads (each taking the next piece) finish together
 
 
 def _pieces(calls: list[tuple[Any, ...]], work: list[int], total: int, keys: np.ndarray, samples: np.ndarray,
@@ -378,11 +378,7 @@ def _pieces(calls: list[tuple[Any, ...]], work: list[int], total: int, keys: np.
 
 
 def _split(kernel: Any, calls: list[tuple[Any, ...]], work: list[int]) -> None:
-    def run(indices: Sequence[int]) -> None:
-        for i in indices:
-            kernel(*calls[i])
-
-    compiled.split(run, work)
+    compiled.split(lambda i: kernel(*calls[i]), work)
 
 
 class Prepared(NamedTuple):
