@@ -12,6 +12,7 @@ import itertools
 import os
 import threading
 from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor, wait
 from typing import Any
 
 import numpy as np
@@ -36,6 +37,8 @@ KERNEL = "compiled" if MODULE is not None else "numpy"
 PHILOX: str | None = getattr(MODULE, "simd", lambda name: None)("fastest") if MODULE is not None else None
 
 _POOL: Any = None
+_POOL_NAME = "sensorcfg-kernel"
+_POOL_LOCK = threading.Lock()
 _CPUS = os.cpu_count() or 1  # read once: each call reads /sys (7 us here), and split runs every control step
 SPLIT_VALUES = 150_000  # below this much work, one thread: each job or half hands the GIL between the two
 # threads, which costs more than the second core gives below this (64 and 128 simulations of the humanoid
@@ -48,14 +51,14 @@ def split(run: Callable[[int], None], work: Sequence[int]) -> None:
     release the GIL; each index's work must touch memory of its own)."""
     global _POOL
     n = len(work)
-    if sum(work) < SPLIT_VALUES or _CPUS < 2:
-        for i in range(n):
+    if sum(work) < SPLIT_VALUES or _CPUS < 2 or threading.current_thread().name.startswith(_POOL_NAME):
+        for i in range(n):  # (on the pool's own thread, a second job would wait for itself)
             run(i)
         return
-    if _POOL is None:
-        from concurrent.futures import ThreadPoolExecutor
-
-        _POOL = ThreadPoolExecutor(1, thread_name_prefix="sensorcfg-kernel")
+    with _POOL_LOCK:
+        if _POOL is None:
+            _POOL = ThreadPoolExecutor(1, thread_name_prefix=_POOL_NAME)
+        pool = _POOL
     tickets, lock = itertools.count(), threading.Lock()
 
     def worker() -> None:
@@ -66,11 +69,23 @@ def split(run: Callable[[int], None], work: Sequence[int]) -> None:
                 return
             run(i)
 
-    other = _POOL.submit(worker)
+    other = pool.submit(worker)
     try:
         worker()
-    finally:
-        other.result()  # never return (or raise) while the other thread still writes
+    except BaseException:
+        wait([other])  # never raise while the other thread still writes; the caller's error is the one raised
+        raise
+    other.result()
+
+
+def _forget_pool() -> None:
+    """In a forked child: the parent's pool thread does not exist there (a job given to it would never run)."""
+    global _POOL, _POOL_LOCK
+    _POOL, _POOL_LOCK = None, threading.Lock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_pool)
 
 
 def take(table: np.ndarray, index: np.ndarray) -> np.ndarray:

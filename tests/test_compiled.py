@@ -48,7 +48,11 @@ def test_split_runs_every_index_once_and_waits_for_both_threads(monkeypatch):
     monkeypatch.setattr(compiled, "_CPUS", 2)
     seen, threads = [], set()
 
+    both = threading.Barrier(2, timeout=10)
+
     def run(i):
+        if i < 2:
+            both.wait()  # the first two calls run at once: one on each thread
         time.sleep(0.001)  # the GIL is let go, as the kernels do
         seen.append(i)
         threads.add(threading.get_ident())
@@ -74,3 +78,45 @@ def test_split_stays_on_one_thread_below_its_threshold(monkeypatch):
     threads = set()
     compiled.split(lambda i: threads.add(threading.get_ident()), [10] * 8)
     assert threads == {threading.get_ident()}
+
+
+def test_split_raises_the_callers_error_when_both_threads_fail(monkeypatch):
+    monkeypatch.setattr(compiled, "_CPUS", 2)
+    both = threading.Barrier(2, timeout=10)
+
+    def failing(i):
+        both.wait()
+        raise ValueError(f"call {threading.current_thread().name}")
+
+    with pytest.raises(ValueError, match="MainThread"):
+        compiled.split(failing, [compiled.SPLIT_VALUES] * 2)
+
+
+def test_split_from_the_pools_own_thread_does_not_wait_for_itself(monkeypatch):
+    monkeypatch.setattr(compiled, "_CPUS", 2)
+    inner = []
+
+    def run(i):
+        if threading.current_thread() is not threading.main_thread():
+            compiled.split(inner.append, [compiled.SPLIT_VALUES] * 3)
+        time.sleep(0.002)
+
+    done = threading.Event()
+    worker = threading.Thread(target=lambda: (compiled.split(run, [compiled.SPLIT_VALUES] * 4), done.set()), daemon=True)
+    worker.start()
+    assert done.wait(20), "split deadlocked"
+    assert inner and sorted(inner) == sorted([0, 1, 2] * (len(inner) // 3))  # every nested split ran whole
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="os.fork is POSIX only")
+def test_split_works_in_a_forked_child(monkeypatch):
+    monkeypatch.setattr(compiled, "_CPUS", 2)
+    compiled.split(lambda i: None, [compiled.SPLIT_VALUES] * 2)  # the parent's pool thread exists
+    pid = os.fork()
+    if pid == 0:  # the child: exits 0 only if split returns
+        threading.Timer(10, lambda: os._exit(3)).start()
+        seen = []
+        compiled.split(seen.append, [compiled.SPLIT_VALUES] * 4)
+        os._exit(0 if sorted(seen) == [0, 1, 2, 3] else 2)
+    _, status = os.waitpid(pid, 0)
+    assert os.waitstatus_to_exitcode(status) == 0
