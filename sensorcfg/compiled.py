@@ -40,7 +40,7 @@ _POOL: Any = None
 _POOL_NAME = "sensorcfg-kernel"
 _POOL_LOCK = threading.Lock()
 _CPUS = os.cpu_count() or 1  # read once: each call reads /sys (7 us here), and split runs every control step
-SPLIT_VALUES = 150_000  # below this much work, one thread: each job or half hands the GIL between the two
+SPLIT_VALUES = 150_000  # below this much work, one thread: each call hands the GIL between the two
 # threads, which costs more than the second core gives below this (64 and 128 simulations of the humanoid
 # benchmark with noise ran faster on one thread, 256 and 512 on two)
 

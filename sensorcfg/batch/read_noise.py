@@ -101,11 +101,11 @@ class ReadNoise:
             columns.append((np.repeat(np.arange(nsim), schedule.buffer), _starts(layout, c, size, schedule.buffer).ravel(),
                             np.tile(np.arange(schedule.buffer) - schedule.buffer + 1, nsim),
                             *(np.full(count, v) for v in (schedule.delay, schedule.interval))))
-        self.sims, self.starts, self.first, self.delay, self.interval = (
+        self.sims, self.starts, self.first, delay, interval = (
             np.concatenate(column).astype(np.int64) for column in zip(*columns))
         self.keys = np.zeros((at, 2), np.uint64)
         # a read divides each simulation's step once per (delay, interval) pair, not once per (sensor, slot)
-        pairs, pair = np.unique(np.stack([self.delay, self.interval], axis=1), axis=0, return_inverse=True)
+        pairs, pair = np.unique(np.stack([delay, interval], axis=1), axis=0, return_inverse=True)
         self.pair_delay, self.pair_interval = pairs[:, :1], pairs[:, 1:]
         self.pair_at = pair.ravel() * nsim + self.sims  # each entry's (pair, simulation) in their raveled steps
 
