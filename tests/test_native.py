@@ -96,6 +96,8 @@ HAND_WRITTEN = [
     ("{kind: contact, element: body:rear, data: [found, dist], reduce: mindist, num: 2}",
      '<contact body1="rear" data="found dist" reduce="mindist" num="2"/>'),
     ("{kind: tactile, element: geom:pad}", '<tactile geom="pad" mesh="pad"/>'),
+    # gravity: MuJoCo's framezaxis of a world site whose z axis points along gravity (down), in the element's frame
+    ("{kind: gravity, element: body:rear}", '<framezaxis objtype="site" objname="down" reftype="xbody" refname="rear"/>'),
     ("{kind: geomdist, element: geom:FL, with: geom:floor, cutoff: 1}", '<distance geom1="FL" geom2="floor" cutoff="1"/>'),
     ("{kind: geomnormal, element: body:rear, with: geom:floor, cutoff: 1}",
      '<normal body1="rear" geom2="floor" cutoff="1"/>'),
@@ -106,6 +108,7 @@ HAND_WRITTEN = [
 ASSET = '<mesh name="pad" vertex="-.05 -.05 0  .05 -.05 0  -.05 .05 0  .05 .05 0  0 0 .02"/>'
 WORLD = """
     <site name="zone" type="box" size=".5 .5 .2"/>
+    <site name="down" quat="0 1 0 0"/>
     <camera name="cam" pos="1 -1 1" xyaxes="1 1 0 -.3 .3 1" resolution="64 48"/>
     <body name="arm" pos="-1 0 .5">
       <joint name="ball" type="ball" damping=".1"/>

@@ -21,7 +21,8 @@ NATIVE_KINDS: tuple[str, ...] = (
     "ballquat", "ballangvel", "tendonpos", "tendonvel", "tendonactfrc", "tendonlimitpos", "tendonlimitvel",
     "tendonlimitfrc", "actuatorpos", "actuatorvel", "actuatorfrc", "framepos", "framequat", "framexaxis",
     "frameyaxis", "framezaxis", "framelinvel", "frameangvel", "framelinacc", "frameangacc", "subtreecom",
-    "subtreelinvel", "subtreeangmom", "insidesite", "contact", "tactile", "geomdist", "geomnormal", "geomfromto")
+    "subtreelinvel", "subtreeangmom", "insidesite", "contact", "tactile", "gravity", "geomdist", "geomnormal",
+    "geomfromto")
 
 
 def aggregator_names() -> tuple[str, ...]:

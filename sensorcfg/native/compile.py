@@ -61,7 +61,10 @@ def _add(spec: mujoco.MjSpec, added: Added) -> list[Any]:
     made = []
     if added.site_body is not None:
         body = spec.worldbody if added.site_body == "world" else spec.body(added.site_body)
-        made.append(body.add_site(name=added.name))
+        site = body.add_site(name=added.name)
+        if added.site_quat is not None:
+            site.quat = list(added.site_quat)
+        made.append(site)
     sensor = spec.add_sensor()
     sensor.name = added.name
     sensor.type = _enum(mujoco.mjtSensor, "mjSENS_", added.sensor)

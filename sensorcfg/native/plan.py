@@ -18,6 +18,7 @@ from ..config.models import SensorConfig
 from ..errors import SuiteError, did_you_mean
 from ..kinds import kinds_of
 from ..selection import Selection, select, split_selector
+from . import gravity
 from .table import NATIVE, OBJ, REDUCE, NativeType, available, data_fields
 
 __all__ = ["Added", "native_row", "plan_sensor", "sensor_name"]
@@ -38,6 +39,7 @@ class Added:
     intprm: tuple[int, int, int] = (0, 0, 0)
     cutoff: float = 0.0
     site_body: str | None = None  # add a site named `name` at this body's frame, and read it
+    site_quat: tuple[float, float, float, float] | None = None  # that site's orientation in the body; None: none
 
 
 def sensor_name(suite_sensor: str, i: int) -> str:
@@ -195,5 +197,6 @@ def plan_sensor(model: mujoco.MjModel, name: str, cfg: SensorConfig, report: Rep
         return None
     cutoff = float(cfg.cutoff) if cfg.cutoff is not None else (10.0 if "cutoff" in row.options else 0.0)
     refs = [("GEOM", sel.names[i]) if row.kind == "tactile" else ref for i in range(len(objects))]
-    return [Added(sensor_name(name, i), row.sensor, objtype, objname, refs[i][0], refs[i][1], intprm, cutoff, body)
-            for i, (objtype, objname, body) in enumerate(objects)]
+    records = [Added(sensor_name(name, i), row.sensor, objtype, objname, refs[i][0], refs[i][1], intprm, cutoff, body)
+               for i, (objtype, objname, body) in enumerate(objects)]
+    return gravity.along_gravity(model, records, report, here) if row.kind == gravity.KIND else records

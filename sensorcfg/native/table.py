@@ -64,6 +64,8 @@ def _rows() -> tuple[NativeType, ...]:
              NativeType("contact", "CONTACT", ("geom", "body", "site"), with_=("geom", "body"),
                         options=("data", "reduce", "num"), body_obj="BODY"),
              NativeType("tactile", "TACTILE", ("geom",))]
+    # not a MuJoCo type of its own: framezaxis of a world site along gravity, in the element's frame (`gravity`)
+    rows += [NativeType("gravity", "FRAMEZAXIS", _FRAMES)]
     rows += [NativeType(k, k.upper(), ("geom", "body"), with_=("geom", "body"), with_required=True,
                         options=("cutoff",), body_obj="BODY") for k in ("geomdist", "geomnormal", "geomfromto")]
     return tuple(rows)
