@@ -317,7 +317,8 @@ class SensorConfig(BaseModel):
         description="What to read: an attribute of the element as dm_control's `physics.bind(element).<kind>` "
         "names it (qpos, xpos, sensordata, ...); a MuJoCo sensor type that the suite adds to the model "
         "(velocimeter, gyro, framepos, contact, ...; where an element type has an attribute of that name, "
-        f"the attribute); {', '.join(IMAGE_KINDS)} for a camera; '{HEIGHTSCAN_KIND}' for a terrain height "
+        "the attribute); 'gravity': the unit vector along the model's gravity in the element's frame ([0, 0, -1] "
+        f"upright); {', '.join(IMAGE_KINDS)} for a camera; '{HEIGHTSCAN_KIND}' for a terrain height "
         f"scan; '{GENERIC_KIND}' for a Python callable.",
         examples=["qpos", "velocimeter", "framepos", "contact", "sensordata", "rgb", "heightscan", "generic"])
     element: Element | None = Field(
@@ -345,17 +346,28 @@ class SensorConfig(BaseModel):
     frame: str | None = Field(
         None, pattern=_SELECTOR.pattern.replace(r"\A", "^").replace(r"\Z", "$"),
         description="For MuJoCo's frame sensors (framepos, framelinvel, ...): the reference frame the value is "
-        "relative to and expressed in (MuJoCo's reftype/refname); a body means its frame.",
+        "relative to and expressed in (MuJoCo's reftype/refname); a body means its frame. Without it, the world "
+        "frame: framezaxis of an element is its z axis in world coordinates (framezaxis of body:world in "
+        "frame body:base is the world's up axis in the base frame, [0, 0, 1] upright; kind 'gravity' is its "
+        "opposite).",
         examples=["body:base"])
     with_: str | None = Field(
         None, alias="with", pattern=_SELECTOR.pattern.replace(r"\A", "^").replace(r"\Z", "$"),
-        description="The second object of a MuJoCo sensor: what a contact is matched against, the site of "
-        "insidesite, the other geom of geomdist, the camera of camprojection.", examples=["geom:floor"])
+        description="The second object of a MuJoCo sensor: what a contact is matched against (a contact's "
+        "force and torque are what the element exerts on it), the site of insidesite, the other geom of "
+        "geomdist, the camera of camprojection.", examples=["geom:floor"])
     data: tuple[str, ...] | None = Field(
         None, min_length=1, description="Which values a contact (or rangefinder) sensor reports, in MuJoCo's "
-        "order: found, force, torque, dist, pos, normal, tangent, ...", examples=[["found", "force"]])
+        "order: found, force, torque, dist, pos, normal, tangent, ... For a contact: found is the number of "
+        "matching contacts MuJoCo lists, which includes pairs within the geoms' margin that carry no force; "
+        "force and torque are what the element exerts on `with:`, in the contact frame ([normal, tangent 1, "
+        "tangent 2]: the normal force is positive while the contact pushes), or in the world frame with reduce "
+        "netforce (a foot pressing on the floor reads negative z); normal points from the element to `with:`, "
+        "pos, normal and tangent are in world coordinates; absent contacts read 0.",
+        examples=[["found", "force"]])
     reduce: str | None = Field(None, description="How a contact sensor combines the contacts it matches: none, "
-                               "mindist, maxforce, netforce.", examples=["netforce"])
+                               "mindist, maxforce (the `num` strongest, strongest first), netforce (one "
+                               "sum in the world frame, as a force on `with:`).", examples=["maxforce"])
     num: int | None = Field(None, ge=1, strict=True, description="Contacts a contact sensor reports (default 1).",
                             examples=[1])
     cutoff: float | None = Field(None, gt=0, description="Largest distance geomdist/geomnormal/geomfromto look "

@@ -11,6 +11,17 @@ Where a kind is also an attribute of the element type (an actuator's `force`), t
 element type decides (`kind: force, element: actuator:knee` reads `actuator_force`; on a site or a body it
 is MuJoCo's force sensor). Types that read no object (`clock`, `e_potential`, `e_kinetic`) and `user` /
 `plugin` sensors are not kinds. A type this MuJoCo does not have is a problem at the sensor's `kind`.
+
+Signs and frames, as MuJoCo computes them (docs/recipes.md, "Signs and frames"; the config's field
+descriptions say the same to the schema): velocimeter and gyro read the site's velocity in the site's own
+frame; accelerometer the site's acceleration minus gravity in its frame (+9.81 up at rest); framexaxis /
+frameyaxis / framezaxis an axis of the element in the world frame, or in `frame:`'s; `gravity` (not a type
+of its own) the unit vector along the model's gravity in the element's frame, [0, 0, -1] upright. A contact
+sensor's force and torque are what the element (object 1) exerts on `with:` (object 2): in each contact's
+frame ([normal, tangent 1, tangent 2], normal from the element to `with:`, the normal force positive while
+pushing) for reduce none / mindist / maxforce, summed in the world frame for netforce (a foot pressing on
+the floor reads negative z); `found` counts the matching contacts MuJoCo lists, those within the margin
+that carry no force included.
 """
 
 from __future__ import annotations
