@@ -2,7 +2,9 @@
 
 The test environments have neither Menagerie nor the package (and no network): a robot folder of our own
 under a temporary MENAGERIE_ROOT stands in for a checkout when the package is installed, and a missing
-package must be a positioned problem that names it.
+package must be a positioned problem that names it. The legged examples run on stand-ins with their robots'
+names and structure (`tests/models/h1_like.xml`, `anymal_c_like.xml`), where the signs their comments state
+are checked; with MENAGERIE_ROOT naming a checkout, every example runs on its robot.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ import shutil
 import sys
 from pathlib import Path
 
+import mujoco
 import numpy as np
 import pytest
 
@@ -98,3 +101,39 @@ def test_menagerie_suites_fit_their_robots_where_a_checkout_is_here(path: Path) 
     for _ in range(5):
         obs = env.step(np.zeros(env.action_spec().shape)).observation
     assert all(np.all(np.isfinite(v)) for v in obs.values())
+
+
+# example -> our stand-in with the names and structure of the robot its `model:` line names
+STAND_INS = {"humanoid_unitree_h1": "h1_like.xml", "quadruped_anymal_c": "anymal_c_like.xml"}
+
+
+def _on_stand_in(stem: str) -> sensorcfg.Environment:
+    path = next(p for p in SUITES if p.stem == stem)
+    text = path.read_text()
+    model_line = next(line for line in text.splitlines() if line.startswith("model: "))
+    robot = model_line.removeprefix("model: menagerie://").split("/")[0].removeprefix("unitree_")
+    stand_in = STAND_INS[stem]
+    assert stand_in.startswith(robot.removeprefix("anybotics_"))
+    suite = sensorcfg.loads(text.replace(model_line, ""), file=path.name)
+    assert suite.check(str(MODEL.parent / stand_in)) == []
+    return sensorcfg.Environment(str(MODEL.parent / stand_in), suite, seed=0)
+
+
+@pytest.mark.parametrize("stem", STAND_INS)
+def test_legged_examples_read_feet_forces_up_while_standing_and_zero_in_the_air(stem: str) -> None:
+    env = _on_stand_in(stem)
+    obs = env.reset().observation
+    assert obs["feet_force"].shape == ((2,) if stem == "humanoid_unitree_h1" else (4,))
+    assert np.all(obs["feet_force"] > 1.0), obs["feet_force"]  # cfrc_ext's z: the floor pushes the feet up
+    env.physics.data.qpos[2] += 1.0
+    env.physics.data.qvel[:] = 0
+    mujoco.mj_forward(env.physics.model, env.physics.data)
+    flying = env.step(np.zeros(env.action_spec().shape)).observation["feet_force"]
+    assert np.all(flying == 0), flying
+
+
+def test_the_h1_example_reads_gravity_down_in_the_imu_frame() -> None:
+    env = _on_stand_in("humanoid_unitree_h1")
+    obs = env.reset().observation
+    np.testing.assert_allclose(obs["projected_gravity"], [0, 0, -1], atol=1e-12)  # `home` stands upright
+    assert obs["joint_pos"].shape == (19,)
