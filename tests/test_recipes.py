@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 import sensorcfg
+from conftest import assert_batch_equals_single
 
 ROOT = Path(__file__).resolve().parent.parent
 MODELS = Path(__file__).parent / "models"
@@ -60,6 +61,12 @@ def test_recipe_validates_and_runs(recipe: str, model: str) -> None:
         obs = env.step(np.zeros(env.action_spec().shape)).observation
     assert set(obs) >= set(suite.sensors)
     assert all(np.all(np.isfinite(v)) for v in obs.values())
+
+
+@pytest.mark.skipif(int(mujoco.__version__.split(".")[0]) < 4, reason="mujoco.batch needs MuJoCo 4")
+@pytest.mark.parametrize("recipe", RECIPES)
+def test_recipe_runs_batched_bit_identical_to_single(recipe: str) -> None:
+    assert_batch_equals_single(str(MODELS / RECIPES[recipe][1]), _recipe(recipe)[1], nsim=2, seed=3, steps=8)
 
 
 def _env(recipe: str, model: str | None = None) -> sensorcfg.Environment:
