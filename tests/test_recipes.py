@@ -129,6 +129,24 @@ sensors:
     np.testing.assert_allclose(obs["on_floor"], -obs["on_foot"], rtol=1e-12)
 
 
+def test_found_counts_a_contact_within_the_margin_that_carries_no_force(tmp_path: Path) -> None:
+    """Why the recipes do not read `found` as "the foot presses": a foot 5 mm above the floor, within its
+    1 cm margin and rising, is a contact MuJoCo lists (found 1) with no force."""
+    model = tmp_path / "margin.xml"
+    model.write_text('<mujoco><worldbody><geom name="floor" type="plane" size="1 1 .1"/>'
+                     '<body pos="0 0 .055"><freejoint/><geom name="foot" type="sphere" size=".05" margin=".01"/>'
+                     '</body></worldbody></mujoco>')
+    suite = sensorcfg.loads("options: {strip_singleton_buffer_dim: true}\nsensors:\n"
+                            "  c: {kind: contact, element: geom:foot, with: geom:floor, data: [found, force], "
+                            "reduce: maxforce}\n")
+    env = sensorcfg.Environment(str(model), suite, seed=0)
+    env.reset()
+    env.physics.data.qvel[2] = 1.0
+    mujoco.mj_forward(env.physics.model, env.physics.data)
+    found, normal = suite.build(env.physics.model)["c"].observation_callable(env.physics)()[:2]
+    assert (found, normal) == (1.0, 0.0)
+
+
 @pytest.mark.parametrize("recipe, site", [("quadruped", "imu"), ("humanoid", "imu_in_pelvis")])
 def test_projected_gravity_is_minus_z_upright_and_turns_with_the_base(recipe: str, site: str) -> None:
     env = _env(recipe)
