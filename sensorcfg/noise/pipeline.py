@@ -33,7 +33,10 @@ class NoisePipeline:
     of the observation's dtype (or writes into `out`); `step` counts physics steps since reset.
     """
 
-    def __init__(self, stages: Sequence[rt.Stage], names: Sequence[str], ctx: rt.Context):
+    def __init__(self, stages: Sequence[rt.Stage], names: Sequence[str], ctx: rt.Context,
+                 streams: rt.Streams | None = None):
+        """`streams`: the streams `stages` were last reset with, for stages taken over from another pipeline
+        (they are then left as they are until the next reset); None: new stages, reset here."""
         self._stages = tuple(stages)
         self.names = tuple(names)
         self.shape = ctx.shape
@@ -46,7 +49,10 @@ class NoisePipeline:
         self._lone = lone if isinstance(lone, rt._Additive) and self._direct else None
         self.streams: rt.Streams
         self.stride = 1
-        self.reset(np.random.default_rng(0))
+        if streams is None:
+            self.reset(np.random.default_rng(0))
+        else:
+            self.streams = streams
 
     def __repr__(self) -> str:
         return f"NoisePipeline({', '.join(self.names)}; shape={self.shape}, dtype={self.dtype})"
