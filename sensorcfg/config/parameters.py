@@ -29,7 +29,9 @@ class EpisodeUniform(BaseModel):
 
     model_config = ConfigDict(frozen=True, extra="forbid")
     uniform: tuple[float, float] = Field(description="[low, high]: the parameter is drawn from U(low, high) at "
-                                         "each reset.", examples=[[0.01, 0.03]])
+                                         "each reset. One end of a pair (min and max, low and high) drawn so must "
+                                         "not overlap the other end's values: no episode draws them crossed.",
+                                         examples=[[0.01, 0.03]])
 
     @property
     def low(self) -> float:
