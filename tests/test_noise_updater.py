@@ -318,3 +318,19 @@ def test_spec_bounds_hold_the_zeros_a_read_pads_with(schedule: str, shows_zeros:
                                   np.broadcast_to(spec.minimum, spec.shape))
     for obs in [batch.reset().observation] + [batch.step(np.zeros((2, 2))).observation for _ in range(8)]:
         batch_spec.validate(obs["q"])
+
+
+@pytest.mark.parametrize("target, found", [
+    pytest.param("builtins:max", "has no signature Python can read", id="no-signature"),
+    pytest.param("math:floor", "must accept (value, random_state), as a dm_control corruptor does; it takes (x, /)",
+                 id="one-argument"),
+])
+def test_a_custom_callable_that_cannot_take_the_corruptor_arguments_is_a_problem_at_its_line(model, target, found):
+    """What `validate --import` reports is what running the suite raises, at the callable's line, before any
+    step (a builtin without a signature used to pass and then fail in the first step with a TypeError)."""
+    text = f"sensors:\n  q: {{kind: qpos, element: 'joint:*', noise: [{{type: custom, callable: '{target}'}}]}}\n"
+    problems = sensorcfg.loads(text, file="arm.yaml").check(model, import_callables=True)
+    assert [(p.file, p.line, p.col, p.loc) for p in problems] == [("arm.yaml", 2, 72, "sensors.q.noise.0.callable")]
+    assert found in problems[0].message
+    with pytest.raises(sensorcfg.SuiteError, match=r"arm\.yaml:2:72: error: sensors\.q\.noise\.0\.callable: "):
+        sensorcfg.Environment(model, sensorcfg.loads(text, file="arm.yaml"))

@@ -223,11 +223,17 @@ def _import(spec: Any, r: _Resolver) -> tuple[Callable[..., Any], str]:
         r.problem("callable", f"{name} is a {type(fn).__name__}, not a function")
         return (lambda value, random_state: value), name
     try:
-        inspect.signature(fn).bind(None, random_state=None)
+        signature = inspect.signature(fn)
+    except (TypeError, ValueError):  # no signature Python can read (some builtins): no way to tell before a call
+        r.problem("callable", f"{name} has no signature Python can read, so whether it accepts (value, "
+                              "random_state) cannot be checked before it is called: wrap it in a function "
+                              "`def corrupt(value, random_state): ...`")
+        return fn, name
+    try:
+        signature.bind(None, random_state=None)  # how the stage calls it (`filters.Custom`)
     except TypeError:
-        r.problem("callable", f"{name} must accept (value, random_state), as a dm_control corruptor does")
-    except ValueError:  # no signature (some builtins): let the first call tell
-        pass
+        r.problem("callable", f"{name} must accept (value, random_state), as a dm_control corruptor does; it "
+                              f"takes {signature}")
     return fn, name
 
 
