@@ -122,13 +122,19 @@ def own_bounds(observable: Any) -> Interval | None:
     return None if minimum is None or maximum is None else (minimum, maximum)
 
 
+def _asking(observable: Any) -> Callable[[], Interval | None]:
+    """`own_bounds` of `observable` when called: a function, which copies of the pipeline share (a deepcopy
+    copies no function) rather than copying the observable."""
+    return lambda: own_bounds(observable)
+
+
 def leveled(observables: Mapping[str, Any]) -> None:
     """Give every noisy observable a level (at 1: its noise unchanged). Its stages are taken over as they
     are: the episode under way reads on through the pipeline it started with."""
     for observable in observables.values():
         noise = getattr(observable, "noise", None)
         if isinstance(noise, NoisePipeline) and not isinstance(noise, LeveledPipeline):
-            observable.noise = LeveledPipeline(noise, lambda observable=observable: own_bounds(observable))
+            observable.noise = LeveledPipeline(noise, _asking(observable))
 
 
 def follow(copy: Any, pipeline: Any) -> None:

@@ -365,7 +365,7 @@ def observation_spec(name: str, observable: Any, ch: _Reader) -> specs.Array:
     own = (array_spec.minimum, array_spec.maximum) if isinstance(array_spec, specs.BoundedArray) else None
     bounds = noisy_bounds(noise, own)  # the bounds every noisy sample keeps (sensorcfg.noise.bounds)
     if (bounds is not None and (np.any(np.greater(bounds[0], 0)) or np.any(np.less(bounds[1], 0)))
-            and shows_zeros(observable, getattr(ch, "channel", ch).pad)):
+            and shows_zeros(observable, bool(getattr(getattr(ch, "channel", ch), "pad")))):
         bounds = (np.minimum(bounds[0], 0), np.maximum(bounds[1], 0))
     if aggregator is None and array_spec is not None and noise is None and bounds is own:
         return array_spec.replace(name=name, shape=ch.buffered_shape)
@@ -387,5 +387,5 @@ def shows_zeros(observable: Any, pad: bool) -> bool:
     if pad:
         return False
     delay = observable.delay or 0
-    largest = delay if isinstance(delay, numbers.Integral) else getattr(delay, "largest", None)
-    return (observable.buffer_size or 1) > 1 or largest is None or largest > 0
+    largest = int(delay) if isinstance(delay, numbers.Integral) else getattr(delay, "largest", None)
+    return bool((observable.buffer_size or 1) > 1 or largest is None or largest > 0)
