@@ -10,7 +10,8 @@ see is never rendered; a camera sampling every step with a buffer of 1 renders o
 Frames wait in a per-simulation ring laid out as `FixedChannel`'s, read with one fancy index for all
 simulations. Noise runs per simulation too, through a copy of the sensor's own pipeline keyed as the
 single simulation keys it (`draws.sensor_key`) and at the level the sensor's pipeline is set to at each
-reset (`noise.level.follow`), so simulation i is that simulation's `Environment` to the bit. Corruptors, aggregators and drawn intervals or delays are rejected.
+reset (`noise.level.follow`), so simulation i is that simulation's `Environment` to the bit. Corruptors,
+aggregators and drawn intervals or delays are rejected.
 """
 
 from __future__ import annotations

@@ -59,7 +59,6 @@ class Blend(rt.Stage):
         blend(np.asarray(self.raw), src, self.level, dst, self.bounds)
 
 
-
 class Keep(rt.Stage):
     """Where a batch, which runs a sensor's stages in place, keeps the raw samples for the `Blend`."""
 
