@@ -8,6 +8,7 @@ actions, through time-limit auto-resets and partial resets.
 
 from __future__ import annotations
 
+import re
 import warnings
 from pathlib import Path
 
@@ -710,3 +711,44 @@ def test_short_noise_blocks_draw_the_same_numbers(monkeypatch, suite_seed):
     _, batch_steps, single_steps = run_pair(suite_seed, 3, 30, drawn=False, n=2)
     for i in range(3):
         check_sim(batch_steps, single_steps[i], i, f"suite {suite_seed}")
+
+
+LEVELED_SUITE = """
+version: 1
+options: {control_interval: 4}
+sensors:
+  scan: {kind: heightscan, element: site:hand_site, scan: {pattern: ring, radii: [0.1], count: 4},
+         noise: [{type: gaussian, std: 0.05}, {type: lowpass, cutoff: 50Hz}]}
+  wrist: {kind: rgb, element: camera:wrist, camera: {width: 8, height: 6}, interval: 2,
+          noise: [{type: gaussian, std: 20}]}
+  hand: {kind: xpos, element: site:hand_site, noise: [{type: gaussian, std: 0.1}]}
+"""
+
+
+@needs_batch
+def test_noise_levels_reach_height_scans_and_cameras():
+    """Height scans and cameras run noise through a pipeline per simulation: each takes the level its sensor
+    is set to at its next reset, so simulation i equals its Environment at every level (at 0: clean)."""
+    nsim = 2
+    env = BatchEnvironment(ROBOT, sensorcfg.loads(LEVELED_SUITE), nsim, seed=8)
+    singles = [sensorcfg.Environment(ROBOT, sensorcfg.loads(LEVELED_SUITE), seed=sim_seed(8, i)) for i in range(nsim)]
+    actions = np.random.default_rng(2).uniform(-1, 1, (6, nsim, 3)) * [1, 1, 0.04]
+    b, s = [env.reset()], [[e.reset()] for e in singles]
+    for level in (0.0, 0.4):
+        env.set_noise_level(level)
+        b.append(env.reset())
+        for i, e in enumerate(singles):
+            e.set_noise_level(level)
+            s[i].append(e.reset())
+        for a in actions:
+            b.append(env.step(a))
+            for i, e in enumerate(singles):
+                s[i].append(e.step(a[i]))
+    for i in range(nsim):
+        check_sim(b, s[i], i, "levels")
+    plain = BatchEnvironment(ROBOT, sensorcfg.loads(re.sub(r",\s*noise: \[.*?\]\}", "}", LEVELED_SUITE, flags=re.S)),
+                             nsim, seed=8)
+    clean = [plain.reset()] + [plain.step(a) for a in actions]
+    for got, want in zip(b[1:2 + len(actions)], clean):  # the episode at level 0 reads the clean values
+        for name in ("scan", "wrist", "hand"):
+            assert same(got.observation[name], want.observation[name]), name

@@ -524,7 +524,11 @@ def test_results_are_not_reused_between_calls():
                  "noise.0.callable: custom noise callable 'math:pi' is a float, not a function", id="custom-not-fn"),
     pytest.param([{"type": "custom", "callable": "math:floor"}], (3,), np.float64,
                  "noise.0.callable: custom noise callable 'math:floor' must accept (value, random_state), as a "
-                 "dm_control corruptor does", id="custom-signature"),
+                 "dm_control corruptor does; it takes (x, /)", id="custom-signature"),
+    pytest.param([{"type": "custom", "callable": "builtins:max"}], (3,), np.float64,
+                 "noise.0.callable: custom noise callable 'builtins:max' has no signature Python can read, so whether "
+                 "it accepts (value, random_state) cannot be checked before it is called: wrap it in a function "
+                 "`def corrupt(value, random_state): ...`", id="custom-no-signature"),
 ])
 def test_binding_errors(stages, shape, dtype, message):
     with pytest.raises(SuiteError) as info:

@@ -63,3 +63,44 @@ def test_batched_draws_equal_single() -> None:
         "      {type: misalign, std: 1deg}]}\n"
         "  q: {kind: qpos, element: joint:hip_r, interval: 2, noise: [{type: lowpass, cutoff: {uniform: [5, 50]}}]}\n")
     assert_batch_equals_single(TERRAIN, suite, nsim=3, seed=6, steps=15)
+
+
+@pytest.mark.parametrize("stage, message", [
+    pytest.param("{type: clip, min: {uniform: [0, 0.5]}, max: {uniform: [0.3, 1]}}",
+                 "noise.0.min: min must not exceed max in any episode, but min is drawn from [0, 0.5] and max is "
+                 "drawn from [0.3, 1]: a draw can put min above max; make min's highest value (0.5) at most "
+                 "max's lowest value (0.3), so that the two never cross", id="clip-both-drawn"),
+    pytest.param("{type: uniform, low: {uniform: [-0.1, 0.2]}, high: 0.1}",
+                 "noise.0.low: low must not exceed high in any episode, but low is drawn from [-0.1, 0.2] and high "
+                 "is 0.1: a draw can put low above high; make low's highest value (0.2) at most high (0.1), so that "
+                 "the two never cross", id="uniform-low-drawn"),
+    pytest.param("{type: bias, low: -0.1, high: {uniform: [-0.2, 0.1]}}",
+                 "noise.0.low: low must not exceed high in any episode, but low is -0.1 and high is drawn from "
+                 "[-0.2, 0.1]: a draw can put low above high; make low (-0.1) at most high's lowest value (-0.2), "
+                 "so that the two never cross", id="bias-high-drawn"),
+    pytest.param("{type: scale, low: {uniform: [0.8, 1.05]}, high: {uniform: [1.0, 1.2]}}",
+                 "noise.0.low: low must not exceed high in any episode", id="scale-both-drawn"),
+    pytest.param("{type: clip, min: {uniform: [0, 0.5]}, max: [1, 0.4, 2]}",
+                 "noise.0.min: min must not exceed max (entry 1) in any episode, but min is drawn from [0, 0.5] and "
+                 "max is 0.4", id="per-value"),
+])
+def test_drawn_ends_that_can_cross_are_refused_at_their_line(stage: str, message: str) -> None:
+    """Two ends of a range drawn each episode must never cross (in 7 of 10 episodes a clip ran with min above
+    max): ranges that overlap are refused where the stage is written, not put back in order at each draw
+    (which would change the distributions the suite gives)."""
+    with pytest.raises(sensorcfg.SuiteError) as info:
+        _suite(stage)
+    assert f"sensors.noisy.noise.0.{message.split('noise.0.', 1)[1]}" in str(info.value)
+
+
+@pytest.mark.skipif(int(mujoco.__version__.split(".")[0]) < 4, reason="mujoco.batch needs MuJoCo 4")
+def test_drawn_ends_that_only_touch_keep_their_order_in_every_episode() -> None:
+    """Ranges that meet at one value are accepted: every episode's draws keep min <= max (single and batched,
+    which equal each other)."""
+    noise = "{type: clip, min: {uniform: [-0.3, 0.0]}, max: {uniform: [0.0, 0.3]}}"
+    env = sensorcfg.Environment(TERRAIN, _suite(noise), seed=3)
+    for _ in range(10):
+        env.reset()
+        drawn = env._observables["noisy"].noise.stages[0].values
+        assert drawn["min"] <= drawn["max"]
+    assert_batch_equals_single(TERRAIN, _suite(noise), nsim=3, seed=6, steps=10)

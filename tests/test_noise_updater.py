@@ -280,3 +280,57 @@ def test_random_walk_with_random_intervals_uses_each_samples_time(model):
         rho = math.exp(-(t2 - t1) / tau)
         r = np.corrcoef(a, b)[0, 1]
         assert abs(r - rho) <= Z * (1 - rho**2) / math.sqrt(width - 1) + 1e-9, (t1, t2, r, rho)
+
+
+TERRAIN = str(__import__("pathlib").Path(__file__).parent / "models" / "terrain.xml")
+
+
+@pytest.mark.parametrize("pad", [False, True])
+@pytest.mark.parametrize("schedule, shows_zeros", [
+    pytest.param("delay: 5", True, id="delay"),
+    pytest.param("buffer: 3", True, id="buffer"),
+    pytest.param("delay: {uniform: [0, 3]}", True, id="drawn-delay"),
+    pytest.param("interval: 3, buffer: 2", True, id="interval-buffer"),
+    pytest.param("buffer: 3, aggregator: mean", True, id="mean"),
+    pytest.param("delay: 2, buffer: 3, aggregator: min", True, id="min"),
+    pytest.param("interval: {uniform: [1, 3]}", False, id="nothing-padded"),
+])
+def test_spec_bounds_hold_the_zeros_a_read_pads_with(schedule: str, shows_zeros: bool, pad: bool) -> None:
+    """dm_control pads a window with zeros before its first samples are delivered: a spec whose bounds exclude
+    0 includes it wherever a read can show the padding (pad_with_initial_value repeats the first sample
+    instead, which keeps the bounds), and every read, single or batched, lies within the spec."""
+    suite = sensorcfg.loads(f"options: {{pad_with_initial_value: {str(pad).lower()}}}\nsensors:\n"
+                            f"  q: {{kind: qpos, element: joint:hip_f, {schedule},\n"
+                            "      noise: [{type: gaussian, std: 0.1}, {type: clip, min: 1, max: 2}]}\n")
+    env = sensorcfg.Environment(TERRAIN, suite, seed=0)
+    spec = env.observation_spec()["q"]
+    lowest = 0.0 if shows_zeros and not pad else 1.0
+    assert lowest - 1e-12 < float(np.min(spec.minimum)) <= lowest and float(np.max(spec.maximum)) >= 2
+    reads = [env.reset().observation["q"]] + [env.step(np.zeros(2)).observation["q"] for _ in range(8)]
+    for value in reads:
+        spec.validate(value)
+    assert any(np.any(value == 0) for value in reads) == (shows_zeros and not pad and "mean" not in schedule)
+    if int(mujoco.__version__.split(".")[0]) < 4:
+        return
+    batch = sensorcfg.BatchEnvironment(TERRAIN, suite, 2, seed=0)
+    batch_spec = batch.observation_spec()["q"]
+    np.testing.assert_array_equal(np.broadcast_to(batch_spec.minimum, batch_spec.shape)[0],
+                                  np.broadcast_to(spec.minimum, spec.shape))
+    for obs in [batch.reset().observation] + [batch.step(np.zeros((2, 2))).observation for _ in range(8)]:
+        batch_spec.validate(obs["q"])
+
+
+@pytest.mark.parametrize("target, found", [
+    pytest.param("builtins:max", "has no signature Python can read", id="no-signature"),
+    pytest.param("math:floor", "must accept (value, random_state), as a dm_control corruptor does; it takes (x, /)",
+                 id="one-argument"),
+])
+def test_a_custom_callable_that_cannot_take_the_corruptor_arguments_is_a_problem_at_its_line(model, target, found):
+    """What `validate --import` reports is what running the suite raises, at the callable's line, before any
+    step (a builtin without a signature used to pass and then fail in the first step with a TypeError)."""
+    text = f"sensors:\n  q: {{kind: qpos, element: 'joint:*', noise: [{{type: custom, callable: '{target}'}}]}}\n"
+    problems = sensorcfg.loads(text, file="arm.yaml").check(model, import_callables=True)
+    assert [(p.file, p.line, p.col, p.loc) for p in problems] == [("arm.yaml", 2, 72, "sensors.q.noise.0.callable")]
+    assert found in problems[0].message
+    with pytest.raises(sensorcfg.SuiteError, match=r"arm\.yaml:2:72: error: sensors\.q\.noise\.0\.callable: "):
+        sensorcfg.Environment(model, sensorcfg.loads(text, file="arm.yaml"))

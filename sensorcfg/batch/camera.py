@@ -9,8 +9,9 @@ see is never rendered; a camera sampling every step with a buffer of 1 renders o
 
 Frames wait in a per-simulation ring laid out as `FixedChannel`'s, read with one fancy index for all
 simulations. Noise runs per simulation too, through a copy of the sensor's own pipeline keyed as the
-single simulation keys it (`draws.sensor_key`), so simulation i is that simulation's `Environment` to the
-bit. Corruptors, aggregators and drawn intervals or delays are rejected.
+single simulation keys it (`draws.sensor_key`) and at the level the sensor's pipeline is set to at each
+reset (`noise.level.follow`), so simulation i is that simulation's `Environment` to the bit. Corruptors,
+aggregators and drawn intervals or delays are rejected.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ import mujoco
 import numpy as np
 
 from ..draws import sensor_key
+from ..noise.level import follow
 from ..physics import Physics
 from ..runtime.channels import FixedChannel
 
@@ -102,9 +104,11 @@ class BatchCameras:
                 camera.ring[i, ch.schedule.slot(step // ch.interval)] = _noisy(camera, i, self._frame(i, camera), step)
 
     def reset_noise(self, i: int, entropy: list[int]) -> None:
-        """Simulation i's new episode keys for the noisy sensors, as the Updater keys them."""
+        """Simulation i's new episode keys for the noisy sensors, as the Updater keys them, at the noise level
+        its sensor's own pipeline is set to (`set_noise_level` sets that one only)."""
         for camera in self.cameras:
             if camera.noise is not None:
+                follow(camera.noise[i], camera.ch.noise)
                 camera.noise[i].reset(sensor_key(entropy, camera.ch.name), camera.ch.interval)
 
     def reset(self, ids: np.ndarray) -> None:

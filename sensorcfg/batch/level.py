@@ -45,7 +45,7 @@ class _BatchedBlend(_Batched):
                 np.copyto(dst, src)
             return
         level = self.levels[sims].reshape((len(sims),) + (1,) * (src.ndim - 1))
-        blend(raw, src, level, dst)
+        blend(raw, src, level, dst, self.template.bounds)  # type: ignore[attr-defined]
 
 
 BATCHED[Keep] = _BatchedKeep

@@ -176,8 +176,12 @@ class ClipStage(BaseModel):
 
     model_config = _MODEL
     type: Literal["clip"] = _type("clip", "Saturates each value to [min, max].")
-    min: Real | None = Field(None, description="Lowest value the sensor reports. " + PER_VALUE, examples=[-10.0])
-    max: Real | None = Field(None, description="Highest value the sensor reports. " + PER_VALUE, examples=[10.0])
+    min: Real | None = Field(None, description="Lowest value the sensor reports (at any noise level; a read may "
+                             "also show the zeros it is padded with, which its spec's bounds then include). "
+                             + PER_VALUE, examples=[-10.0])
+    max: Real | None = Field(None, description="Highest value the sensor reports (at any noise level; a read may "
+                             "also show the zeros it is padded with, which its spec's bounds then include). "
+                             + PER_VALUE, examples=[10.0])
 
     @model_validator(mode="after")
     def _check(self) -> ClipStage:

@@ -29,7 +29,9 @@ class EpisodeUniform(BaseModel):
 
     model_config = ConfigDict(frozen=True, extra="forbid")
     uniform: tuple[float, float] = Field(description="[low, high]: the parameter is drawn from U(low, high) at "
-                                         "each reset.", examples=[[0.01, 0.03]])
+                                         "each reset. One end of a pair (min and max, low and high) drawn so must "
+                                         "not overlap the other end's values: no episode draws them crossed.",
+                                         examples=[[0.01, 0.03]])
 
     @property
     def low(self) -> float:
@@ -183,22 +185,41 @@ PER_VALUE = ("A number, or a list with one entry per value of the observation (o
 
 
 def ordered(low: PerValue | None, high: PerValue | None, names: tuple[str, str]) -> None:
-    """low <= high entry by entry where the two can be compared (equal lengths, or one a number)."""
-    if low is None or high is None or isinstance(low, EpisodeUniform) or isinstance(high, EpisodeUniform):
+    """low <= high entry by entry where the two can be compared (equal lengths, or one a number), in every
+    episode: where either end is drawn (`{uniform: [lo, hi]}`), the highest value low can take must not
+    exceed the lowest value high can take. Drawn ranges that overlap are refused, not reordered at each
+    draw: a pair put back in order would no longer follow the distributions the suite wrote."""
+    if low is None or high is None:
         return
     lows = low if isinstance(low, tuple) else None
     highs = high if isinstance(high, tuple) else None
     if lows is not None and highs is not None and len(lows) != len(highs):
         return  # may broadcast differently (per value vs per last axis); checked at binding time
     n = len(lows or highs or (0,))
+    drawn = isinstance(low, EpisodeUniform) or isinstance(high, EpisodeUniform)
     for i in range(n):
         lo = lows[i] if lows is not None else low
         hi = highs[i] if highs is not None else high
-        if lo > hi:  # type: ignore[operator]
+        top = lo.high if isinstance(lo, EpisodeUniform) else lo
+        bottom = hi.low if isinstance(hi, EpisodeUniform) else hi
+        if top > bottom:  # type: ignore[operator]
             at = f" (entry {i})" if n > 1 or lows is not None or highs is not None else ""
             a, b = names
-            raise error_at(a, "noise_order", f"{a} must not exceed {b}{at}: {a} is {lo:g} and {b} is {hi:g}; "
-                      "swap them", lo)
+            if not drawn:
+                raise error_at(a, "noise_order", f"{a} must not exceed {b}{at}: {a} is {top:g} and {b} is "
+                               f"{bottom:g}; swap them", lo)
+            raise error_at(a, "noise_order", f"{a} must not exceed {b}{at} in any episode, but {a} is "
+                           f"{_described(lo)} and {b} is {_described(hi)}: a draw can put {a} above {b}; make "
+                           f"{_end(a, lo, 'highest')} ({top:g}) at most {_end(b, hi, 'lowest')} ({bottom:g}), "
+                           "so that the two never cross", lo)
+
+
+def _end(name: str, value: Any, which: str) -> str:
+    return f"{name}'s {which} value" if isinstance(value, EpisodeUniform) else name
+
+
+def _described(value: Any) -> str:
+    return f"drawn from [{value.low:g}, {value.high:g}]" if isinstance(value, EpisodeUniform) else f"{value:g}"
 
 
 def error_at(field: str, kind: str, message: str, value: Any) -> ValidationError:

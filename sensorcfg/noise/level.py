@@ -3,28 +3,36 @@
 `leveled(pipeline)` wraps a sensor's pipeline; at level x a sample reads raw + x (noisy - raw): the clean
 value at 0, the suite's noise at 1 (exactly: the blend is skipped), and for additive stages (gaussian,
 uniform, bias, random walk, outliers) their amplitudes times x; a gain's deviation from 1, a misalignment's
-deviation from the identity and what quantize, clip, dropout and low-pass change are scaled the same way.
-The level a pipeline uses is fixed at each reset (`set_level` sets the next one), so an episode has one.
-Random numbers are those of level 1: the blend runs as one more stage at the end, whose stream nobody
-else uses. `blend` is the one arithmetic: one simulation and a batch call it.
+deviation from the identity and what quantize, dropout and low-pass change are scaled the same way. The
+blend is kept inside the bounds the sensor's noisy values keep (`noise.bounds`: a `clip`'s range, the
+observable's own bounds where stages keep them), so a spec's bounds hold at every level: a clipped
+sensor stays within its clip at level 0 too.
+The level a pipeline uses is fixed at each reset (`set_level` sets the next one), so an episode has one;
+giving a pipeline a level (`leveled`) leaves its stages as they are, so the episode under way is not
+touched either. Random numbers are those of level 1: the blend runs as one more stage at the end, whose
+stream nobody else uses. `blend` is the one arithmetic: one simulation and a batch call it.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
 
 from . import stages as rt
+from .bounds import BOUNDS, Interval, noisy_bounds
 from .pipeline import NoisePipeline
 
-__all__ = ["Blend", "Keep", "LeveledPipeline", "blend", "leveled", "set_level"]
+__all__ = ["Blend", "Keep", "LeveledPipeline", "blend", "follow", "leveled", "own_bounds", "set_level"]
 
 
-def blend(raw: np.ndarray, noisy: np.ndarray, level: Any, dst: np.ndarray) -> None:
-    """dst = raw + level (noisy - raw), where level != 1; noisy itself where level == 1."""
+def blend(raw: np.ndarray, noisy: np.ndarray, level: Any, dst: np.ndarray, bounds: Interval | None = None) -> None:
+    """dst = raw + level (noisy - raw) clipped to `bounds` (minimum, maximum: the interval every noisy value
+    keeps, broadcast against dst; None: unbounded), where level != 1; noisy itself where level == 1."""
     mixed = raw + level * (noisy - raw)
+    if bounds is not None:
+        np.clip(mixed, bounds[0], bounds[1], out=mixed)
     np.copyto(dst, np.where(np.equal(level, 1.0), noisy, mixed), casting="unsafe")
 
 
@@ -39,6 +47,7 @@ class Blend(rt.Stage):
 
     def __init__(self) -> None:
         self.level = 1.0
+        self.bounds: Interval | None = None  # what the blend is kept within (the stages' bounds; None: none)
         self.raw: np.ndarray | None = None
         self.batch_raw: Any = None  # the raw samples of a batch's current call (kept by `Keep`)
 
@@ -47,7 +56,7 @@ class Blend(rt.Stage):
             if dst is not src:
                 np.copyto(dst, src)
             return
-        blend(np.asarray(self.raw), src, self.level, dst)
+        blend(np.asarray(self.raw), src, self.level, dst, self.bounds)
 
 
 class Keep(rt.Stage):
@@ -64,15 +73,24 @@ class Keep(rt.Stage):
 
 
 class LeveledPipeline(NoisePipeline):
-    """A sensor's pipeline with a `Blend` at the end (its stream is the last one: the others keep theirs)."""
+    """A sensor's pipeline with a `Blend` at the end (its stream is the last one: the others keep theirs).
 
-    def __init__(self, pipeline: NoisePipeline):
+    It takes over the stages of `pipeline` as they are, reset or mid-episode: nothing is drawn or cleared
+    until its own next reset. `own` gives the observable's own bounds (None: none), asked once, at the first
+    reset to a level other than 1 (the observable is bound by then): the blend stays within what
+    `pipeline`'s values keep from then on."""
+
+    def __init__(self, pipeline: NoisePipeline, own: Callable[[], Interval | None] = lambda: None):
         ctx = rt.Context(pipeline.shape, pipeline.dtype, pipeline._work.dtype, pipeline.timestep)
+        self._inner = pipeline
+        self._own = own
         self._blend = Blend()
         self._blend.stream = len(pipeline.names)  # a stream no other stage uses
         self._keep = Keep(self._blend)
         self.next_level = 1.0
-        super().__init__([*pipeline.stages, self._blend], [*pipeline.names, "level"], ctx)
+        self._bounded = False  # the blend's bounds are found once, at the first reset to a level other than 1
+        super().__init__([*pipeline.stages, self._blend], [*pipeline.names, "level"], ctx, streams=pipeline.streams)
+        self.stride = pipeline.stride
 
     @property
     def stages(self) -> tuple[rt.Stage, ...]:
@@ -85,20 +103,49 @@ class LeveledPipeline(NoisePipeline):
 
     def reset(self, key: np.ndarray | np.random.Generator | np.random.RandomState, stride: int = 1) -> None:
         super().reset(key, stride)
-        if hasattr(self, "_blend"):
-            self._blend.level = self.next_level
+        self._blend.level = self.next_level
+        if self.next_level != 1.0 and not self._bounded:
+            self._blend.bounds = noisy_bounds(self._inner, self._own())
+            self._bounded = True
 
     def __call__(self, value: np.ndarray, step: int, out: np.ndarray | None = None) -> np.ndarray:
         self._blend.raw = value
         return super().__call__(value, step, out)
 
 
+def own_bounds(observable: Any) -> Interval | None:
+    """The bounds of an observable's own spec, None when it has none (or none yet: a feature's is known once
+    bound)."""
+    spec = getattr(observable, "array_spec", None)
+    minimum, maximum = getattr(spec, "minimum", None), getattr(spec, "maximum", None)
+    return None if minimum is None or maximum is None else (minimum, maximum)
+
+
+def _asking(observable: Any) -> Callable[[], Interval | None]:
+    """`own_bounds` of `observable` when called: a function, which copies of the pipeline share (a deepcopy
+    copies no function) rather than copying the observable."""
+    return lambda: own_bounds(observable)
+
+
 def leveled(observables: Mapping[str, Any]) -> None:
-    """Give every noisy observable a level (at 1: its noise unchanged)."""
+    """Give every noisy observable a level (at 1: its noise unchanged). Its stages are taken over as they
+    are: the episode under way reads on through the pipeline it started with."""
     for observable in observables.values():
         noise = getattr(observable, "noise", None)
         if isinstance(noise, NoisePipeline) and not isinstance(noise, LeveledPipeline):
-            observable.noise = LeveledPipeline(noise)
+            observable.noise = LeveledPipeline(noise, _asking(observable))
+
+
+def follow(copy: Any, pipeline: Any) -> None:
+    """A copy of a sensor's pipeline (a batch renders each simulation's camera or height scan through its own)
+    takes the level `pipeline` is set to, from its next reset on."""
+    if isinstance(copy, LeveledPipeline) and isinstance(pipeline, LeveledPipeline):
+        copy.next_level = pipeline.next_level
+
+
+# The blend is kept within what the stages before it keep (`Blend.bounds`), and `Keep` passes values on.
+BOUNDS[Blend] = lambda stage, lo, hi: (lo, hi)
+BOUNDS[Keep] = lambda stage, lo, hi: (lo, hi)
 
 
 def set_level(observables: Mapping[str, Any], level: float) -> None:

@@ -33,7 +33,10 @@ class NoisePipeline:
     of the observation's dtype (or writes into `out`); `step` counts physics steps since reset.
     """
 
-    def __init__(self, stages: Sequence[rt.Stage], names: Sequence[str], ctx: rt.Context):
+    def __init__(self, stages: Sequence[rt.Stage], names: Sequence[str], ctx: rt.Context,
+                 streams: rt.Streams | None = None):
+        """`streams`: the streams `stages` were last reset with, for stages taken over from another pipeline
+        (they are then left as they are until the next reset); None: new stages, reset here."""
         self._stages = tuple(stages)
         self.names = tuple(names)
         self.shape = ctx.shape
@@ -46,7 +49,10 @@ class NoisePipeline:
         self._lone = lone if isinstance(lone, rt._Additive) and self._direct else None
         self.streams: rt.Streams
         self.stride = 1
-        self.reset(np.random.default_rng(0))
+        if streams is None:
+            self.reset(np.random.default_rng(0))
+        else:
+            self.streams = streams
 
     def __repr__(self) -> str:
         return f"NoisePipeline({', '.join(self.names)}; shape={self.shape}, dtype={self.dtype})"
@@ -217,11 +223,17 @@ def _import(spec: Any, r: _Resolver) -> tuple[Callable[..., Any], str]:
         r.problem("callable", f"{name} is a {type(fn).__name__}, not a function")
         return (lambda value, random_state: value), name
     try:
-        inspect.signature(fn).bind(None, random_state=None)
+        signature = inspect.signature(fn)
+    except (TypeError, ValueError):  # no signature Python can read (some builtins): no way to tell before a call
+        r.problem("callable", f"{name} has no signature Python can read, so whether it accepts (value, "
+                              "random_state) cannot be checked before it is called: wrap it in a function "
+                              "`def corrupt(value, random_state): ...`")
+        return fn, name
+    try:
+        signature.bind(None, random_state=None)  # how the stage calls it (`filters.Custom`)
     except TypeError:
-        r.problem("callable", f"{name} must accept (value, random_state), as a dm_control corruptor does")
-    except ValueError:  # no signature (some builtins): let the first call tell
-        pass
+        r.problem("callable", f"{name} must accept (value, random_state), as a dm_control corruptor does; it "
+                              f"takes {signature}")
     return fn, name
 
 

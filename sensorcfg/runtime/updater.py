@@ -24,7 +24,7 @@ from .bank import BankMember, FeatureBank, buffer_view, fields_of, qualifies
 from .channels import DrawnChannel, FixedChannel, RandomChannel, make_channel
 from .planned import DrawnBank, DrawnMember, joins
 
-__all__ = ["Updater", "observation_spec"]
+__all__ = ["Updater", "observation_spec", "shows_zeros"]
 
 _MAX_PLAN_PERIOD = 1 << 16
 
@@ -356,16 +356,19 @@ class Updater:
 
 def observation_spec(name: str, observable: Any, ch: _Reader) -> specs.Array:
     """One observable's dm_env spec: its own, with the buffer axis and the aggregator applied; bounds kept
-    where the aggregator preserves them (the Updater's and the batch's `observation_spec`)."""
+    where the aggregator preserves them (the Updater's and the batch's `observation_spec`). The bounds hold
+    for every value a read can show: its noisy samples (`noise.bounds`), and the zeros a read shows before
+    its first samples are delivered (`shows_zeros`)."""
     array_spec = observable.array_spec
     aggregator = observable.aggregator
     noise = getattr(observable, "noise", None)
-    if aggregator is None and array_spec is not None and noise is None:
+    own = (array_spec.minimum, array_spec.maximum) if isinstance(array_spec, specs.BoundedArray) else None
+    bounds = noisy_bounds(noise, own)  # the bounds every noisy sample keeps (sensorcfg.noise.bounds)
+    if (bounds is not None and (np.any(np.greater(bounds[0], 0)) or np.any(np.less(bounds[1], 0)))
+            and shows_zeros(observable, bool(getattr(getattr(ch, "channel", ch), "pad")))):
+        bounds = (np.minimum(bounds[0], 0), np.maximum(bounds[1], 0))
+    if aggregator is None and array_spec is not None and noise is None and bounds is own:
         return array_spec.replace(name=name, shape=ch.buffered_shape)
-    bounds = None
-    if isinstance(array_spec, specs.BoundedArray):
-        bounds = (array_spec.minimum, array_spec.maximum)
-    bounds = noisy_bounds(noise, bounds)  # the bounds every noisy sample keeps (sensorcfg.noise.bounds)
     shape, dtype = ch.buffered_shape, ch.dtype
     if aggregator is not None:
         aggregated = np.asarray(aggregator(np.zeros(ch.buffered_shape, dtype=ch.dtype)))
@@ -374,3 +377,15 @@ def observation_spec(name: str, observable: Any, ch: _Reader) -> specs.Array:
     if bounds is not None:
         return specs.BoundedArray(shape=shape, dtype=dtype, minimum=bounds[0], maximum=bounds[1], name=name)
     return specs.Array(shape=shape, dtype=dtype, name=name)
+
+
+def shows_zeros(observable: Any, pad: bool) -> bool:
+    """Whether a read of `observable` can show the zeros its window is padded with (dm_control's padding):
+    without `pad_with_initial_value`, a buffer of more than one sample is padded until it fills, and a delay
+    that can be above 0 leaves the reads before the first delivery empty. (With it, the padding repeats the
+    first sample, noise included, which lies within the bounds already.)"""
+    if pad:
+        return False
+    delay = observable.delay or 0
+    largest = int(delay) if isinstance(delay, numbers.Integral) else getattr(delay, "largest", None)
+    return bool((observable.buffer_size or 1) > 1 or largest is None or largest > 0)
