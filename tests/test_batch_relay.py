@@ -95,7 +95,7 @@ def suite(path: str, extra: tuple = ()) -> dict[str, sensorcfg.Observable]:
 
 
 def relay_sensors(model: mujoco.MjModel) -> list[str]:
-    return [model.sensor(i).name for i in range(model.nsensor) if model.sensor(i).name.startswith("sensorcfg-relay:")]
+    return [model.sensor(i).name for i in range(model.nsensor) if model.sensor(i).name.startswith("sensorcfg:relay:")]
 
 
 def run(env: BatchEnvironment, steps: int = 24) -> list[dict[str, np.ndarray]]:
@@ -124,7 +124,7 @@ def test_relayed_reads_are_the_fields_values_bit_for_bit(tmp_path, integrator):
     assert not FIELDS & recorded.keys() and "sensordata" in recorded  # every wide field is read through relays
     assert FIELDS <= as_written.updater.layout.recorded().keys()  # an MjModel cannot take sensors: recorded
     names = relay_sensors(relayed._model)
-    assert {n.split(":")[1] for n in names} == FIELDS
+    assert {n.split(":")[2] for n in names} == FIELDS
     plain = mujoco.MjModel.from_xml_path(path)
     assert relayed._model.nsensordata > plain.nsensordata
     assert list(relayed._model.sensor_adr[:plain.nsensor]) == list(plain.sensor_adr)  # the model's own stay put
