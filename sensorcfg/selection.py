@@ -150,7 +150,8 @@ class _Resolver:
             k = ascii_id(name[len(ID_PREFIX):])
             if k is None or k >= len(own):
                 raise SuiteError(Problem(
-                    f"{type_name}:{name} is not a {type_name} id: the model's {_plural(type_name)} are #0 to "
+                    f"{type_name}:{name} is not a {_NOUNS.get(type_name, type_name)} id: the model's "
+                    f"{_plural(type_name)} are #0 to "
                     f"#{len(own) - 1}" if own else f"the model has no {_plural(type_name)}"))
             return own[k]
         i = int(mujoco.mj_name2id(self.model, et.obj, name))

@@ -76,10 +76,9 @@ def _mask(kind: str, data: tuple[str, ...], report: Report, here: tuple[Any, ...
     if not fields:
         report(here + ("data",), f"this MuJoCo ({mujoco.__version__}) has no `data` fields for {kind}")
         return None
-    bad = [d for d in data if d not in fields]
-    for d in bad:
-        report(here + ("data", data.index(d)),
-               f"{kind} has no data field {d!r}{did_you_mean(d, fields)}; fields: {', '.join(fields)}")
+    bad = [(i, d) for i, d in enumerate(data) if d not in fields]
+    for i, d in bad:
+        report(here + ("data", i), f"{kind} has no data field {d!r}{did_you_mean(d, fields)}; fields: {', '.join(fields)}")
     if bad:
         return None
     if len(set(data)) != len(data) or list(data) != sorted(data, key=fields.index):
@@ -214,14 +213,13 @@ def plan_sensor(model: mujoco.MjModel, name: str, cfg: SensorConfig, report: Rep
     intprm = _intprm(row, cfg, report, here)
     try:
         sel = select(model, cast("str | tuple[str, ...]", cfg.element), cfg.within)
+        refusal = _refusals(model, row, sel)
+        if refusal is not None:
+            raise SuiteError(refusal)
         objects = _objects(model, row, sel, name)
     except SuiteError as e:
         for p in e.problems:
             report(here + ("element",), p.message)
-        return None
-    refusal = _refusals(model, row, sel)
-    if refusal is not None:
-        report(here + ("element",), refusal)
         return None
     same = [sel.names[i] for i, (objtype, objname, _) in enumerate(objects) if (objtype, objname) == ref]
     if same and row.with_required and "geom" in row.with_:
