@@ -403,3 +403,17 @@ def test_each_unknown_data_field_is_reported_at_its_own_entry() -> None:
     problems = sensorcfg.loads("sensors:\n  c: {kind: contact, element: geom:FL, data: [forse, found, forse]}\n",
                                file="f.yaml").check(TERRAIN)
     assert [p.loc for p in problems] == ["sensors.c.data.0", "sensors.c.data.2"]
+
+
+@pytest.mark.parametrize("sensor, key", [
+    pytest.param("{kind: framepos, element: body:base, frame: 'body:#4'}", "frame", id="frame"),
+    pytest.param("{kind: contact, element: body:base, with: 'body:#4'}", "with", id="with"),
+    pytest.param("{kind: framepos, element: 'body:#4'}", "element", id="element"),
+])
+def test_an_unnamed_element_a_sensor_refers_to_is_a_mistake_at_its_key(sensor: str, key: str) -> None:
+    """MuJoCo's sensors name their objects: an unnamed one (a label `#4` is not its name) is said at the key
+    that selects it, not compiled in as a name MuJoCo refuses."""
+    model = str(Path(__file__).parent / "models" / "menagerie_like.xml")
+    problems = sensorcfg.loads(f"sensors:\n  s: {sensor}\n", file="f.yaml").check(model)
+    assert [p.loc for p in problems] == [f"sensors.s.{key}"]
+    assert "refer to elements by name" in problems[0].message and "name it in the model" in problems[0].message

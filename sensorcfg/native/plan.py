@@ -17,7 +17,7 @@ import mujoco
 from ..config.models import SensorConfig
 from ..errors import SuiteError, did_you_mean
 from ..kinds import kinds_of
-from ..selection import ADDED_PREFIX, Selection, select, split_selector
+from ..selection import ADDED_PREFIX, MAX_HINTS, Selection, select, split_selector
 from .table import NATIVE, OBJ, REDUCE, NativeType, available, data_fields
 
 __all__ = ["Added", "native_row", "plan_sensor", "sensor_name"]
@@ -66,9 +66,11 @@ def _one(model: mujoco.MjModel, text: str, allowed: tuple[str, ...], what: str) 
     sel = select(model, text)
     if sel.batched:
         raise SuiteError(f"{what} names one element; {text!r} is a pattern")
-    if not sel.names[0]:
-        raise SuiteError(f"{text!r} has no name in the model; MuJoCo's sensors refer to elements by name")
-    return type_name, sel.names[0]
+    name = _name(model, type_name, sel.ids[0])
+    if not name:
+        raise SuiteError(f"{text!r} has no name in the model; MuJoCo's sensors refer to elements by name: name it "
+                         "in the model")
+    return type_name, name
 
 
 def _mask(kind: str, data: tuple[str, ...], report: Report, here: tuple[Any, ...]) -> int | None:
@@ -77,8 +79,9 @@ def _mask(kind: str, data: tuple[str, ...], report: Report, here: tuple[Any, ...
         report(here + ("data",), f"this MuJoCo ({mujoco.__version__}) has no `data` fields for {kind}")
         return None
     bad = [(i, d) for i, d in enumerate(data) if d not in fields]
-    for i, d in bad:
-        report(here + ("data", i), f"{kind} has no data field {d!r}{did_you_mean(d, fields)}; fields: {', '.join(fields)}")
+    for n, (i, d) in enumerate(bad):
+        hint = did_you_mean(d, fields) if n < MAX_HINTS else ""
+        report(here + ("data", i), f"{kind} has no data field {d!r}{hint}; fields: {', '.join(fields)}")
     if bad:
         return None
     if len(set(data)) != len(data) or list(data) != sorted(data, key=fields.index):
@@ -127,6 +130,9 @@ def _objects(model: mujoco.MjModel, row: NativeType, sel: Selection, name: str) 
                 mujoco.mjtGeom.mjGEOM_MESH) else -1
             if mesh < 0:
                 raise SuiteError(f"tactile reads a mesh geom; {element_name!r} is not one")
+            if not _name(model, "geom", element_id):
+                raise SuiteError(f"MuJoCo's sensors refer to elements by name; geom {element_name} of this selection "
+                                 "has none: name it in the model")
             out.append(("MESH", mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_MESH, mesh) or "", None))
         else:
             out.append((OBJ[sel.type], _name(model, sel.type, element_id), None))
@@ -229,6 +235,6 @@ def plan_sensor(model: mujoco.MjModel, name: str, cfg: SensorConfig, report: Rep
     if not ok or intprm is None:
         return None
     cutoff = float(cfg.cutoff) if cfg.cutoff is not None else (10.0 if "cutoff" in row.options else 0.0)
-    refs = [("GEOM", sel.names[i]) if row.kind == "tactile" else ref for i in range(len(objects))]
+    refs = [("GEOM", _name(model, "geom", i)) if row.kind == "tactile" else ref for i in sel.ids]
     return [Added(sensor_name(name, i), row.sensor, objtype, objname, refs[i][0], refs[i][1], intprm, cutoff, body)
             for i, (objtype, objname, body) in enumerate(objects)]
