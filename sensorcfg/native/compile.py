@@ -8,7 +8,8 @@ for the suite's line, at most `MAX_REFUSALS` of them found one compile each, the
 compiled is left out too (each compile costs as much as the robot's own): the compiles of one model are
 bounded whatever the suite. A sensor whose own options do not resolve is left out (binding reports it).
 Every element added is named with `selection.ADDED_PREFIX` (invisible to a suite's selectors), and added
-in a fixed order (the suite's, then the table's), so the compiled model is the same in every process.
+in a fixed order (a batch's enablers by flag, the suite's sensors in its order, then `extra` as given), so
+the compiled model is the same in every process.
 Sensors and sites change no dynamics: the compiled model steps exactly as the file's own.
 """
 
