@@ -36,7 +36,7 @@ from .observables import Camera, Feature, Generic, Observable
 from .observables.camera import MAX_SIDE, MODES, SCENE_FLAGS, default_size
 from .observables.feature import feature_index
 from .physics import Physics
-from .selection import keyframe_id, select, split_selector
+from .selection import keyframe_id, resolve, select, split_selector, within_problems
 
 __all__ = ["bind", "scene_flags"]
 
@@ -56,7 +56,7 @@ class _Binder:
     import_callables: bool
     call_callables: bool = True  # building (not checking): a generic sensor with noise is called once for its shape
     batch: bool = False  # also check what BatchEnvironment needs
-    refused: Mapping[str, str] = dataclasses.field(default_factory=dict)  # MuJoCo's word per native sensor
+    refused: Mapping[str, str] = dataclasses.field(default_factory=dict)  # the problem of each native sensor left out
     problems: list[Problem] = dataclasses.field(default_factory=list)
     seen: set[Problem] = dataclasses.field(default_factory=set)  # `problems` as a set: each reported once
     quiet: bool = False  # binding a clean twin: its source reports the problems they share
@@ -183,14 +183,9 @@ class _Binder:
 
     def within(self, name: str, cfg: SensorConfig) -> bool:
         """Whether every body `within` names exists; problems point at the list entry at fault."""
-        ok = True
-        for selector, path in _entries(cfg.within, ("sensors", name, "within")):
-            try:
-                select(self.model, selector)
-            except SuiteError as e:
-                self.report_all(path, e)
-                ok = False
-        return ok
+        problems = within_problems(self.model, cfg.within)
+        self.report_at(name, problems)
+        return not problems
 
     def at_rate(self, name: str, cfg: SensorConfig, interval: Schedule) -> tuple[Any, ...] | None:
         """The noise stages with a `density` turned into a std per sample at the sensor's nominal rate."""
@@ -208,23 +203,14 @@ class _Binder:
 
     def selection(self, name: str, cfg: SensorConfig) -> bool:
         """Whether `element` (and `within`) resolve; problems point at the list entry at fault."""
-        here = ("sensors", name)
-        if not self.within(name, cfg):
-            return False
-        ok = True
-        for selector, path in _entries(cfg.element, here + ("element",)):
-            try:
-                select(self.model, selector, cfg.within)
-            except SuiteError as e:
-                self.report_all(path, e)
-                ok = False
-        if ok:
-            try:
-                select(self.model, cast("str | tuple[str, ...]", cfg.element), cfg.within)
-            except SuiteError as e:
-                self.report_all(here + ("element",), e)
-                ok = False
-        return ok
+        resolved = resolve(self.model, cast("str | tuple[str, ...]", cfg.element), cfg.within)
+        self.report_at(name, resolved.problems)
+        return resolved.selection is not None
+
+    def report_at(self, name: str, problems: list[tuple[tuple[str | int, ...], Problem]]) -> None:
+        """Report selection problems at their keys (and list entries) below sensor `name`."""
+        for where, problem in problems:
+            self.report(("sensors", name) + where, problem.message)
 
     def element_type(self, name: str, cfg: SensorConfig) -> str | None:
         if cfg.element is None:  # the loader reports a missing (or rejected) element, once
@@ -441,7 +427,7 @@ def bind(suite: LoadedSuite, model: mujoco.MjModel, *, import_callables: bool, c
 
     With `call_callables` false (checking), no user callable is called: a generic sensor's noise, which
     needs the shape of its value, is then built (and its shape-dependent mistakes found) only by a build.
-    `refused`: MuJoCo's message for each native sensor it would not compile (`sensorcfg.native`)."""
+    `refused`: the problem of each native sensor left out of the compiled model (`sensorcfg.native`)."""
     binder = _Binder(suite, model, import_callables, call_callables, batch, dict(refused or {}))
     twin_binder = _Binder(suite, model, import_callables, call_callables, batch, dict(refused or {}), quiet=True)
     binder.options()

@@ -6,6 +6,16 @@ wherever a name is accepted. Unnamed elements are labelled `#<id>`, and a glob m
 `joint:*` is every joint, named or not (an unnamed free joint included), as dm_control's `find_all` is.
 `within="body:leg"` (or a list of bodies) keeps only the elements attached to those bodies' subtrees.
 Name look-ups happen here, once; observables keep only the resulting ids.
+
+The sensors and sites sensorcfg adds to a model (a suite's MuJoCo sensor kinds, a batch's relays and the
+sensors that make MuJoCo fill on-demand fields) are named with `ADDED_PREFIX`, and selection does not see
+them: globs do not match them, name lists and "did you mean" leave them out, and ids count the model's own
+elements only (`site:#3` is the file's fourth site, whatever sites were added), so a suite reads the same
+elements whichever sensors it, or a batch, adds. Only sensorcfg's own features name them, exactly.
+
+A list is resolved in one pass: each type's names and labels are read once, and `within`'s bodies looked
+up once, so a list of n entries costs O(n) look-ups (did-you-mean hints, each a scan of the model's
+names, are given to the first `MAX_HINTS` misses).
 """
 
 from __future__ import annotations
@@ -13,18 +23,31 @@ from __future__ import annotations
 import dataclasses
 import fnmatch
 from collections.abc import Sequence
-from typing import Any, cast
+from typing import NamedTuple
 
 import mujoco
 
 from .errors import Problem, SuiteError, did_you_mean
 from .kinds import ELEMENT_TYPES
 
-__all__ = ["Selection", "select", "split_selector", "element_names", "element_labels", "keyframe_id", "ID_PREFIX"]
+__all__ = ["Selection", "Resolved", "select", "resolve", "split_selector", "element_labels", "keyframe_id",
+           "element_id", "ascii_id", "within_problems", "added_by_sensorcfg", "ID_PREFIX", "ADDED_PREFIX"]
 
 ID_PREFIX = "#"  # `joint:#0`: an element by id; also the label of an unnamed element
+ADDED_PREFIX = "sensorcfg:"  # the start of the name of every element sensorcfg adds to a model
+MAX_HINTS = 20  # misses of one resolution that get a "did you mean" (each scans the model's names)
 
 _GLOB_CHARS = frozenset("*?[")
+
+
+def added_by_sensorcfg(name: str) -> bool:
+    """Whether a model element of this name is one sensorcfg added (invisible to selection)."""
+    return name.startswith(ADDED_PREFIX)
+
+
+def ascii_id(text: str) -> int | None:
+    """The integer an id written in ASCII digits stands for ('12' -> 12), else None ('²', '-1', '1.0', '')."""
+    return int(text) if text.isascii() and text.isdigit() else None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -33,6 +56,16 @@ class Selection:
     ids: tuple[int, ...]
     names: tuple[str, ...]
     batched: bool
+
+
+Where = tuple[str | int, ...]  # a problem's place below the sensor: ("element", 3), ("within",), ...
+
+
+class Resolved(NamedTuple):
+    """A selection, or None with every problem found, each with the key (and list entry) it is about."""
+
+    selection: Selection | None
+    problems: list[tuple[Where, Problem]]
 
 
 def split_selector(text: object) -> tuple[str, str]:
@@ -52,16 +85,95 @@ def split_selector(text: object) -> tuple[str, str]:
     return type_name, name
 
 
-def element_names(model: mujoco.MjModel, type_name: str) -> list[str]:
-    """Names of every element of a type, by id ('' for unnamed ones)."""
+@dataclasses.dataclass(frozen=True)
+class _Elements:
+    """The elements of one type that a suite sees: the model's own, in id order (position k is `#k`)."""
+
+    ids: tuple[int, ...]  # the compiled model's ids
+    names: tuple[str, ...]  # '' for an unnamed element
+
+    @property
+    def labels(self) -> list[str]:
+        return [n or f"{ID_PREFIX}{k}" for k, n in enumerate(self.names)]
+
+    @property
+    def named(self) -> list[str]:
+        return [n for n in self.names if n]
+
+
+def _elements(model: mujoco.MjModel, type_name: str) -> _Elements:
     et = ELEMENT_TYPES[type_name]
-    count = int(getattr(model, et.count, 0))
-    return [mujoco.mj_id2name(model, et.obj, i) or "" for i in range(count)]
+    pairs = [(i, mujoco.mj_id2name(model, et.obj, i) or "") for i in range(int(getattr(model, et.count, 0)))]
+    own = [(i, n) for i, n in pairs if not added_by_sensorcfg(n)]
+    return _Elements(tuple(i for i, _ in own), tuple(n for _, n in own))
 
 
 def element_labels(model: mujoco.MjModel, type_name: str) -> list[str]:
-    """Every element's label, by id: its name, or `#<id>` when it has none."""
-    return [n or f"{ID_PREFIX}{i}" for i, n in enumerate(element_names(model, type_name))]
+    """Every element's label, by id (sensorcfg's own left out): its name, or `#<id>` when it has none."""
+    return _elements(model, type_name).labels
+
+
+_NOUNS = {"key": "keyframe"}  # element types whose suite name is not the word a message uses
+
+
+def _plural(type_name: str) -> str:
+    return {"body": "bodies", "key": "keyframes"}.get(type_name, f"{type_name}s")
+
+
+class _Resolver:
+    """One resolution's look-ups: each type's elements read once, hints given to the first misses."""
+
+    def __init__(self, model: mujoco.MjModel):
+        self.model = model
+        self._elements: dict[str, _Elements] = {}
+        self._positions: dict[str, dict[int, int]] = {}
+        self.hints = MAX_HINTS
+
+    def elements(self, type_name: str) -> _Elements:
+        if type_name not in self._elements:
+            self._elements[type_name] = _elements(self.model, type_name)
+        return self._elements[type_name]
+
+    def label(self, type_name: str, i: int) -> str:
+        """The label of compiled id `i`: its name, or `#<its position among the model's own>`."""
+        if type_name not in self._positions:
+            self._positions[type_name] = {j: k for k, j in enumerate(self.elements(type_name).ids)}
+        k = self._positions[type_name].get(i)
+        name = mujoco.mj_id2name(self.model, ELEMENT_TYPES[type_name].obj, i) or ""
+        return name or (f"{ID_PREFIX}{k}" if k is not None else "")
+
+    def lookup(self, type_name: str, name: str) -> int:
+        """The compiled id of the element named `name`, or given as `#<id>`."""
+        et = ELEMENT_TYPES[type_name]
+        if name.startswith(ID_PREFIX):
+            own = self.elements(type_name).ids
+            k = ascii_id(name[len(ID_PREFIX):])
+            if k is None or k >= len(own):
+                raise SuiteError(Problem(
+                    f"{type_name}:{name} is not a {_NOUNS.get(type_name, type_name)} id: the model's "
+                    f"{_plural(type_name)} are #0 to "
+                    f"#{len(own) - 1}" if own else f"the model has no {_plural(type_name)}"))
+            return own[k]
+        i = int(mujoco.mj_name2id(self.model, et.obj, name))
+        if i >= 0:
+            return i
+        elements = self.elements(type_name)
+        names = elements.named
+        hint = ""
+        if self.hints > 0:
+            self.hints -= 1
+            hint = did_you_mean(name, names)
+        if not hint:
+            hint = f"; its {_plural(type_name)} are: {', '.join(names[:12]) or '(none)'}" + (" ..." if len(names) > 12 else "")
+            unnamed = len(elements.names) - len(names)
+            if unnamed:
+                hint += f" ({unnamed} unnamed: select them by id, '{type_name}:{ID_PREFIX}<id>', or with a glob)"
+        raise SuiteError(Problem(f"the model has no {_NOUNS.get(type_name, type_name)} named {name!r}{hint}"))
+
+    def glob(self, type_name: str, pattern: str) -> list[int]:
+        elements = self.elements(type_name)
+        return [i for i, label in zip(elements.ids, elements.labels)
+                if fnmatch.fnmatchcase(label, pattern) and not (type_name == "body" and i == 0)]
 
 
 def _body_of(model: mujoco.MjModel, type_name: str, i: int) -> int | None:
@@ -93,108 +205,110 @@ def _object_body(model: mujoco.MjModel, objtype: int, objid: int) -> int | None:
     return objid if column is None else int(getattr(model, column)[objid])
 
 
-def _in_subtree(model: mujoco.MjModel, body: int | None, root: int) -> bool:
+def _in_subtree(model: mujoco.MjModel, body: int | None, roots: frozenset[int]) -> bool:
+    """Whether `body` is one of `roots` or below one (the world, 0, is the root of every body)."""
     while body is not None and body > 0:
-        if body == root:
+        if body in roots:
             return True
         body = int(model.body_parentid[body])
-    return body == root
+    return body is not None and body in roots
 
 
-def select(model: mujoco.MjModel, element: str | Sequence[str],
-           within: str | Sequence[str] | None = None) -> Selection:
-    """Resolve a selector (or a list of them) to element ids; every mistake is collected."""
+def _entries(value: str | Sequence[str], key: str) -> list[tuple[str, Where]]:
+    if isinstance(value, str):
+        return [(value, (key,))]
+    return [(v, (key, i)) for i, v in enumerate(value)]
+
+
+def _roots(r: _Resolver, within: str | Sequence[str] | None) -> tuple[frozenset[int] | None, list[tuple[Where, Problem]]]:
+    """The bodies `within` names (None without one), and its problems."""
+    if within is None:
+        return None, []
+    found: set[int] = set()
+    problems: list[tuple[Where, Problem]] = []
+    for text, where in _entries(within, "within"):
+        try:
+            wtype, wname = split_selector(text)
+            if wtype != "body":
+                raise SuiteError(Problem(f"'within' takes bodies ('body:name'), got {text!r}"))
+            found.add(r.lookup("body", wname))
+        except SuiteError as e:
+            problems += [(where, p) for p in e.problems]
+    return frozenset(found), problems
+
+
+def within_problems(model: mujoco.MjModel, within: str | Sequence[str] | None) -> list[tuple[Where, Problem]]:
+    """The mistakes of a `within` alone, each at its entry (`("within", i)`)."""
+    return _roots(_Resolver(model), within)[1]
+
+
+def resolve(model: mujoco.MjModel, element: str | Sequence[str],
+            within: str | Sequence[str] | None = None) -> Resolved:
+    """Resolve a selector (or a list of them) to element ids, with every mistake at the entry it is about
+    (`("element", i)`, `("within", i)`; `("element",)` for one selector or the whole list). A mistake in
+    `within` is reported alone (its elements are not looked at)."""
+    r = _Resolver(model)
+    roots, problems = _roots(r, within)
+    if problems:
+        return Resolved(None, problems)
+    entries = _entries(element, "element")
+    if not entries:
+        return Resolved(None, [(("element",), Problem("an empty element list selects nothing; name at least one element"))])
+    bodies = [] if within is None else [text.partition(":")[2] for text, _ in _entries(within, "within")]
+    scope = f" under {'body' if len(bodies) == 1 else 'bodies'} {', '.join(map(repr, bodies))}" if bodies else ""
     batched = not isinstance(element, str)
-    selectors = [element] if isinstance(element, str) else list(element)
-    if not selectors:
-        raise SuiteError(Problem("an empty element list selects nothing; name at least one element"))
-    problems: list[Problem] = []
     types: set[str] = set()
     ids: list[int] = []
-    roots: list[int] | None = None
-    if within is not None:
-        roots = []
-        for text in [within] if isinstance(within, str) else list(within):
-            try:
-                wtype, wname = split_selector(text)
-                if wtype != "body":
-                    raise SuiteError(Problem(f"'within' takes bodies ('body:name'), got {text!r}"))
-                roots.append(_lookup(model, "body", wname))
-            except SuiteError as e:
-                problems.extend(e.problems)
-    bodies = [] if within is None else [w.partition(":")[2] for w in ([within] if isinstance(within, str) else within)]
-    scope = f" under {'body' if len(bodies) == 1 else 'bodies'} {', '.join(map(repr, bodies))}" if bodies else ""
-    for text in selectors:
+    labels: list[str] = []
+    for text, where in entries:
         try:
             type_name, pattern = split_selector(text)
             types.add(type_name)
             if _GLOB_CHARS & set(pattern):
                 batched = True
-                labels = element_labels(model, type_name)
-                found = [i for i, label in enumerate(labels)
-                         if fnmatch.fnmatchcase(label, pattern) and not (type_name == "body" and i == 0)]
+                matched = r.glob(type_name, pattern)
                 if roots is not None:
-                    found = [i for i in found if _in_any(model, _body_of(model, type_name, i), roots)]
-                if not found:
-                    known = [n for n in element_names(model, type_name) if n][:12]
-                    raise SuiteError(Problem(
-                        f"{text!r} matches no {type_name}{scope} in the model; "
-                        f"its {_plural(type_name)} are: {', '.join(known) or '(none with names)'}"))
-                ids.extend(found)
+                    matched = [i for i in matched if _in_subtree(model, _body_of(model, type_name, i), roots)]
+                if not matched:
+                    own = r.elements(type_name)
+                    known = ", ".join(own.named[:12]) or ("(none with names)" if own.ids else "(none)")
+                    raise SuiteError(Problem(f"{text!r} matches no {type_name}{scope} in the model; "
+                                             f"its {_plural(type_name)} are: {known}"))
             else:
-                i = _lookup(model, type_name, pattern)
-                if roots is not None and not _in_any(model, _body_of(model, type_name, i), roots):
-                    raise SuiteError(Problem(f"{text!r} is not in the subtree of {cast(Any, within)!r}"))
-                ids.append(i)
+                matched = [r.lookup(type_name, pattern)]
+                if roots is not None and not _in_subtree(model, _body_of(model, type_name, matched[0]), roots):
+                    shown = within if isinstance(within, str) else list(within or ())
+                    raise SuiteError(Problem(f"{text!r} is not in the subtree of {shown!r}"))
+            ids += matched
+            labels += [r.label(type_name, i) for i in matched]
         except SuiteError as e:
-            problems.extend(e.problems)
+            problems += [(where, p) for p in e.problems]
     if len(types) > 1:
-        problems.append(Problem(f"one sensor reads one element type; this list mixes {', '.join(sorted(types))}"))
+        problems.append((("element",), Problem(
+            f"one sensor reads one element type; this list mixes {', '.join(sorted(types))}")))
     if problems:
-        raise SuiteError(problems)
-    type_name = types.pop()
-    labels = element_labels(model, type_name)
-    return Selection(type_name, tuple(ids), tuple(labels[i] for i in ids), batched)
+        return Resolved(None, problems)
+    return Resolved(Selection(types.pop(), tuple(ids), tuple(labels), batched), [])
 
 
-def _in_any(model: mujoco.MjModel, body: int | None, roots: list[int]) -> bool:
-    return any(_in_subtree(model, body, root) for root in roots)
+def select(model: mujoco.MjModel, element: str | Sequence[str],
+           within: str | Sequence[str] | None = None) -> Selection:
+    """Resolve a selector (or a list of them) to element ids; raises SuiteError listing every mistake."""
+    resolved = resolve(model, element, within)
+    if resolved.selection is None:
+        raise SuiteError([p for _, p in resolved.problems])
+    return resolved.selection
 
 
-_NOUNS = {"key": "keyframe"}  # element types whose suite name is not the word a message uses
-
-
-def _plural(type_name: str) -> str:
-    return {"body": "bodies", "key": "keyframes"}.get(type_name, f"{type_name}s")
-
-
-def _lookup(model: mujoco.MjModel, type_name: str, name: str) -> int:
-    """The id of the element named `name`, or given as `#<id>`."""
-    et = ELEMENT_TYPES[type_name]
-    if name.startswith(ID_PREFIX):
-        count = int(getattr(model, et.count, 0))
-        text = name[len(ID_PREFIX):]
-        if not text.isdigit() or int(text) >= count:
-            raise SuiteError(Problem(f"{type_name}:{name} is not a {type_name} id: the model's {_plural(type_name)} "
-                                     f"are #0 to #{count - 1}" if count else f"the model has no {_plural(type_name)}"))
-        return int(text)
-    i = mujoco.mj_name2id(model, et.obj, name)
-    if i < 0:
-        names = [n for n in element_names(model, type_name) if n]
-        hint = did_you_mean(name, names)
-        if not hint:
-            hint = f"; its {_plural(type_name)} are: {', '.join(names[:12]) or '(none)'}" + (" ..." if len(names) > 12 else "")
-            unnamed = sum(1 for n in element_names(model, type_name) if not n)
-            if unnamed:
-                hint += f" ({unnamed} unnamed: select them by id, '{type_name}:{ID_PREFIX}<id>', or with a glob)"
-        raise SuiteError(Problem(f"the model has no {_NOUNS.get(type_name, type_name)} named {name!r}{hint}"))
-    return int(i)
+def element_id(model: mujoco.MjModel, type_name: str, name: str) -> int:
+    """The compiled id of one element given by name or `#<id>` (as in a selector), or SuiteError."""
+    return _Resolver(model).lookup(type_name, name)
 
 
 def keyframe_id(model: mujoco.MjModel, keyframe: int | str) -> int:
     """The index of a keyframe given by name (with "did you mean") or index (checked against `nkey`)."""
     if isinstance(keyframe, str):
-        return _lookup(model, "key", keyframe)
+        return element_id(model, "key", keyframe)
     if isinstance(keyframe, bool) or not isinstance(keyframe, int) or not 0 <= keyframe < model.nkey:
         count = f"keyframes 0 to {model.nkey - 1}" if model.nkey else "no keyframes"
         raise SuiteError(Problem(f"keyframe {keyframe!r} is out of range: the model has {count}"))

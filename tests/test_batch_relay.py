@@ -95,7 +95,7 @@ def suite(path: str, extra: tuple = ()) -> dict[str, sensorcfg.Observable]:
 
 
 def relay_sensors(model: mujoco.MjModel) -> list[str]:
-    return [model.sensor(i).name for i in range(model.nsensor) if model.sensor(i).name.startswith("sensorcfg-relay:")]
+    return [model.sensor(i).name for i in range(model.nsensor) if model.sensor(i).name.startswith("sensorcfg:relay:")]
 
 
 def run(env: BatchEnvironment, steps: int = 24) -> list[dict[str, np.ndarray]]:
@@ -124,7 +124,7 @@ def test_relayed_reads_are_the_fields_values_bit_for_bit(tmp_path, integrator):
     assert not FIELDS & recorded.keys() and "sensordata" in recorded  # every wide field is read through relays
     assert FIELDS <= as_written.updater.layout.recorded().keys()  # an MjModel cannot take sensors: recorded
     names = relay_sensors(relayed._model)
-    assert {n.split(":")[1] for n in names} == FIELDS
+    assert {n.split(":")[2] for n in names} == FIELDS
     plain = mujoco.MjModel.from_xml_path(path)
     assert relayed._model.nsensordata > plain.nsensordata
     assert list(relayed._model.sensor_adr[:plain.nsensor]) == list(plain.sensor_adr)  # the model's own stay put
@@ -226,3 +226,40 @@ def test_relays_next_to_a_camera_read_the_persistent_batchs_sensordata(tmp_path)
     assert relayed.batch.persistent and relay_sensors(relayed._model)
     for s, (a, b) in enumerate(zip(run(relayed, 10), run(as_written, 10))):
         assert same(a, b), f"step {s}"
+
+
+ORDER_SCRIPT = """
+import json, pathlib, sys, tempfile
+sys.path[:0] = ["tests", "."]
+import sensorcfg
+from sensorcfg.batch import BatchEnvironment
+from test_batch_relay import RELAYED, model_file
+
+path = model_file(pathlib.Path(tempfile.mkdtemp()))
+sensors = [f"  r{j}: {{kind: {kind}, element: '{element}', buffer: 3}}" for j, (kind, element) in enumerate(RELAYED)]
+sensors += ["  ext: {kind: cfrc_ext, element: body:arm}", "  momentum: {kind: subtree_angmom, element: body:arm}",
+            "  acc: {kind: cacc, element: body:hand}", "  linvel: {kind: subtree_linvel, element: body:base}",
+            "  vel: {kind: velocimeter, element: body:hand}", "  gyro: {kind: gyro, element: 'body:*'}"]
+suite = sensorcfg.loads("options: {control_interval: 3}\\nsensors:\\n" + "\\n".join(sensors) + "\\n")
+model = BatchEnvironment(path, suite, 2, seed=0).batch.get_model(0)
+print(json.dumps([[model.sensor(i).name for i in range(model.nsensor)], [model.site(i).name for i in range(model.nsite)]]))
+"""
+
+
+@needs_batch
+def test_what_a_batch_adds_is_added_in_one_order_in_every_process() -> None:
+    """Enablers, relays, native sensors and their sites: the same compiled model whatever the hash seed."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    runs = []
+    for seed in ("1", "2", "3", "4"):
+        done = subprocess.run([sys.executable, "-c", ORDER_SCRIPT], capture_output=True, text=True, check=True,
+                              env={**os.environ, "PYTHONHASHSEED": seed})
+        runs.append(json.loads(done.stdout))
+    sensors = runs[0][0]
+    assert sum(n.startswith("sensorcfg:relay:") for n in sensors) > 4
+    assert sum(n.startswith("sensorcfg:on-demand:") for n in sensors) == 2
+    assert all(run == runs[0] for run in runs[1:])

@@ -310,3 +310,113 @@ def test_every_kind_runs_batched_bit_identical_to_single(tmp_path: Path) -> None
     sensors = "\n".join(f"  s{i}: {row}" for i, (row, _) in enumerate(HAND_WRITTEN))
     suite = sensorcfg.loads(f"options: {{control_interval: 4}}\nsensors:\n{sensors}\n")
     assert_batch_equals_single(str(plain), suite, nsim=2, seed=5, steps=25)
+
+
+SITE_KINDS = [row.kind for row in NATIVE.values() if row.body_site]
+UNNAMED_BODY = '<body pos="-1 1 .6"><freejoint/><geom size=".05" mass=".2"/>{site}</body>'
+
+
+@pytest.mark.parametrize("kind", SITE_KINDS)
+def test_a_site_kind_reads_an_unnamed_body(kind: str, tmp_path: Path) -> None:
+    """The site a body-attached kind needs is added to the body by id (it has no name to find it by); the
+    values are those of the same sensor written on a site at the body's frame."""
+    def text(site: str, sensors: str = "") -> str:
+        return _model_text(sensors).replace("<worldbody>", "<worldbody>" + UNNAMED_BODY.format(site=site), 1)
+
+    plain = tmp_path / "plain.xml"
+    plain.write_text(text(""))
+    camera = ' camera="cam"' if kind == "camprojection" else ""
+    written = mujoco.MjModel.from_xml_string(text('<site name="s"/>', f'<{kind} site="s"{camera}/>'))
+    body = next(i for i in range(written.nbody) if i and not written.body(i).name)
+    with_ = ", with: camera:cam" if kind == "camprojection" else ""
+    suite = sensorcfg.loads(f"sensors:\n  s: {{kind: {kind}, element: 'body:#{body}'{with_}}}\n"
+                            f"  every: {{kind: {kind}, element: 'body:*'{with_}}}\n")
+    assert suite.check(str(plain)) == []
+    model = suite.compile(str(plain))
+    read = suite.build(model)["s"].observation_callable(ours := Physics(model))
+    theirs = Physics(written)
+    for physics in (ours, theirs):
+        physics.data.qvel[-6:] = [0.3, -0.2, 0.1, 0.5, -1.0, 2.0]
+    for _ in range(30):
+        ours.step()
+        theirs.step()
+        np.testing.assert_array_equal(np.ravel(read()), theirs.data.sensordata[:written.sensor_dim[0]])
+
+
+@pytest.mark.parametrize("index", ["1:5", "5:"])
+def test_an_index_past_a_sensor_kinds_axis_is_the_mistake_it_is_for_an_attribute(index: str) -> None:
+    def problems(kind: str) -> list[str]:
+        suite = sensorcfg.loads(f"sensors:\n  v: {{index: '{index}', kind: {kind}, element: site:imu}}\n", file="f.yaml")
+        return [p.format() for p in suite.check(TERRAIN)]
+
+    assert problems("velocimeter") == [p.replace("xpos", "velocimeter") for p in problems("xpos")]
+    assert problems("velocimeter") == [
+        f"f.yaml:2:14: error: sensors.v.index: index '{index}' reaches past axis 0 of velocimeter of one element "
+        f"(shape (3,): 3 entries on that axis, 0 to 2); numpy would silently return fewer values: use a range within 0:3"]
+
+
+def _counting_compiles(monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    calls: list[int] = []
+    compile_ = mujoco.MjSpec.compile
+
+    def counted(self: mujoco.MjSpec, *args: object) -> mujoco.MjModel:
+        calls.append(1)
+        return compile_(self, *args)
+
+    monkeypatch.setattr(mujoco.MjSpec, "compile", counted)
+    return calls
+
+
+def test_what_mujoco_refuses_of_a_sensors_objects_is_said_before_compiling(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Joint types, limits and a pair of one object are the table's: 40 such sensors cost no extra compile."""
+    compiles = _counting_compiles(monkeypatch)
+    bad = {"ballquat": "joint:hip_f", "jointpos": "'joint:*'", "jointlimitpos": "'joint:#0'"}
+    sensors = "".join(f"  s{i}: {{kind: {kind}, element: {element}}}\n"
+                      for i in range(40) for kind, element in [list(bad.items())[i % 3]])
+    sensors += "  d: {kind: geomdist, element: geom:FL, with: geom:FL}\n  ok: {kind: jointpos, element: joint:hip_f}\n"
+    problems = sensorcfg.loads(f"sensors:\n{sensors}", file="f.yaml").check(TERRAIN)
+    assert len(compiles) == 2  # the robot as written, and once with every sensor planned
+    messages = {p.loc: p.message for p in problems}
+    assert len(problems) == 41 and "sensors.ok.element" not in messages
+    assert messages["sensors.s0.element"] == "a ballquat sensor reads a ball joint; hip_f is a hinge joint"
+    assert messages["sensors.s1.element"] == "a jointpos sensor reads a slide or hinge joint; #0 is a free joint"
+    assert messages["sensors.s2.element"] == "a jointlimitpos sensor reads a limited joint; #0 has no limits"
+    assert messages["sensors.d.with"] == ("a geomdist sensor measures between two objects; 'FL' is both the "
+                                          "element and `with:`: name another")
+
+
+def test_refusals_mujoco_alone_finds_cost_a_bounded_number_of_compiles(monkeypatch: pytest.MonkeyPatch) -> None:
+    from sensorcfg.native import compile as native_compile
+    from sensorcfg.native import plan
+
+    monkeypatch.setattr(plan, "_refusals", lambda *args: None)  # as if the table did not know: MuJoCo refuses
+    compiles = _counting_compiles(monkeypatch)
+    sensors = "".join(f"  s{i}: {{kind: ballquat, element: joint:hip_f}}\n" for i in range(30))
+    problems = sensorcfg.loads(f"sensors:\n{sensors}", file="f.yaml").check(TERRAIN)
+    assert len(compiles) <= native_compile.MAX_REFUSALS + 2
+    assert [p.loc for p in problems] == [f"sensors.s{i}.kind" for i in range(30)]  # each at its line
+    refused = [p for p in problems if p.message.startswith("MuJoCo refused the ballquat sensor: Error: joint must be ball")]
+    assert len(refused) == native_compile.MAX_REFUSALS
+    assert all(p.message == native_compile.NOT_COMPILED.format(kind="ballquat", count=native_compile.MAX_REFUSALS)
+               for p in problems if p not in refused)
+
+
+def test_each_unknown_data_field_is_reported_at_its_own_entry() -> None:
+    """(Found by position, not by `list.index`: a repeated name is reported where it is, in linear time.)"""
+    problems = sensorcfg.loads("sensors:\n  c: {kind: contact, element: geom:FL, data: [forse, found, forse]}\n",
+                               file="f.yaml").check(TERRAIN)
+    assert [p.loc for p in problems] == ["sensors.c.data.0", "sensors.c.data.2"]
+
+
+@pytest.mark.parametrize("sensor, key", [
+    pytest.param("{kind: framepos, element: body:base, frame: 'body:#4'}", "frame", id="frame"),
+    pytest.param("{kind: contact, element: body:base, with: 'body:#4'}", "with", id="with"),
+    pytest.param("{kind: framepos, element: 'body:#4'}", "element", id="element"),
+])
+def test_an_unnamed_element_a_sensor_refers_to_is_a_mistake_at_its_key(sensor: str, key: str) -> None:
+    """MuJoCo's sensors name their objects: an unnamed one (a label `#4` is not its name) is said at the key
+    that selects it, not compiled in as a name MuJoCo refuses."""
+    model = str(Path(__file__).parent / "models" / "menagerie_like.xml")
+    problems = sensorcfg.loads(f"sensors:\n  s: {sensor}\n", file="f.yaml").check(model)
+    assert [p.loc for p in problems] == [f"sensors.s.{key}"]
+    assert "refer to elements by name" in problems[0].message and "name it in the model" in problems[0].message

@@ -159,8 +159,8 @@ def test_batch_from_the_file_adds_the_sensors_that_fill_them() -> None:
     suite = sensorcfg.loads(ON_DEMAND_SUITE, ["options.keyframe=crouch"])
     assert suite.check(str(MODEL), batch=True) == []
     compiled = suite.compile(str(MODEL), batch=True)
-    assert {compiled.sensor(i).name for i in range(compiled.nsensor)} == {"sensorcfg-flg_rnepost",
-                                                                        "sensorcfg-flg_subtreevel"}
+    assert [compiled.sensor(i).name for i in range(compiled.nsensor)] == ["sensorcfg:on-demand:flg_rnepost",
+                                                                        "sensorcfg:on-demand:flg_subtreevel"]
     assert suite.compile(str(MODEL)).nsensor == 0  # the single simulation computes them on demand instead
     assert_batch_equals_single(str(MODEL), suite, nsim=2, seed=0, steps=20)
 

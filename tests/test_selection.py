@@ -82,3 +82,108 @@ def test_spec_says_how_unnamed_elements_are_labelled(tmp_path: Path) -> None:
     lines = done.stdout.splitlines()
     assert lines[1].endswith("; episodes start from keyframe 'crouch'")
     assert lines[-1] == "unnamed elements, labelled by id: joint:#0 (q); body:#4 (toes)"
+
+
+QUADRUPED = Path(__file__).parent / "models" / "quadruped.xml"
+EVERYTHING = """\
+sensors:
+  sensors: {kind: sensordata, element: "sensor:*"}
+  sites: {kind: xpos, element: "site:*"}
+  last_site: {kind: xpos, element: "site:#4"}
+"""
+ADDING = """\
+  shin_vel: {kind: velocimeter, element: body:shin_fl}     # a sensor and a site in shin_fl, before foot_fl
+  torso_gyro: {kind: gyro, element: "body:#1"}
+  torso_force: {kind: cfrc_ext, element: body:torso}       # a batch adds a sensor to fill it
+  torso_momentum: {kind: subtree_angmom, element: body:torso}
+"""
+
+
+def test_globs_and_ids_do_not_see_what_sensorcfg_adds() -> None:
+    """`sensor:*`, `site:*` and `site:#4` read the model's own elements whatever sensors the suite (or a batch)
+    adds, and messages list no name sensorcfg made."""
+    plain = mujoco.MjModel.from_xml_path(str(QUADRUPED))
+    alone = sensorcfg.Environment(str(QUADRUPED), sensorcfg.loads(EVERYTHING), seed=0).reset().observation
+    suite = sensorcfg.loads(EVERYTHING + ADDING)
+    env = sensorcfg.Environment(str(QUADRUPED), suite, seed=0)
+    observation = env.reset().observation
+    for name in alone:
+        np.testing.assert_array_equal(observation[name], alone[name], err_msg=name)
+    assert observation["sensors"].shape == (1, plain.nsensordata) and observation["sites"].shape == (1, plain.nsite, 3)
+    np.testing.assert_array_equal(observation["last_site"][0], env.physics.data.site("foot_br").xpos)
+    compiled = suite.compile(str(QUADRUPED), batch=True)
+    assert compiled.nsensor > plain.nsensor and compiled.nsite > plain.nsite
+    assert select(compiled, "site:*").names == tuple(plain.site(i).name for i in range(plain.nsite))
+    with pytest.raises(sensorcfg.SuiteError) as info:
+        select(compiled, ["site:foot", "site:#99", "sensor:nope_*"])
+    assert "sensorcfg" not in str(info.value) and "#0 to #4" in str(info.value)
+
+
+@pytest.mark.skipif(int(mujoco.__version__.split(".")[0]) < 4, reason="mujoco.batch needs MuJoCo 4")
+def test_a_batch_reads_the_shapes_and_values_of_its_environment() -> None:
+    from conftest import assert_batch_equals_single
+    from sensorcfg.batch import BatchEnvironment
+
+    suite = sensorcfg.loads(EVERYTHING + ADDING)
+    single = sensorcfg.Environment(str(QUADRUPED), suite, seed=0).observation_spec()
+    batch = BatchEnvironment(str(QUADRUPED), suite, 2, seed=0).observation_spec()
+    assert {k: (2,) + s.shape for k, s in single.items()} == {k: s.shape for k, s in batch.items()}
+    assert_batch_equals_single(str(QUADRUPED), suite, nsim=2, seed=0, steps=10)
+
+
+@pytest.mark.parametrize("where", ["kind: qpos, element: 'joint:#²'", "kind: xpos, element: body:torso, within: 'body:#²'",
+                                   "kind: qpos, element: ['joint:#1', 'joint:#١']"])
+def test_an_id_in_other_digits_is_a_positioned_mistake(where: str) -> None:
+    suite = sensorcfg.loads(f"sensors:\n  s: {{{where}}}\n", file="s.yaml")
+    problems = suite.check(str(QUADRUPED))
+    assert len(problems) == 1 and problems[0].line == 2 and " is not a " in problems[0].message, problems
+
+
+def test_a_keyframe_id_in_other_digits_is_a_positioned_mistake() -> None:
+    suite = sensorcfg.loads("options: {keyframe: '#²'}\nsensors:\n  s: {kind: qpos, element: 'joint:*'}\n", file="s.yaml")
+    assert [p.format() for p in suite.check(str(MODEL))] == [
+        "s.yaml:1:21: error: options.keyframe: key:#² is not a keyframe id: the model's keyframes are #0 to #1"]
+
+
+def test_a_camera_by_id_is_the_camera_its_selector_names() -> None:
+    from sensorcfg.observables import Camera
+
+    arm = mujoco.MjModel.from_xml_path(str(Path(__file__).parent / "models" / "arm.xml"))
+    suite = sensorcfg.loads("sensors:\n  c: {kind: rgb, element: 'camera:#1'}\n")
+    assert suite.check(arm) == []
+    assert Camera("camera:#1").camera_id(arm) == select(arm, "camera:#1").ids[0] == arm.camera("hand_cam").id
+    with pytest.raises(sensorcfg.SuiteError, match="camera:#2 is not a camera id: the model's cameras are #0 to #1"):
+        Camera("camera:#2").camera_id(arm)
+
+
+def _lookups(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """Every name look-up selection makes (by name, by id), and every did-you-mean it computes."""
+    from sensorcfg import selection
+
+    calls: list[str] = []
+    for name in ("mj_name2id", "mj_id2name"):
+        original = getattr(mujoco, name)
+        monkeypatch.setattr(selection.mujoco, name, lambda *a, _f=original, _n=name: (calls.append(_n), _f(*a))[1])
+    hint = selection.did_you_mean
+    monkeypatch.setattr(selection, "did_you_mean", lambda *a: (calls.append("hint"), hint(*a))[1])
+    return calls
+
+
+@pytest.mark.parametrize("entries", [
+    pytest.param(lambda n: f"element: {['body:shin_fl'] * n}, within: {['body:torso'] * n}", id="within"),
+    pytest.param(lambda n: f"element: {['site:*'] * n}", id="globs"),
+    pytest.param(lambda n: f"element: {[f'body:b{i}' for i in range(n)]}", id="misses"),
+    pytest.param(lambda n: f"element: body:torso, within: {[f'body:b{i}' for i in range(n)]}", id="within-misses"),
+])
+def test_a_list_costs_look_ups_in_proportion_to_its_length(monkeypatch: pytest.MonkeyPatch, entries: object) -> None:
+    """Twice the entries cost about twice the look-ups (an n^2 resolution costs four times), and misses get
+    a bounded number of did-you-mean scans."""
+    calls = _lookups(monkeypatch)
+
+    def cost(n: int) -> tuple[int, int]:
+        calls.clear()
+        sensorcfg.loads(f"sensors:\n  s: {{kind: xpos, {entries(n)}}}\n").check(str(QUADRUPED))  # type: ignore[operator]
+        return len(calls), calls.count("hint")
+
+    (small, small_hints), (large, large_hints) = cost(200), cost(400)
+    assert large < 2.5 * small and large_hints <= 2 * 20

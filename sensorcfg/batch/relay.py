@@ -13,9 +13,10 @@ every relayed value equals its field's bit for bit; the batch then uses them, or
 integrator the fields hold the last of its four evaluations while sensors hold the first: no relays.
 
 A field is relayed when every sensor reading it can be, and when the sensors cost less than recording the
-field (`SENSOR_COST`). Relays change no dynamics (sensors are outputs only) and only add sensors at the
-end of the model's, so the model's own `sensordata` indices stay as they were. They need the model as a
-path or an MjSpec (an MjModel cannot take sensors).
+field (`SENSOR_COST`). Their names start with `selection.ADDED_PREFIX`, so no suite selects them. Relays
+change no dynamics (sensors are outputs only) and only add sensors at the end of the model's, so the
+model's own `sensordata` indices stay as they were. They need the model as a path or an MjSpec (an
+MjModel cannot take sensors).
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ import mujoco
 import numpy as np
 
 from ..native.plan import Added
+from ..selection import ADDED_PREFIX
 from .layout import Source
 
 __all__ = ["RELAYS", "SENSOR_COST", "Plan", "exact", "plan", "positions", "relayed"]
@@ -75,7 +77,7 @@ class Plan(NamedTuple):
 
 
 def _name(field: str, element: int, sensor: str) -> str:
-    return f"sensorcfg-relay:{field}:{element}:{sensor}"
+    return f"{ADDED_PREFIX}relay:{field}:{element}:{sensor}"
 
 
 def _field_plan(model: mujoco.MjModel, field: str, positions: np.ndarray) -> tuple[list[Added], _Copies] | None:
@@ -113,7 +115,7 @@ def plan(model: mujoco.MjModel, sources: Sequence[Source], recorded: Mapping[str
     copies: dict[str, _Copies] = {}
     gain, before = 0, recorded.get("sensordata", 0)
     after = before
-    for field, steps in recorded.items():
+    for field, steps in sorted(recorded.items()):  # (the fields in a fixed order: the same model in every process)
         read = [s.at.ravel() for s in sources if s.field == field]
         planned = _field_plan(model, field, np.concatenate(read)) if field in RELAYS and read else None
         if planned is None:

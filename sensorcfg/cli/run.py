@@ -97,7 +97,10 @@ def add_run_args(p: argparse.ArgumentParser, steps: int, random_actions: bool = 
 
 
 def _keyframe(text: str) -> int | str:
-    return int(text) if text.isdigit() else text
+    from ..selection import ascii_id
+
+    index = ascii_id(text)  # (ASCII digits only: int() would read '١' as 1)
+    return text if index is None else index
 
 
 def add_parser(sub: Any, epilog: str) -> None:

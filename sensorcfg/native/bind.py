@@ -15,7 +15,9 @@ import mujoco
 import numpy as np
 
 from ..config.models import SensorConfig
+from ..errors import SuiteError
 from ..observables import Feature
+from ..observables.feature import indexed
 from ..selection import select
 from .plan import Report, plan_sensor
 
@@ -36,7 +38,7 @@ def bind_native(model: mujoco.MjModel, name: str, cfg: SensorConfig, timing: dic
     if records is None:
         return None
     if name in refused:
-        report(here + ("kind",), f"MuJoCo refused the {cfg.kind} sensor: {refused[name]}")
+        report(here + ("kind",), refused[name])
         return None
     ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, added.name) for added in records]
     expected = [int(getattr(mujoco.mjtSensor, f"mjSENS_{added.sensor}")) for added in records]
@@ -50,9 +52,10 @@ def bind_native(model: mujoco.MjModel, name: str, cfg: SensorConfig, timing: dic
         positions = positions.reshape(len(dims), dims[0]) if dims[0] > 1 else positions
     if index is not None:
         try:
-            positions = np.asarray(positions[index], dtype=np.intp)
-        except (IndexError, TypeError, ValueError) as e:
-            report(here + ("index",), f"index {cfg.index!r} does not fit {cfg.kind} with shape {positions.shape}: {e}")
+            positions = indexed(positions, index, cfg.kind, cfg.element, len(records))
+        except SuiteError as e:
+            for p in e.problems:
+                report(here + ("index",), p.message)
             return None
     elements = [f"sensor:{added.name}" for added in records]
     feature = Feature("sensordata", elements, index=positions, **timing)

@@ -2,8 +2,14 @@
 
 The robot file is not edited: it is read into an `MjSpec`, compiled once as written (to resolve the
 suite's selectors), given one MuJoCo sensor per selected element of each native kind (and a site at a
-body's frame where the type reads a site), and compiled again. A sensor MuJoCo refuses is left out and its
-message kept for the suite's line; so is a sensor whose own options do not resolve (binding reports it).
+body's frame where the type reads a site), and compiled again. What MuJoCo's compiler requires of a
+sensor's objects is checked before (`plan`), so a refusal is rare; one is left out and its message kept
+for the suite's line, at most `MAX_REFUSALS` of them found one compile each, then every sensor not yet
+compiled is left out too (each compile costs as much as the robot's own): the compiles of one model are
+bounded whatever the suite. A sensor whose own options do not resolve is left out (binding reports it).
+Every element added is named with `selection.ADDED_PREFIX` (invisible to a suite's selectors), and added
+in a fixed order (a batch's enablers by flag, the suite's sensors in its order, then `extra` as given), so
+the compiled model is the same in every process.
 Sensors and sites change no dynamics: the compiled model steps exactly as the file's own.
 """
 
@@ -20,13 +26,16 @@ from ..config.models import SensorConfig
 from ..errors import SuiteError
 from ..kinds import ON_DEMAND
 from ..observables.feature import computed_by_model
-from ..selection import split_selector
+from ..selection import ADDED_PREFIX, split_selector
 from .plan import Added, native_row, plan_sensor
 
-__all__ = ["Compiled", "compile_model", "native_names", "reads_on_demand"]
+__all__ = ["Compiled", "compile_model", "native_names", "reads_on_demand", "MAX_REFUSALS", "NOT_COMPILED"]
 
-Compiled = tuple[mujoco.MjModel, dict[str, str]]  # the model, and MuJoCo's message per refused suite sensor
-_ELEMENT = re.compile(r"sensorcfg:([^:\s']+):\d+")
+Compiled = tuple[mujoco.MjModel, dict[str, str]]  # the model, and the problem of each suite sensor left out
+_ELEMENT = re.compile(re.escape(ADDED_PREFIX) + r"([A-Za-z_][A-Za-z0-9_\-/]*):\d+\b")  # `plan.sensor_name`
+MAX_REFUSALS = 8  # refusals found one compile each; then the sensors not yet compiled are left out
+NOT_COMPILED = ("the {kind} sensor was not compiled: MuJoCo refused {count} other sensors of this suite first "
+                "(each costs a compile of the model); fix those and validate again")
 
 
 def native_names(sensors: Mapping[str, SensorConfig]) -> list[str]:
@@ -56,12 +65,17 @@ def _enum(cls: Any, prefix: str, member: str | None) -> int:
     return int(getattr(cls, f"{prefix}{member}")) if member else int(mujoco.mjtObj.mjOBJ_UNKNOWN)
 
 
-def _add(spec: mujoco.MjSpec, added: Added) -> list[Any]:
+def _bodies(spec: mujoco.MjSpec) -> dict[int, Any]:
+    """The spec's bodies by id, read just after a compile (an edit resets the ids): a body with no name is
+    found too."""
+    return {int(body.id): body for body in spec.bodies}
+
+
+def _add(spec: mujoco.MjSpec, added: Added, bodies: dict[int, Any]) -> list[Any]:
     """Write one record into the spec; the elements created (to delete them if MuJoCo refuses)."""
     made = []
     if added.site_body is not None:
-        body = spec.worldbody if added.site_body == "world" else spec.body(added.site_body)
-        site = body.add_site(name=added.name)
+        site = bodies[added.site_body].add_site(name=added.name)
         if added.site_quat is not None:
             site.quat = list(added.site_quat)
         made.append(site)
@@ -93,14 +107,16 @@ def _enable_on_demand(spec: mujoco.MjSpec, plain: mujoco.MjModel, sensors: Mappi
     velocity of the world), so that every step fills it, as MuJoCo does for a model with such sensors.
     They change no dynamics, and the values equal those the single simulation computes on demand."""
     added = False
-    for od in {ON_DEMAND[cfg.kind] for cfg in sensors.values() if cfg.kind in ON_DEMAND}:
-        if computed_by_model(plain, od):
+    read = {ON_DEMAND[cfg.kind].flag: ON_DEMAND[cfg.kind] for cfg in sensors.values() if cfg.kind in ON_DEMAND}
+    for flag in sorted(read):  # (a set's order would change from one process to the next)
+        if computed_by_model(plain, read[flag]):
             continue
-        sensor_type, objtype = _ENABLERS[od.flag]
+        sensor_type, objtype = _ENABLERS[flag]
+        name = f"{ADDED_PREFIX}on-demand:{flag}"
         objname = "world"
         if objtype == "SITE":
-            objname = spec.worldbody.add_site(name=f"sensorcfg-{od.flag}").name
-        spec.add_sensor(name=f"sensorcfg-{od.flag}", type=_enum(mujoco.mjtSensor, "mjSENS_", sensor_type),
+            objname = spec.worldbody.add_site(name=name).name
+        spec.add_sensor(name=name, type=_enum(mujoco.mjtSensor, "mjSENS_", sensor_type),
                         objtype=_enum(mujoco.mjtObj, "mjOBJ_", objtype), objname=objname)
         added = True
     return added
@@ -118,9 +134,10 @@ def compile_model(source: Any, sensors: Mapping[str, SensorConfig], batch: bool 
     names = native_names(sensors)
     if extra and not names and not batch:  # nothing to resolve against the model as written: one compile
         for added in extra:
-            _add(spec, added)
+            _add(spec, added, {})
         return spec.compile(), {}
     plain = spec.compile()
+    bodies = _bodies(spec)
     enabled = batch and _enable_on_demand(spec, plain, sensors)
     if not names and not enabled and not extra:
         return plain, {}
@@ -128,9 +145,15 @@ def compile_model(source: Any, sensors: Mapping[str, SensorConfig], batch: bool 
     for name in names:
         records = plan_sensor(plain, name, sensors[name], lambda path, message: None)
         if records:
-            made[name] = [element for added in records for element in _add(spec, added)]
+            made[name] = [element for added in records for element in _add(spec, added, bodies)]
     for added in extra:
-        _add(spec, added)
+        _add(spec, added, bodies)
+    return _compile_refusing(spec, made, {name: sensors[name].kind for name in made})
+
+
+def _compile_refusing(spec: mujoco.MjSpec, made: dict[str, list[Any]], kinds: Mapping[str, str]) -> Compiled:
+    """The spec compiled, leaving out each suite sensor MuJoCo refuses (its elements in `made`, by suite
+    sensor) with the message for its line; after `MAX_REFUSALS`, every suite sensor left is left out."""
     refused: dict[str, str] = {}
     while True:
         try:
@@ -140,6 +163,11 @@ def compile_model(source: Any, sensors: Mapping[str, SensorConfig], batch: bool 
             if culprit is None or culprit.group(1) not in made:
                 raise
             name = culprit.group(1)
-            refused[name] = " ".join(str(e).split())
-            for element in made.pop(name):
-                spec.delete(element)
+            refused[name] = f"MuJoCo refused the {kinds[name]} sensor: {' '.join(str(e).split())}"
+            out = [name]
+            if len(refused) >= MAX_REFUSALS:
+                out += [n for n in made if n != name]
+                refused.update({n: NOT_COMPILED.format(kind=kinds[n], count=len(refused)) for n in out[1:]})
+            for n in out:
+                for element in made.pop(n):
+                    spec.delete(element)

@@ -54,4 +54,4 @@ def along_gravity(model: mujoco.MjModel, records: Sequence[Added], report: Calla
                "gravity (<option gravity=...>) or read the frame's axes with framexaxis/frameyaxis/framezaxis")
         return None
     return [dataclasses.replace(r, objtype="SITE", objname=r.name, reftype=r.objtype, refname=r.objname,
-                                site_body="world", site_quat=quat) for r in records]
+                                site_body=0, site_quat=quat) for r in records]

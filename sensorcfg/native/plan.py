@@ -17,7 +17,7 @@ import mujoco
 from ..config.models import SensorConfig
 from ..errors import SuiteError, did_you_mean
 from ..kinds import kinds_of
-from ..selection import Selection, select, split_selector
+from ..selection import ADDED_PREFIX, MAX_HINTS, Selection, select, split_selector
 from . import gravity
 from .table import NATIVE, OBJ, REDUCE, NativeType, available, data_fields
 
@@ -38,13 +38,13 @@ class Added:
     refname: str | None = None
     intprm: tuple[int, int, int] = (0, 0, 0)
     cutoff: float = 0.0
-    site_body: str | None = None  # add a site named `name` at this body's frame, and read it
+    site_body: int | None = None  # add a site named `name` at the frame of the body of this id, and read it
     site_quat: tuple[float, float, float, float] | None = None  # that site's orientation in the body; None: none
 
 
 def sensor_name(suite_sensor: str, i: int) -> str:
     """The model name of the MuJoCo sensor a suite sensor adds for its i-th element."""
-    return f"sensorcfg:{suite_sensor}:{i}"
+    return f"{ADDED_PREFIX}{suite_sensor}:{i}"
 
 
 def native_row(kind: str, type_name: str | None) -> NativeType | None:
@@ -68,9 +68,11 @@ def _one(model: mujoco.MjModel, text: str, allowed: tuple[str, ...], what: str) 
     sel = select(model, text)
     if sel.batched:
         raise SuiteError(f"{what} names one element; {text!r} is a pattern")
-    if not sel.names[0]:
-        raise SuiteError(f"{text!r} has no name in the model; MuJoCo's sensors refer to elements by name")
-    return type_name, sel.names[0]
+    name = _name(model, type_name, sel.ids[0])
+    if not name:
+        raise SuiteError(f"{text!r} has no name in the model; MuJoCo's sensors refer to elements by name: name it "
+                         "in the model")
+    return type_name, name
 
 
 def _mask(kind: str, data: tuple[str, ...], report: Report, here: tuple[Any, ...]) -> int | None:
@@ -78,10 +80,10 @@ def _mask(kind: str, data: tuple[str, ...], report: Report, here: tuple[Any, ...
     if not fields:
         report(here + ("data",), f"this MuJoCo ({mujoco.__version__}) has no `data` fields for {kind}")
         return None
-    bad = [d for d in data if d not in fields]
-    for d in bad:
-        report(here + ("data", data.index(d)),
-               f"{kind} has no data field {d!r}{did_you_mean(d, fields)}; fields: {', '.join(fields)}")
+    bad = [(i, d) for i, d in enumerate(data) if d not in fields]
+    for n, (i, d) in enumerate(bad):
+        hint = did_you_mean(d, fields) if n < MAX_HINTS else ""
+        report(here + ("data", i), f"{kind} has no data field {d!r}{hint}; fields: {', '.join(fields)}")
     if bad:
         return None
     if len(set(data)) != len(data) or list(data) != sorted(data, key=fields.index):
@@ -117,28 +119,59 @@ def _intprm(row: NativeType, cfg: SensorConfig, report: Report, here: tuple[Any,
     return (mask, reduce or 0, num)
 
 
-def _objects(model: mujoco.MjModel, row: NativeType, sel: Selection, name: str) -> list[tuple[str, str, str | None]]:
-    """(objtype, objname, body to add a site to) per selected element."""
-    out: list[tuple[str, str, str | None]] = []
+def _objects(model: mujoco.MjModel, row: NativeType, sel: Selection, name: str) -> list[tuple[str, str, int | None]]:
+    """(objtype, objname, id of the body to add a site to) per selected element."""
+    out: list[tuple[str, str, int | None]] = []
     for i, (element_id, element_name) in enumerate(zip(sel.ids, sel.names)):
-        if sel.type == "body" and row.body_site:
-            body = element_name or ("world" if element_id == 0 else "")
-            out.append(("SITE", sensor_name(name, i), body))
+        if sel.type == "body" and row.body_site:  # the site sensorcfg adds has a name, named body or not
+            out.append(("SITE", sensor_name(name, i), element_id))
         elif sel.type == "body":
-            out.append((row.body_obj, element_name or ("world" if element_id == 0 else ""), None))
+            out.append((row.body_obj, _name(model, "body", element_id), None))
         elif row.kind == "tactile":
             mesh = int(model.geom_dataid[element_id]) if int(model.geom_type[element_id]) == int(
                 mujoco.mjtGeom.mjGEOM_MESH) else -1
             if mesh < 0:
                 raise SuiteError(f"tactile reads a mesh geom; {element_name!r} is not one")
+            if not _name(model, "geom", element_id):
+                raise SuiteError(f"MuJoCo's sensors refer to elements by name; geom {element_name} of this selection "
+                                 "has none: name it in the model")
             out.append(("MESH", mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_MESH, mesh) or "", None))
         else:
-            out.append((OBJ[sel.type], element_name, None))
-    unnamed = [i for i, (_, objname, body) in enumerate(out) if not (body if body is not None else objname)]
+            out.append((OBJ[sel.type], _name(model, sel.type, element_id), None))
+    unnamed = [sel.names[i] for i, (_, objname, body) in enumerate(out) if body is None and not objname]
     if unnamed:
-        raise SuiteError(f"MuJoCo's sensors refer to elements by name; element {unnamed[0]} of this selection "
+        raise SuiteError(f"MuJoCo's sensors refer to elements by name; {sel.type} {unnamed[0]} of this selection "
                          "has none: name it in the model")
     return out
+
+
+def _name(model: mujoco.MjModel, type_name: str, i: int) -> str:
+    """An element's name in the model ('' when it has none; the world body is 'world')."""
+    return "world" if type_name == "body" and i == 0 else (
+        mujoco.mj_id2name(model, getattr(mujoco.mjtObj, f"mjOBJ_{type_name.upper()}"), i) or "")
+
+
+_JOINT_WORDS = {int(getattr(mujoco.mjtJoint, f"mjJNT_{t}")): t.lower() for t in ("FREE", "BALL", "SLIDE", "HINGE")}
+
+
+def _refusals(model: mujoco.MjModel, row: NativeType, sel: Selection) -> str | None:
+    """What MuJoCo's compiler would refuse about the selected joints or tendons (`NativeType.joint_types`,
+    `limited`), said for the suite: None when nothing."""
+    bad: list[str] = []
+    need = ""
+    if sel.type == "joint" and row.joint_types:
+        allowed = {int(getattr(mujoco.mjtJoint, f"mjJNT_{t}")) for t in row.joint_types}
+        need = " or ".join(t.lower() for t in row.joint_types) + " joint"
+        bad = [f"{label} is a {_JOINT_WORDS.get(int(model.jnt_type[i]), '?')} joint"
+               for i, label in zip(sel.ids, sel.names) if int(model.jnt_type[i]) not in allowed]
+    if not bad and row.limited and sel.type in ("joint", "tendon"):
+        limited = model.jnt_limited if sel.type == "joint" else model.tendon_limited
+        need = f"limited {sel.type}"
+        bad = [f"{label} has no limits" for i, label in zip(sel.ids, sel.names) if not limited[i]]
+    if not bad:
+        return None
+    more = f" (and {len(bad) - 3} more)" if len(bad) > 3 else ""
+    return f"{_a(row.kind)} {row.kind} sensor reads {_a(need)} {need}; {', '.join(bad[:3])}{more}"
 
 
 def plan_sensor(model: mujoco.MjModel, name: str, cfg: SensorConfig, report: Report) -> list[Added] | None:
@@ -188,15 +221,23 @@ def plan_sensor(model: mujoco.MjModel, name: str, cfg: SensorConfig, report: Rep
     intprm = _intprm(row, cfg, report, here)
     try:
         sel = select(model, cast("str | tuple[str, ...]", cfg.element), cfg.within)
+        refusal = _refusals(model, row, sel)
+        if refusal is not None:
+            raise SuiteError(refusal)
         objects = _objects(model, row, sel, name)
     except SuiteError as e:
         for p in e.problems:
             report(here + ("element",), p.message)
         return None
+    same = [sel.names[i] for i, (objtype, objname, _) in enumerate(objects) if (objtype, objname) == ref]
+    if same and row.with_required and "geom" in row.with_:
+        report(here + ("with",), f"{_a(row.kind)} {row.kind} sensor measures between two objects; "
+               f"{same[0]!r} is both the element and `with:`: name another")
+        return None
     if not ok or intprm is None:
         return None
     cutoff = float(cfg.cutoff) if cfg.cutoff is not None else (10.0 if "cutoff" in row.options else 0.0)
-    refs = [("GEOM", sel.names[i]) if row.kind == "tactile" else ref for i in range(len(objects))]
+    refs = [("GEOM", _name(model, "geom", i)) if row.kind == "tactile" else ref for i in sel.ids]
     records = [Added(sensor_name(name, i), row.sensor, objtype, objname, refs[i][0], refs[i][1], intprm, cutoff, body)
                for i, (objtype, objname, body) in enumerate(objects)]
     return gravity.along_gravity(model, records, report, here) if row.kind == gravity.KIND else records

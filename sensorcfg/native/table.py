@@ -5,7 +5,9 @@ element, and read from `sensordata`. The row says which element types the sensor
 whether a body stands for a site added at the body's frame (`body_site`: MuJoCo attaches these types to
 a site), whether it takes a reference frame (`frame:`, MuJoCo's reftype/refname), what `with:` names (the
 second object: the other side of a contact, the site of `insidesite`, the other geom of `geomdist`, the
-camera of `camprojection`) and which of the options `data`, `reduce`, `num`, `cutoff` apply.
+camera of `camprojection`) and which of the options `data`, `reduce`, `num`, `cutoff` apply. What MuJoCo's
+compiler requires of a selected joint or tendon (its joint type, a limit) is in the row too, so that
+`plan` reports it at the suite's line before compiling, instead of MuJoCo refusing the sensor.
 
 Where a kind is also an attribute of the element type (an actuator's `force`), the attribute wins: the
 element type decides (`kind: force, element: actuator:knee` reads `actuator_force`; on a site or a body it
@@ -51,20 +53,24 @@ class NativeType:
     with_required: bool = False
     options: tuple[str, ...] = ()  # of "data", "reduce", "num", "cutoff"
     body_obj: str = "XBODY"  # the objtype a selected body is given
+    joint_types: tuple[str, ...] = ()  # the mjtJoint members (without prefix) a selected joint must be
+    limited: bool = False  # a selected joint or tendon must be limited
 
 
 def _rows() -> tuple[NativeType, ...]:
     site_types = ("accelerometer", "velocimeter", "gyro", "force", "torque", "magnetometer")
-    joint_types = ("jointpos", "jointvel", "jointactfrc", "jointlimitpos", "jointlimitvel", "jointlimitfrc",
-                   "ballquat", "ballangvel")
-    tendon_types = ("tendonpos", "tendonvel", "tendonactfrc", "tendonlimitpos", "tendonlimitvel", "tendonlimitfrc")
+    scalar = ("SLIDE", "HINGE")  # what MuJoCo's compiler requires of each sensor's joint or tendon
     rows = [NativeType(k, k.upper(), ("site", "body"), body_site=True) for k in site_types]
     rows += [NativeType("touch", "TOUCH", ("site",)),
              NativeType("rangefinder", "RANGEFINDER", ("site", "body", "camera"), body_site=True, options=("data",)),
              NativeType("camprojection", "CAMPROJECTION", ("site", "body"), body_site=True, with_=("camera",),
                         with_required=True)]
-    rows += [NativeType(k, k.upper(), ("joint",)) for k in joint_types]
-    rows += [NativeType(k, k.upper(), ("tendon",)) for k in tendon_types]
+    rows += [NativeType(k, k.upper(), ("joint",), joint_types=scalar) for k in ("jointpos", "jointvel", "jointactfrc")]
+    rows += [NativeType(k, k.upper(), ("joint",), limited=True) for k in ("jointlimitpos", "jointlimitvel", "jointlimitfrc")]
+    rows += [NativeType(k, k.upper(), ("joint",), joint_types=("BALL",)) for k in ("ballquat", "ballangvel")]
+    rows += [NativeType(k, k.upper(), ("tendon",)) for k in ("tendonpos", "tendonvel", "tendonactfrc")]
+    rows += [NativeType(k, k.upper(), ("tendon",), limited=True) for k in ("tendonlimitpos", "tendonlimitvel",
+                                                                            "tendonlimitfrc")]
     rows += [NativeType(k, k.upper(), ("actuator",)) for k in ("actuatorpos", "actuatorvel", "actuatorfrc")]
     rows += [NativeType(k, k.upper(), _FRAMES, frame=True) for k in (
         "framepos", "framequat", "framexaxis", "frameyaxis", "framezaxis", "framelinvel", "frameangvel")]

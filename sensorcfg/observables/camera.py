@@ -22,6 +22,7 @@ from dm_env import specs
 from .. import _gl
 from ..errors import SuiteError, UnsupportedError, did_you_mean
 from ..physics import raw_structs
+from ..selection import element_id
 from .base import Observable
 
 __all__ = ["Camera", "MODES", "SCENE_FLAGS", "close_renderers"]
@@ -243,12 +244,7 @@ class Camera(Observable):
             if not -1 <= self._camera < model.ncam:
                 raise SuiteError(f"camera id {self._camera} is out of range: the model has {model.ncam} cameras")
             return self._camera
-        cam = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, self._camera)
-        if cam < 0:
-            names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_CAMERA, i) or "" for i in range(model.ncam)]
-            raise SuiteError(f"the model has no camera named {self._camera!r}{did_you_mean(self._camera, names)}; "
-                             f"its cameras are: {', '.join(n for n in names if n) or '(none)'}")
-        return int(cam)
+        return element_id(model, "camera", self._camera)  # a name or `#<id>`, as a suite's selector says it
 
     def _callable(self, physics: Any) -> Callable[[], np.ndarray]:
         model, data = raw_structs(physics)

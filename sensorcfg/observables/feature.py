@@ -213,15 +213,21 @@ def feature_index(model: mujoco.MjModel, kind: str, element: str | Sequence[str]
     rows_arr = np.asarray(rows, dtype=np.intp)
     flat = (rows_arr[:, None] * row_width + np.arange(row_width, dtype=np.intp)[None, :]).reshape(shape)
     if index is not None:
-        _check_slices(index, shape, kind, element, len(sel.ids))
-        try:
-            flat = flat[index]
-        except (IndexError, TypeError, ValueError) as e:
-            raise SuiteError(f"index {index!r} does not fit {kind} of {element!r} with shape {shape}: {e}") from None
-        flat = np.array(flat, dtype=np.intp)
+        flat = indexed(flat, index, kind, element, len(sel.ids))
     # np.array, not np.ascontiguousarray: the latter turns a 0-d index (one element of a per-element
     # scalar field, e.g. the `mass` of one body) into shape (1,), where dm_control gives a scalar.
     return spec.struct, spec.field, np.array(flat, dtype=np.intp, order="C"), array.dtype
+
+
+def indexed(positions: np.ndarray, index: Any, kind: str, element: Any, count: int) -> np.ndarray:
+    """`positions[index]`, a suite's `index` applied to a value's positions (a feature's, a MuJoCo sensor
+    kind's): the one rule for both, so an index past its axis is a mistake for every kind."""
+    _check_slices(index, positions.shape, kind, element, count)
+    try:
+        return np.array(positions[index], dtype=np.intp)
+    except (IndexError, TypeError, ValueError) as e:
+        raise SuiteError(f"index {index!r} does not fit {kind} of {element!r} with shape {positions.shape}: "
+                         f"{e}") from None
 
 
 def _check_slices(index: Any, shape: tuple[int, ...], kind: str, element: Any, count: int) -> None:
