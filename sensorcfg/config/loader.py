@@ -99,8 +99,10 @@ def _without_invalid(value: dict[str, Any], error: ValidationError, whole_sensor
     return rest
 
 
-def _complete(config: SuiteConfig, doc: Doc, file: str, dirs: dict[str, Path]) -> tuple[LoadedSuite, list[Problem]]:
-    """Effective sensors and the model path of a schema-valid suite, and the problems of the rules."""
+def _complete(config: SuiteConfig, doc: Doc, file: str, dirs: dict[str, Path], root: Path | None
+              ) -> tuple[LoadedSuite, list[Problem]]:
+    """Effective sensors and the model path of a schema-valid suite (inside `root`, see `files`), and the
+    problems of the rules."""
     sensors: dict[str, SensorConfig] = {}
     problems: list[Problem] = []
     for name, sensor in config.sensors.items():
@@ -112,14 +114,14 @@ def _complete(config: SuiteConfig, doc: Doc, file: str, dirs: dict[str, Path]) -
         pos = doc.pos(("model",))
         base = dirs.get(pos.file, Path.cwd()) if pos else Path.cwd()
         try:
-            model = resolve_model_path(config.model, base)
+            model = resolve_model_path(config.model, base, root)
         except ValueError as e:
             problems.append(problem_at(doc, ("model",), str(e)))
     return LoadedSuite(config, sensors, doc, file, model, twins), problems
 
 
 def _partial(value: dict[str, Any], error: ValidationError, doc: Doc, file: str, dirs: dict[str, Path],
-             dropped: set[str]) -> tuple[LoadedSuite | None, list[Problem]]:
+             root: Path | None, dropped: set[str]) -> tuple[LoadedSuite | None, list[Problem]]:
     """What passed the schema, with its own problems and without any sensor that has one: first each sensor
     without its rejected keys (so a model mistake is found in the same pass as a schema mistake), else
     without the sensors the schema rejected. `dropped`: the locations the schema already reported."""
@@ -128,7 +130,7 @@ def _partial(value: dict[str, Any], error: ValidationError, doc: Doc, file: str,
         if rest is None:
             return None, []
         try:
-            loaded, problems = _complete(SuiteConfig.model_validate(rest), doc, file, dirs)
+            loaded, problems = _complete(SuiteConfig.model_validate(rest), doc, file, dirs, root)
         except ValidationError:
             continue
         problems = [p for p in problems if p.loc not in dropped]  # a dropped key is reported once
@@ -137,7 +139,7 @@ def _partial(value: dict[str, Any], error: ValidationError, doc: Doc, file: str,
     return None, []
 
 
-def _validate(doc: Doc, file: str, dirs: dict[str, Path], problems: list[Problem]) -> LoadResult:
+def _validate(doc: Doc, file: str, dirs: dict[str, Path], root: Path | None, problems: list[Problem]) -> LoadResult:
     if doc.value is None:  # an empty file: an empty suite, whose problems are at its start
         doc.value = {}
     value = doc.value
@@ -152,9 +154,9 @@ def _validate(doc: Doc, file: str, dirs: dict[str, Path], problems: list[Problem
     except ValidationError as e:
         found = {(p.file, p.line, p.col) for p in doc.problems}  # a removed node: report it once
         later = [p for p in problems_from(e, doc, SuiteConfig) if (p.file, p.line, p.col) not in found]
-        partial, rest = _partial(value, e, doc, file, dirs, {p.loc for p in later})
+        partial, rest = _partial(value, e, doc, file, dirs, root, {p.loc for p in later})
         return LoadResult(partial, _sorted(problems + later + rest))
-    loaded, rest = _complete(config, doc, file, dirs)
+    loaded, rest = _complete(config, doc, file, dirs, root)
     problems += rest
     return LoadResult(None, _sorted(problems)) if problems else LoadResult(loaded)
 
@@ -172,7 +174,7 @@ def _parse(text: str, file: str, base_dir: Path, overrides: Sequence[str] | None
     problems: list[Problem] = []
     for text_ in overrides or ():
         problems.extend(apply_override(doc, text_))
-    return _validate(doc, file, dirs, problems)
+    return _validate(doc, file, dirs, root, problems)
 
 
 def _root(extends_root: str | os.PathLike[str] | None, default: Path) -> Path:
@@ -185,7 +187,8 @@ def _root(extends_root: str | os.PathLike[str] | None, default: Path) -> Path:
 def parse_path(path: str | os.PathLike[str], overrides: Sequence[str] | None = None, *,
                extends_root: str | os.PathLike[str] | None = None) -> LoadResult:
     """Read, merge, override and validate the suite at `path`, returning what was found (never raising for
-    a mistake in the files). `extends` may reach files below `extends_root` (default: the suite's folder)."""
+    a mistake in the files). `extends` and `model:` may name files below `extends_root` (default: the suite's
+    folder); `package://` and `menagerie://` models stay inside their package's or robot's folder."""
     try:
         resolved = resolve(Path(path))
         file = display(resolved)
@@ -199,7 +202,7 @@ def parse_text(text: str, overrides: Sequence[str] | None = None, *, file: str =
                base_dir: str | os.PathLike[str] | None = None,
                extends_root: str | os.PathLike[str] | None = None) -> LoadResult:
     """Like `parse_path`, for a suite given as text; `extends` and `model` are relative to `base_dir`
-    (default: the working directory), and `extends` may reach files below `extends_root` (default: `base_dir`)."""
+    (default: the working directory), and may name files below `extends_root` (default: `base_dir`)."""
     base = Path(base_dir) if base_dir is not None else Path.cwd()
     try:
         root = _root(extends_root, resolve(base))
