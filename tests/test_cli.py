@@ -494,3 +494,27 @@ def test_an_output_name_is_refused_with_the_name_to_use(tmp_path: Path, monkeypa
         writable(name, ("npz",))
     assert str(e.value) == message
     assert writable("sub/o.NPZ", ("npz",)) == Path("sub/o.NPZ")
+
+
+@pytest.mark.parametrize("sensor, defaults, message", [
+    pytest.param("buffer: 0, ", "{}", "5:47: error: sensors.q.buffer: expected a value >= 1; got 0", id="buffer-0"),
+    pytest.param("buffers: 3, ", "{}", "5:39: error: sensors.q.buffers: unknown key 'buffers' (did you mean 'buffer'?); "
+                 "allowed keys: kind, ...", id="buffers"),
+    pytest.param("buffer: 100000, ", "{}", "5:47: error: sensors.q.buffer: a buffer keeps at most 10,000 samples (the "
+                 "latest delivered ones); got 100000", id="buffer-too-large"),
+    pytest.param("", "{buffer: 0}", "3:20: error: defaults.buffer: expected a value >= 1; got 0",
+                 id="defaults-buffer-0"),
+])
+def test_a_rejected_buffer_is_one_problem_not_also_one_about_the_aggregator(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], sensor: str, defaults: str, message: str) -> None:
+    """The aggregator is judged against the buffer: when the buffer is rejected it cannot be judged, and the
+    user made one mistake, not two."""
+    from sensorcfg.cli import main
+
+    suite = write(tmp_path / "s.yaml", f"model: {ROBOT}\noptions: {{strip_singleton_buffer_dim: true}}\n"
+                  f"defaults: {defaults}\nsensors:\n  q: {{kind: qpos, element: 'joint:*', {sensor}aggregator: mean}}\n")
+    assert main(["validate", str(suite)]) == 1
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 2 and lines[1] == "1 problem in 1 of 1 suite", lines
+    want = f"{suite}:{message}"
+    assert lines[0].startswith(want[:-4]) if want.endswith(" ...") else lines[0] == want

@@ -10,12 +10,14 @@ Problems are collected, not raised one at a time. No mujoco here.
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import os
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from pydantic import ValidationError
+from pydantic_core import ErrorDetails
 
 from ..errors import ArgumentError, Problem, SuiteError, quote
 from .extends import with_parents
@@ -73,30 +75,60 @@ def _sorted(problems: Sequence[Problem]) -> tuple[Problem, ...]:
     return tuple(sorted(problems, key=lambda p: (files.index(p.file), p.line or 0, p.col or 0)))
 
 
+# key -> the keys whose rules read it: when the schema rejects the key (or an unknown key that names it,
+# `buffers:`), those keys cannot be judged either (an aggregator is checked against the buffer), so they are
+# left out of the partial suite rather than reported against a value the user did not write
+_JUDGED_WITH: dict[str, tuple[str, ...]] = {"buffer": ("aggregator",)}
+_SENSOR_KEYS = tuple(f.alias or n for n, f in SensorConfig.model_fields.items())
+
+
+def _rejected_key(error: ErrorDetails) -> Any:
+    """The key a sensor- or defaults-level error rejects: an unknown key close to a known one (`buffers`)
+    stands for that key."""
+    key = error["loc"][2] if error["loc"][0] == "sensors" else error["loc"][1]
+    if error["type"] == "extra_forbidden" and isinstance(key, str):
+        close = difflib.get_close_matches(key, _SENSOR_KEYS, n=1, cutoff=0.8)
+        return close[0] if close else key
+    return key
+
+
 def _without_invalid(value: dict[str, Any], error: ValidationError, whole_sensors: bool) -> dict[str, Any] | None:
     """The suite without what the schema rejected: each sensor's rejected keys (or, with `whole_sensors`,
-    those sensors) and rejected top-level keys; None when the rest cannot stand alone (the `sensors`
-    mapping itself is malformed). Keeping a sensor's valid keys lets binding report its model mistakes
-    in the same pass as its schema mistakes."""
+    those sensors) and rejected top-level keys (of `defaults`, only the rejected ones), and the keys judged
+    with a rejected one (`_JUDGED_WITH`); None when the rest cannot stand alone (the `sensors` mapping itself
+    is malformed). Keeping a sensor's valid keys lets binding report its model mistakes in the same pass as
+    its schema mistakes."""
     sensors_out: set[Any] = set()
     sensor_keys_out: dict[Any, set[Any]] = {}
+    defaults_out: set[Any] = set()
     keys_out: set[Any] = set()
     for e in error.errors(include_url=False):
         loc = tuple(e["loc"])
         if len(loc) >= 3 and loc[0] == "sensors" and not whole_sensors and e["type"] != "missing":
-            sensor_keys_out.setdefault(loc[1], set()).add(loc[2])
+            sensor_keys_out.setdefault(loc[1], set()).update((loc[2], *_JUDGED_WITH.get(_rejected_key(e), ())))
         elif len(loc) >= 2 and loc[0] == "sensors":
             sensors_out.add(loc[1])
+        elif len(loc) >= 2 and loc[0] == "defaults" and isinstance(value.get("defaults"), dict):
+            defaults_out.update((loc[1], *_JUDGED_WITH.get(_rejected_key(e), ())))
         elif loc and loc[0] != "sensors":
             keys_out.add(loc[0])
         else:
             return None
     rest = {k: v for k, v in value.items() if k not in keys_out}
+    if defaults_out:
+        rest["defaults"] = {k: v for k, v in rest["defaults"].items() if k not in defaults_out}
     if isinstance(rest.get("sensors"), dict):
-        rest["sensors"] = {k: ({kk: vv for kk, vv in v.items() if kk not in sensor_keys_out[k]}
-                               if k in sensor_keys_out and isinstance(v, dict) else v)
+        judged = {k for key in defaults_out for k in _JUDGED_WITH.get(key, ())}  # with a rejected default
+        rest["sensors"] = {k: ({kk: vv for kk, vv in v.items()
+                                if kk not in sensor_keys_out.get(k, ()) and not (kk in judged and _uses_default(v))}
+                               if isinstance(v, dict) else v)
                            for k, v in rest["sensors"].items() if k not in sensors_out}
     return rest
+
+
+def _uses_default(sensor: dict[str, Any]) -> bool:
+    """Whether a sensor takes its buffer from `defaults` (the only key `_JUDGED_WITH` names)."""
+    return "buffer" not in sensor
 
 
 def _complete(config: SuiteConfig, doc: Doc, file: str, dirs: dict[str, Path], root: Path | None

@@ -56,6 +56,8 @@ def _fixed(value: Any, *, rates: bool, minimum: int) -> int | str:
         raise ValueError(f"expected integer physics steps, {what}a duration like '4ms', or "
                          f"{{uniform: [lo, hi]}} / {{choice: [...], p: [...]}}; got {quote(value)}")
     if isinstance(value, int):
+        if value < 0:
+            raise ValueError(f"a number of physics steps cannot be negative; got {value}; use {minimum} or more")
         if value < minimum:
             raise ValueError(f"expected at least {minimum} physics step{'s' if minimum != 1 else ''}; got {value}")
         if value > MAX_SCHEDULE_STEPS:
