@@ -16,7 +16,7 @@ from collections.abc import Collection, Sequence
 from pathlib import Path
 from typing import Any
 
-from ..errors import Problem, SensorcfgError, SuiteError, printable, quote
+from ..errors import Problem, SensorcfgError, SuiteError, install_hint, printable, quote
 
 __all__ = ["EXIT_OK", "EXIT_INVALID", "EXIT_USAGE", "EXIT_CODES_HELP", "HelpFormatter", "UsageError", "override",
            "positive_int", "positive_float", "writable", "require_matplotlib", "importable_cwd", "add_suite_args",
@@ -106,8 +106,8 @@ def require_matplotlib() -> None:
     try:
         import matplotlib  # noqa: F401
     except ImportError:
-        raise UsageError("plotting needs matplotlib, which is not installed; install it with\n"
-                         "    pip install 'sensorcfg[plot]'\n(or pip install matplotlib)") from None
+        raise UsageError(f"plotting needs matplotlib, which is not installed: {install_hint('plot', 'matplotlib')}"
+                         ) from None
 
 
 def os_reason(e: OSError) -> str:

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import printable
+from ..errors import install_hint, printable
 from .common import UsageError
 from .describe import SensorRow
 
@@ -113,7 +113,7 @@ def plot_run(path: Path, rec: Any, rows: list[SensorRow], timings: dict[str, Any
     try:
         from matplotlib.figure import Figure
     except ImportError:
-        raise UsageError("plotting needs matplotlib: pip install 'sensorcfg[plot]'") from None
+        raise UsageError(f"plotting needs matplotlib: {install_hint('plot', 'matplotlib')}") from None
     n = int(round((rec.time[1] - rec.time[0]) / dt)) if len(rec.time) > 1 else 1
     physics_steps = rec.steps_done * n
     window = _window(timings, physics_steps, n)

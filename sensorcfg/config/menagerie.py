@@ -13,6 +13,8 @@ import os
 from pathlib import Path
 from typing import Any
 
+from ..errors import install_hint
+
 __all__ = ["MENAGERIE_SCHEME", "PACKAGE", "menagerie_file", "menagerie_missing"]
 
 MENAGERIE_SCHEME = "menagerie://"
@@ -27,9 +29,8 @@ def _package() -> Any:
         return importlib.import_module("mujoco_menagerie")
     except ImportError:
         raise ValueError(f"a {MENAGERIE_SCHEME} model is found through the {PACKAGE!r} package, which is not "
-                         f"installed: pip install {PACKAGE} (or, from a sensorcfg clone, pip install "
-                         "'.[menagerie]'); set MENAGERIE_ROOT to a Menagerie checkout to use it instead of the "
-                         "package's download cache") from None
+                         f"installed: {install_hint('menagerie', PACKAGE)}; set MENAGERIE_ROOT to a Menagerie "
+                         "checkout to use it instead of the package's download cache") from None
 
 
 def menagerie_file(value: str) -> tuple[Path, Path]:

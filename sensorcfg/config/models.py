@@ -397,8 +397,9 @@ class SuiteConfig(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid", title="sensorcfg sensor suite")
     version: Literal[1] = Field(1, description="Version of the suite format.", examples=[1])
     model: str | None = Field(
-        None, description="Default MJCF model, relative to this file; 'package://<package>/<path>' for a "
-        "file shipped inside an installed Python package; 'menagerie://<robot folder>/<file>' for a MuJoCo "
+        None, description="Default MJCF model, relative to this file and inside the folder tree of the suite "
+        "being loaded (--extends-root / extends_root allows more); 'package://<package>/<path>' for a file "
+        "shipped inside an installed Python package; 'menagerie://<robot folder>/<file>' for a MuJoCo "
         "Menagerie robot, through the mujoco-menagerie package (which honours MENAGERIE_ROOT).",
         examples=["../models/arm.xml", "package://sensorcfg/assets/robot.xml", "menagerie://unitree_go2/scene.xml"])
     extends: str | None = Field(
