@@ -520,3 +520,58 @@ def test_a_rejected_buffer_is_one_problem_not_also_one_about_the_aggregator(
     assert len(lines) == 2 and lines[1] == "1 problem in 1 of 1 suite", lines
     want = f"{suite}:{message}"
     assert lines[0].startswith(want[:-4]) if want.endswith(" ...") else lines[0] == want
+
+
+# -- what the plot says about each value ------------------------------------------------------------------------
+
+def _demo_groups() -> dict[str, tuple]:
+    from sensorcfg.cli.quantities import value_groups
+
+    suite = sensorcfg.load(sensorcfg.assets.path("demo.yaml"))
+    model = suite.compile()
+    widths = {"joint_pos": 3, "joint_vel": 6, "imu": 6, "motor_force": 3, "hand_to_target": 3}
+    return {name: value_groups(model, suite.sensors[name], width) for name, width in widths.items()}
+
+
+def test_values_are_grouped_by_quantity_and_unit_with_labels() -> None:
+    """A gyro's rad/s and an accelerometer's m/s² are two axes, as are a hinge's radians and a slide's metres."""
+    groups = _demo_groups()
+    assert [(g.quantity, g.unit, g.columns, g.labels) for g in groups["imu"]] == [
+        ("angular velocity", "rad/s", (0, 1, 2), ("imu_gyro.x", "imu_gyro.y", "imu_gyro.z")),
+        ("linear acceleration", "m/s²", (3, 4, 5), ("imu_accel.x", "imu_accel.y", "imu_accel.z"))]
+    assert [(g.quantity, g.unit, g.columns, g.labels) for g in groups["joint_pos"]] == [
+        ("joint angle", "rad", (0, 1), ("shoulder", "elbow")), ("joint position", "m", (2,), ("finger_slide",))]
+    assert [(g.unit, g.labels) for g in groups["joint_vel"]] == [
+        ("rad/s", ("shoulder", "elbow", "wrist.x", "wrist.y", "wrist.z")), ("m/s", ("finger_slide",))]
+    assert [(g.quantity, g.unit) for g in groups["motor_force"]] == [("force or torque", "N or N·m")]
+    assert [(g.quantity, g.unit, g.labels) for g in groups["hand_to_target"]] == [
+        ("value", "unit not known", ("[0]", "[1]", "[2]"))]
+
+
+def test_the_plot_has_an_axis_per_unit_with_a_legend_and_explains_its_ticks() -> None:
+    pytest.importorskip("matplotlib")
+    from matplotlib.figure import Figure
+
+    from sensorcfg.cli.describe import SensorRow
+    from sensorcfg.cli.plot import _signal, _timing_legend
+
+    row = SensorRow("imu", "sensordata", 2, (6,), "float64", "2", "250", "0", "0", 1, None, "-", 2, 0, False)
+    fig = Figure()
+    t = np.arange(5) * 0.02
+    axes = _signal(fig, fig.add_gridspec(1, 1)[0, 0], t, np.zeros((5, 6)), row, _demo_groups()["imu"], None)
+    assert [ax.get_ylabel() for ax in axes] == ["rad/s", "m/s²"]
+    assert [(ax.get_legend().get_title().get_text(), [x.get_text() for x in ax.get_legend().get_texts()])
+            for ax in axes] == [("angular velocity", ["imu_gyro.x", "imu_gyro.y", "imu_gyro.z"]),
+                                ("linear acceleration", ["imu_accel.x", "imu_accel.y", "imu_accel.z"])]
+    _timing_legend(fig)
+    assert [x.get_text() for x in fig.legends[0].get_texts()] == [
+        "sampled", "delivered (after the delay)", "skipped: no read can show it, so the Updater does not take it",
+        "control step (a read)"]
+
+
+@pytest.mark.parametrize("count, seconds, shown", [
+    (300, 16.3, "18.4"), (3, 7.3, "0.411"), (1, 1e4, "0.0001"), (150_000, 10.0, "15,000"), (999, 10.0, "99.9")])
+def test_rates_keep_their_significant_digits(count: int, seconds: float, shown: str) -> None:
+    from sensorcfg.cli.run import _per_second
+
+    assert _per_second(count, seconds) == shown
