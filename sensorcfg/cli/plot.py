@@ -72,7 +72,7 @@ def _signal(fig: Any, cell: Any, t: np.ndarray, values: np.ndarray, row: SensorR
     labelled line; returns the axes, top first."""
     flat = _newest(values, row).reshape(len(t), -1).astype(np.float64)
     grid = cell.subgridspec(len(groups), 1)
-    axes = []
+    axes: list[Any] = []
     for k, group in enumerate(groups):
         ax = fig.add_subplot(grid[k, 0], sharex=share or (axes[0] if axes else None))
         shown = group.columns[:MAX_LINES]

@@ -114,10 +114,10 @@ def _runs(model: mujoco.MjModel, cfg: Any, width: int) -> list[_Run] | None:
                 suffix = "" if len(parts) == 1 else (".pos", ".quat", ".lin", ".ang")[k + 2 * (cfg.kind == "qvel")]
                 runs.append(_Run(quantity, _components(names[i] + suffix, n)))
         return runs
-    quantity = _BY_TYPE.get((type_name, cfg.kind)) or SENSOR_QUANTITIES.get(cfg.kind) or KIND_QUANTITIES.get(cfg.kind)
-    if quantity is None or not ids or width % len(ids):
+    found = _BY_TYPE.get((type_name, cfg.kind)) or SENSOR_QUANTITIES.get(cfg.kind) or KIND_QUANTITIES.get(cfg.kind)
+    if found is None or not ids or width % len(ids):
         return None
-    return [_Run(quantity, _components(names[i], width // len(ids))) for i in ids]
+    return [_Run(found, _components(names[i], width // len(ids))) for i in ids]
 
 
 def value_groups(model: mujoco.MjModel, cfg: Any, width: int) -> tuple[ValueGroup, ...]:

@@ -140,6 +140,7 @@ class _Found(NamedTuple):
     folder: Path
     path: Path
     owner: str
+    missing: Callable[[], str] | None = None  # why the file is not there, when the scheme says more than MuJoCo
 
 
 # packages that hold no robot files of their own: naming them with package:// means menagerie://
@@ -166,7 +167,7 @@ def _in_package(value: str) -> _Found:
 
 def _in_menagerie(value: str) -> _Found:
     folder, path = menagerie_file(value)
-    return _Found(folder, path, f"the Menagerie robot {quote(folder.name)}")
+    return _Found(folder, path, f"the Menagerie robot {quote(folder.name)}", lambda: menagerie_missing(value, folder))
 
 
 # scheme -> where the model it names lives
@@ -193,8 +194,8 @@ def _scheme_path(value: str) -> str | None:
     if path is None:  # said before anything is opened, and without saying whether the file exists
         raise ValueError(f"{quote(value, 160)} leaves the folder of {found.owner} ({found.folder}); a {scheme} "
                          "model is a file inside it, named without '..' and not through a symlink out of it")
-    if scheme == MENAGERIE_SCHEME and not path.is_file():
-        raise ValueError(menagerie_missing(value, found.folder))
+    if found.missing is not None and not path.is_file():
+        raise ValueError(found.missing())
     return str(path)
 
 

@@ -14,7 +14,7 @@ import math
 import os
 import warnings
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any
+from typing import Any, TypeAlias
 
 import dm_env
 import mujoco
@@ -91,7 +91,7 @@ def _model_file(model: str | os.PathLike) -> str:
         raise SuiteError(f"model {os.fspath(model)!r}: {e}") from None
 
 
-ModelArg = mujoco.MjModel | mujoco.MjSpec | str | os.PathLike | None
+ModelArg: TypeAlias = "mujoco.MjModel | mujoco.MjSpec | str | os.PathLike[str] | None"
 
 
 def model_source(model: ModelArg, suite: Any) -> tuple[mujoco.MjModel | mujoco.MjSpec | str, Any]:
