@@ -118,17 +118,17 @@ def _without_invalid(value: dict[str, Any], error: ValidationError, whole_sensor
     if defaults_out:
         rest["defaults"] = {k: v for k, v in rest["defaults"].items() if k not in defaults_out}
     if isinstance(rest.get("sensors"), dict):
-        judged = {k for key in defaults_out for k in _JUDGED_WITH.get(key, ())}  # with a rejected default
-        rest["sensors"] = {k: ({kk: vv for kk, vv in v.items()
-                                if kk not in sensor_keys_out.get(k, ()) and not (kk in judged and _uses_default(v))}
+        rest["sensors"] = {k: ({kk: vv for kk, vv in v.items() if kk not in sensor_keys_out.get(k, ())
+                                and not _judged_with_default(kk, v, defaults_out)}
                                if isinstance(v, dict) else v)
                            for k, v in rest["sensors"].items() if k not in sensors_out}
     return rest
 
 
-def _uses_default(sensor: dict[str, Any]) -> bool:
-    """Whether a sensor takes its buffer from `defaults` (the only key `_JUDGED_WITH` names)."""
-    return "buffer" not in sensor
+def _judged_with_default(key: str, sensor: dict[str, Any], rejected: set[Any]) -> bool:
+    """Whether a sensor's `key` is judged with a default the schema rejected that the sensor does not set
+    itself (its aggregator, with a rejected `defaults.buffer` and no buffer of its own)."""
+    return any(key in _JUDGED_WITH.get(default, ()) and default not in sensor for default in rejected)
 
 
 def _complete(config: SuiteConfig, doc: Doc, file: str, dirs: dict[str, Path], root: Path | None
