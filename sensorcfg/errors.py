@@ -24,7 +24,7 @@ from collections.abc import Iterable, Sequence
 from typing import Any
 
 __all__ = ["ArgumentError", "Problem", "SensorcfgError", "SuiteError", "UnsupportedError", "did_you_mean",
-           "printable", "quote", "QUOTE_LIMIT", "MESSAGE_LIMIT"]
+           "install_hint", "printable", "quote", "QUOTE_LIMIT", "MESSAGE_LIMIT"]
 
 QUOTE_LIMIT = 40  # characters of an input value a message quotes (then '...')
 MESSAGE_LIMIT = 2000  # characters of one printed message (a safety net: the longest, a list of kinds, is ~1000)
@@ -131,6 +131,12 @@ class ArgumentError(SensorcfgError, ValueError):
 
 class UnsupportedError(SensorcfgError, RuntimeError):
     """What was asked needs something this installation lacks, such as MuJoCo 4's `mujoco.batch`."""
+
+
+def install_hint(extra: str, packages: str) -> str:
+    """How to install an optional extra: sensorcfg is installed from a clone (it is not on the package
+    index), so the extra is `'.[extra]'` there, and the packages it stands for install by their own names."""
+    return f"pip install {packages} (or, from a sensorcfg clone, pip install '.[{extra}]')"
 
 
 def did_you_mean(name: str, choices: Iterable[str], n: int = 3) -> str:

@@ -1,4 +1,4 @@
-"""Gymnasium adapters (extra `gym`: `pip install sensorcfg[gym]`).
+"""Gymnasium adapters (extra `gym`: `pip install gymnasium`, or from a clone `pip install '.[gym]'`).
 
 `GymEnv` wraps an `Environment`: a `Dict` observation space from the suite's specs, a `Box` action space
 from the actuators' control ranges, and `terminated` / `truncated` from the TimeStep (a discount of 0 ends
@@ -11,11 +11,13 @@ from typing import Any
 
 import numpy as np
 
+from .errors import install_hint
+
 try:
     import gymnasium
     from gymnasium import spaces
 except ImportError as e:  # pragma: no cover - exercised only without the extra
-    raise ImportError("sensorcfg.gym needs Gymnasium: pip install 'sensorcfg[gym]'") from e
+    raise ImportError(f"sensorcfg.gym needs Gymnasium: {install_hint('gym', 'gymnasium')}") from e
 
 from dm_env import specs
 

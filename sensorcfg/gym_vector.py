@@ -1,4 +1,4 @@
-"""A Gymnasium vector environment over a `BatchEnvironment` (extra `gym`: `pip install sensorcfg[gym]`).
+"""A Gymnasium vector environment over a `BatchEnvironment` (extra `gym`: `pip install gymnasium`, or from a clone `pip install '.[gym]'`).
 
 `GymVectorEnv` has Gymnasium's next-step autoreset (`AutoresetMode.NEXT_STEP`), which is the batch's own:
 the step after a simulation's episode ends resets it, returns its first observation, and ignores its
@@ -14,12 +14,14 @@ from typing import Any
 
 import numpy as np
 
+from .errors import install_hint
+
 try:
     from gymnasium import spaces
     from gymnasium.vector import AutoresetMode, VectorEnv
     from gymnasium.vector.utils import batch_space
 except ImportError as e:  # pragma: no cover - exercised only without the extra
-    raise ImportError("sensorcfg.gym_vector needs Gymnasium >= 1.1: pip install 'sensorcfg[gym]'") from e
+    raise ImportError(f"sensorcfg.gym_vector needs Gymnasium >= 1.1: {install_hint('gym', 'gymnasium>=1.1')}") from e
 
 from dm_env import specs
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -36,7 +38,8 @@ def model_path(tmp_path_factory: pytest.TempPathFactory) -> str:
 
 
 def suite(model_path: str, sensors: str) -> sensorcfg.Suite:
-    return sensorcfg.loads(f"model: {model_path}\nsensors:\n{sensors}", file="s.yaml")
+    return sensorcfg.loads(f"model: {model_path}\nsensors:\n{sensors}", file="s.yaml",
+                           base_dir=Path(model_path).parent)  # a suite's model lies in its folder tree
 
 
 def test_the_cameras_own_resolution_is_the_default_size(model_path: str) -> None:

@@ -386,7 +386,8 @@ def test_run_plot_without_matplotlib_says_how_to_install_it(tmp_path: Path, no_m
     write(tmp_path / "s.yaml", VALID)
     proc = cli("run", "s.yaml", "--steps", "3", "--plot", "p.png", cwd=tmp_path, env=no_matplotlib)
     assert proc.returncode == 2
-    assert "pip install 'sensorcfg[plot]'" in proc.stderr
+    assert proc.stderr == ("sensorcfg: error: plotting needs matplotlib, which is not installed: pip install matplotlib "
+                           "(or, from a sensorcfg clone, pip install '.[plot]')\n")
     assert proc.stdout == "" and not (tmp_path / "p.png").exists()  # refused before simulating
 
 
@@ -464,7 +465,8 @@ def test_demo_with_no_arguments(tmp_path: Path) -> None:
 def test_demo_without_matplotlib_skips_only_the_plot(tmp_path: Path, no_matplotlib: dict[str, str]) -> None:
     proc = cli("demo", "--steps", "5", cwd=tmp_path, env=no_matplotlib)
     assert proc.returncode == 0, proc.stderr
-    assert "pip install 'sensorcfg[plot]'" in proc.stdout
+    assert ("note: matplotlib is not installed, so there will be no plot; pip install matplotlib (or, from a "
+            "sensorcfg clone, pip install '.[plot]') to get one") in proc.stdout
     assert sorted(p.name for p in tmp_path.iterdir()) == ["sensorcfg-demo.json", "sensorcfg-demo.npz"]
 
 
@@ -494,3 +496,82 @@ def test_an_output_name_is_refused_with_the_name_to_use(tmp_path: Path, monkeypa
         writable(name, ("npz",))
     assert str(e.value) == message
     assert writable("sub/o.NPZ", ("npz",)) == Path("sub/o.NPZ")
+
+
+@pytest.mark.parametrize("sensor, defaults, message", [
+    pytest.param("buffer: 0, ", "{}", "5:47: error: sensors.q.buffer: expected a value >= 1; got 0", id="buffer-0"),
+    pytest.param("buffers: 3, ", "{}", "5:39: error: sensors.q.buffers: unknown key 'buffers' (did you mean 'buffer'?); "
+                 "allowed keys: kind, ...", id="buffers"),
+    pytest.param("buffer: 100000, ", "{}", "5:47: error: sensors.q.buffer: a buffer keeps at most 10,000 samples (the "
+                 "latest delivered ones); got 100000", id="buffer-too-large"),
+    pytest.param("", "{buffer: 0}", "3:20: error: defaults.buffer: expected a value >= 1; got 0",
+                 id="defaults-buffer-0"),
+])
+def test_a_rejected_buffer_is_one_problem_not_also_one_about_the_aggregator(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], sensor: str, defaults: str, message: str) -> None:
+    """The aggregator is judged against the buffer: when the buffer is rejected it cannot be judged, and the
+    user made one mistake, not two."""
+    from sensorcfg.cli import main
+
+    suite = write(tmp_path / "s.yaml", f"model: {ROBOT}\noptions: {{strip_singleton_buffer_dim: true}}\n"
+                  f"defaults: {defaults}\nsensors:\n  q: {{kind: qpos, element: 'joint:*', {sensor}aggregator: mean}}\n")
+    assert main(["validate", str(suite)]) == 1
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 2 and lines[1] == "1 problem in 1 of 1 suite", lines
+    want = f"{suite}:{message}"
+    assert lines[0].startswith(want[:-4]) if want.endswith(" ...") else lines[0] == want
+
+
+# -- what the plot says about each value ------------------------------------------------------------------------
+
+def _demo_groups() -> dict[str, tuple]:
+    from sensorcfg.cli.quantities import value_groups
+
+    suite = sensorcfg.load(sensorcfg.assets.path("demo.yaml"))
+    model = suite.compile()
+    widths = {"joint_pos": 3, "joint_vel": 6, "imu": 6, "motor_force": 3, "hand_to_target": 3}
+    return {name: value_groups(model, suite.sensors[name], width) for name, width in widths.items()}
+
+
+def test_values_are_grouped_by_quantity_and_unit_with_labels() -> None:
+    """A gyro's rad/s and an accelerometer's m/s² are two axes, as are a hinge's radians and a slide's metres."""
+    groups = _demo_groups()
+    assert [(g.quantity, g.unit, g.columns, g.labels) for g in groups["imu"]] == [
+        ("angular velocity", "rad/s", (0, 1, 2), ("imu_gyro.x", "imu_gyro.y", "imu_gyro.z")),
+        ("linear acceleration", "m/s²", (3, 4, 5), ("imu_accel.x", "imu_accel.y", "imu_accel.z"))]
+    assert [(g.quantity, g.unit, g.columns, g.labels) for g in groups["joint_pos"]] == [
+        ("joint angle", "rad", (0, 1), ("shoulder", "elbow")), ("joint position", "m", (2,), ("finger_slide",))]
+    assert [(g.unit, g.labels) for g in groups["joint_vel"]] == [
+        ("rad/s", ("shoulder", "elbow", "wrist.x", "wrist.y", "wrist.z")), ("m/s", ("finger_slide",))]
+    assert [(g.quantity, g.unit) for g in groups["motor_force"]] == [("force or torque", "N or N·m")]
+    assert [(g.quantity, g.unit, g.labels) for g in groups["hand_to_target"]] == [
+        ("value", "unit not known", ("[0]", "[1]", "[2]"))]
+
+
+def test_the_plot_has_an_axis_per_unit_with_a_legend_and_explains_its_ticks() -> None:
+    pytest.importorskip("matplotlib")
+    from matplotlib.figure import Figure
+
+    from sensorcfg.cli.describe import SensorRow
+    from sensorcfg.cli.plot import _signal, _timing_legend
+
+    row = SensorRow("imu", "sensordata", 2, (6,), "float64", "2", "250", "0", "0", 1, None, "-", 2, 0, False)
+    fig = Figure()
+    t = np.arange(5) * 0.02
+    axes = _signal(fig, fig.add_gridspec(1, 1)[0, 0], t, np.zeros((5, 6)), row, _demo_groups()["imu"], None)
+    assert [ax.get_ylabel() for ax in axes] == ["rad/s", "m/s²"]
+    assert [(ax.get_legend().get_title().get_text(), [x.get_text() for x in ax.get_legend().get_texts()])
+            for ax in axes] == [("angular velocity", ["imu_gyro.x", "imu_gyro.y", "imu_gyro.z"]),
+                                ("linear acceleration", ["imu_accel.x", "imu_accel.y", "imu_accel.z"])]
+    _timing_legend(fig)
+    assert [x.get_text() for x in fig.legends[0].get_texts()] == [
+        "sampled", "delivered (after the delay)", "skipped: no read can show it, so the Updater does not take it",
+        "control step (a read)"]
+
+
+@pytest.mark.parametrize("count, seconds, shown", [
+    (300, 16.3, "18.4"), (3, 7.3, "0.411"), (1, 1e4, "0.0001"), (150_000, 10.0, "15,000"), (999, 10.0, "99.9")])
+def test_rates_keep_their_significant_digits(count: int, seconds: float, shown: str) -> None:
+    from sensorcfg.cli.run import _per_second
+
+    assert _per_second(count, seconds) == shown

@@ -213,7 +213,7 @@ def test_the_physics_copies_independently_both_ways():
 
 
 ZERO_WIDTH = f"""\
-model: {ROBOT}
+model: package://sensorcfg/assets/robot.xml
 sensors:
   nothing:
     kind: qpos

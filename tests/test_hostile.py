@@ -532,3 +532,67 @@ def test_validate_a_folder_nested_deeper_than_the_recursion_limit(tmp_path: Path
     assert code == 0
     names = [f["path"][len(str(deep)) + 1:] for f in json.loads(out)["files"]]
     assert names == ["a.yaml", "d/" * 1200 + "s.yaml", "z.yaml"]  # path order, as before
+
+
+# -- which model files a suite may name ----------------------------------------------------------------------
+
+_MODEL_ROOT_FIX = ("where model may reach; allow more with --extends-root DIR on the command line, or "
+                   "extends_root=DIR in Python (extends_root='/' allows any file), or name a file of an installed "
+                   "package as 'package://<package>/<path>'")
+
+
+@pytest.mark.parametrize("model", [
+    pytest.param("/etc/passwd", id="absolute"),
+    pytest.param("../outside.xml", id="dot-dot"),
+    pytest.param("link.xml", id="symlink-out"),
+    pytest.param("/no/such/file.xml", id="missing-says-no-more"),
+])
+def test_a_suite_model_stays_in_the_suite_folder_tree_unless_allowed(tmp_path: Path, model: str) -> None:
+    """Refused from the path alone, before MuJoCo opens it: its parse error would tell whether a file exists
+    and quote element names from it."""
+    (tmp_path / "outside.xml").write_text(f"<mujoco><worldbody><body name='{SECRET}'/></worldbody></mujoco>")
+    project = tmp_path / "project"
+    project.mkdir()
+    (project / "link.xml").symlink_to(tmp_path / "outside.xml")
+    suite = project / "s.yaml"
+    suite.write_text(f"model: {model}\nsensors:\n  q: {{kind: qpos, element: 'joint:*'}}\n")
+    with pytest.raises(SuiteError) as info:
+        sensorcfg.load(suite)
+    assert [p.format() for p in info.value.problems] == [
+        f"{suite.resolve()}:1:8: error: model: {model!r} is outside the folder of the suite being loaded "
+        f"({project.resolve()}), {_MODEL_ROOT_FIX}"]
+    proc = cli("validate", "project/s.yaml", cwd=tmp_path)
+    assert proc.returncode == 1 and "hunter2" not in proc.stdout + proc.stderr
+    assert proc.stdout.startswith(f"project/s.yaml:1:8: error: model: {model!r} is outside the folder")
+    if model != "/no/such/file.xml":  # widened, the file is the model (and a missing one is said missing)
+        assert sensorcfg.load(suite, extends_root=tmp_path if model != "/etc/passwd" else "/").model
+
+
+def test_a_suite_model_inside_its_tree_is_allowed(tmp_path: Path) -> None:
+    (tmp_path / "models").mkdir()
+    (tmp_path / "models" / "r.xml").write_text(sensorcfg.assets.path("robot.xml").read_text())
+    (tmp_path / "configs").mkdir()
+    (tmp_path / "configs" / "s.yaml").write_text("model: ../models/r.xml\nsensors:\n  q: {kind: qpos, element: 'joint:*'}\n")
+    with pytest.raises(SuiteError, match="is outside the folder"):
+        sensorcfg.load(tmp_path / "configs" / "s.yaml")
+    assert sensorcfg.load(tmp_path / "configs" / "s.yaml", extends_root=tmp_path).model == str(
+        (tmp_path / "models" / "r.xml").resolve())
+    proc = cli("validate", "configs/s.yaml", "--extends-root", ".", cwd=tmp_path)
+    assert proc.returncode == 0 and proc.stdout.strip() == "1 suite valid", proc.stdout + proc.stderr
+
+
+@pytest.mark.parametrize("inner", ["../../../../../../etc/passwd", "escape.xml", "sub/../../outside.xml"])
+def test_a_package_model_stays_in_its_package(tmp_path: Path, inner: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Neither '..' nor a symlink inside the package leads out of it, whatever the suite's root allows."""
+    package = tmp_path / "site" / "robots_pkg_xyz"
+    (package / "sub").mkdir(parents=True)
+    (package / "__init__.py").write_text("")
+    (tmp_path / "site" / "outside.xml").write_text("<mujoco/>")
+    (package / "escape.xml").symlink_to(tmp_path / "site" / "outside.xml")
+    monkeypatch.syspath_prepend(str(tmp_path / "site"))
+    model = f"package://robots_pkg_xyz/{inner}"
+    with pytest.raises(SuiteError) as info:
+        sensorcfg.loads(f"model: {model}\nsensors: {{}}\n", file="s.yaml", extends_root="/")
+    assert [p.format() for p in info.value.problems] == [
+        f"s.yaml:1:8: error: model: {model!r} leaves the folder of the package 'robots_pkg_xyz' ({package}); a "
+        "package:// model is a file inside it, named without '..' and not through a symlink out of it"]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -77,7 +78,8 @@ def test_batch_environment_resets_to_the_keyframe(model: mujoco.MjModel) -> None
 @pytest.mark.parametrize("command", ["run", "demo"])
 def test_run_and_demo_keyframe_option(tmp_path: Path, model: mujoco.MjModel, command: str) -> None:
     suite = tmp_path / "s.yaml"
-    suite.write_text(SUITE)
+    shutil.copy(MODEL, tmp_path)  # a suite's model lies in its folder tree
+    suite.write_text(SUITE.replace(str(MODEL), MODEL.name))
     out = tmp_path / "o.npz"
     tail = ["--out", str(out)] if command == "run" else ["--prefix", str(tmp_path / "o"), "--no-plot"]
     cmd = [sys.executable, "-m", "sensorcfg", command, str(suite), "--steps", "2", "--keyframe", "raised", *tail]

@@ -31,7 +31,8 @@ def test_a_missing_package_is_a_problem_at_the_model_line(monkeypatch: pytest.Mo
         sensorcfg.loads(SUITE, file="s.yaml")
     assert [p.format() for p in e.value.problems] == [
         "s.yaml:1:8: error: model: a menagerie:// model is found through the 'mujoco-menagerie' package, which is "
-        "not installed: pip install mujoco-menagerie (or 'sensorcfg[menagerie]'); set MENAGERIE_ROOT to a Menagerie "
+        "not installed: pip install mujoco-menagerie (or, from a sensorcfg clone, pip install '.[menagerie]'); set "
+        "MENAGERIE_ROOT to a Menagerie "
         "checkout to use it instead of the package's download cache"]
 
 
@@ -137,3 +138,64 @@ def test_the_h1_example_reads_gravity_down_in_the_imu_frame() -> None:
     obs = env.reset().observation
     np.testing.assert_allclose(obs["projected_gravity"], [0, 0, -1], atol=1e-12)  # `home` stands upright
     assert obs["joint_pos"].shape == (19,)
+
+
+def test_a_menagerie_model_stays_in_its_robot_folder(menagerie_root: Path) -> None:
+    (menagerie_root / "secret.xml").write_text("<mujoco/>")
+    (menagerie_root / "anybotics_anymal_c" / "link.xml").symlink_to(menagerie_root / "secret.xml")
+    folder = menagerie_root / "anybotics_anymal_c"
+    for inner in ("../secret.xml", "link.xml", "../../../../etc/passwd"):
+        model = f"menagerie://anybotics_anymal_c/{inner}"
+        with pytest.raises(SuiteError) as e:
+            sensorcfg.loads(SUITE.replace("menagerie://anybotics_anymal_c/scene.xml", model), file="s.yaml")
+        assert [p.format() for p in e.value.problems] == [
+            f"s.yaml:1:8: error: model: {model!r} leaves the folder of the Menagerie robot 'anybotics_anymal_c' "
+            f"({folder}); a menagerie:// model is a file inside it, named without '..' and not through a symlink "
+            "out of it"]
+
+
+def test_menagerie_names_the_model_of_every_entry_point(menagerie_root: Path, tmp_path: Path) -> None:
+    """`--model`, `make_env(model=...)`, Environment and BatchEnvironment take a menagerie:// name as a suite's
+    `model:` line does: one resolver."""
+    import mujoco
+
+    name = "menagerie://anybotics_anymal_c/scene.xml"
+    path = str(menagerie_root / "anybotics_anymal_c" / "scene.xml")
+    suite_file = tmp_path / "s.yaml"
+    suite_file.write_text(SUITE.replace(f"model: {name}\n", ""))
+    env = sensorcfg.make_env(suite_file, model=name)
+    assert env.physics.model.nq == mujoco.MjModel.from_xml_path(path).nq
+    assert sensorcfg.Environment(name, sensorcfg.load(suite_file)).reset().observation["q"].shape
+    if int(mujoco.__version__.split(".")[0]) >= 4:
+        batch = sensorcfg.BatchEnvironment(name, str(suite_file), 2)
+        assert batch.reset().observation["q"].shape[0] == 2
+    from sensorcfg.cli import main
+
+    assert main(["validate", str(suite_file), "--model", name]) == 0
+    assert main(["spec", str(suite_file), "--model", name]) == 0
+
+
+def test_package_mujoco_menagerie_points_at_the_menagerie_scheme() -> None:
+    with pytest.raises(SuiteError) as e:
+        sensorcfg.loads(SUITE.replace("menagerie://", "package://mujoco_menagerie/"), file="s.yaml")
+    assert [p.format() for p in e.value.problems] == [
+        "s.yaml:1:8: error: model: Menagerie robots are named menagerie://<robot folder>/<file>, not through a "
+        "package; write 'menagerie://anybotics_anymal_c/scene.xml'"]
+
+
+def test_a_failed_download_suggests_menagerie_root(monkeypatch: pytest.MonkeyPatch) -> None:
+    menagerie = pytest.importorskip("mujoco_menagerie", reason="the optional extra 'menagerie' is not installed here")
+
+    def offline(self: object, cache: object = None, progress: object = None) -> Path:
+        raise menagerie.DownloadError("https://example.invalid/anymal.tar.xz: <urlopen error [Errno -2] Name or "
+                                      "service not known>")
+
+    monkeypatch.setattr(menagerie.Robot, "path", offline)
+    monkeypatch.delenv("MENAGERIE_ROOT", raising=False)
+    with pytest.raises(SuiteError) as e:
+        sensorcfg.loads(SUITE, file="s.yaml")
+    assert [p.format() for p in e.value.problems] == [
+        "s.yaml:1:8: error: model: mujoco-menagerie cannot provide 'menagerie://anybotics_anymal_c/scene.xml': "
+        "https://example.invalid/anymal.tar.xz: <urlopen error [Errno -2] Name or service not known>; without a "
+        "network, set MENAGERIE_ROOT to a Menagerie checkout (git clone "
+        "https://github.com/google-deepmind/mujoco_menagerie)"]

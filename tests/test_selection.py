@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import mujoco
@@ -76,7 +77,8 @@ def test_spec_says_how_unnamed_elements_are_labelled(tmp_path: Path) -> None:
     import sys
 
     suite = tmp_path / "s.yaml"
-    suite.write_text(f"model: {MODEL}\noptions: {{keyframe: crouch}}\nsensors:\n"
+    shutil.copy(MODEL, tmp_path)  # a suite's model lies in its folder tree
+    suite.write_text(f"model: {MODEL.name}\noptions: {{keyframe: crouch}}\nsensors:\n"
                      "  q: {kind: qpos, element: 'joint:*'}\n  toes: {kind: xpos, element: 'body:#*', within: body:fl_leg}\n")
     done = subprocess.run([sys.executable, "-m", "sensorcfg", "spec", str(suite)], capture_output=True, text=True)
     lines = done.stdout.splitlines()

@@ -134,8 +134,34 @@ LOAD_MISTAKES = [
         '    kind: qpos\n'
         '    element: joint:elbow\n'
         '    delay: -1\n',
-        '5:12: error: sensors.s.delay: expected at least 0 physics steps; got -1',
+        '5:12: error: sensors.s.delay: a number of physics steps cannot be negative; got -1; use 0 or more',
         id='delay_negative'),
+    pytest.param(
+        'sensors:\n'
+        '  s: {kind: qpos, element: joint:elbow, delay: -2ms}\n',
+        "2:48: error: sensors.s.delay: a time cannot be negative; got '-2ms'; use a time like '4ms', '0.02s', '500us'",
+        id='delay_negative_time'),
+    pytest.param(
+        'sensors:\n'
+        '  s: {kind: qpos, element: joint:elbow, buffer: 2, aggregator: average}\n',
+        "2:64: error: sensors.s.aggregator: unknown aggregator 'average' (did you mean 'mean'?); use one of: min, max, "
+        "mean, median, sum",
+        id='aggregator_synonym'),
+    pytest.param(
+        'sensors:\n'
+        '  h: {kind: heightscan, element: site:wrist, scan: {size: [1.6]}}\n',
+        '2:59: error: sensors.h.scan.size: size takes 2 numbers; got 1: [1.6]',
+        id='scan_size_short'),
+    pytest.param(
+        'sensors:\n'
+        '  h: {kind: heightscan, element: site:wrist, scan: {size: []}}\n',
+        '2:59: error: sensors.h.scan.size: size takes 2 numbers; got 0: []',
+        id='scan_size_empty'),
+    pytest.param(
+        'sensors:\n'
+        '  h: {kind: heightscan, element: site:wrist, scan: {size: [1, 2, 3]}}\n',
+        '2:59: error: sensors.h.scan.size: size takes 2 numbers; got 3: [1, 2, 3]',
+        id='scan_size_long'),
     pytest.param(
         'sensors:\n'
         '  s:\n'
@@ -214,7 +240,7 @@ LOAD_MISTAKES = [
         '    kind: qpos\n'
         '    element: joint:elbow\n'
         '    aggregator: avg\n',
-        "5:17: error: sensors.s.aggregator: unknown aggregator 'avg'; use one of: min, max, mean, median, sum",
+        "5:17: error: sensors.s.aggregator: unknown aggregator 'avg' (did you mean 'mean'?); use one of: min, max, mean, median, sum",
         id='aggregator'),
     pytest.param(
         'sensors:\n'

@@ -167,7 +167,7 @@ def test_python_tags_are_never_constructed(tmp_path: Path) -> None:
 
 def test_extends_chains_and_overrides_field_by_field(tmp_path: Path) -> None:
     write(tmp_path, "base.yaml", f"""
-        model: {ROBOT}
+        model: package://sensorcfg/assets/robot.xml
         options: {{strip_singleton_buffer_dim: true}}
         sensors:
           a: {{kind: qpos, element: joint:elbow, interval: 2, buffer: 3}}
@@ -427,3 +427,38 @@ def test_runtime_layer_does_not_import_mujoco() -> None:
     """)
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert result.stdout.strip() == "ok", result.stderr
+
+
+NO_MODEL = "sensors:\n  q: {kind: qpos, element: 'joint:*'}\n"
+
+
+def test_environments_given_no_model_run_on_the_suite_model_line(tmp_path: Path) -> None:
+    """`Environment(None, suite)` and `BatchEnvironment(None, suite, n)` use the suite's `model:` as
+    `make_env` does, for a Suite or a suite path."""
+    path = tmp_path / "s.yaml"
+    path.write_text("model: package://sensorcfg/assets/robot.xml\n" + NO_MODEL)
+    nq = mujoco.MjModel.from_xml_path(ROBOT).nq
+    assert sensorcfg.Environment(None, sensorcfg.load(path)).reset().observation["q"].shape == (1, nq)
+    if int(mujoco.__version__.split(".")[0]) < 4:
+        pytest.skip("BatchEnvironment needs MuJoCo 4")
+    for suite in (sensorcfg.load(path), str(path)):
+        batch = sensorcfg.BatchEnvironment(None, suite, 3)
+        assert batch.reset().observation["q"].shape == (3, 1, nq)
+
+
+def test_an_environment_with_no_model_anywhere_says_where_to_give_one(tmp_path: Path) -> None:
+    path = tmp_path / "s.yaml"
+    path.write_text(NO_MODEL)
+    message = (f"{sensorcfg.load(path).file}: error: model: the suite names no model: add 'model: "
+               "path/to/robot.xml' to the suite, or pass the model (an MjModel, an MjSpec or a path) as the first "
+               "argument")
+    makers = [lambda: sensorcfg.make_env(path), lambda: sensorcfg.Environment(None, sensorcfg.load(path))]
+    if int(mujoco.__version__.split(".")[0]) >= 4:
+        makers.append(lambda: sensorcfg.BatchEnvironment(None, sensorcfg.load(path), 2))
+    for make in makers:
+        with pytest.raises(SuiteError) as e:
+            make()
+        assert str(e.value) == message
+    with pytest.raises(sensorcfg.ArgumentError, match=r"^model is None, and a dict of observables names no model: "
+                       r"pass an MjModel, an MjSpec or a model path$"):
+        sensorcfg.Environment(None, {})

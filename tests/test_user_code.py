@@ -76,7 +76,7 @@ def sensors_module(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
 
 def suite_text(callable_: str) -> str:
     return f"""\
-model: {ROBOT}
+model: package://sensorcfg/assets/robot.xml
 sensors:
   joints:
     kind: qpos
@@ -130,7 +130,7 @@ def test_a_generic_observable_from_python_names_its_callable() -> None:
 
 
 NOISY = f"""\
-model: {ROBOT}
+model: package://sensorcfg/assets/robot.xml
 sensors:
   probe:
     kind: generic
@@ -180,7 +180,7 @@ def test_a_bad_generic_value_in_run_is_one_positioned_line(sensors_module: Path)
 # -- bounds --------------------------------------------------------------------------------------------
 
 CAMERAS = f"""\
-model: {ROBOT}
+model: package://sensorcfg/assets/robot.xml
 defaults:
   camera: {{width: 32, height: 24}}
 sensors:

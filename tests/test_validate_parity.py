@@ -6,6 +6,7 @@ same suite (rather than failing at its first step, or reading a silently wrong v
 
 from __future__ import annotations
 
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -42,7 +43,8 @@ def validate(path: Path, *args: str) -> subprocess.CompletedProcess:
 ])
 def test_what_the_environment_refuses_validate_reports(tmp_path: Path, body: str, message: str) -> None:
     suite = tmp_path / "s.yaml"
-    suite.write_text(f"model: {MODEL}\n{body}")
+    shutil.copy(MODEL, tmp_path)  # a suite's model lies in its folder tree
+    suite.write_text(f"model: {MODEL.name}\n{body}")
     done = validate(suite)
     assert done.returncode == 1 and done.stdout.splitlines()[0] == message, done.stdout + done.stderr
     with pytest.raises(SuiteError, match=message.split("error: ")[1][:40]):
@@ -51,7 +53,8 @@ def test_what_the_environment_refuses_validate_reports(tmp_path: Path, body: str
 
 def test_a_schema_mistake_does_not_hide_the_model_mistake_of_its_sensor(tmp_path: Path) -> None:
     suite = tmp_path / "s.yaml"
-    suite.write_text(f"model: {MODEL}\nsensors:\n  a: {{kind: xpos, element: body:torsoo, buffer: 0}}\n")
+    shutil.copy(MODEL, tmp_path)
+    suite.write_text(f"model: {MODEL.name}\nsensors:\n  a: {{kind: xpos, element: body:torsoo, buffer: 0}}\n")
     assert validate(suite).stdout.splitlines()[:2] == [
         "s.yaml:3:28: error: sensors.a.element: the model has no body named 'torsoo'; its bodies are: "
         "world, base, fl_leg, fl_calf, fr_leg, fr_calf, hl_leg, hl_calf, hr_leg, hr_calf (4 unnamed: select them "
@@ -59,7 +62,7 @@ def test_a_schema_mistake_does_not_hide_the_model_mistake_of_its_sensor(tmp_path
         "s.yaml:3:49: error: sensors.a.buffer: expected a value >= 1; got 0"]
 
 
-BATCH_SUITE = f"""model: {MODELS / 'arm.xml'}
+BATCH_SUITE = f"""model: arm.xml  # copied next to the suite
 sensors:
   cam:
     kind: rgb
@@ -75,6 +78,7 @@ sensors:
 
 def test_validate_batch_reports_every_batch_problem_at_its_line(tmp_path: Path) -> None:
     suite = tmp_path / "s.yaml"
+    shutil.copy(MODELS / "arm.xml", tmp_path)
     suite.write_text(BATCH_SUITE)
     assert validate(suite).returncode == 0  # the single-simulation Environment runs all of it
     assert validate(suite, "--batch").stdout.splitlines() == [
@@ -94,6 +98,7 @@ def test_batch_environment_on_a_suite_raises_the_same_positioned_problems(tmp_pa
     if int(mujoco.__version__.split(".")[0]) < 4:
         pytest.skip("BatchEnvironment needs MuJoCo 4")
     suite = tmp_path / "s.yaml"
+    shutil.copy(MODELS / "arm.xml", tmp_path)
     suite.write_text(BATCH_SUITE.replace('"mysensors:', '"callables:'))
     (tmp_path / "callables.py").write_text("def dist(physics):\n    return 1.0\n\ndef noisy(x, rng):\n    return x\n")
     with pytest.raises(SuiteError) as e:
@@ -108,7 +113,8 @@ def test_callables_import_next_to_the_suite_first(tmp_path: Path, monkeypatch: p
     folder.mkdir()
     (folder / "nearby_sensors_xyz.py").write_text("def height(physics):\n    return physics.data.qpos[2] * 1.0\n")
     suite = folder / "s.yaml"
-    suite.write_text(f"model: {MODEL}\nsensors:\n  h: {{kind: generic, callable: 'nearby_sensors_xyz:height'}}\n")
+    shutil.copy(MODEL, folder)
+    suite.write_text(f"model: {MODEL.name}\nsensors:\n  h: {{kind: generic, callable: 'nearby_sensors_xyz:height'}}\n")
     monkeypatch.chdir(tmp_path)  # not the suite's folder
     env = sensorcfg.make_env(suite, keyframe="crouch")
     assert env.reset().observation["h"] == pytest.approx(0.22)

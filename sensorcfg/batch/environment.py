@@ -65,8 +65,8 @@ import mujoco
 import numpy as np
 
 from ..env.episode import episode_end
-from ..env.environment import (_BAD_STATE, ControlLoop, action_spec, episode_timing, keyframe_index,
-                               model_and_observables, random_state_from)
+from ..env.environment import (_BAD_STATE, ControlLoop, ModelArg, action_spec, episode_timing, keyframe_index,
+                               model_and_observables, model_source, random_state_from)
 from ..errors import ArgumentError, SuiteError, UnsupportedError
 from ..noise.level import leveled, set_level
 from ..physics import Physics
@@ -155,9 +155,13 @@ class BatchTimeStep(NamedTuple):
 
 
 class BatchEnvironment(ControlLoop):
-    """nsim simulations of one MuJoCo model, stepped together and observed through one sensor suite."""
+    """nsim simulations of one MuJoCo model, stepped together and observed through one sensor suite.
 
-    def __init__(self, model: mujoco.MjModel | mujoco.MjSpec | str | os.PathLike, suite: Any, nsim: int, *,
+    `model` is what `Environment` takes: an MjModel, an MjSpec or a path (`package://`, `menagerie://`), or
+    None for the suite's own `model:` (`BatchEnvironment(None, "suite.yaml", 64)`).
+    """
+
+    def __init__(self, model: ModelArg, suite: Any, nsim: int, *,
                  nthread: int | None = None, physics_steps_per_control_step: int | None = None,
                  control_timestep: float | None = None, time_limit: float | None = None,
                  seed: int | np.random.SeedSequence | None = None, reward_fn: BatchRewardFn | None = None,
@@ -165,6 +169,7 @@ class BatchEnvironment(ControlLoop):
         batch_module = _batch_module()
         _check_arguments(nsim, nthread, reward_fn, termination_fn)
         self._reward_fn, self._termination_fn = reward_fn, termination_fn
+        model, suite = model_source(model, suite)  # None: the suite's own `model:`
         self._model, observables, options = model_and_observables(model, suite, batch=True)
         leveled(observables)  # a noise level per simulation (`set_noise_level`), 1 until set
         self._observables = observables

@@ -16,11 +16,11 @@ from collections.abc import Collection, Sequence
 from pathlib import Path
 from typing import Any
 
-from ..errors import Problem, SensorcfgError, SuiteError, printable, quote
+from ..errors import Problem, SensorcfgError, SuiteError, install_hint, printable, quote
 
 __all__ = ["EXIT_OK", "EXIT_INVALID", "EXIT_USAGE", "EXIT_CODES_HELP", "HelpFormatter", "UsageError", "override",
            "positive_int", "positive_float", "writable", "require_matplotlib", "importable_cwd", "add_suite_args",
-           "existing_file", "load_model", "load_suite", "model_path", "suite_model", "user_code_failure",
+           "existing_file", "load_model", "load_suite", "model_option", "model_path", "suite_model", "user_code_failure",
            "user_code_problem", "add_common_suite_args", "os_reason", "seed"]
 
 EXIT_OK, EXIT_INVALID, EXIT_USAGE = 0, 1, 2
@@ -60,7 +60,8 @@ def add_suite_args(parser: argparse.ArgumentParser, *, suite_optional: bool = Fa
         parser.add_argument("suite", nargs="?", metavar="SUITE", help="suite file (default: the bundled demo suite)")
     else:
         parser.add_argument("suite", metavar="SUITE", help="suite file (YAML)")
-    parser.add_argument("--model", metavar="MODEL", help="MJCF/MJB model (default: the suite's 'model:')")
+    parser.add_argument("--model", metavar="MODEL", help="MJCF/MJB model, or package://PKG/FILE or "
+                        "menagerie://ROBOT/FILE as in a suite (default: the suite's 'model:')")
     add_common_suite_args(parser)
 
 
@@ -69,8 +70,8 @@ def add_common_suite_args(parser: argparse.ArgumentParser, *, every: bool = Fals
     which = "in every suite before checking" if every else "a suite key"
     parser.add_argument("--set", dest="overrides", action="append", default=[], type=override,
                         metavar="KEY=VALUE", help=f"override {which} (repeatable), e.g. defaults.buffer=2")
-    parser.add_argument("--extends-root", metavar="DIR", help="let 'extends' name files below DIR (default: only "
-                        "files in the suite's own folder and below; '/' allows any file)")
+    parser.add_argument("--extends-root", metavar="DIR", help="let 'extends' and 'model:' name files below DIR "
+                        "(default: only files in the suite's own folder and below; '/' allows any file)")
 
 
 def seed(text: str) -> int:
@@ -105,8 +106,8 @@ def require_matplotlib() -> None:
     try:
         import matplotlib  # noqa: F401
     except ImportError:
-        raise UsageError("plotting needs matplotlib, which is not installed; install it with\n"
-                         "    pip install 'sensorcfg[plot]'\n(or pip install matplotlib)") from None
+        raise UsageError(f"plotting needs matplotlib, which is not installed: {install_hint('plot', 'matplotlib')}"
+                         ) from None
 
 
 def os_reason(e: OSError) -> str:
@@ -197,11 +198,23 @@ def load_suite(path: str, overrides: Sequence[str] = (), extends_root: str | Non
     return Suite(result.unwrap())
 
 
+def model_option(model: str) -> str:
+    """The file --model names (`package://` and `menagerie://` resolved as in a suite's `model:`); a missing
+    file is a usage error."""
+    from ..config.files import model_file
+
+    try:
+        path = model_file(model)
+    except ValueError as e:
+        raise UsageError(f"--model {printable(quote(model, 160))}: {printable(str(e))}") from None
+    existing_file(path, "model file")
+    return path
+
+
 def model_path(suite: Any, model: str | None) -> str:
     """The model to use: --model, or the suite's `model:`; a missing file is a usage error."""
     if model is not None:
-        existing_file(model, "model file")
-        return model
+        return model_option(model)
     if suite.model is None:
         raise UsageError(f"{printable(suite.file)}: the suite names no model; pass --model MODEL.xml or add "
                          "'model: path/to/robot.xml' to the suite")

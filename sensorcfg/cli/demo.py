@@ -11,6 +11,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from ..errors import install_hint
 from .common import (EXIT_OK, HelpFormatter, UsageError, add_suite_args, load_model, load_suite, model_path,
                      require_matplotlib, writable)
 from .run import add_run_args, control_steps, execute, settings_from
@@ -28,8 +29,8 @@ EXAMPLES = """examples:
 
 The robot is driven by uniform random controls (seeded: --seed) so the signals move; --zero-actions
 lets it settle instead. Writes PREFIX.npz, PREFIX.json and PREFIX.png (PREFIX defaults to
-'sensorcfg-demo'). The plot needs matplotlib (pip install 'sensorcfg[plot]'); without it the demo skips
-the plot and says so."""
+'sensorcfg-demo'). The plot needs matplotlib (pip install matplotlib, or from a clone pip install '.[plot]');
+without it the demo skips the plot and says so."""
 
 
 def add_parser(sub: Any, epilog: str) -> None:
@@ -56,8 +57,8 @@ def command(args: argparse.Namespace) -> int:
         try:
             require_matplotlib()
         except UsageError:
-            print("note: matplotlib is not installed, so there will be no plot; "
-                  "pip install 'sensorcfg[plot]' to get one\n")
+            print(f"note: matplotlib is not installed, so there will be no plot; {install_hint('plot', 'matplotlib')} "
+                  "to get one\n")
             plot = None
     suite = load_suite(suite_file, args.overrides, args.extends_root)
     model_file = model_path(suite, args.model)

@@ -2,27 +2,32 @@
 
 Left, on a time axis shared by every sensor, a short window of the run: a tick per sample (top), a tick
 per delivery (bottom) and a line joining them, over faint lines at the control steps (when the agent
-reads); samples that no read could show, which the Updater skips, are light grey. Interval, delay and jitter are visible at a glance. Right, the signal over the whole run (the
-newest sample of a buffer, up to eight values), or for a camera a contact sheet of frames.
+reads); samples that no read could show, which the Updater skips, are light grey (a legend under the figure
+says so). Interval, delay and jitter are visible at a glance. Right, the signal over the whole run (the
+newest sample of a buffer), one axis per quantity and unit with a legend naming each value (up to eight per
+axis), or for a camera a contact sheet of frames.
 Uses matplotlib's object API with the Agg canvas: no display, no pyplot state.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..errors import printable
+from ..errors import install_hint, printable
 from .common import UsageError
 from .describe import SensorRow
+from .quantities import ValueGroup
 
 __all__ = ["plot_run"]
 
 IMAGE_KINDS = ("rgb", "depth", "segmentation")
 MAX_LINES = 8
 FRAMES = 6
+SKIPPED, READ = "0.8", "0.88"  # colours of skipped samples' ticks and of the control steps' lines
 
 
 def _window(timings: dict[str, Any], physics_steps: int, n: int) -> int:
@@ -38,13 +43,13 @@ def _window(timings: dict[str, Any], physics_steps: int, n: int) -> int:
 
 def _timing(ax: Any, timing: Any, window: int, n: int, dt: float) -> None:
     for read in np.arange(0, window + 1, n):
-        ax.axvline(read * dt, color="0.88", lw=0.6, zorder=0)
+        ax.axvline(read * dt, color=READ, lw=0.6, zorder=0)
     if timing is not None:
         keep = timing.sampled <= window
         s, d, seen = timing.sampled[keep] * dt, timing.delivered[keep] * dt, timing.visible[keep]
         if not seen.all():  # samples no read can show: the Updater skips them
-            ax.plot(s[~seen], np.ones((~seen).sum()), "|", color="0.85", ms=7, mew=1)
-            ax.plot(d[~seen], np.zeros((~seen).sum()), "|", color="0.85", ms=7, mew=1)
+            ax.plot(s[~seen], np.ones((~seen).sum()), "|", color=SKIPPED, ms=7, mew=1)
+            ax.plot(d[~seen], np.zeros((~seen).sum()), "|", color=SKIPPED, ms=7, mew=1)
         for a, b in zip(s[seen], d[seen]):
             ax.plot([a, b], [1, 0], color="0.55", lw=0.6, zorder=1)
         ax.plot(s[seen], np.ones(seen.sum()), "|", color="C0", ms=10, mew=1.5)
@@ -61,16 +66,43 @@ def _newest(values: np.ndarray, row: SensorRow) -> np.ndarray:
     return values
 
 
-def _signal(ax: Any, t: np.ndarray, values: np.ndarray, row: SensorRow) -> None:
+def _signal(fig: Any, cell: Any, t: np.ndarray, values: np.ndarray, row: SensorRow,
+            groups: Sequence[ValueGroup], share: Any) -> list[Any]:
+    """One axis per quantity and unit (a gyro's rad/s apart from an accelerometer's m/s²), each value a
+    labelled line; returns the axes, top first."""
     flat = _newest(values, row).reshape(len(t), -1).astype(np.float64)
-    shown = flat[:, :MAX_LINES]
-    for j in range(shown.shape[1]):
-        ax.plot(t, shown[:, j], lw=1, drawstyle="steps-post")
+    grid = cell.subgridspec(len(groups), 1)
+    axes: list[Any] = []
+    for k, group in enumerate(groups):
+        ax = fig.add_subplot(grid[k, 0], sharex=share or (axes[0] if axes else None))
+        shown = group.columns[:MAX_LINES]
+        for j, column in enumerate(shown):
+            ax.plot(t, flat[:, column], lw=1, drawstyle="steps-post", label=printable(group.labels[j], 40))
+        more = len(group.columns) - len(shown)
+        title = group.quantity + (f"\n(first {len(shown)} of {len(group.columns)})" if more else "")
+        ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.005, 1.0), ncol=1 + (len(shown) > 4),
+                  frameon=False, borderaxespad=0.0, title=title, title_fontsize=6, alignment="left")
+        ax.set_ylabel(group.unit or "no unit", fontsize=7)
+        ax.tick_params(labelsize=7)
+        if k < len(groups) - 1:
+            ax.tick_params(labelbottom=False)
+        axes.append(ax)
     note = f"{flat.shape[1]} value{'s' if flat.shape[1] != 1 else ''}"
-    if flat.shape[1] > MAX_LINES:
-        note = f"first {MAX_LINES} of {note}"
-    ax.set_title(note, loc="right", fontsize=7, color="0.35")
-    ax.tick_params(labelsize=7)
+    axes[0].set_title(note, loc="right", fontsize=7, color="0.35")
+    return axes
+
+
+def _timing_legend(fig: Any) -> None:
+    """What the ticks of the timing column mean, once for the figure."""
+    from matplotlib.lines import Line2D
+
+    handles = [Line2D([], [], ls="", marker="|", ms=9, mew=1.5, color="C0"),
+               Line2D([], [], ls="", marker="|", ms=9, mew=1.5, color="C3"),
+               Line2D([], [], ls="", marker="|", ms=9, mew=1, color=SKIPPED),
+               Line2D([], [], color=READ, lw=1.2)]
+    labels = ["sampled", "delivered (after the delay)", "skipped: no read can show it, so the Updater does not take "
+              "it", "control step (a read)"]
+    fig.legend(handles, labels, loc="outside lower left", ncol=4, fontsize=7, frameon=False)
 
 
 def _frame(image: np.ndarray, kind: str) -> np.ndarray:
@@ -109,16 +141,18 @@ def _steps(text: str) -> str:
 
 
 def plot_run(path: Path, rec: Any, rows: list[SensorRow], timings: dict[str, Any], dt: float, *,
-             title: str) -> None:
+             title: str, groups: Mapping[str, Sequence[ValueGroup]]) -> None:
+    """The figure of a run; `groups` says, per sensor that is not a camera, which values share a quantity
+    and unit (`quantities.value_groups`): each group is an axis with its unit and a legend."""
     try:
         from matplotlib.figure import Figure
     except ImportError:
-        raise UsageError("plotting needs matplotlib: pip install 'sensorcfg[plot]'") from None
+        raise UsageError(f"plotting needs matplotlib: {install_hint('plot', 'matplotlib')}") from None
     n = int(round((rec.time[1] - rec.time[0]) / dt)) if len(rec.time) > 1 else 1
     physics_steps = rec.steps_done * n
     window = _window(timings, physics_steps, n)
-    heights = [2.0 if r.kind in IMAGE_KINDS else 1.3 for r in rows] or [1.0]
-    fig = Figure(figsize=(13, 0.9 + sum(heights)), layout="constrained")
+    heights = [2.0 if r.kind in IMAGE_KINDS else 1.3 * max(1.0, 0.8 * len(groups[r.name])) for r in rows] or [1.0]
+    fig = Figure(figsize=(13, 1.2 + sum(heights)), layout="constrained")
     grid = fig.add_gridspec(len(heights), 2, width_ratios=[1, 2.4], height_ratios=heights)
     fig.suptitle(f"{title}: {rec.steps_done} control steps of {n * dt * 1e3:g} ms", fontsize=10)
     first_timing = first_signal = None
@@ -130,18 +164,19 @@ def plot_run(path: Path, rec: Any, rows: list[SensorRow], timings: dict[str, Any
                  f"delay {_steps(row.delay)} ({row.delay_ms} ms)")
         ax_t.set_title(label, fontsize=8, loc="left")
         values = rec.observations[row.name]
+        signal = None
         if row.kind in IMAGE_KINDS:
             _contact_sheet(fig.add_subplot(grid[i, 1]), rec.time, values, row)
         else:
-            ax_s = fig.add_subplot(grid[i, 1], sharex=first_signal)
-            first_signal = first_signal or ax_s
-            _signal(ax_s, rec.time, values, row)
+            axes = _signal(fig, grid[i, 1], rec.time, values, row, groups[row.name], first_signal)
+            first_signal, signal = first_signal or axes[0], axes[-1]
         if i == len(rows) - 1:
             ax_t.set_xlabel("time (s), the first steps", fontsize=8)
-            if row.kind not in IMAGE_KINDS:
-                ax_s.set_xlabel("time (s)", fontsize=8)
+            if signal is not None:
+                signal.set_xlabel("time (s)", fontsize=8)
     if first_signal is not None:
         first_signal.set_title("signal over the run (newest sample, held between reads)", fontsize=8, loc="left")
+    _timing_legend(fig)
     try:
         fig.savefig(path, dpi=100)
     except OSError as e:

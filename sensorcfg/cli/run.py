@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from .._version import __version__
+from ..config.tables import IMAGE_KINDS
 from ..errors import printable
 from .common import (EXIT_INVALID, EXIT_OK, HelpFormatter, UsageError, add_suite_args, importable_cwd,
                      load_suite, model_path, positive_float, positive_int, require_matplotlib, seed, suite_model,
@@ -233,8 +234,8 @@ def summary(rec: Recording, rows: list[SensorRow], substeps: int, timestep: floa
     wall = max(rec.wall_seconds, 1e-9)
     sim = physics_steps * timestep
     lines = [f"ran {rec.steps_done} control steps ({physics_steps} physics steps, {sim:.3g} s simulated) in "
-             f"{rec.wall_seconds:.3g} s: {rec.steps_done / wall:,.0f} control steps/s, "
-             f"{physics_steps / wall:,.0f} physics steps/s, {sim / wall:.3g}x real time", ""]
+             f"{rec.wall_seconds:.3g} s: {_per_second(rec.steps_done, wall)} control steps/s, "
+             f"{_per_second(physics_steps, wall)} physics steps/s, {sim / wall:.3g}x real time", ""]
     if not rows:
         return "\n".join(lines + ["the suite has no enabled observations"])
     body, renders = [], [0, 0]
@@ -300,14 +301,30 @@ def execute(suite: Any, model_file: str, settings: Settings, out: Path | None, p
         from . import timing
         from .plot import plot_run
 
+        from .quantities import value_groups
+
         times = timing.timings(observables, rec.steps_done * n, n)
-        plot_run(plot, rec, rows, times, dt, title=title or printable(f"{suite.file} on {Path(model_file).name}"))
+        groups = {r.name: value_groups(env.physics.model, suite.sensors[r.name], _width(r)) for r in rows
+                  if r.kind not in IMAGE_KINDS}
+        plot_run(plot, rec, rows, times, dt, title=title or printable(f"{suite.file} on {Path(model_file).name}"),
+                 groups=groups)
         print(f"wrote {printable(str(plot))}")
     if rec.diverged:
         print(f"sensorcfg: error: the simulation diverged after {rec.steps_done} control steps ({rec.diverged}); "
               "the run stopped there, and what it recorded is kept", file=sys.stderr)
         return EXIT_INVALID
     return EXIT_OK
+
+
+def _width(row: SensorRow) -> int:
+    """Values in one sample of an observation (its newest, when it has a buffer axis)."""
+    return int(np.prod(row.shape[1:] if row.buffer_axis else row.shape))
+
+
+def _per_second(count: float, seconds: float) -> str:
+    """A rate with three significant digits when small ('0.412'), whole numbers with separators when not."""
+    rate = count / seconds
+    return f"{rate:,.0f}" if rate >= 100 else f"{rate:.3g}"
 
 
 def settings_from(args: argparse.Namespace) -> Settings:

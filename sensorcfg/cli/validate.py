@@ -20,7 +20,7 @@ from typing import Any, cast
 
 from ..errors import Problem, SuiteError, printable, quote
 from .common import (EXIT_INVALID, EXIT_OK, EXIT_USAGE, HelpFormatter, UsageError, add_common_suite_args,
-                     existing_file, importable_cwd, load_model, os_reason, user_code_problem)
+                     importable_cwd, load_model, model_option, os_reason, user_code_problem)
 
 __all__ = ["add_parser", "FileResult", "Found", "REPORTERS", "collect", "check_file", "check_isolated"]
 
@@ -55,7 +55,8 @@ def add_parser(sub: Any, epilog: str) -> None:
                        "recursively for *.yaml and *.yml (hidden folders skipped; each file once, whatever "
                        "the symlinks).", epilog=EXAMPLES + "\n\n" + epilog, formatter_class=HelpFormatter)
     p.add_argument("paths", nargs="+", metavar="PATH", help="suite files or directories")
-    p.add_argument("--model", metavar="MODEL", help="check every suite against this MJCF/MJB model "
+    p.add_argument("--model", metavar="MODEL", help="check every suite against this MJCF/MJB model (or "
+                   "package://PKG/FILE, menagerie://ROBOT/FILE) "
                    "(default: each suite's own 'model:')")
     p.add_argument("--format", choices=sorted(REPORTERS), default="text", help="output format (default: text)")
     p.add_argument("--import", dest="import_callables", action="store_true",
@@ -237,7 +238,8 @@ REPORTERS: dict[str, Callable[[Sequence[FileResult]], str]] = {"text": report_te
 
 def command(args: argparse.Namespace) -> int:
     found = collect(args.paths)
-    model = (args.model, load_model(str(existing_file(args.model, "model file")))) if args.model else None
+    path = model_option(args.model) if args.model else None
+    model = (path, load_model(path)) if path else None
     if args.import_callables:
         importable_cwd()
     models: dict[str, Any] = {}

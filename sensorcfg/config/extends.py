@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any, cast
 
 from ..errors import SuiteError, quote
-from .files import Unreadable, display, inside, read_text, resolve
+from .files import ROOT_HINT, Unreadable, display, inside, read_text, resolve
 from .limits import MAX_EXTENDS
 from .models import SuiteConfig
 from .source import Doc, Path_, Pos, compose
@@ -26,8 +26,6 @@ __all__ = ["with_parents", "merge", "SUITE_KEYS"]
 
 SUITE_KEYS = tuple(SuiteConfig.model_fields)
 _PATH_QUOTE = 160  # characters of an `extends` path a message quotes
-_ROOT_HINT = ("allow more with --extends-root DIR on the command line, or extends_root=DIR in Python "
-              "(extends_root='/' allows any file)")
 
 
 def _shown(target: Any) -> str:
@@ -53,7 +51,7 @@ def _parent_path(target: Any, at: Pos, base_dir: Path, chain: tuple[Path, ...], 
         raise _fail(at, f"extends makes a cycle: {cycle}; remove one of these extends")
     if root is not None and not inside(path, root):
         raise _fail(at, f"{_shown(target)} is outside the folder of the suite being loaded ({root}), "
-                        f"where extends may reach; {_ROOT_HINT}")
+                        f"where extends may reach; {ROOT_HINT}")
     return path
 
 

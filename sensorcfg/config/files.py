@@ -4,6 +4,11 @@
 forever), a device such as /dev/zero (never ends), a directory or a socket: a file's type is checked
 before it is opened and again on the open descriptor, and at most `MAX_FILE_BYTES` are read. Failures are
 `Unreadable` with a one-line reason that never includes the file's contents.
+
+Which files: a suite's `extends` and `model:` stay inside the folder tree of the suite being loaded (its
+`root`; the user widens it with `--extends-root`), so that MuJoCo's parse error cannot tell a pull request
+whether a file elsewhere exists or quote it; `package://` and `menagerie://` stay inside their package's or
+robot's folder (no `..` or symlink out). Both are decided from the path alone, before a file is opened.
 """
 
 from __future__ import annotations
@@ -12,13 +17,16 @@ import errno
 import importlib.util
 import os
 import stat
+from collections.abc import Callable
 from pathlib import Path
+from typing import NamedTuple
 
 from ..errors import quote
 from . import limits
-from .menagerie import MENAGERIE_SCHEME, resolve_menagerie
+from .menagerie import MENAGERIE_SCHEME, menagerie_file, menagerie_missing
 
-__all__ = ["Unreadable", "irregular", "display", "read_text", "resolve", "resolve_model_path", "inside", "PACKAGE_SCHEME"]
+__all__ = ["Unreadable", "irregular", "display", "read_text", "resolve", "resolve_model_path", "model_file", "inside",
+           "PACKAGE_SCHEME", "ROOT_HINT", "SCHEMES"]
 
 PACKAGE_SCHEME = "package://"
 
@@ -27,6 +35,9 @@ _TYPES = ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
 
 
 _NUL = "the path holds a NUL character"
+# how a user lets a suite's `extends` and `model:` reach more of the machine than the suite's own folder tree
+ROOT_HINT = ("allow more with --extends-root DIR on the command line, or extends_root=DIR in Python "
+             "(extends_root='/' allows any file)")
 
 
 class Unreadable(Exception):
@@ -122,23 +133,94 @@ def inside(path: Path, root: Path) -> bool:
     return path == root or root in path.parents
 
 
-def resolve_model_path(value: str, base_dir: Path) -> str:
-    """A suite's `model:` as a path: relative to the suite, inside an installed package, or in Menagerie."""
-    if value.startswith(MENAGERIE_SCHEME):
-        return resolve_menagerie(value)
-    if value.startswith(PACKAGE_SCHEME):
-        package, _, inner = value[len(PACKAGE_SCHEME):].partition("/")
-        spec = None
-        if package.isidentifier():
-            try:
-                spec = importlib.util.find_spec(package)
-            except (ImportError, ValueError):
-                spec = None
-        if spec is None or not spec.submodule_search_locations:
-            raise ValueError(f"no installed package {quote(package)} for {quote(value)}; write "
-                             f"'package://<package>/<path inside it>' or a path relative to this suite")
-        return str(Path(list(spec.submodule_search_locations)[0]) / inner)
+class _Found(NamedTuple):
+    """Where a scheme's model lives: the folder it must stay in, the file named inside it, and what owns
+    the folder (for messages)."""
+
+    folder: Path
+    path: Path
+    owner: str
+    missing: Callable[[], str] | None = None  # why the file is not there, when the scheme says more than MuJoCo
+
+
+# packages that hold no robot files of their own: naming them with package:// means menagerie://
+_MENAGERIE_PACKAGES = ("mujoco_menagerie", "mujoco-menagerie", "menagerie")
+
+
+def _in_package(value: str) -> _Found:
+    package, _, inner = value[len(PACKAGE_SCHEME):].partition("/")
+    if package in _MENAGERIE_PACKAGES:
+        raise ValueError(f"Menagerie robots are named {MENAGERIE_SCHEME}<robot folder>/<file>, not through a "
+                         f"package; write {quote(MENAGERIE_SCHEME + inner, 120)}")
+    spec = None
+    if package.isidentifier():
+        try:
+            spec = importlib.util.find_spec(package)
+        except (ImportError, ValueError):
+            spec = None
+    if spec is None or not spec.submodule_search_locations:
+        raise ValueError(f"no installed package {quote(package)} for {quote(value)}; write "
+                         f"'package://<package>/<path inside it>' or a path relative to this suite")
+    folder = Path(list(spec.submodule_search_locations)[0])
+    return _Found(folder, folder / inner, f"the package {quote(package)}")
+
+
+def _in_menagerie(value: str) -> _Found:
+    folder, path = menagerie_file(value)
+    return _Found(folder, path, f"the Menagerie robot {quote(folder.name)}", lambda: menagerie_missing(value, folder))
+
+
+# scheme -> where the model it names lives
+SCHEMES: dict[str, Callable[[str], _Found]] = {PACKAGE_SCHEME: _in_package, MENAGERIE_SCHEME: _in_menagerie}
+
+
+def _confined(path: Path, root: Path) -> Path | None:
+    """`path` resolved, when it lies in the tree of `root` (symlinks followed); else None."""
     try:
-        return str(resolve(base_dir / value))
+        resolved, top = resolve(path), resolve(root)
     except Unreadable as e:
         raise ValueError(f"the model path cannot be resolved: {e}") from None
+    return resolved if inside(resolved, top) else None
+
+
+def _scheme_path(value: str) -> str | None:
+    """The file a `package://` or `menagerie://` model names, confined to its package's or robot's folder;
+    None when `value` has no scheme."""
+    scheme = next((s for s in SCHEMES if value.startswith(s)), None)
+    if scheme is None:
+        return None
+    found = SCHEMES[scheme](value)
+    path = _confined(found.path, found.folder)
+    if path is None:  # said before anything is opened, and without saying whether the file exists
+        raise ValueError(f"{quote(value, 160)} leaves the folder of {found.owner} ({found.folder}); a {scheme} "
+                         "model is a file inside it, named without '..' and not through a symlink out of it")
+    if found.missing is not None and not path.is_file():
+        raise ValueError(found.missing())
+    return str(path)
+
+
+def resolve_model_path(value: str, base_dir: Path, root: Path | None = None) -> str:
+    """A suite's `model:` as a path: relative to the suite (and inside the tree of `root`, when given),
+    inside an installed package, or in Menagerie. ValueError with the fix, before any model file is opened."""
+    found = _scheme_path(value)
+    if found is not None:
+        return found
+    if root is None:
+        try:
+            return str(resolve(base_dir / value))
+        except Unreadable as e:
+            raise ValueError(f"the model path cannot be resolved: {e}") from None
+    path = _confined(base_dir / value, root)
+    if path is None:
+        raise ValueError(f"{quote(value, 160)} is outside the folder of the suite being loaded ({root}), where "
+                         f"model may reach; {ROOT_HINT}, or name a file of an installed package as "
+                         "'package://<package>/<path>'")
+    return str(path)
+
+
+def model_file(model: str | os.PathLike[str]) -> str:
+    """A model the user named in Python or on the command line (not a suite's `model:`): a `package://` or
+    `menagerie://` name resolved as in a suite, any other path as it is. ValueError with the fix."""
+    value = os.fspath(model)
+    found = _scheme_path(value) if isinstance(value, str) else None
+    return value if found is None else found

@@ -10,12 +10,14 @@ Problems are collected, not raised one at a time. No mujoco here.
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import os
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from pydantic import ValidationError
+from pydantic_core import ErrorDetails
 
 from ..errors import ArgumentError, Problem, SuiteError, quote
 from .extends import with_parents
@@ -73,34 +75,66 @@ def _sorted(problems: Sequence[Problem]) -> tuple[Problem, ...]:
     return tuple(sorted(problems, key=lambda p: (files.index(p.file), p.line or 0, p.col or 0)))
 
 
+# key -> the keys whose rules read it: when the schema rejects the key (or an unknown key that names it,
+# `buffers:`), those keys cannot be judged either (an aggregator is checked against the buffer), so they are
+# left out of the partial suite rather than reported against a value the user did not write
+_JUDGED_WITH: dict[str, tuple[str, ...]] = {"buffer": ("aggregator",)}
+_SENSOR_KEYS = tuple(f.alias or n for n, f in SensorConfig.model_fields.items())
+
+
+def _rejected_key(error: ErrorDetails) -> Any:
+    """The key a sensor- or defaults-level error rejects: an unknown key close to a known one (`buffers`)
+    stands for that key."""
+    key = error["loc"][2] if error["loc"][0] == "sensors" else error["loc"][1]
+    if error["type"] == "extra_forbidden" and isinstance(key, str):
+        close = difflib.get_close_matches(key, _SENSOR_KEYS, n=1, cutoff=0.8)
+        return close[0] if close else key
+    return key
+
+
 def _without_invalid(value: dict[str, Any], error: ValidationError, whole_sensors: bool) -> dict[str, Any] | None:
     """The suite without what the schema rejected: each sensor's rejected keys (or, with `whole_sensors`,
-    those sensors) and rejected top-level keys; None when the rest cannot stand alone (the `sensors`
-    mapping itself is malformed). Keeping a sensor's valid keys lets binding report its model mistakes
-    in the same pass as its schema mistakes."""
+    those sensors) and rejected top-level keys (of `defaults`, only the rejected ones), and the keys judged
+    with a rejected one (`_JUDGED_WITH`); None when the rest cannot stand alone (the `sensors` mapping itself
+    is malformed). Keeping a sensor's valid keys lets binding report its model mistakes in the same pass as
+    its schema mistakes."""
     sensors_out: set[Any] = set()
     sensor_keys_out: dict[Any, set[Any]] = {}
+    defaults_out: set[Any] = set()
     keys_out: set[Any] = set()
     for e in error.errors(include_url=False):
         loc = tuple(e["loc"])
         if len(loc) >= 3 and loc[0] == "sensors" and not whole_sensors and e["type"] != "missing":
-            sensor_keys_out.setdefault(loc[1], set()).add(loc[2])
+            sensor_keys_out.setdefault(loc[1], set()).update((loc[2], *_JUDGED_WITH.get(_rejected_key(e), ())))
         elif len(loc) >= 2 and loc[0] == "sensors":
             sensors_out.add(loc[1])
+        elif len(loc) >= 2 and loc[0] == "defaults" and isinstance(value.get("defaults"), dict):
+            defaults_out.update((loc[1], *_JUDGED_WITH.get(_rejected_key(e), ())))
         elif loc and loc[0] != "sensors":
             keys_out.add(loc[0])
         else:
             return None
     rest = {k: v for k, v in value.items() if k not in keys_out}
+    if defaults_out:
+        rest["defaults"] = {k: v for k, v in rest["defaults"].items() if k not in defaults_out}
     if isinstance(rest.get("sensors"), dict):
-        rest["sensors"] = {k: ({kk: vv for kk, vv in v.items() if kk not in sensor_keys_out[k]}
-                               if k in sensor_keys_out and isinstance(v, dict) else v)
+        rest["sensors"] = {k: ({kk: vv for kk, vv in v.items() if kk not in sensor_keys_out.get(k, ())
+                                and not _judged_with_default(kk, v, defaults_out)}
+                               if isinstance(v, dict) else v)
                            for k, v in rest["sensors"].items() if k not in sensors_out}
     return rest
 
 
-def _complete(config: SuiteConfig, doc: Doc, file: str, dirs: dict[str, Path]) -> tuple[LoadedSuite, list[Problem]]:
-    """Effective sensors and the model path of a schema-valid suite, and the problems of the rules."""
+def _judged_with_default(key: str, sensor: dict[str, Any], rejected: set[Any]) -> bool:
+    """Whether a sensor's `key` is judged with a default the schema rejected that the sensor does not set
+    itself (its aggregator, with a rejected `defaults.buffer` and no buffer of its own)."""
+    return any(key in _JUDGED_WITH.get(default, ()) and default not in sensor for default in rejected)
+
+
+def _complete(config: SuiteConfig, doc: Doc, file: str, dirs: dict[str, Path], root: Path | None
+              ) -> tuple[LoadedSuite, list[Problem]]:
+    """Effective sensors and the model path of a schema-valid suite (inside `root`, see `files`), and the
+    problems of the rules."""
     sensors: dict[str, SensorConfig] = {}
     problems: list[Problem] = []
     for name, sensor in config.sensors.items():
@@ -112,14 +146,14 @@ def _complete(config: SuiteConfig, doc: Doc, file: str, dirs: dict[str, Path]) -
         pos = doc.pos(("model",))
         base = dirs.get(pos.file, Path.cwd()) if pos else Path.cwd()
         try:
-            model = resolve_model_path(config.model, base)
+            model = resolve_model_path(config.model, base, root)
         except ValueError as e:
             problems.append(problem_at(doc, ("model",), str(e)))
     return LoadedSuite(config, sensors, doc, file, model, twins), problems
 
 
 def _partial(value: dict[str, Any], error: ValidationError, doc: Doc, file: str, dirs: dict[str, Path],
-             dropped: set[str]) -> tuple[LoadedSuite | None, list[Problem]]:
+             root: Path | None, dropped: set[str]) -> tuple[LoadedSuite | None, list[Problem]]:
     """What passed the schema, with its own problems and without any sensor that has one: first each sensor
     without its rejected keys (so a model mistake is found in the same pass as a schema mistake), else
     without the sensors the schema rejected. `dropped`: the locations the schema already reported."""
@@ -128,7 +162,7 @@ def _partial(value: dict[str, Any], error: ValidationError, doc: Doc, file: str,
         if rest is None:
             return None, []
         try:
-            loaded, problems = _complete(SuiteConfig.model_validate(rest), doc, file, dirs)
+            loaded, problems = _complete(SuiteConfig.model_validate(rest), doc, file, dirs, root)
         except ValidationError:
             continue
         problems = [p for p in problems if p.loc not in dropped]  # a dropped key is reported once
@@ -137,7 +171,7 @@ def _partial(value: dict[str, Any], error: ValidationError, doc: Doc, file: str,
     return None, []
 
 
-def _validate(doc: Doc, file: str, dirs: dict[str, Path], problems: list[Problem]) -> LoadResult:
+def _validate(doc: Doc, file: str, dirs: dict[str, Path], root: Path | None, problems: list[Problem]) -> LoadResult:
     if doc.value is None:  # an empty file: an empty suite, whose problems are at its start
         doc.value = {}
     value = doc.value
@@ -152,9 +186,9 @@ def _validate(doc: Doc, file: str, dirs: dict[str, Path], problems: list[Problem
     except ValidationError as e:
         found = {(p.file, p.line, p.col) for p in doc.problems}  # a removed node: report it once
         later = [p for p in problems_from(e, doc, SuiteConfig) if (p.file, p.line, p.col) not in found]
-        partial, rest = _partial(value, e, doc, file, dirs, {p.loc for p in later})
+        partial, rest = _partial(value, e, doc, file, dirs, root, {p.loc for p in later})
         return LoadResult(partial, _sorted(problems + later + rest))
-    loaded, rest = _complete(config, doc, file, dirs)
+    loaded, rest = _complete(config, doc, file, dirs, root)
     problems += rest
     return LoadResult(None, _sorted(problems)) if problems else LoadResult(loaded)
 
@@ -172,7 +206,7 @@ def _parse(text: str, file: str, base_dir: Path, overrides: Sequence[str] | None
     problems: list[Problem] = []
     for text_ in overrides or ():
         problems.extend(apply_override(doc, text_))
-    return _validate(doc, file, dirs, problems)
+    return _validate(doc, file, dirs, root, problems)
 
 
 def _root(extends_root: str | os.PathLike[str] | None, default: Path) -> Path:
@@ -185,7 +219,8 @@ def _root(extends_root: str | os.PathLike[str] | None, default: Path) -> Path:
 def parse_path(path: str | os.PathLike[str], overrides: Sequence[str] | None = None, *,
                extends_root: str | os.PathLike[str] | None = None) -> LoadResult:
     """Read, merge, override and validate the suite at `path`, returning what was found (never raising for
-    a mistake in the files). `extends` may reach files below `extends_root` (default: the suite's folder)."""
+    a mistake in the files). `extends` and `model:` may name files below `extends_root` (default: the suite's
+    folder); `package://` and `menagerie://` models stay inside their package's or robot's folder."""
     try:
         resolved = resolve(Path(path))
         file = display(resolved)
@@ -199,7 +234,7 @@ def parse_text(text: str, overrides: Sequence[str] | None = None, *, file: str =
                base_dir: str | os.PathLike[str] | None = None,
                extends_root: str | os.PathLike[str] | None = None) -> LoadResult:
     """Like `parse_path`, for a suite given as text; `extends` and `model` are relative to `base_dir`
-    (default: the working directory), and `extends` may reach files below `extends_root` (default: `base_dir`)."""
+    (default: the working directory), and may name files below `extends_root` (default: `base_dir`)."""
     base = Path(base_dir) if base_dir is not None else Path.cwd()
     try:
         root = _root(extends_root, resolve(base))

@@ -38,6 +38,10 @@ _FORMS = {
              "(no dots or spaces: names appear in dotted paths)",
 }
 
+# field -> other words for its choices (what "did you mean" offers when the spelling is not close)
+_SYNONYMS = {"aggregator": {"average": "mean", "avg": "mean", "mean_value": "mean", "maximum": "max",
+                            "minimum": "min", "med": "median", "total": "sum", "add": "sum"}}
+
 # key -> what its upper bound means (limits.py holds the numbers)
 _AT_MOST = {"buffer": "a buffer keeps at most {:,} samples (the latest delivered ones)"}
 _ITEMS = {"sensors": "sensors in a suite"}
@@ -154,6 +158,8 @@ def _message(error: ErrorDetails, path: Path_, root: type[BaseModel], value: Any
     ctx = error.get("ctx") or {}
     given = error.get("input")
     name = path[-1] if path else ""
+    if _fixed_length(error):
+        return _wrong_length(root, path, value)
     if kind == "missing":
         return f"missing required key {quote(name)}{_MISSING.get(str(name), '')}"
     if kind == "extra_forbidden":
@@ -166,8 +172,9 @@ def _message(error: ErrorDetails, path: Path_, root: type[BaseModel], value: Any
     if kind == "literal_error":
         choices = re.findall(r"'([^']*)'", str(ctx.get("expected", ""))) or re.findall(r"\d+", str(ctx.get("expected")))
         label = {"aggregator": "aggregator", "version": "version"}.get(str(name), "value")
-        return (f"unknown {label} {quote(given)}{did_you_mean(str(given), choices)}; "
-                f"use one of: {', '.join(choices)}")
+        synonym = _SYNONYMS.get(str(name), {}).get(str(given).strip().lower())
+        hint = f" (did you mean {quote(synonym)}?)" if synonym in choices else did_you_mean(str(given), choices)
+        return f"unknown {label} {quote(given)}{hint}; use one of: {', '.join(choices)}"
     if kind == "string_pattern_mismatch":
         form = _FORMS.get(str(name), f"expected text matching {ctx.get('pattern')!r}")
         return f"{form}; got {quote(given)}"
@@ -185,6 +192,28 @@ def _message(error: ErrorDetails, path: Path_, root: type[BaseModel], value: Any
     if str(error["msg"]).startswith("Input should"):
         return f"{error['msg']}; got {describe(given)}"
     return str(error["msg"])  # a custom error (noise stages) already says what it found
+
+
+def _fixed_length(error: ErrorDetails) -> bool:
+    """Whether `error` is about a fixed-length list (a tuple field) with too few or too many entries."""
+    loc = error["loc"]
+    return (error["type"] == "missing" and bool(loc) and isinstance(loc[-1], int)) or (
+        error["type"] == "too_long" and (error.get("ctx") or {}).get("field_type") == "Tuple")
+
+
+def _wrong_length(root: type[BaseModel], path: Path_, value: Any) -> str:
+    """A fixed-length list with too few or too many entries: how many it takes, of what, and what it has."""
+    model = model_at(root, path[:-1], value)
+    field = model.model_fields.get(str(path[-1])) if model and path else None
+    items = typing.get_args(field.annotation) if field else ()
+    if items and items[-1] is Ellipsis:
+        items = ()
+    items = tuple(typing.get_args(a)[0] if typing.get_origin(a) is typing.Annotated else a for a in items)
+    what = "numbers" if items and all(a in (int, float) for a in items) else "values"
+    found = _child(_at(value, path[:-1]), path[-1]) if path else None
+    count = f"{len(found)}" if isinstance(found, list) else describe(found)
+    name = path[-1] if path else "the list"
+    return f"{name} takes {len(items) or 'more'} {what}; got {count}{f': {quote(found, 60)}' if isinstance(found, list) else ''}"
 
 
 def describe(value: Any) -> str:
@@ -215,7 +244,10 @@ def problems_from(error: ValidationError, doc: Doc, root: type[BaseModel], prefi
             out.append(problem_at(doc, prefix + path, message, key=True))
             continue
         message = _message(e, path, root, value)
-        if e["type"] == "missing":
+        if _fixed_length(e):  # at the list; `size: []` misses two entries but is one mistake
+            if not out or out[-1].message != message or out[-1].loc != dotted(prefix + path):
+                out.append(problem_at(doc, prefix + path, message))
+        elif e["type"] == "missing":
             pos = doc.pos(prefix + path[:-1], key=True)
             out.append(Problem(message, dotted(prefix + path), *((pos.file, pos.line, pos.col) if pos else ())))
         else:

@@ -56,6 +56,8 @@ def _fixed(value: Any, *, rates: bool, minimum: int) -> int | str:
         raise ValueError(f"expected integer physics steps, {what}a duration like '4ms', or "
                          f"{{uniform: [lo, hi]}} / {{choice: [...], p: [...]}}; got {quote(value)}")
     if isinstance(value, int):
+        if value < 0:
+            raise ValueError(f"a number of physics steps cannot be negative; got {value}; use {minimum} or more")
         if value < minimum:
             raise ValueError(f"expected at least {minimum} physics step{'s' if minimum != 1 else ''}; got {value}")
         if value > MAX_SCHEDULE_STEPS:
@@ -407,8 +409,9 @@ class SuiteConfig(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid", title="sensorcfg sensor suite")
     version: Literal[1] = Field(1, description="Version of the suite format.", examples=[1])
     model: str | None = Field(
-        None, description="Default MJCF model, relative to this file; 'package://<package>/<path>' for a "
-        "file shipped inside an installed Python package; 'menagerie://<robot folder>/<file>' for a MuJoCo "
+        None, description="Default MJCF model, relative to this file and inside the folder tree of the suite "
+        "being loaded (--extends-root / extends_root allows more); 'package://<package>/<path>' for a file "
+        "shipped inside an installed Python package; 'menagerie://<robot folder>/<file>' for a MuJoCo "
         "Menagerie robot, through the mujoco-menagerie package (which honours MENAGERIE_ROOT).",
         examples=["../models/arm.xml", "package://sensorcfg/assets/robot.xml", "menagerie://unitree_go2/scene.xml"])
     extends: str | None = Field(

@@ -36,6 +36,8 @@ def parse_time(text: str, *, rates: bool) -> tuple[float, str, str]:
     match = _TEXT.match(text)
     units = list(DURATION_UNITS) + (list(RATE_UNITS) if rates else [])
     examples = "'4ms', '0.02s', '500us'" + (", '50Hz'" if rates else "")
+    if not match and text.strip().startswith("-") and _TEXT.match(text.strip()[1:]):
+        raise ValueError(f"a time cannot be negative; got {quote(text)}; use a time like {examples}")
     if not match:
         raise ValueError(f"expected physics steps (an integer) or a time like {examples}; got {quote(text)}")
     number, unit = float(match.group(1)), match.group(2)

@@ -14,20 +14,21 @@ import math
 import os
 import warnings
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any
+from typing import Any, TypeAlias
 
 import dm_env
 import mujoco
 import numpy as np
 from dm_env import specs
 
-from ..errors import ArgumentError, SuiteError
+from ..config.files import model_file
+from ..errors import ArgumentError, Problem, SuiteError
 from ..physics import Physics, read_model
 from ..runtime.updater import Updater
 from ..selection import keyframe_id
 from .episode import episode_end
 
-__all__ = ["NOT_COPYABLE", "ControlLoop", "Environment", "make_env", "load_model", "random_state_from",
+__all__ = ["NOT_COPYABLE", "ControlLoop", "Environment", "make_env", "load_model", "model_source", "random_state_from",
            "steps_per_control_step", "keyframe_index"]
 
 _BAD_STATE = np.array([int(getattr(mujoco.mjtWarning, f"mjWARN_BAD{w}")) for w in ("QPOS", "QVEL", "QACC", "CTRL")])
@@ -70,16 +71,49 @@ def random_state_from(seed: int | np.random.SeedSequence | np.random.RandomState
 
 
 def load_model(model: mujoco.MjModel | str | os.PathLike) -> mujoco.MjModel:
-    """An MjModel, or one loaded from an MJCF (or MJB) path with a clear error."""
+    """An MjModel, or one loaded from an MJCF (or MJB) path (or a `package://` or `menagerie://` name, as in
+    a suite's `model:`) with a clear error."""
     if isinstance(model, mujoco.MjModel):
         return model
-    path = os.fspath(model)
+    path = _model_file(model)
     if not os.path.isfile(path):
         raise SuiteError(f"model file {path!r} does not exist")
     try:
         return read_model(path)
     except ValueError as e:
         raise SuiteError(f"{path}: MuJoCo could not load the model: {e}") from None
+
+
+def _model_file(model: str | os.PathLike) -> str:
+    try:
+        return model_file(model)
+    except ValueError as e:
+        raise SuiteError(f"model {os.fspath(model)!r}: {e}") from None
+
+
+ModelArg: TypeAlias = "mujoco.MjModel | mujoco.MjSpec | str | os.PathLike[str] | None"
+
+
+def model_source(model: ModelArg, suite: Any) -> tuple[mujoco.MjModel | mujoco.MjSpec | str, Any]:
+    """What an environment runs on, and its suite (loaded when given as a path): `model` (a `package://` or
+    `menagerie://` name resolved as a suite's `model:` is), or, when it is None, the suite's own `model:`."""
+    if isinstance(suite, (str, os.PathLike)):
+        from .. import load
+
+        suite = load(suite)
+    if model is None:
+        if isinstance(suite, Mapping):
+            raise ArgumentError("model is None, and a dict of observables names no model: pass an MjModel, an "
+                                "MjSpec or a model path")
+        path = getattr(suite, "model", None)
+        if path is None:
+            raise SuiteError(Problem("the suite names no model: add 'model: path/to/robot.xml' to the suite, or "
+                                     "pass the model (an MjModel, an MjSpec or a path) as the first argument",
+                                     "model", getattr(suite, "file", None)))
+        return path, suite
+    if isinstance(model, (str, os.PathLike)):
+        return _model_file(model), suite
+    return model, suite
 
 
 def steps_per_control_step(model: mujoco.MjModel, steps: int | None, control_timestep: float | None) -> int:
@@ -208,17 +242,19 @@ class ControlLoop:
 class Environment(ControlLoop, dm_env.Environment):
     """A MuJoCo model stepped with zero-cost glue, observed through a sensor suite.
 
+    `model` is an MjModel, an MjSpec or a path (`package://` and `menagerie://` too), or None for the
+    suite's own `model:`; `suite` a `Suite`, a suite path, or a dict of observables.
     The control step is `physics_steps_per_control_step` or `control_timestep` when given, else the suite's
     `options.control_interval`, else one physics step.
     """
 
-    def __init__(self, model: mujoco.MjModel | mujoco.MjSpec | str | os.PathLike, suite: Any, *,
+    def __init__(self, model: ModelArg, suite: Any, *,
                  physics_steps_per_control_step: int | None = None, control_timestep: float | None = None,
                  time_limit: float | None = None,
                  seed: int | np.random.SeedSequence | np.random.RandomState | None = None,
                  reward_fn: RewardFn | None = None, termination_fn: TerminationFn | None = None,
                  initialize_episode: InitializeFn | None = None, keyframe: int | str | None = None):
-        self._model, observables, kwargs = model_and_observables(model, suite)
+        self._model, observables, kwargs = model_and_observables(*model_source(model, suite))
         self._physics = Physics(self._model)
         self._warning_counts = self._physics.data.warning.number  # a live view of MjData's counters
         self._bad_counts = None if _BAD_SPAN is None else self._warning_counts[_BAD_SPAN]
@@ -347,14 +383,6 @@ class Environment(ControlLoop, dm_env.Environment):
         pass
 
 
-def make_env(suite_path: str | os.PathLike, model: mujoco.MjModel | str | os.PathLike | None = None,
-             **kwargs: Any) -> Environment:
+def make_env(suite_path: str | os.PathLike, model: ModelArg = None, **kwargs: Any) -> Environment:
     """An Environment for a suite file, on the suite's own `model:` unless one is given."""
-    from .. import load
-
-    suite = load(suite_path)
-    if model is None:
-        model = getattr(suite, "model", None)
-        if model is None:
-            raise SuiteError(f"{os.fspath(suite_path)}: the suite names no model; pass model=... to make_env")
-    return Environment(model, suite, **kwargs)
+    return Environment(model, suite_path, **kwargs)
