@@ -4,10 +4,11 @@ What it measures: rays start `above` metres over points of the pattern around th
 or a site) and go down; each reads `origin_z - hit_z`, the height of the frame's origin above the first
 terrain point the ray meets within `max_distance`, or `miss`. Terrain is every geom welded to the world
 (the floor, heightfields, static boxes and stairs) in `geomgroup` that mj_ray sees (alpha above 0, the
-material's where the geom has one); moving bodies, the robot's own among them, are not seen, as Isaac Lab's ray caster sees only its terrain mesh. The rays are cast at a model of
-the terrain alone (`terrain_model`), in one `Batch.ray` call on MuJoCo 4 (mj_ray per ray on MuJoCo 3); the
-frame's pose is read from MjData as every other sensor reads it. A batch casts the rays of every due
-simulation in one call from the same function, so one simulation and a batch agree to the bit.
+material's where the geom has one); moving bodies, the robot's own among them, are not seen, as Isaac
+Lab's ray caster sees only its terrain mesh. The rays are cast at a model of the terrain alone
+(`terrain_model`), in one `Batch.ray` call on MuJoCo 4 (mj_ray per ray on MuJoCo 3); the frame's pose is
+read from MjData as every other sensor reads it. A batch casts the rays of every due simulation in one
+call from the same function, so one simulation and a batch agree to the bit.
 
 Alignment: 'yaw' turns the pattern with the frame's heading (rays stay vertical), 'full' follows its whole
 orientation (rays along its -z; the value is still a vertical height), 'world' keeps world axes.
