@@ -22,7 +22,7 @@ from .errors import did_you_mean
 from .kinds import CONSTANT, INTERNAL, STATE, kinds_of, offered_kinds, state_twin
 from .observables.feature import batch_on_demand_problem
 
-__all__ = ["kind_problems", "sensor_problems", "batch_problems", "batch_refusal", "per_simulation_refusal"]
+__all__ = ["constant_problem", "kind_problems", "sensor_problems", "batch_problems", "batch_refusal", "per_simulation_refusal"]
 
 Found = list[tuple[tuple[str | int, ...], str]]  # (key path inside the sensor, message)
 
@@ -55,6 +55,11 @@ def kind_problems(type_name: str, kind: str, constant: bool, native: Sequence[st
         return [(("constant",), f"{kind!r} changes with the simulation; 'constant: true' is for model constants: "
                  "remove it")]
     return []
+
+
+def constant_problem(what: str) -> str:
+    """`constant` on a sensor that reads no model field: `what` says what it reads instead."""
+    return f"'constant' is for features of model fields; {what} is not one: remove it"
 
 
 def sensor_problems(cfg: SensorConfig, shape: tuple[int, ...] | None, strip: bool) -> Found:
@@ -105,7 +110,8 @@ def batch_refusal(rule: str, **details: str) -> str:
 
 
 def batch_problems(cfg: SensorConfig, dtype: Any, field: str | None, model: mujoco.MjModel) -> Found:
-    """What `BatchEnvironment` cannot run, by key."""
+    """What `BatchEnvironment` cannot run, by key; `field`: the mjData / mjModel field the sensor was bound
+    to read (None for MuJoCo sensor kinds, height scans, cameras, callables, and one that did not bind)."""
     found: Found = []
     if cfg.kind in IMAGE_KINDS or cfg.kind == HEIGHTSCAN_KIND:  # sampled per simulation; noise runs per simulation
         for key, present in (("aggregator", cfg.aggregator is not None),
@@ -115,7 +121,7 @@ def batch_problems(cfg: SensorConfig, dtype: Any, field: str | None, model: mujo
         return found
     if cfg.kind == GENERIC_KIND:
         return [(("kind",), batch_refusal("generic"))]
-    if cfg.constant:
+    if cfg.constant and field is not None:  # (`constant` where there is no model field: the binder's problem)
         found.append((("constant",), batch_refusal("constant")))
     elif dtype is not None and np.dtype(dtype) != np.float64:
         found.append((("kind",), batch_refusal("dtype", what=cfg.kind, dtype=str(np.dtype(dtype)))))
