@@ -25,7 +25,7 @@ from .config.models import ChoiceDraw, SensorConfig, UniformDraw
 from .config.noise import GaussianStage
 from .config.source import Path_
 from .config.tables import GENERIC_KIND, HEIGHTSCAN_KIND, IMAGE_KINDS
-from .config.units import to_steps
+from .config.units import timestep_problem, to_steps
 from .draws import ChoiceSteps, UniformSteps
 from .checks import batch_problems, constant_problem, kind_problems, sensor_problems
 from .errors import Problem, SuiteError, did_you_mean
@@ -448,6 +448,10 @@ def bind(suite: LoadedSuite, model: mujoco.MjModel, *, import_callables: bool, c
     needs the shape of its value, is then built (and its shape-dependent mistakes found) only by a build.
     `refused`: MuJoCo's message for each native sensor it would not compile (`sensorcfg.native`)."""
     binder = _Binder(suite, model, import_callables, call_callables, batch, dict(refused or {}))
+    timestep = timestep_problem(float(model.opt.timestep))
+    if timestep is not None:  # nothing is timed without it: one problem, at the model's line
+        binder.report(("model",), timestep)
+        return {}, binder.problems
     binder.options()
     observables: dict[str, Observable] = {}
     for name, cfg in suite.sensors.items():

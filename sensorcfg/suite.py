@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 from .config import LoadedSuite, OptionsConfig, SensorConfig, SuiteConfig, load_path, load_text, to_steps
 from .config.limits import MAX_OBSERVATION_BYTES
+from .config.units import timestep_problem
 from .errors import ArgumentError, Problem, SuiteError, quote
 
 if TYPE_CHECKING:
@@ -195,12 +196,14 @@ class Suite:
         steps = 1
         if options.control_interval is not None:
             timestep = float(self._mjmodel(model).opt.timestep)
+            problem = timestep_problem(timestep)  # (said at the model's line, as binding says it)
+            path, message = (("model",), problem) if problem else (("options", "control_interval"), "")
             try:
                 steps = to_steps(options.control_interval, timestep, minimum=1)
             except ValueError as e:
-                pos = self._loaded.doc.pos(("options", "control_interval"))
-                loc = "options.control_interval"
-                raise SuiteError(pos.problem(str(e), loc) if pos else Problem(str(e), loc, self.file)) from None
+                pos, loc = self._loaded.doc.pos(path), ".".join(path)
+                message = message or str(e)
+                raise SuiteError(pos.problem(message, loc) if pos else Problem(message, loc, self.file)) from None
         return {"physics_steps_per_control_step": steps,
                 "strip_singleton_buffer_dim": options.strip_singleton_buffer_dim,
                 "pad_with_initial_value": options.pad_with_initial_value}

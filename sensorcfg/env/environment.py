@@ -21,6 +21,7 @@ import mujoco
 import numpy as np
 from dm_env import specs
 
+from ..config.units import timestep_problem
 from ..errors import ArgumentError, SuiteError
 from ..physics import Physics, read_model
 from ..runtime.updater import Updater
@@ -82,10 +83,18 @@ def load_model(model: mujoco.MjModel | str | os.PathLike) -> mujoco.MjModel:
         raise SuiteError(f"{path}: MuJoCo could not load the model: {e}") from None
 
 
+def _timed(timestep: float, what: str) -> None:
+    """`what`, in seconds, needs physics steps that last a time (a suite's own times are checked at binding)."""
+    problem = timestep_problem(timestep)
+    if problem is not None:
+        raise ArgumentError(f"{what} is in seconds: {problem}")
+
+
 def steps_per_control_step(model: mujoco.MjModel, steps: int | None, control_timestep: float | None) -> int:
     """Physics steps per control step from either setting (both: they must agree; neither: 1)."""
     dt = float(model.opt.timestep)
     if control_timestep is not None:
+        _timed(dt, "control_timestep")
         ratio = float(control_timestep) / dt
         n = round(ratio)
         if n < 1 or not math.isclose(ratio, n, rel_tol=1e-9, abs_tol=1e-9):
@@ -116,6 +125,8 @@ def episode_timing(model: mujoco.MjModel, steps: int | None, control_timestep: f
     dt = n * float(model.opt.timestep)
     if time_limit is not None and not time_limit > 0:
         raise ArgumentError(f"time_limit must be positive seconds, got {time_limit!r}")
+    if time_limit is not None:
+        _timed(float(model.opt.timestep), "time_limit")
     return n, dt, None if time_limit is None else max(1, round(time_limit / dt))
 
 
