@@ -119,7 +119,7 @@ class Suite:
         mjmodel, refused = self._compiled(model, batch)
         observables, problems = bind(self._loaded, mjmodel, import_callables=import_callables,
                                      call_callables=call_callables, batch=batch, refused=refused)
-        return observables, problems + self._too_large(observables)
+        return observables, problems + self._memory_problems(observables, mjmodel)
 
     def compile(self, model: ModelLike = None, *, batch: bool = False) -> mujoco.MjModel:
         """The model with the MuJoCo sensors (and sites) the suite's native kinds add: `model` is an MJCF
@@ -141,12 +141,17 @@ class Suite:
             raise SuiteError(bind(self._loaded, mjmodel, import_callables=False, refused=refused)[1])
         return mjmodel
 
-    def _too_large(self, observables: Mapping[str, Observable]) -> list[Problem]:
-        """An observation that would hold more than `MAX_OBSERVATION_BYTES` (a deep buffer of large camera
-        images) is a problem at its buffer, not an allocation that fails (or swaps) when the suite runs."""
+    def _memory_problems(self, observables: Mapping[str, Observable], model: mujoco.MjModel,
+                         nsim: int = 1) -> list[Problem]:
+        """What the sensors would hold, at the lines that set it, before anything is allocated: an
+        observation of more than `MAX_OBSERVATION_BYTES` (a deep buffer of large images), at its buffer;
+        a sensor that keeps more than `MAX_KEPT_BYTES` between its samples and its reads (`memory.py`: its
+        ring or history by its schedule, over `nsim` simulations), at its delay or buffer."""
         import numpy as np
 
-        problems = []
+        from .memory import kept_problems
+
+        found: list[tuple[str, str, str]] = []
         for name, observable in observables.items():
             spec = observable.array_spec
             if spec is None:
@@ -154,13 +159,37 @@ class Suite:
             sample = int(np.prod(spec.shape)) * np.dtype(spec.dtype).itemsize
             buffer = observable.buffer_size or 1
             if buffer * sample > MAX_OBSERVATION_BYTES:
-                path = ("sensors", name, "buffer")
                 shape = "x".join(map(str, spec.shape))
-                message = (f"{buffer} samples of {sample:,} bytes ({shape} {np.dtype(spec.dtype)}) make "
-                           f"{buffer * sample / 2**30:.1f} GiB; an observation may hold at most "
-                           f"{MAX_OBSERVATION_BYTES / 2**30:g} GiB: use a smaller buffer or image")
-                pos = self._loaded.doc.pos(path)
-                problems.append(pos.problem(message, ".".join(path)) if pos else Problem(message, ".".join(path)))
+                found.append((name, "buffer", f"{buffer} samples of {sample:,} bytes ({shape} {np.dtype(spec.dtype)}) "
+                              f"make {buffer * sample / 2**30:.1f} GiB; an observation may hold at most "
+                              f"{MAX_OBSERVATION_BYTES / 2**30:g} GiB: use a smaller buffer or image"))
+        if found:
+            return self._at_lines(found)
+        return self._at_lines(kept_problems(observables, model, self._substeps(model), nsim))
+
+    def _substeps(self, model: mujoco.MjModel) -> int:
+        """Physics steps per control step by the suite's options (1 when it gives none, or none that fits:
+        that is a problem of its own)."""
+        value = self.options.control_interval
+        if value is None or timestep_problem(float(model.opt.timestep)):
+            return 1
+        try:
+            return to_steps(value, float(model.opt.timestep), minimum=1)
+        except ValueError:  # reported by binding at its line
+            return 1
+
+    def _at_lines(self, found: Sequence[tuple[str, str, str]]) -> list[Problem]:
+        """(sensor, key, message) as problems at the key's line; a clean twin's at its source's, which wrote it."""
+        problems = []
+        for name, key, message in found:
+            source = self._loaded.twins.get(name)
+            if source is not None:
+                name, message = source, f"its clean twin {name!r} runs (enabled; 'twin: false' drops it): {message}"
+            raw = self._loaded.doc.value["sensors"].get(name) or {}
+            defaults = self._loaded.doc.value.get("defaults") or {}
+            path = ("sensors", name, key) if key in raw or key not in defaults else ("defaults", key)
+            pos = self._loaded.doc.pos(path) or self._loaded.doc.pos(("sensors", name))
+            problems.append(pos.problem(message, ".".join(path)) if pos else Problem(message, ".".join(path)))
         return problems
 
     def build(self, model: ModelLike = None, *, import_callables: bool = True,
