@@ -76,21 +76,21 @@ class Suite:
                   ) -> tuple[mujoco.MjModel, dict[str, str]]:
         """The model to bind to, and MuJoCo's message for each native sensor it refused. A path (or the
         suite's `model:`, or an MjSpec) is compiled with the suite's native sensors (for a batch, also with
-        sensors that make MuJoCo fill the on-demand fields the suite reads); an MjModel is taken as it is
-        (it must carry them)."""
+        sensors that make MuJoCo fill the on-demand fields the suite reads) and its `cameras`; an MjModel
+        is taken as it is (it must carry them)."""
         import mujoco
 
         if isinstance(model, mujoco.MjModel):
-            return model, {}
+            return self._carrying(model), {}
         if isinstance(model, mujoco.MjSpec):
             from .native import compile_model
 
-            return compile_model(model, self._sources(), batch, extra)
+            return compile_model(self._mounted(model), self._sources(), batch, extra)
         if model is not None and not isinstance(model, (str, os.PathLike)):
             from .physics import raw_structs
 
             try:
-                return raw_structs(model)[0], {}
+                return self._carrying(raw_structs(model)[0]), {}
             except TypeError as e:
                 raise ArgumentError(f"model: {e}; or pass an MjModel or a path") from None
         if model is None:
@@ -102,15 +102,63 @@ class Suite:
         else:
             path, pos = str(model), None
         try:
-            from .native import compile_model, native_names, reads_on_demand
+            from .native import compile_model
             from .physics import read_model
 
-            if native_names(self._sources()) or (batch and reads_on_demand(self._sources())) or extra:
+            if self.config.cameras:
+                from .native.cameras import mount
+
+                source, found = mount(path, self.config.cameras)
+            elif self._adds_to_model(batch) or extra:
                 return compile_model(path, self._sources(), batch, extra)
-            return read_model(path), {}
+            else:
+                return read_model(path), {}
         except (ValueError, OSError) as e:
             message = f"cannot load the model {quote(str(path), 160)}: {str(e).strip()}"
             raise SuiteError(pos.problem(message, "model") if pos else Problem(message, file=str(path))) from None
+        if found:
+            raise SuiteError(self._at_paths(found))
+        return compile_model(source, self._sources(), batch, extra)
+
+    def _adds_to_model(self, batch: bool = False) -> bool:
+        """Whether the suite's model differs from its file: MuJoCo sensors for its native kinds, its
+        `cameras`, and for a batch the sensors that fill on-demand fields. A caller holding the file's
+        MjModel then passes the path instead, for the suite to compile."""
+        from .native import native_names, reads_on_demand
+
+        sources = self._sources()
+        return bool(native_names(sources) or self.config.cameras or (batch and reads_on_demand(sources)))
+
+    def _mounted(self, spec: mujoco.MjSpec) -> mujoco.MjSpec:
+        """`spec` with the suite's cameras (a copy), or `spec` itself when the suite adds none."""
+        if not self.config.cameras:
+            return spec
+        from .native.cameras import mount
+
+        mounted, found = mount(spec, self.config.cameras)
+        if found:
+            raise SuiteError(self._at_paths(found))
+        return mounted
+
+    def _carrying(self, model: mujoco.MjModel) -> mujoco.MjModel:
+        """`model`, which must already carry the suite's cameras."""
+        if self.config.cameras:
+            from .native.cameras import carried
+
+            found = carried(model, self.config.cameras)
+            if found:
+                raise SuiteError(self._at_paths(found))
+        return model
+
+    def _at_paths(self, found: Sequence[tuple[tuple[str, ...], str]]) -> list[Problem]:
+        """(path, message) pairs as problems at the path's line; a path of two keys (a mapping's entry) at
+        its key."""
+        problems = []
+        for path, message in found:
+            pos = self._loaded.doc.pos(path, key=len(path) == 2)
+            loc = ".".join(path)
+            problems.append(pos.problem(message, loc) if pos else Problem(message, loc, self.file))
+        return problems
 
     def _bind(self, model: ModelLike, import_callables: bool, batch: bool = False, call_callables: bool = True) -> tuple[
             dict[str, Observable], list[Problem]]:

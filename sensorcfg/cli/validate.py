@@ -171,10 +171,8 @@ def check_file(path: Path, model: tuple[str, Any] | None, overrides: Sequence[st
                 except SuiteError:
                     models[target] = None  # let check() report it, positioned at the suite's `model:` line
             target = models[target]  # None: let the suite load it and report where its `model:` is
-    from ..native import native_names, reads_on_demand
-
-    if target is not None and (native_names(suite.sensors) or (batch and reads_on_demand(suite.sensors))):
-        target = name  # the path: the suite compiles it with the MuJoCo sensors it adds, as the environments do
+    if target is not None and suite._adds_to_model(batch):
+        target = name  # the path: the suite compiles it with what it adds (sensors, cameras), as the environments do
     seen = {(p.file, p.line, p.col, p.message) for p in problems}
     problems += [p for p in suite.check(target, import_callables=import_callables, batch=batch)
                  if (p.file, p.line, p.col, p.message) not in seen]
