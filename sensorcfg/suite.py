@@ -267,6 +267,31 @@ class Suite:
         except SuiteError as e:
             return list(e.problems)
 
+    def notes(self, model: ModelLike = None) -> list[Problem]:
+        """Advice on a suite that builds, at its lines (`validate` and `spec` print it as notes): an image
+        sensor that renders costly shadows or reflections of this model with MuJoCo's default flags
+        (`checks.render_cost`). Never raises for a mistake (`check` reports those)."""
+        from .config.tables import IMAGE_KINDS
+
+        images = {name: cfg for name, cfg in self.sensors.items() if cfg.kind in IMAGE_KINDS and
+                  cfg.kind != "segmentation" and cfg.enabled is not False and name not in self._loaded.twins}
+        if not images:
+            return []
+        from .checks import render_cost
+
+        try:
+            mjmodel = self._mjmodel(model)
+        except SuiteError:
+            return []
+        found = []
+        for name, cfg in images.items():
+            message = render_cost(mjmodel, cfg.camera.scene if cfg.camera is not None else {})
+            if message is not None:
+                written = [p for p in (("sensors", name, "camera", "scene"), ("sensors", name, "camera"))
+                           if p in self._loaded.doc.keys]  # where the fix goes, else the sensor's name
+                found.append((written[0] if written else ("sensors", name), message))
+        return self._at_paths(found)
+
     def updater_kwargs(self, model: ModelLike = None) -> dict[str, Any]:
         """Keyword arguments for `sensorcfg.Updater` from `options` (time converted with the model)."""
         options = self.options
