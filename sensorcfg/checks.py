@@ -134,7 +134,7 @@ def batch_problems(cfg: SensorConfig, dtype: Any, field: str | None, model: mujo
     return found
 
 
-def _names(model: mujoco.MjModel, kind: mujoco.mjtObj, ids: Sequence[int], what: str) -> str:
+def _names(model: mujoco.MjModel, kind: mujoco.mjtObj, ids: np.ndarray, what: str) -> str:
     """'light 'sun'' or 'lights 'a', 'b', 'c' and 2 more'."""
     names = [mujoco.mj_id2name(model, kind, int(i)) or f"#{int(i)}" for i in ids]
     listed = ", ".join(repr(n) for n in names[:3]) + (f" and {len(names) - 3} more" if len(names) > 3 else "")

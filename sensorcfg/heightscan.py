@@ -105,7 +105,7 @@ def terrain_model(model: mujoco.MjModel) -> mujoco.MjModel:
         geom = spec.worldbody.add_geom()
         geom.type = mujoco.mjtGeom(int(model.geom_type[g]))
         geom.size, geom.pos, geom.group = model.geom_size[g], data.geom_xpos[g], model.geom_group[g]
-        geom.rgba = visible_rgba(model, g)
+        geom.rgba = visible_rgba(model, int(g))
         quat = np.zeros(4)
         mujoco.mju_mat2Quat(quat, data.geom_xmat[g])
         geom.quat = quat

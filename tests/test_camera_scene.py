@@ -149,6 +149,8 @@ def test_costly_default_rendering_is_a_note_where_the_fix_goes(model_path: str, 
     assert [(n["severity"], n["loc"], n["line"]) for n in notes] == [("note", "sensors.plain", 3)]
     assert main(["spec", str(path)]) == 0
     assert "note: sensors.plain: this camera renders shadows" in capsys.readouterr().out
+    assert main(["run", str(path), "--steps", "1"]) == 0
+    assert "note: sensors.plain: this camera renders shadows" in capsys.readouterr().out
 
 
 def test_a_model_without_shadows_or_reflections_gets_no_note(tmp_path) -> None:
