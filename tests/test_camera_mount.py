@@ -116,9 +116,11 @@ def test_a_camera_that_cannot_be_added_is_a_problem_at_its_line(cameras: str, ex
 @pytest.mark.parametrize("camera, expected", [
     pytest.param("{element: body:base, quat: [1, 0, 0, 0], xyaxes: [1, 0, 0, 0, 1, 0]}",
                  "give its orientation once: `quat` or `xyaxes`, not both", id="two-orientations"),
-    pytest.param("{element: body:base, xyaxes: [1, 0, 0, 2, 0, 0]}", "has a zero or parallel x and y axis",
+    pytest.param("{element: body:base, xyaxes: [1, 0, 0, 2, 0, 0]}",
+                 "cameras.c.xyaxes: xyaxes [1.0, 0.0, 0.0, 2.0, 0.0, 0.0] has a zero or parallel x and y axis",
                  id="parallel"),
-    pytest.param("{element: body:base, quat: [0, 0, 0, 0]}", "quat (0, 0, 0, 0) is no rotation", id="zero-quat"),
+    pytest.param("{element: body:base, quat: [0, 0, 0, 0]}", "cameras.c.quat: quat (0, 0, 0, 0) is no rotation",
+                 id="zero-quat"),
     pytest.param("{element: body:base, fovy: 180}", "cameras.c.fovy: expected a value < 180", id="fovy"),
     pytest.param("{element: body:base, pos: [0, .nan, 0]}", "cameras.c.pos.1", id="nan"),
 ])

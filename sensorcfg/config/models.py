@@ -12,7 +12,7 @@ import re
 from typing import TYPE_CHECKING, Annotated, Any, Literal, TypeAlias
 
 from pydantic import (BaseModel, ConfigDict, Field, PlainSerializer, PlainValidator, StringConstraints,
-                      WithJsonSchema, model_validator)
+                      WithJsonSchema, field_validator, model_validator)
 
 from .noise import NoiseStage
 from .tables import GENERIC_KIND, HEIGHTSCAN_KIND, IMAGE_KINDS, aggregator_names
@@ -238,18 +238,28 @@ class MountedCameraConfig(BaseModel):
         Field(None, description="Its resolution [width, height] in pixels, as MJCF's `resolution`: the image size "
               "of the sensors that read it unless they set `camera: {width, height}`.", examples=[[640, 480]])
 
+    @field_validator("quat")
+    @classmethod
+    def _a_rotation(cls, quat: tuple[float, ...] | None) -> tuple[float, ...] | None:
+        if quat is not None and not any(quat):
+            raise ValueError("quat (0, 0, 0, 0) is no rotation; the frame's own axes are (1, 0, 0, 0)")
+        return quat
+
+    @field_validator("xyaxes")
+    @classmethod
+    def _two_axes(cls, xyaxes: tuple[float, ...] | None) -> tuple[float, ...] | None:
+        if xyaxes is not None:
+            x, y = xyaxes[:3], xyaxes[3:]
+            cross = (x[1] * y[2] - x[2] * y[1], x[2] * y[0] - x[0] * y[2], x[0] * y[1] - x[1] * y[0])
+            if not any(cross):
+                raise ValueError(f"xyaxes {list(xyaxes)} has a zero or parallel x and y axis; give two axes at "
+                                 "right angles, such as [1, 0, 0, 0, 1, 0]")
+        return xyaxes
+
     @model_validator(mode="after")
     def _one_orientation(self) -> MountedCameraConfig:
         if self.quat is not None and self.xyaxes is not None:
             raise ValueError("give its orientation once: `quat` or `xyaxes`, not both")
-        if self.quat is not None and not any(self.quat):
-            raise ValueError("quat (0, 0, 0, 0) is no rotation; the frame's own axes are (1, 0, 0, 0)")
-        if self.xyaxes is not None:
-            x, y = self.xyaxes[:3], self.xyaxes[3:]
-            cross = (x[1] * y[2] - x[2] * y[1], x[2] * y[0] - x[0] * y[2], x[0] * y[1] - x[1] * y[0])
-            if not any(cross):
-                raise ValueError(f"xyaxes {list(self.xyaxes)} has a zero or parallel x and y axis; give two "
-                                 "axes at right angles, such as [1, 0, 0, 0, 1, 0]")
         return self
 
 
