@@ -25,9 +25,9 @@ from .config.models import ChoiceDraw, SensorConfig, UniformDraw
 from .config.noise import GaussianStage
 from .config.source import Path_
 from .config.tables import GENERIC_KIND, HEIGHTSCAN_KIND, IMAGE_KINDS
-from .config.units import to_steps
+from .config.units import timestep_problem, to_steps
 from .draws import ChoiceSteps, UniformSteps
-from .checks import batch_problems, kind_problems, sensor_problems
+from .checks import batch_problems, constant_problem, kind_problems, sensor_problems
 from .errors import Problem, SuiteError, did_you_mean
 from .kinds import kinds_of
 from .native import NATIVE, bind_native, native_row
@@ -59,7 +59,7 @@ class _Binder:
     refused: Mapping[str, str] = dataclasses.field(default_factory=dict)  # the problem of each native sensor left out
     problems: list[Problem] = dataclasses.field(default_factory=list)
     seen: set[Problem] = dataclasses.field(default_factory=set)  # `problems` as a set: each reported once
-    quiet: bool = False  # binding a clean twin: its source reports the problems they share
+    twin: tuple[str, str] | None = None  # (twin, source) while binding a clean twin: reported at its source's lines
 
     # -- where a key came from, and problems there --------------------------------------------
 
@@ -72,9 +72,12 @@ class _Binder:
         return ("defaults", key)
 
     def report(self, path: Path_, message: str, *, key: bool = False) -> None:
-        if self.quiet:
-            self.problems.append(Problem(message))
-            return
+        if self.twin is not None:
+            # a twin is bound only after its source bound cleanly: what fails is the twin's own (it runs
+            # while its source is disabled), said at the source's line, which wrote it
+            twin, source = self.twin
+            path = ("sensors", source) + path[2:] if path[:2] == ("sensors", twin) else path
+            message = f"its clean twin {twin!r} runs (enabled; 'twin: false' drops it): {message}"
         pos = self.suite.doc.pos(path, key=key)
         loc = ".".join(map(str, path))
         problem = pos.problem(message, loc) if pos else Problem(message, loc, self.suite.file)
@@ -138,8 +141,7 @@ class _Binder:
         builders = {GENERIC_KIND: self.generic, HEIGHTSCAN_KIND: self.heightscan,
                     **dict.fromkeys(IMAGE_KINDS, self.camera)}
         if cfg.kind in builders and cfg.constant is not None:
-            self.report(("sensors", name, "constant"), f"'constant' is for features of model fields; a sensor of kind "
-                        f"{cfg.kind!r} is not one: remove it")
+            self.report(("sensors", name, "constant"), constant_problem(f"a sensor of kind {cfg.kind!r}"))
         made = builders.get(cfg.kind, self.feature)(name, cfg, timing)
         shape, dtype = (made[1], made[2]) if made is not None else (None, None)
         found = sensor_problems(cfg, shape, self.suite.config.options.strip_singleton_buffer_dim)
@@ -229,6 +231,9 @@ class _Binder:
             self.within(name, cfg)  # (still a mistake of its own)
             return None
         if native_row(cfg.kind, type_name) is not None:
+            if cfg.constant:
+                self.report(("sensors", name, "constant"), constant_problem(
+                    f"a sensor of kind {cfg.kind!r} (MuJoCo's {cfg.kind} sensor, read from the simulation)"))
             source = self.suite.twins.get(name, name)  # a twin reads its source's MuJoCo sensors
             return bind_native(self.model, source, cfg, timing, self.report, self.refused, _index(cfg.index))
         kinds = kinds_of(type_name)
@@ -429,13 +434,18 @@ def bind(suite: LoadedSuite, model: mujoco.MjModel, *, import_callables: bool, c
     needs the shape of its value, is then built (and its shape-dependent mistakes found) only by a build.
     `refused`: the problem of each native sensor left out of the compiled model (`sensorcfg.native`)."""
     binder = _Binder(suite, model, import_callables, call_callables, batch, dict(refused or {}))
-    twin_binder = _Binder(suite, model, import_callables, call_callables, batch, dict(refused or {}), quiet=True)
+    timestep = timestep_problem(float(model.opt.timestep))
+    if timestep is not None:  # nothing is timed without it: one problem, at the model's line
+        binder.report(("model",), timestep)
+        return {}, binder.problems
     binder.options()
     observables: dict[str, Observable] = {}
     for name, cfg in suite.sensors.items():
         if name in suite.twins:  # its source's problems are reported once, at the source's lines
-            if suite.twins[name] in observables:
-                made = twin_binder.bind(name, cfg)
+            if suite.twins[name] in observables:  # what fails now is the twin's own (see `report`)
+                binder.twin = (name, suite.twins[name])
+                made = binder.bind(name, cfg)
+                binder.twin = None
                 if made is not None:
                     observables[name] = made
             continue

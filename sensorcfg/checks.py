@@ -9,7 +9,7 @@ Python, for suites, where a line can be named.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 from typing import Any
 
@@ -22,7 +22,7 @@ from .errors import did_you_mean
 from .kinds import CONSTANT, INTERNAL, STATE, kinds_of, offered_kinds, state_twin
 from .observables.feature import batch_on_demand_problem
 
-__all__ = ["kind_problems", "sensor_problems", "batch_problems", "batch_refusal", "per_simulation_refusal"]
+__all__ = ["constant_problem", "render_cost", "kind_problems", "sensor_problems", "batch_problems", "batch_refusal", "per_simulation_refusal"]
 
 Found = list[tuple[tuple[str | int, ...], str]]  # (key path inside the sensor, message)
 
@@ -55,6 +55,11 @@ def kind_problems(type_name: str, kind: str, constant: bool, native: Sequence[st
         return [(("constant",), f"{kind!r} changes with the simulation; 'constant: true' is for model constants: "
                  "remove it")]
     return []
+
+
+def constant_problem(what: str) -> str:
+    """`constant` on a sensor that reads no model field: `what` says what it reads instead."""
+    return f"'constant' is for features of model fields; {what} is not one: remove it"
 
 
 def sensor_problems(cfg: SensorConfig, shape: tuple[int, ...] | None, strip: bool) -> Found:
@@ -105,7 +110,8 @@ def batch_refusal(rule: str, **details: str) -> str:
 
 
 def batch_problems(cfg: SensorConfig, dtype: Any, field: str | None, model: mujoco.MjModel) -> Found:
-    """What `BatchEnvironment` cannot run, by key."""
+    """What `BatchEnvironment` cannot run, by key; `field`: the mjData / mjModel field the sensor was bound
+    to read (None for MuJoCo sensor kinds, height scans, cameras, callables, and one that did not bind)."""
     found: Found = []
     if cfg.kind in IMAGE_KINDS or cfg.kind == HEIGHTSCAN_KIND:  # sampled per simulation; noise runs per simulation
         for key, present in (("aggregator", cfg.aggregator is not None),
@@ -115,7 +121,7 @@ def batch_problems(cfg: SensorConfig, dtype: Any, field: str | None, model: mujo
         return found
     if cfg.kind == GENERIC_KIND:
         return [(("kind",), batch_refusal("generic"))]
-    if cfg.constant:
+    if cfg.constant and field is not None:  # (`constant` where there is no model field: the binder's problem)
         found.append((("constant",), batch_refusal("constant")))
     elif dtype is not None and np.dtype(dtype) != np.float64:
         found.append((("kind",), batch_refusal("dtype", what=cfg.kind, dtype=str(np.dtype(dtype)))))
@@ -126,3 +132,32 @@ def batch_problems(cfg: SensorConfig, dtype: Any, field: str | None, model: mujo
         if stage.type == "custom":
             found.append((("noise", i), batch_refusal("noise stage", kind="custom", detail="")))
     return found
+
+
+def _names(model: mujoco.MjModel, kind: mujoco.mjtObj, ids: np.ndarray, what: str) -> str:
+    """'light 'sun'' or 'lights 'a', 'b', 'c' and 2 more'."""
+    names = [mujoco.mj_id2name(model, kind, int(i)) or f"#{int(i)}" for i in ids]
+    listed = ", ".join(repr(n) for n in names[:3]) + (f" and {len(names) - 3} more" if len(names) > 3 else "")
+    return f"{what}{'s' if len(names) > 1 else ''} {listed}"
+
+
+def render_cost(model: mujoco.MjModel, scene: Mapping[str, bool]) -> str | None:
+    """What a camera with these scene flags renders on `model` that can cost most of a frame (MuJoCo's
+    default look, kept unless switched off): shadows of its lights that cast them, reflections of its
+    reflective materials. A note, not a problem: the image is MuJoCo's (and dm_control's) by default."""
+    found: list[tuple[str, str]] = []
+    if scene.get("shadow", True):
+        lights = np.flatnonzero(model.light_castshadow & model.light_active)
+        if lights.size:
+            found.append(("shadow", f"shadows (of {_names(model, mujoco.mjtObj.mjOBJ_LIGHT, lights, 'light')})"))
+    if scene.get("reflection", True):
+        used = np.unique(model.geom_matid[model.geom_matid >= 0])
+        shiny = used[model.mat_reflectance[used] > 0]
+        if shiny.size:
+            found.append(("reflection", f"reflections (in {_names(model, mujoco.mjtObj.mjOBJ_MATERIAL, shiny, 'material')})"))
+    if not found:
+        return None
+    off = ", ".join(f"{flag}: false" for flag, _ in found)
+    return (f"this camera renders {' and '.join(what for _, what in found)}, MuJoCo's default look, which can make a "
+            "frame many times slower (Menagerie ALOHA's overhead camera at 640x480: 3.2 s against 0.27 s without "
+            f"them, software EGL); camera: {{scene: {{{off}}}}} turns them off, for a different image")

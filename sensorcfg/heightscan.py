@@ -3,11 +3,12 @@
 What it measures: rays start `above` metres over points of the pattern around the frame (a body's frame
 or a site) and go down; each reads `origin_z - hit_z`, the height of the frame's origin above the first
 terrain point the ray meets within `max_distance`, or `miss`. Terrain is every geom welded to the world
-(the floor, heightfields, static boxes and stairs) in `geomgroup`; moving bodies, the robot's own among
-them, are not seen, as Isaac Lab's ray caster sees only its terrain mesh. The rays are cast at a model of
-the terrain alone (`terrain_model`), in one `Batch.ray` call on MuJoCo 4 (mj_ray per ray on MuJoCo 3); the
-frame's pose is read from MjData as every other sensor reads it. A batch casts the rays of every due
-simulation in one call from the same function, so one simulation and a batch agree to the bit.
+(the floor, heightfields, static boxes and stairs) in `geomgroup` that mj_ray sees (alpha above 0, the
+material's where the geom has one); moving bodies, the robot's own among them, are not seen, as Isaac
+Lab's ray caster sees only its terrain mesh. The rays are cast at a model of the terrain alone
+(`terrain_model`), in one `Batch.ray` call on MuJoCo 4 (mj_ray per ray on MuJoCo 3); the frame's pose is
+read from MjData as every other sensor reads it. A batch casts the rays of every due simulation in one
+call from the same function, so one simulation and a batch agree to the bit.
 
 Alignment: 'yaw' turns the pattern with the frame's heading (rays stay vertical), 'full' follows its whole
 orientation (rays along its -z; the value is still a vertical height), 'world' keeps world axes.
@@ -30,7 +31,7 @@ from .observables.base import Observable
 from .physics import raw_structs
 from .selection import select
 
-__all__ = ["HeightScan", "heights", "pattern", "ray_starts", "terrain_model"]
+__all__ = ["HeightScan", "heights", "pattern", "ray_starts", "terrain_model", "visible_rgba"]
 
 
 
@@ -81,18 +82,30 @@ def heights(pos: np.ndarray, starts: np.ndarray, dirs: np.ndarray, dist: np.ndar
     return np.where(dist >= 0, pos[..., None, 2] - hit_z, miss)
 
 
+def visible_rgba(model: mujoco.MjModel, geom: int) -> np.ndarray:
+    """Geom `geom`'s rgba with the alpha mj_ray decides its visibility by: its material's alpha where it
+    has a material (`geom_matid >= 0`), else its own (engine_ray.c's `ray_eliminate`: a geom whose alpha
+    is 0 is skipped). The terrain model carries no materials, so this alpha stands for both."""
+    rgba = np.array(model.geom_rgba[geom], dtype=float)
+    material = int(model.geom_matid[geom])
+    if material >= 0:
+        rgba[3] = model.mat_rgba[material, 3]
+    return rgba
+
+
 def terrain_model(model: mujoco.MjModel) -> mujoco.MjModel:
     """A model of `model`'s terrain alone: its geoms welded to the world, where they are, with their
-    shapes, heightfields, meshes, groups and colours (mj_ray skips invisible geoms). What moves is gone,
-    so every ray meets terrain first, and rays from one simulation or many are cast by one function."""
+    shapes, heightfields, meshes, groups and visibility (mj_ray skips a geom whose alpha, its material's
+    where it has one, is 0: `visible_rgba`). What moves is gone, so every ray meets terrain first, and
+    rays from one simulation or many are cast by one function."""
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)  # terrain poses do not depend on the state
     spec = mujoco.MjSpec()
     for g in np.flatnonzero(model.body_weldid[model.geom_bodyid] == 0):
         geom = spec.worldbody.add_geom()
         geom.type = mujoco.mjtGeom(int(model.geom_type[g]))
-        geom.size, geom.pos, geom.group, geom.rgba = model.geom_size[g], data.geom_xpos[g], model.geom_group[g], \
-            model.geom_rgba[g]
+        geom.size, geom.pos, geom.group = model.geom_size[g], data.geom_xpos[g], model.geom_group[g]
+        geom.rgba = visible_rgba(model, int(g))
         quat = np.zeros(4)
         mujoco.mju_mat2Quat(quat, data.geom_xmat[g])
         geom.quat = quat

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 from .config import LoadedSuite, OptionsConfig, SensorConfig, SuiteConfig, load_path, load_text, to_steps
 from .config.limits import MAX_OBSERVATION_BYTES
+from .config.units import timestep_problem
 from .errors import ArgumentError, Problem, SuiteError, quote
 
 if TYPE_CHECKING:
@@ -75,21 +76,21 @@ class Suite:
                   ) -> tuple[mujoco.MjModel, dict[str, str]]:
         """The model to bind to, and MuJoCo's message for each native sensor it refused. A path (or the
         suite's `model:`, or an MjSpec) is compiled with the suite's native sensors (for a batch, also with
-        sensors that make MuJoCo fill the on-demand fields the suite reads); an MjModel is taken as it is
-        (it must carry them)."""
+        sensors that make MuJoCo fill the on-demand fields the suite reads) and its `cameras`; an MjModel
+        is taken as it is (it must carry them)."""
         import mujoco
 
         if isinstance(model, mujoco.MjModel):
-            return model, {}
+            return self._carrying(model), {}
         if isinstance(model, mujoco.MjSpec):
             from .native import compile_model
 
-            return compile_model(model, self._sources(), batch, extra)
+            return compile_model(self._mounted(model), self._sources(), batch, extra)
         if model is not None and not isinstance(model, (str, os.PathLike)):
             from .physics import raw_structs
 
             try:
-                return raw_structs(model)[0], {}
+                return self._carrying(raw_structs(model)[0]), {}
             except TypeError as e:
                 raise ArgumentError(f"model: {e}; or pass an MjModel or a path") from None
         if model is None:
@@ -99,17 +100,69 @@ class Suite:
                 raise SuiteError(top.problem(message, "model") if top else Problem(message, "model", self.file))
             path, pos = self.model, self._loaded.doc.pos(("model",))
         else:
-            path, pos = str(model), None
+            path, pos = os.fspath(model), None
         try:
-            from .native import compile_model, native_names, reads_on_demand
+            from .config.files import model_file
+            from .native import compile_model
+
+            if pos is None:
+                path = model_file(path)  # a package:// or menagerie:// name, as --model and the environments take it
             from .physics import read_model
 
-            if native_names(self._sources()) or (batch and reads_on_demand(self._sources())) or extra:
+            if self.config.cameras:
+                from .native.cameras import mount
+
+                source, found = mount(path, self.config.cameras)
+            elif self._adds_to_model(batch) or extra:
                 return compile_model(path, self._sources(), batch, extra)
-            return read_model(path), {}
+            else:
+                return read_model(path), {}
         except (ValueError, OSError) as e:
             message = f"cannot load the model {quote(str(path), 160)}: {str(e).strip()}"
             raise SuiteError(pos.problem(message, "model") if pos else Problem(message, file=str(path))) from None
+        if found:
+            raise SuiteError(self._at_paths(found))
+        return compile_model(source, self._sources(), batch, extra)
+
+    def _adds_to_model(self, batch: bool = False) -> bool:
+        """Whether the suite's model differs from its file: MuJoCo sensors for its native kinds, its
+        `cameras`, and for a batch the sensors that fill on-demand fields. A caller holding the file's
+        MjModel then passes the path instead, for the suite to compile."""
+        from .native import native_names, reads_on_demand
+
+        sources = self._sources()
+        return bool(native_names(sources) or self.config.cameras or (batch and reads_on_demand(sources)))
+
+    def _mounted(self, spec: mujoco.MjSpec) -> mujoco.MjSpec:
+        """`spec` with the suite's cameras (a copy), or `spec` itself when the suite adds none."""
+        if not self.config.cameras:
+            return spec
+        from .native.cameras import mount
+
+        mounted, found = mount(spec, self.config.cameras)
+        if found:
+            raise SuiteError(self._at_paths(found))
+        return mounted
+
+    def _carrying(self, model: mujoco.MjModel) -> mujoco.MjModel:
+        """`model`, which must already carry the suite's cameras."""
+        if self.config.cameras:
+            from .native.cameras import carried
+
+            found = carried(model, self.config.cameras)
+            if found:
+                raise SuiteError(self._at_paths(found))
+        return model
+
+    def _at_paths(self, found: Sequence[tuple[tuple[str, ...], str]]) -> list[Problem]:
+        """(path, message) pairs as problems at the path's line; a path of two keys (a mapping's entry) at
+        its key."""
+        problems = []
+        for path, message in found:
+            pos = self._loaded.doc.pos(path, key=len(path) == 2)
+            loc = ".".join(path)
+            problems.append(pos.problem(message, loc) if pos else Problem(message, loc, self.file))
+        return problems
 
     def _bind(self, model: ModelLike, import_callables: bool, batch: bool = False, call_callables: bool = True) -> tuple[
             dict[str, Observable], list[Problem]]:
@@ -118,7 +171,7 @@ class Suite:
         mjmodel, refused = self._compiled(model, batch)
         observables, problems = bind(self._loaded, mjmodel, import_callables=import_callables,
                                      call_callables=call_callables, batch=batch, refused=refused)
-        return observables, problems + self._too_large(observables)
+        return observables, problems + self._memory_problems(observables, mjmodel)
 
     def compile(self, model: ModelLike = None, *, batch: bool = False) -> mujoco.MjModel:
         """The model with the MuJoCo sensors (and sites) the suite's native kinds add: `model` is an MJCF
@@ -140,12 +193,17 @@ class Suite:
             raise SuiteError(bind(self._loaded, mjmodel, import_callables=False, refused=refused)[1])
         return mjmodel
 
-    def _too_large(self, observables: Mapping[str, Observable]) -> list[Problem]:
-        """An observation that would hold more than `MAX_OBSERVATION_BYTES` (a deep buffer of large camera
-        images) is a problem at its buffer, not an allocation that fails (or swaps) when the suite runs."""
+    def _memory_problems(self, observables: Mapping[str, Observable], model: mujoco.MjModel,
+                         nsim: int = 1) -> list[Problem]:
+        """What the sensors would hold, at the lines that set it, before anything is allocated: an
+        observation of more than `MAX_OBSERVATION_BYTES` (a deep buffer of large images), at its buffer;
+        a sensor that keeps more than `MAX_KEPT_BYTES` between its samples and its reads (`memory.py`: its
+        ring or history by its schedule, over `nsim` simulations), at its delay or buffer."""
         import numpy as np
 
-        problems = []
+        from .memory import kept_problems
+
+        found: list[tuple[str, str, str]] = []
         for name, observable in observables.items():
             spec = observable.array_spec
             if spec is None:
@@ -153,13 +211,37 @@ class Suite:
             sample = int(np.prod(spec.shape)) * np.dtype(spec.dtype).itemsize
             buffer = observable.buffer_size or 1
             if buffer * sample > MAX_OBSERVATION_BYTES:
-                path = ("sensors", name, "buffer")
                 shape = "x".join(map(str, spec.shape))
-                message = (f"{buffer} samples of {sample:,} bytes ({shape} {np.dtype(spec.dtype)}) make "
-                           f"{buffer * sample / 2**30:.1f} GiB; an observation may hold at most "
-                           f"{MAX_OBSERVATION_BYTES / 2**30:g} GiB: use a smaller buffer or image")
-                pos = self._loaded.doc.pos(path)
-                problems.append(pos.problem(message, ".".join(path)) if pos else Problem(message, ".".join(path)))
+                found.append((name, "buffer", f"{buffer} samples of {sample:,} bytes ({shape} {np.dtype(spec.dtype)}) "
+                              f"make {buffer * sample / 2**30:.1f} GiB; an observation may hold at most "
+                              f"{MAX_OBSERVATION_BYTES / 2**30:g} GiB: use a smaller buffer or image"))
+        if found:
+            return self._at_lines(found)
+        return self._at_lines(kept_problems(observables, model, self._substeps(model), nsim))
+
+    def _substeps(self, model: mujoco.MjModel) -> int:
+        """Physics steps per control step by the suite's options (1 when it gives none, or none that fits:
+        that is a problem of its own)."""
+        value = self.options.control_interval
+        if value is None or timestep_problem(float(model.opt.timestep)):
+            return 1
+        try:
+            return to_steps(value, float(model.opt.timestep), minimum=1)
+        except ValueError:  # reported by binding at its line
+            return 1
+
+    def _at_lines(self, found: Sequence[tuple[str, str, str]]) -> list[Problem]:
+        """(sensor, key, message) as problems at the key's line; a clean twin's at its source's, which wrote it."""
+        problems = []
+        for name, key, message in found:
+            source = self._loaded.twins.get(name)
+            if source is not None:
+                name, message = source, f"its clean twin {name!r} runs (enabled; 'twin: false' drops it): {message}"
+            raw = self._loaded.doc.value["sensors"].get(name) or {}
+            defaults = self._loaded.doc.value.get("defaults") or {}
+            path = ("sensors", name, key) if key in raw or key not in defaults else ("defaults", key)
+            pos = self._loaded.doc.pos(path) or self._loaded.doc.pos(("sensors", name))
+            problems.append(pos.problem(message, ".".join(path)) if pos else Problem(message, ".".join(path)))
         return problems
 
     def build(self, model: ModelLike = None, *, import_callables: bool = True,
@@ -189,18 +271,45 @@ class Suite:
         except SuiteError as e:
             return list(e.problems)
 
+    def notes(self, model: ModelLike = None) -> list[Problem]:
+        """Advice on a suite that builds, at its lines (`validate` and `spec` print it as notes): an image
+        sensor that renders costly shadows or reflections of this model with MuJoCo's default flags
+        (`checks.render_cost`). Never raises for a mistake (`check` reports those)."""
+        from .config.tables import IMAGE_KINDS
+
+        images = {name: cfg for name, cfg in self.sensors.items() if cfg.kind in IMAGE_KINDS and
+                  cfg.kind != "segmentation" and cfg.enabled is not False and name not in self._loaded.twins}
+        if not images:
+            return []
+        from .checks import render_cost
+
+        try:
+            mjmodel = self._mjmodel(model)
+        except SuiteError:
+            return []
+        found = []
+        for name, cfg in images.items():
+            message = render_cost(mjmodel, cfg.camera.scene if cfg.camera is not None else {})
+            if message is not None:
+                written = [p for p in (("sensors", name, "camera", "scene"), ("sensors", name, "camera"))
+                           if p in self._loaded.doc.keys]  # where the fix goes, else the sensor's name
+                found.append((written[0] if written else ("sensors", name), message))
+        return self._at_paths(found)
+
     def updater_kwargs(self, model: ModelLike = None) -> dict[str, Any]:
         """Keyword arguments for `sensorcfg.Updater` from `options` (time converted with the model)."""
         options = self.options
         steps = 1
         if options.control_interval is not None:
             timestep = float(self._mjmodel(model).opt.timestep)
+            problem = timestep_problem(timestep)  # (said at the model's line, as binding says it)
+            path, message = (("model",), problem) if problem else (("options", "control_interval"), "")
             try:
                 steps = to_steps(options.control_interval, timestep, minimum=1)
             except ValueError as e:
-                pos = self._loaded.doc.pos(("options", "control_interval"))
-                loc = "options.control_interval"
-                raise SuiteError(pos.problem(str(e), loc) if pos else Problem(str(e), loc, self.file)) from None
+                pos, loc = self._loaded.doc.pos(path), ".".join(path)
+                message = message or str(e)
+                raise SuiteError(pos.problem(message, loc) if pos else Problem(message, loc, self.file)) from None
         return {"physics_steps_per_control_step": steps,
                 "strip_singleton_buffer_dim": options.strip_singleton_buffer_dim,
                 "pad_with_initial_value": options.pad_with_initial_value}

@@ -9,6 +9,7 @@ their sensors are bound to their own MjData, so a copy would read the original's
 from __future__ import annotations
 
 import copy
+import re
 import pickle
 import sys
 import types
@@ -241,3 +242,46 @@ def test_zero_width_features_with_an_aggregator_are_a_problem_at_its_line():
 
         with pytest.raises(sensorcfg.SuiteError, match="s.yaml:8:17: error: sensors.nothing.aggregator"):
             BatchEnvironment(ROBOT, suite, 2)
+
+
+_ZERO_STEP_SUITE = """\
+model: zero.xml
+options: {control_interval: 10ms}
+sensors:
+  q: {kind: qpos, element: joint:hip_f, interval: 2, delay: 4ms,
+      noise: [{type: gaussian, density: 0.1}, {type: lowpass, cutoff: 10Hz}]}
+"""
+_ZERO_STEP = ("s.yaml:1:8: error: model: the model's physics timestep (<option timestep>) is 0 s; a suite's intervals, "
+              "delays, rates and noise are timed in physics steps of it, which must last a positive, finite time: give "
+              "the model a timestep such as <option timestep=\"0.002\"/>")
+
+
+@pytest.mark.parametrize("timestep", ["0", "-0.001", "inf"])
+def test_a_model_whose_step_lasts_no_time_is_a_problem_at_the_model_line(tmp_path, monkeypatch, capsys, timestep):
+    """MuJoCo compiles timestep="0": every time in the suite would be divided by it. validate, run, spec and
+    both environments say so at the model line, once."""
+    from sensorcfg.cli import main
+
+    text = open(assets.path("robot.xml")).read()
+    assert 'timestep="0.002"' in text
+    (tmp_path / "zero.xml").write_text(text.replace('timestep="0.002"', f'timestep="{timestep}"'))
+    (tmp_path / "s.yaml").write_text(_ZERO_STEP_SUITE)
+    monkeypatch.chdir(tmp_path)
+    expected = _ZERO_STEP.replace("is 0 s", f"is {float(timestep):g} s")
+    suite = sensorcfg.load("s.yaml")
+    assert [p.format() for p in suite.check()] == [expected]
+    for command in (["validate", "s.yaml"], ["run", "s.yaml", "--steps", "3"], ["spec", "s.yaml"]):
+        assert main(command) == 1, command
+        out = capsys.readouterr()
+        assert expected in (out.out + out.err).splitlines(), command
+    with pytest.raises(sensorcfg.SuiteError, match="^" + re.escape(expected) + "$"):
+        sensorcfg.Environment("zero.xml", suite)
+    if MUJOCO4:
+        from sensorcfg.batch import BatchEnvironment
+
+        with pytest.raises(sensorcfg.SuiteError, match="^" + re.escape(expected) + "$"):
+            BatchEnvironment("zero.xml", suite, 2)
+    model = mujoco.MjModel.from_xml_path("zero.xml")
+    for settings in ({"control_timestep": 0.01}, {"time_limit": 1.0}):
+        with pytest.raises(sensorcfg.ArgumentError, match="is in seconds: the model's physics timestep"):
+            sensorcfg.Environment(model, {"q": sensorcfg.Feature("qpos", "joint:*")}, **settings)

@@ -109,7 +109,8 @@ def from_schema(node: dict[str, Any], depth: int = 0, prefer: int = 1) -> st.Sea
         options.append(fixed)
     elif kind == "array":
         items = from_schema(node.get("items", {}), depth + 1, prefer)
-        options.append(st.lists(items, min_size=node.get("minItems", 0), max_size=min(node.get("maxItems", 3), 3)))
+        least = node.get("minItems", 0)  # (a quaternion has 4 items)
+        options.append(st.lists(items, min_size=least, max_size=max(least, min(node.get("maxItems", 3), 3))))
     elif kind in ("integer", "number"):
         options.append(_number(node, kind == "integer"))
     elif kind == "string":

@@ -138,3 +138,46 @@ def test_a_scan_has_at_most_100000_rays(scan: str, expected: str) -> None:
     assert [(p.loc, p.message) for p in e.value.problems] == [
         ("sensors.h.scan", f"{expected}; a scan casts at most 100,000: use a coarser resolution, a smaller size or "
                            "fewer rays")]
+
+
+_MATERIALS = """<mujoco><asset><material name="clear" rgba="1 1 1 0"/><material name="solid" rgba="1 1 1 1"/></asset>
+<worldbody><geom type="plane" size="5 5 .1"/>
+<geom name="glass" type="box" pos="0 0 .5" size=".4 .4 .1" material="clear" rgba="1 0 0 1"/>
+<geom name="painted" type="box" pos="1 0 .3" size=".4 .4 .1" material="solid" rgba="1 0 0 0"/>
+<geom name="hidden" type="box" pos="0 1 .4" size=".4 .4 .1" rgba="1 0 0 0"/>
+<geom name="plain" type="box" pos="1 1 .2" size=".4 .4 .1"/>
+<body name="base" pos=".5 .5 2"><freejoint/><geom size=".1"/></body></worldbody></mujoco>"""
+
+
+@pytest.mark.parametrize("batched", [pytest.param(False, id="single"),
+                                     pytest.param(True, id="batch", marks=pytest.mark.skipif(
+                                         not MUJOCO4, reason="mujoco.batch needs MuJoCo 4"))])
+def test_a_scan_sees_what_mj_ray_sees_through_materials(batched: bool) -> None:
+    """mj_ray skips a geom by its material's alpha where it has a material, else by its own rgba's: a box
+    with a transparent material is seen through, one with alpha 0 and an opaque material is hit."""
+    model = mujoco.MjModel.from_xml_string(_MATERIALS)
+    suite = sensorcfg.loads("sensors:\n  h: {kind: heightscan, element: body:base,\n"
+                            "      scan: {size: [2.0, 2.0], resolution: 0.1, alignment: world, above: 0.5}}\n")
+    observable = suite.build(model)["h"]
+    physics = Physics(model)
+    mujoco.mj_forward(model, physics.data)
+    if batched:
+        from mujoco import batch
+
+        sims = batch.Batch(model, 1)
+        reader = observable.batch_reader(model, sims)  # binds the frame's fields, which forward then fills
+        sims.forward()
+        values = reader(np.array([0]))[0]
+    else:
+        values = observable.observation_callable(physics)()
+    origin = physics.data.xpos[model.body("base").id]
+    offsets = pattern(ScanConfig(size=(2.0, 2.0), resolution=0.1))
+    expected = np.empty(offsets.shape[:-1])
+    for index in np.ndindex(expected.shape):
+        start = np.array([origin[0] + offsets[index][0], origin[1] + offsets[index][1], origin[2] + 0.5])
+        dist = mujoco.mj_ray(model, physics.data, start, np.array([0.0, 0.0, -1.0]), None, 1, model.body("base").id,
+                             None)
+        expected[index] = origin[2] - (start[2] - dist)
+    heights = {round(float(v), 9) for v in expected.ravel()}
+    assert heights == {2.0, 2.0 - 0.4, 2.0 - 0.3}  # the floor, 'painted' and 'plain'; 'glass' and 'hidden' unseen
+    np.testing.assert_allclose(values, expected, rtol=0, atol=1e-9)

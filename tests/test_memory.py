@@ -114,3 +114,97 @@ def test_each_phase_is_compiled_once(noise, monkeypatch):
     for _ in range(2 * bank.rows // 5):
         control_step()
     assert len(compiled) == bank.rows // 5
+
+
+@pytest.mark.parametrize("sensor", [
+    pytest.param("{kind: heightscan, element: body:base, delay: 3000}", id="scan-delay"),
+    pytest.param("{kind: heightscan, element: body:base, delay: 300, buffer: 4}", id="scan-doubled-ring"),
+    pytest.param("{kind: heightscan, element: body:base, delay: {uniform: [0, 3000]}, buffer: 20}", id="scan-drawn"),
+    pytest.param("{kind: qpos, element: 'joint:*', delay: 20000}", id="bank-delay"),
+    pytest.param("{kind: qpos, element: 'joint:*', buffer: 200, interval: 100}", id="bank-buffer"),
+    pytest.param("{kind: qpos, element: 'joint:*', delay: 10000, noise: [{type: gaussian, std: 0.1}]}", id="bank-noisy"),
+    pytest.param("{kind: gyro, element: site:imu, delay: 20000}", id="bank-narrow"),
+    pytest.param("{kind: qpos, element: 'joint:*', delay: {uniform: [0, 10000]}}", id="drawn-bank-delay"),
+    pytest.param("{kind: qpos, element: 'joint:*', interval: {uniform: [1, 50]}, buffer: 100}", id="drawn-bank-buffer"),
+])
+@pytest.mark.parametrize("substeps", [1, 10])
+def test_what_a_sensor_keeps_is_estimated_above_what_the_updater_allocates(sensor: str, substeps: int) -> None:
+    """The memory check's estimate (`sensorcfg.memory.kept`) for each path a schedule takes (ring, doubled
+    ring, drawn channel, feature bank, noisy bank, drawn bank) is at least what the Updater holds after
+    some control steps (1 MB for what does not grow with the schedule)."""
+    from sensorcfg.memory import kept
+
+    suite = sensorcfg.loads(f"options: {{control_interval: {substeps}}}\nsensors:\n  s: {sensor}\n")
+    model = suite.compile(str(assets.path("robot.xml")))
+    observables = suite.build(model)
+    physics = sensorcfg.Physics(model)
+    updater = sensorcfg.Updater(observables, substeps)
+
+    def step():
+        updater.prepare_for_next_control_step()
+        for _ in range(substeps):
+            mujoco.mj_step(model, physics.data)
+            updater.update()
+        updater.get_observation()
+
+    tracemalloc.start()
+    try:
+        updater.reset(physics, np.random.RandomState(0))
+        for _ in range(10):
+            step()
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    estimate = kept(observables["s"], substeps)
+    assert estimate is not None and peak < estimate.bytes() + MB, f"{peak / MB:.1f} MB > {estimate.bytes() / MB:.1f} MB"
+
+
+@pytest.mark.parametrize("sensor, expected", [
+    pytest.param("{kind: heightscan, element: body:base, delay: 1000000}",
+                 "2:52: error: sensors.s.delay: a delay of 1,000,000 steps keeps 1,000,002 samples of 1,496 bytes "
+                 "(17x11 float64): 1.6 GiB; a sensor may keep at most 1 GiB between its samples and its reads: use a "
+                 "shorter delay or a longer interval, or a smaller value", id="scan"),
+    pytest.param("{kind: rgb, element: camera:wrist, delay: 1000000}",
+                 "2:48: error: sensors.s.delay: a delay of 1,000,000 steps keeps 1,000,002 samples of 230,400 bytes "
+                 "(240x320x3 uint8): 214.8 GiB; a sensor may keep at most 1 GiB between its samples and its reads: "
+                 "use a shorter delay or a longer interval, or a smaller value", id="camera"),
+    pytest.param("{kind: rgb, element: camera:wrist, delay: {uniform: [0, 10000]}, interval: 2}",
+                 "2:48: error: sensors.s.delay: a delay of up to 10,000 steps at an interval of 2 keeps 35,008 samples "
+                 "of 230,400 bytes (240x320x3 uint8): 7.5 GiB; a sensor may keep at most 1 GiB between its samples "
+                 "and its reads: use a shorter delay or a longer interval, or a smaller value", id="camera-drawn"),
+    pytest.param("{kind: qpos, element: 'joint:*', interval: {uniform: [1, 50]}, buffer: 1000}",
+                 "2:77: error: sensors.s.buffer: a buffer of 1,000 at intervals up to 50 steps keeps 55,253 steps of "
+                 "history of 112 bytes (14 float64): 11.6 GiB; a sensor may keep at most 1 GiB between its samples "
+                 "and its reads: use a smaller buffer or a longer interval, or a smaller value", id="drawn-bank"),
+])
+def test_a_sensor_that_would_keep_too_much_is_a_problem_at_the_line_that_sets_it(sensor: str, expected: str) -> None:
+    """Found by review: a delay of 1,000,000 steps on a height scan or a camera validated, then failed to
+    allocate gigabytes; the check counted only the buffer."""
+    suite = sensorcfg.loads(f"sensors:\n  s: {sensor}\n", file="f.yaml")
+    assert [p.format() for p in suite.check(MODEL)] == ["f.yaml:" + expected]
+    with pytest.raises(sensorcfg.SuiteError):
+        sensorcfg.Environment(MODEL, suite)
+
+
+def test_one_long_history_lengthens_every_plain_features_rows() -> None:
+    suite = sensorcfg.loads("sensors:\n  a: {kind: xmat, element: 'body:*'}\n  b: {kind: cinert, element: 'body:*'}\n"
+                            "  t: {kind: qpos, element: 'joint:shoulder', buffer: 10000, interval: 60}\n", file="f.yaml")
+    assert [p.format() for p in suite.check(MODEL)] == [
+        "f.yaml:4:54: error: sensors.t.buffer: a buffer of 10,000 at an interval of 60 steps makes the plain features' "
+        "shared history 600,002 steps long, each of 920 bytes (the 3 float64 features' values): 1.3 GiB; a sensor "
+        "may keep at most 1 GiB between its samples and its reads: use a smaller buffer or a longer interval, or "
+        "observe fewer values"]
+
+
+@needs_batch
+def test_a_batch_counts_what_each_simulation_keeps() -> None:
+    from sensorcfg.batch import BatchEnvironment
+
+    suite = sensorcfg.loads("sensors:\n  s: {kind: heightscan, element: body:base, delay: 100000}\n", file="f.yaml")
+    assert suite.check(MODEL, batch=True) == []  # one simulation keeps 0.2 GiB
+    with pytest.raises(sensorcfg.SuiteError) as info:
+        BatchEnvironment(MODEL, suite, 16)
+    assert str(info.value) == (
+        "f.yaml:2:52: error: sensors.s.delay: a delay of 100,000 steps keeps 100,002 samples of 1,496 bytes (17x11 "
+        "float64) in each of 16 simulations: 2.5 GiB in all; a sensor may keep at most 1 GiB between its samples and "
+        "its reads: use a shorter delay or a longer interval, or a smaller value")

@@ -155,7 +155,7 @@ def test_a_menagerie_model_stays_in_its_robot_folder(menagerie_root: Path) -> No
 
 
 def test_menagerie_names_the_model_of_every_entry_point(menagerie_root: Path, tmp_path: Path) -> None:
-    """`--model`, `make_env(model=...)`, Environment and BatchEnvironment take a menagerie:// name as a suite's
+    """`--model`, `make_env(model=...)`, Environment, BatchEnvironment and Suite.check/compile take a menagerie:// name as a suite's
     `model:` line does: one resolver."""
     import mujoco
 
@@ -166,6 +166,8 @@ def test_menagerie_names_the_model_of_every_entry_point(menagerie_root: Path, tm
     env = sensorcfg.make_env(suite_file, model=name)
     assert env.physics.model.nq == mujoco.MjModel.from_xml_path(path).nq
     assert sensorcfg.Environment(name, sensorcfg.load(suite_file)).reset().observation["q"].shape
+    assert sensorcfg.load(suite_file).check(name) == []
+    assert sensorcfg.load(suite_file).compile(name).nq == env.physics.model.nq
     if int(mujoco.__version__.split(".")[0]) >= 4:
         batch = sensorcfg.BatchEnvironment(name, str(suite_file), 2)
         assert batch.reset().observation["q"].shape[0] == 2

@@ -170,7 +170,7 @@ class BatchEnvironment(ControlLoop):
         _check_arguments(nsim, nthread, reward_fn, termination_fn)
         self._reward_fn, self._termination_fn = reward_fn, termination_fn
         model, suite = model_source(model, suite)  # None: the suite's own `model:`
-        self._model, observables, options = model_and_observables(model, suite, batch=True)
+        self._model, observables, options = model_and_observables(model, suite, batch=True, nsim=int(nsim))
         leveled(observables)  # a noise level per simulation (`set_noise_level`), 1 until set
         self._observables = observables
         self._nsim = int(nsim)

@@ -179,11 +179,9 @@ def load_model(path: str) -> Any:
 
 
 def suite_model(suite: Any, path: str) -> Any:
-    """The model a suite runs on: the file's, compiled with the MuJoCo sensors the suite's kinds add."""
-    from ..native import native_names
-
+    """The model a suite runs on: the file's, compiled with what the suite adds (MuJoCo sensors, cameras)."""
     model = load_model(path)
-    return suite.compile(path) if native_names(getattr(suite, "sensors", {})) else model
+    return suite.compile(path) if suite._adds_to_model() else model
 
 
 def load_suite(path: str, overrides: Sequence[str] = (), extends_root: str | None = None) -> Any:

@@ -161,6 +161,8 @@ def make_env(suite: Any, model_file: str, settings: Settings, *, record_timing: 
         except SuiteError as e:
             raise UsageError(f"--keyframe: {e.problems[0].message}") from None
     observables = suite.build(model)
+    for note in suite.notes(model):  # costly default rendering: said before the run pays for it
+        print(note.format("note"))
     if record_timing:
         timing.record_draws(observables)
     env = Environment(model, _Built(suite, observables), physics_steps_per_control_step=substeps, seed=settings.seed,

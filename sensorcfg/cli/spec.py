@@ -38,12 +38,14 @@ class Spec:
         self.suite, self.model_file, self.model, self.rows = suite, model_file, model, rows
         self.disabled, self.control_steps = disabled, control_steps
         self.timestep = float(model.opt.timestep)
+        self.notes = suite.notes(model)  # advice at the suite's lines (costly default rendering)
 
     def as_dict(self) -> dict[str, Any]:
         return {"suite": printable(self.suite.file), "model": printable(self.model_file),
                 "physics_timestep": self.timestep,
                 "physics_steps_per_control_step": self.control_steps,
-                "sensors": [r.as_dict() for r in self.rows], "disabled": self.disabled}
+                "sensors": [r.as_dict() for r in self.rows], "disabled": self.disabled,
+                "notes": [{"severity": "note", **p.as_dict()} for p in self.notes]}
 
 
 def add_parser(sub: Any, epilog: str) -> None:
@@ -121,7 +123,7 @@ def format_spec(spec: Spec) -> str:
     if unnamed:
         out += "\nunnamed elements, labelled by id: " + "; ".join(
             f"{label} ({', '.join(names)})" for label, names in unnamed.items())
-    return out
+    return out + "".join("\n" + p.format("note") for p in spec.notes)
 
 
 def _unnamed(spec: Spec) -> dict[str, list[str]]:

@@ -42,6 +42,7 @@ class FileResult:
     model: str | None  # the model it was checked against, None when checked without one
     problems: list[Problem]
     loaded: bool = True  # False when syntax or schema problems stopped it before the model
+    notes: list[Problem] = dataclasses.field(default_factory=list)  # advice on a valid suite (`Suite.notes`)
     error: str | None = None  # an I/O error: the path could not be read (reported on its own line, exit 2)
 
     @property
@@ -172,16 +173,15 @@ def check_file(path: Path, model: tuple[str, Any] | None, overrides: Sequence[st
                 except SuiteError:
                     models[target] = None  # let check() report it, positioned at the suite's `model:` line
             target = models[target]  # None: let the suite load it and report where its `model:` is
-    from ..native import native_names, reads_on_demand
-
-    if target is not None and (native_names(suite.sensors) or (batch and reads_on_demand(suite.sensors))):
-        target = name  # the path: the suite compiles it with the MuJoCo sensors it adds, as the environments do
+    if target is not None and suite._adds_to_model(batch):
+        target = name  # the path: the suite compiles it with what it adds (sensors, cameras), as the environments do
     seen = {(p.file, p.line, p.col, p.message) for p in problems}
     problems += [p for p in suite.check(target, import_callables=import_callables, batch=batch)
                  if (p.file, p.line, p.col, p.message) not in seen]
     files = list(dict.fromkeys(p.file for p in problems))
     problems.sort(key=lambda p: (files.index(p.file), p.line or 0, p.col or 0))
-    return FileResult(str(path), name, problems)
+    notes = [] if problems else suite.notes(target)
+    return FileResult(str(path), name, problems, notes=notes)
 
 
 def check_isolated(path: Path, *args: Any) -> FileResult:
@@ -208,7 +208,7 @@ def _summary(results: Sequence[FileResult]) -> dict[str, int]:  # suites read (I
 def report_text(results: Sequence[FileResult]) -> str:
     """One line per problem and a summary on stdout; I/O errors go to stderr, from `command`."""
     results = [r for r in results if r.error is None]
-    lines = [p.format() for r in results for p in r.problems]
+    lines = [p.format() for r in results for p in r.problems] + [p.format("note") for r in results for p in r.notes]
     s = _summary(results)
     files = f"{s['files']} suite{'s' if s['files'] != 1 else ''}"
     no_model = s["without_model"]
@@ -226,7 +226,8 @@ def report_text(results: Sequence[FileResult]) -> str:
 def report_json(results: Sequence[FileResult]) -> str:
     read = [r for r in results if r.error is None]
     problems = [{"severity": "error", **p.as_dict()} for r in read for p in r.problems]
-    out = {"valid": all(r.valid for r in results), "summary": _summary(read), "problems": problems,
+    notes = [{"severity": "note", **p.as_dict()} for r in read for p in r.notes]
+    out = {"valid": all(r.valid for r in results), "summary": _summary(read), "problems": problems, "notes": notes,
            "files": [{"path": printable(r.path), "valid": r.valid, "model": r.model and printable(r.model),
                       "problems": len(r.problems)} for r in read],
            "errors": [{"path": printable(r.path), "message": printable(r.error or "")} for r in results if r.error]}

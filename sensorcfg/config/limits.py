@@ -8,6 +8,7 @@ Each is reported as the problem it is, at the line that passes it. docs/cli.md l
 from __future__ import annotations
 
 __all__ = ["MAX_FILE_BYTES", "MAX_DEPTH", "MAX_NODES", "MAX_INT_DIGITS", "MAX_SENSORS", "MAX_BUFFER", "MAX_OBSERVATION_BYTES",
+           "MAX_KEPT_BYTES",
            "MAX_SCHEDULE_STEPS", "MAX_EXTENDS", "MAX_OVERRIDE_BYTES", "MAX_RAYS"]
 
 MAX_FILE_BYTES = 1 << 20  # one suite file (1 MiB)
@@ -18,6 +19,7 @@ MAX_INT_DIGITS = 30  # digits of an integer (int64 has 19)
 MAX_SENSORS = 1_000  # sensors in one suite
 MAX_BUFFER = 10_000  # samples a sensor's buffer keeps
 MAX_OBSERVATION_BYTES = 1 << 30  # one observation: buffer x one sample (a camera's frames), 1 GiB
+MAX_KEPT_BYTES = 1 << 30  # what one sensor keeps between its samples and its reads, all simulations (memory.py)
 MAX_SCHEDULE_STEPS = 1_000_000  # physics steps of an interval, a delay or a control step
 MAX_EXTENDS = 32  # files in one chain of `extends`
 MAX_RAYS = 100_000  # rays of one height scan (a 1.6 x 1.0 m grid at 1 cm has 16,261)

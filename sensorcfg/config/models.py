@@ -12,7 +12,7 @@ import re
 from typing import TYPE_CHECKING, Annotated, Any, Literal, TypeAlias
 
 from pydantic import (BaseModel, ConfigDict, Field, PlainSerializer, PlainValidator, StringConstraints,
-                      WithJsonSchema, model_validator)
+                      WithJsonSchema, field_validator, model_validator)
 
 from .noise import NoiseStage
 from .tables import GENERIC_KIND, HEIGHTSCAN_KIND, IMAGE_KINDS, aggregator_names
@@ -20,8 +20,8 @@ from ..errors import quote
 from .limits import MAX_BUFFER, MAX_RAYS, MAX_SCHEDULE_STEPS, MAX_SENSORS
 from .units import TIME_PATTERN, parse_time
 
-__all__ = ["CameraConfig", "ChoiceDraw", "DefaultsConfig", "OptionsConfig", "ScanConfig", "SensorConfig",
-           "SuiteConfig", "UniformDraw", "SENSOR_NAME_PATTERN"]
+__all__ = ["CameraConfig", "ChoiceDraw", "DefaultsConfig", "MountedCameraConfig", "OptionsConfig", "ScanConfig",
+           "SensorConfig", "SuiteConfig", "UniformDraw", "SENSOR_NAME_PATTERN"]
 
 _FROZEN = ConfigDict(frozen=True, extra="forbid")
 SENSOR_NAME_PATTERN = r"^[A-Za-z_][A-Za-z0-9_\-/]*$"
@@ -214,6 +214,55 @@ class CameraConfig(BaseModel):
         "without prefix): MuJoCo's render flags (mjtRndFlag: shadow, reflection, skybox, fog, haze, wireframe, "
         "...) and visualisation flags (mjtVisFlag: contactpoint, transparent, ...). Turning off shadow and "
         "reflection makes frames much cheaper.", examples=[{"shadow": False, "reflection": False}])
+
+
+_Finite = Annotated[float, Field(allow_inf_nan=False)]
+
+
+class MountedCameraConfig(BaseModel):
+    """A camera the suite adds to its model when it compiles it (a robot file without one, such as
+    Menagerie's Panda): it looks along its own -z axis, +x to the right of the image and +y up."""
+
+    model_config = _FROZEN
+    element: str = Field(description="The frame it is mounted in, moving with it: 'body:<name>' ('body:world' "
+                         "for a fixed camera) or 'site:<name>'.", examples=["body:hand", "site:attachment_site"])
+    pos: tuple[_Finite, _Finite, _Finite] = Field((0.0, 0.0, 0.0), description="Position in that frame (m).",
+                                                  examples=[[0.0, 0.0, 0.1]])
+    quat: tuple[_Finite, _Finite, _Finite, _Finite] | None = Field(
+        None, description="Orientation in that frame as a quaternion (w, x, y, z), as MJCF writes it; give "
+        "this or `xyaxes`. Default: the frame's own axes.", examples=[[0.0, 1.0, 0.0, 0.0]])
+    xyaxes: tuple[_Finite, _Finite, _Finite, _Finite, _Finite, _Finite] | None = Field(
+        None, description="Orientation as the image's x axis then its y axis in that frame, as MJCF's "
+        "`xyaxes` (orthogonalised as MuJoCo does).", examples=[[0.0, -1.0, 0.0, 1.0, 0.0, 0.0]])
+    fovy: float = Field(45.0, gt=0, lt=180, description="Vertical field of view (degrees), as MJCF's `fovy`.",
+                        examples=[58.0])
+    resolution: tuple[Annotated[int, Field(ge=1, strict=True)], Annotated[int, Field(ge=1, strict=True)]] | None = \
+        Field(None, description="Its resolution [width, height] in pixels, as MJCF's `resolution`: the image size "
+              "of the sensors that read it unless they set `camera: {width, height}`.", examples=[[640, 480]])
+
+    @field_validator("quat")
+    @classmethod
+    def _a_rotation(cls, quat: tuple[float, ...] | None) -> tuple[float, ...] | None:
+        if quat is not None and not any(quat):
+            raise ValueError("quat (0, 0, 0, 0) is no rotation; the frame's own axes are (1, 0, 0, 0)")
+        return quat
+
+    @field_validator("xyaxes")
+    @classmethod
+    def _two_axes(cls, xyaxes: tuple[float, ...] | None) -> tuple[float, ...] | None:
+        if xyaxes is not None:
+            x, y = xyaxes[:3], xyaxes[3:]
+            cross = (x[1] * y[2] - x[2] * y[1], x[2] * y[0] - x[0] * y[2], x[0] * y[1] - x[1] * y[0])
+            if not any(cross):
+                raise ValueError(f"xyaxes {list(xyaxes)} has a zero or parallel x and y axis; give two axes at "
+                                 "right angles, such as [1, 0, 0, 0, 1, 0]")
+        return xyaxes
+
+    @model_validator(mode="after")
+    def _one_orientation(self) -> MountedCameraConfig:
+        if self.quat is not None and self.xyaxes is not None:
+            raise ValueError("give its orientation once: `quat` or `xyaxes`, not both")
+        return self
 
 
 class ScanConfig(BaseModel):
@@ -422,6 +471,11 @@ class SuiteConfig(BaseModel):
     defaults: DefaultsConfig = Field(default_factory=DefaultsConfig,  # type: ignore[arg-type]
                                      description="Applied to every sensor that does not say otherwise.",
                                      examples=[{"buffer": 1, "interval": "4ms"}])
+    cameras: dict[SensorName, MountedCameraConfig] = Field(
+        default_factory=dict, description="Cameras added to the model when the suite compiles it (validate, "
+        "spec, run and both environments), by name: read them as 'camera:<name>'. A name the model already "
+        "has is an error.", examples=[{"wrist_cam": {"element": "body:hand", "pos": [0.0, 0.0, 0.05],
+                                                        "quat": [0.0, 1.0, 0.0, 0.0], "fovy": 58.0}}])
     sensors: dict[SensorName, SensorConfig] = Field(
         max_length=MAX_SENSORS, description="The observations, by name, in the order they are returned.",
         examples=[{"joint_pos": {"kind": "qpos", "element": "joint:*"}}])

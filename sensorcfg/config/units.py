@@ -14,7 +14,8 @@ import warnings
 from ..errors import quote
 from .limits import MAX_SCHEDULE_STEPS
 
-__all__ = ["DURATION_UNITS", "RATE_UNITS", "parse_time", "to_steps", "format_seconds", "TIME_PATTERN"]
+__all__ = ["DURATION_UNITS", "RATE_UNITS", "parse_time", "timestep_problem", "to_steps", "format_seconds",
+           "TIME_PATTERN"]
 
 # unit -> seconds per unit
 DURATION_UNITS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9}
@@ -71,14 +72,27 @@ def format_seconds(seconds: float) -> str:
     raise AssertionError("unreachable")
 
 
+def timestep_problem(timestep: float) -> str | None:
+    """Why a model's physics timestep cannot time a suite (0, negative or not finite: MuJoCo compiles
+    them), or None. Every division by the timestep is behind this check (`to_steps`, binding)."""
+    if timestep > 0 and math.isfinite(timestep):
+        return None
+    return (f"the model's physics timestep (<option timestep>) is {timestep:g} s; a suite's intervals, delays, "
+            "rates and noise are timed in physics steps of it, which must last a positive, finite time: give "
+            "the model a timestep such as <option timestep=\"0.002\"/>")
+
+
 def to_steps(value: int | str, timestep: float, *, minimum: int, maximum: int = MAX_SCHEDULE_STEPS) -> int:
     """Physics steps for an integer, a duration or a rate; ValueError names the nearest valid values, or
-    the bound when the value is more than `maximum` steps."""
+    the bound when the value is more than `maximum` steps, or why `timestep` cannot time a duration."""
     if isinstance(value, int):
         if value > maximum:
             raise ValueError(f"{value} physics steps is more than {maximum:,}, the most a schedule may take")
         return value
     number, unit, kind = parse_time(value, rates=True)
+    problem = timestep_problem(timestep)
+    if problem is not None:
+        raise ValueError(f"{value} needs a physics step's duration: {problem}")
     with warnings.catch_warnings():  # a rate of 1e-300Hz overflows to inf, which is reported below
         warnings.simplefilter("ignore", RuntimeWarning)
         if kind == "rate":

@@ -22,6 +22,7 @@ import numpy as np
 from dm_env import specs
 
 from ..config.files import model_file
+from ..config.units import timestep_problem
 from ..errors import ArgumentError, Problem, SuiteError
 from ..physics import Physics, read_model
 from ..runtime.updater import Updater
@@ -116,10 +117,18 @@ def model_source(model: ModelArg, suite: Any) -> tuple[mujoco.MjModel | mujoco.M
     return model, suite
 
 
+def _timed(timestep: float, what: str) -> None:
+    """`what`, in seconds, needs physics steps that last a time (a suite's own times are checked at binding)."""
+    problem = timestep_problem(timestep)
+    if problem is not None:
+        raise ArgumentError(f"{what} is in seconds: {problem}")
+
+
 def steps_per_control_step(model: mujoco.MjModel, steps: int | None, control_timestep: float | None) -> int:
     """Physics steps per control step from either setting (both: they must agree; neither: 1)."""
     dt = float(model.opt.timestep)
     if control_timestep is not None:
+        _timed(dt, "control_timestep")
         ratio = float(control_timestep) / dt
         n = round(ratio)
         if n < 1 or not math.isclose(ratio, n, rel_tol=1e-9, abs_tol=1e-9):
@@ -150,6 +159,8 @@ def episode_timing(model: mujoco.MjModel, steps: int | None, control_timestep: f
     dt = n * float(model.opt.timestep)
     if time_limit is not None and not time_limit > 0:
         raise ArgumentError(f"time_limit must be positive seconds, got {time_limit!r}")
+    if time_limit is not None:
+        _timed(float(model.opt.timestep), "time_limit")
     return n, dt, None if time_limit is None else max(1, round(time_limit / dt))
 
 
@@ -161,12 +172,13 @@ def action_spec(model: mujoco.MjModel, leading: tuple[int, ...] = ()) -> specs.B
                               minimum=np.where(limited, lo, -np.inf), maximum=np.where(limited, hi, np.inf))
 
 
-def model_and_observables(model: Any, suite: Any, batch: bool = False, extra: Sequence[Any] = ()
+def model_and_observables(model: Any, suite: Any, batch: bool = False, extra: Sequence[Any] = (), nsim: int = 1
                           ) -> tuple[mujoco.MjModel, dict[str, Any], dict[str, Any]]:
     """The model (a path or an MjSpec compiled with the suite's MuJoCo sensor kinds, then the `extra`
     sensors: a batch's relays), its observables and the Updater's keyword arguments, from a Suite, a suite
     path, or a dict of observables; the suite's `options.keyframe` too, under "keyframe" (the environment
-    pops it). With `batch`, what a BatchEnvironment cannot run is a problem too."""
+    pops it). With `batch`, what a BatchEnvironment cannot run is a problem too, and so is what the
+    suite's sensors would keep in `nsim` simulations (`Suite._memory_problems`)."""
     if isinstance(suite, Mapping):
         if isinstance(model, (str, os.PathLike, mujoco.MjSpec)) and (extra or isinstance(model, mujoco.MjSpec)):
             from ..native import compile_model
@@ -188,6 +200,9 @@ def model_and_observables(model: Any, suite: Any, batch: bool = False, extra: Se
         model = suite._compile(model, batch, extra)
     model = load_model(model)
     observables = suite.build(model, batch=True) if batch else suite.build(model)
+    problems = suite._memory_problems(observables, model, nsim) if nsim > 1 else []
+    if problems:
+        raise SuiteError(problems)
     return model, observables, {**suite.updater_kwargs(model), "keyframe": getattr(suite.options, "keyframe", None)}
 
 

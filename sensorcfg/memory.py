@@ -1,0 +1,151 @@
+"""What a sensor keeps between its samples and its reads, by its schedule: the bytes `validate` and run
+check against `MAX_KEPT_BYTES` before anything is allocated (a delay of 1,000,000 steps on a camera would
+otherwise validate, then fail allocating gigabytes).
+
+A sensor's samples wait in one of three stores, by the path that runs it; the sizes are those rules':
+
+- a ring of `Schedule.capacity` slots (buffer + ceil(delay / interval) + 1), doubled when the buffer holds
+  more than one sample (so every window is one slice): cameras, height scans, callables, per-sample
+  features (`runtime/channels.FixedChannel`, `batch/camera.py`);
+- a step-indexed history of `Schedule.wait + substeps + 1` rows (delay + buffer x interval): the plain
+  float64 features of an Updater or a batch, together (`runtime/bank.py`, `batch/layout.py`): its rows are
+  its longest member's, its width every member's values, so one long delay lengthens every feature's rows;
+- a drawn schedule's plan (`runtime/drawn.py`): `Drawn.span` and two planning rounds of steps, with each
+  read's window of sample indices, and the samples taken within them.
+
+A slot or row also costs a numpy view in the single-simulation paths (`ROW_BYTES`). A batch keeps each
+store for every simulation. Each figure is an upper bound: the paths a sensor does not take cost less.
+"""
+
+from __future__ import annotations
+
+import numbers
+from collections.abc import Mapping
+from typing import Any, NamedTuple
+
+import mujoco
+import numpy as np
+
+from .config.limits import MAX_KEPT_BYTES
+from .draws import ChoiceSteps, UniformSteps
+from .observables.feature import Feature
+from .physics import Physics
+from .runtime.drawn import Drawn, chunk_steps
+from .runtime.schedule import Schedule
+
+__all__ = ["Kept", "kept", "kept_problems"]
+
+# Bytes each store costs beyond its samples, measured on the paths named (tests/test_memory.py checks
+# that the estimate stays above what the Updater allocates):
+ROW_BYTES = 192  # a ring slot: its numpy view and list entry (`FixedChannel.rows`)
+STEP_BYTES = 448  # a history row: its view, snapshot flag and share of the bounded read-plan caches
+READ_BYTES = 128  # a drawn schedule's planned read: its row of gather indices' view
+_GIB = float(1 << 30)
+_FIXES = {"delay": "use a shorter delay or a longer interval", "buffer": "use a smaller buffer or a longer interval"}
+DRAWS = (UniformSteps, ChoiceSteps)  # schedules sensorcfg draws and plans (`DrawnChannel`, `DrawnBank`)
+
+
+class Kept(NamedTuple):
+    """What one sensor keeps: `rows` slots or steps of `row` bytes each (`sample` of them its value)."""
+
+    rows: int
+    unit: str  # what a row is: 'samples' (a ring's slots) or 'steps of history'
+    row: int
+    sample: int
+    steps: int  # rows of the step-indexed history it needs (features): the shared history's length
+    key: str  # the key whose value sets the size: 'delay' or 'buffer'
+    what: str  # that value, in words
+
+    def bytes(self, nsim: int = 1) -> int:
+        return self.rows * self.row * nsim
+
+
+def _bounds(value: Any, default: int) -> tuple[int, int] | None:
+    """The least and largest steps a schedule value gives; None for a Python callable (unknown until drawn)."""
+    if value is None:
+        return default, default
+    if isinstance(value, numbers.Integral):
+        return int(value), int(value)
+    if isinstance(value, UniformSteps):
+        return value.low, value.high
+    if isinstance(value, ChoiceSteps):
+        return min(value.values), max(value.values)
+    return None
+
+
+def kept(observable: Any, substeps: int) -> Kept | None:
+    """What `observable` keeps in one simulation, or None when its shape or its schedule is unknown until
+    it runs (a callable's value without a spec, a feature not yet bound to a model, a schedule drawn by
+    Python)."""
+    spec = observable.array_spec
+    interval, delay = _bounds(observable.update_interval, 1), _bounds(observable.delay, 0)
+    if spec is None or interval is None or delay is None or interval[0] < 1:
+        return None
+    sample = int(np.prod(spec.shape, dtype=np.int64)) * np.dtype(spec.dtype).itemsize
+    buffer, n = observable.buffer_size or 1, substeps
+    (shortest, longest), (_, latest) = interval, delay
+    noisy = 2 if getattr(observable, "noise", None) is not None else 1  # the bank's noise: a second history
+    drawn = isinstance(observable.update_interval, DRAWS) or isinstance(observable.delay, DRAWS)
+    feature = isinstance(observable, Feature)
+    if drawn:  # planned: `Drawn.span` back, and rounds of at least 1,024 steps ahead
+        plan = Drawn(longest, latest, buffer, n)  # (sized by the largest values)
+        steps = plan.span + 5 * chunk_steps([plan], n) + 1
+        if feature:  # `DrawnBank`: the history, and each read's gather of buffer x values
+            rows, unit = steps, "steps of history"
+            row = noisy * sample + STEP_BYTES + (2 * buffer * sample + READ_BYTES) // n
+        else:  # `DrawnChannel`: the samples taken within the plan, and each read's window of indices
+            rows, unit = steps // shortest + 1, "samples"
+            row = sample + ROW_BYTES + (steps // n * buffer * 8 + steps * 9) // rows
+    else:
+        ring = Schedule(shortest, latest, buffer, n).capacity * (2 if buffer > 1 else 1)
+        steps = Schedule(longest, latest, buffer, n).wait + n + 1 + (1024 if noisy > 1 else 0)
+        if feature and steps > ring:  # `FeatureBank` / the batch's layout: a row per step
+            rows, unit, row = steps, "steps of history", (noisy + 1) * sample + STEP_BYTES
+        else:  # `FixedChannel`'s ring, the batch's camera rings
+            rows, unit, row = ring, "samples", sample + ROW_BYTES
+    if latest >= buffer * longest:
+        up_to = "up to " if delay[0] != latest else ""
+        at = f" at an interval of {shortest:,}" if interval[0] == interval[1] else f" at intervals from {shortest:,}"
+        what = f"a delay of {up_to}{latest:,} steps" + (at if longest > 1 else "")
+        return Kept(rows, unit, row, sample, steps, "delay", what)
+    at = f" at an interval of {longest:,} steps" if interval[0] == interval[1] else f" at intervals up to {longest:,} steps"
+    what = f"a buffer of {buffer:,}" + (at if longest > 1 else "")
+    return Kept(rows, unit, row, sample, steps, "buffer", what)
+
+
+def _shape(observable: Any) -> str:
+    spec = observable.array_spec
+    return f"{'x'.join(map(str, spec.shape)) or 'scalar'} {np.dtype(spec.dtype)}"
+
+
+def kept_problems(observables: Mapping[str, Any], model: mujoco.MjModel, substeps: int,
+                  nsim: int = 1) -> list[tuple[str, str, str]]:
+    """(sensor, key, message) for each enabled sensor that would keep more than `MAX_KEPT_BYTES`, in all
+    `nsim` simulations, and for the shared history of the plain features when it would. Features learn
+    their shape by binding to `model` (as the Updater binds them at reset)."""
+    unbound = [o for o in observables.values() if isinstance(o, Feature) and o.array_spec is None]
+    if unbound:
+        physics = Physics(model)
+        for feature in unbound:
+            feature.reader(physics)
+    found: list[tuple[str, str, str]] = []
+    where, everything = (f" in each of {nsim:,} simulations", " in all") if nsim > 1 else ("", "")
+    limit = f"a sensor may keep at most {MAX_KEPT_BYTES / _GIB:g} GiB between its samples and its reads"
+    sized = {name: k for name, o in observables.items() if o.enabled for k in [kept(o, substeps)] if k is not None}
+    for name, k in sized.items():
+        if k.bytes(nsim) > MAX_KEPT_BYTES:
+            found.append((name, k.key, f"{k.what} keeps {k.rows:,} {k.unit} of {k.sample:,} bytes "
+                          f"({_shape(observables[name])}){where}: {k.bytes(nsim) / _GIB:.1f} GiB{everything}; {limit}: "
+                          f"{_FIXES[k.key]}, or a smaller value"))
+    features = {name: k for name, k in sized.items() if isinstance(observables[name], Feature)
+                and np.dtype(observables[name].array_spec.dtype) == np.float64}
+    if len(features) > 1 and not any(name in features for name, _, _ in found):
+        longest = max(features, key=lambda name: features[name].steps)
+        k = features[longest]
+        width = sum(f.sample for f in features.values())
+        total = k.steps * (2 * width + STEP_BYTES) * nsim
+        if total > MAX_KEPT_BYTES:
+            found.append((longest, k.key, f"{k.what} makes the plain features' shared history {k.steps:,} steps "
+                          f"long, each of {width:,} bytes (the {len(features)} float64 features' values){where}: "
+                          f"{total / _GIB:.1f} GiB{everything}; {limit}: {_FIXES[k.key]}, or observe fewer values"))
+    return found
