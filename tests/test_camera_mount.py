@@ -3,6 +3,7 @@ that compiles the suite's model, and refused at their line when they cannot be a
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import mujoco
@@ -85,7 +86,8 @@ def test_the_cli_validates_runs_and_specs_a_suite_with_cameras(tmp_path: Path, c
                                                                ) -> None:
     from sensorcfg.cli import main
 
-    (tmp_path / "s.yaml").write_text(f"model: {TERRAIN}\n{SUITE}")
+    shutil.copy(TERRAIN, tmp_path / "terrain.xml")  # a suite's model lies in its folder tree
+    (tmp_path / "s.yaml").write_text(f"model: terrain.xml\n{SUITE}")
     assert main(["validate", str(tmp_path / "s.yaml")]) == 0
     assert main(["spec", str(tmp_path / "s.yaml")]) == 0
     assert "(1, 48, 64, 3)" in capsys.readouterr().out

@@ -142,7 +142,8 @@ def test_costly_default_rendering_is_a_note_where_the_fix_goes(model_path: str, 
         "640x480: 3.2 s against 0.27 s without them, software EGL); camera: {scene: {reflection: false}} turns them "
         "off, for a different image"]
     path = tmp_path / "s.yaml"
-    path.write_text(f"model: {model_path}\nsensors:\n  plain: {{kind: rgb, element: camera:sized}}\n")
+    (tmp_path / "scene.xml").write_text(MODEL)  # a suite's model lies in its folder tree
+    path.write_text("model: scene.xml\nsensors:\n  plain: {kind: rgb, element: camera:sized}\n")
     assert main(["validate", str(path)]) == 0
     out = capsys.readouterr().out
     assert "s.yaml:3:3: note: sensors.plain: this camera renders shadows" in out and "1 suite valid" in out

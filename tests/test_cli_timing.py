@@ -39,6 +39,12 @@ class _Suite:
     def build(self, model):
         return self.observables
 
+    def _adds_to_model(self, batch=False):  # the model runs as its file says
+        return False
+
+    def notes(self, model=None):  # no advice to print
+        return []
+
 
 def step_of(physics) -> np.ndarray:
     return np.array([round(physics.data.time / 0.001) + 1.0])  # +1: padding zeros stay distinguishable

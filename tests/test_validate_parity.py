@@ -69,6 +69,7 @@ sensors:
     element: camera:hand_cam
     noise: [{{type: gaussian, std: 0.1}}]
     interval: {{uniform: [1, 3]}}
+    camera: {{width: 32, height: 24}}  # small: a drawn schedule keeps the frames of its planning rounds
   mass: {{kind: mass, element: body:hand, constant: true}}
   gen: {{kind: generic, callable: "mysensors:dist"}}
   custom: {{kind: qpos, element: joint:elbow, noise: [{{type: custom, callable: "mysensors:noisy"}}]}}
@@ -84,11 +85,11 @@ def test_validate_batch_reports_every_batch_problem_at_its_line(tmp_path: Path) 
     assert validate(suite, "--batch").stdout.splitlines() == [
         "s.yaml:7:15: error: sensors.cam.interval: a BatchEnvironment renders cameras per simulation and cannot "
         "apply a drawn interval to them; remove it, or use the single-simulation Environment",
-        "s.yaml:8:52: error: sensors.mass.constant: a BatchEnvironment reads mjData fields across simulations, not "
+        "s.yaml:9:52: error: sensors.mass.constant: a BatchEnvironment reads mjData fields across simulations, not "
         "model constants; remove it, or use the single-simulation Environment",
-        "s.yaml:9:15: error: sensors.gen.kind: a generic callable runs Python per sample and simulation, which a "
+        "s.yaml:10:15: error: sensors.gen.kind: a generic callable runs Python per sample and simulation, which a "
         "BatchEnvironment cannot vectorise; use the single-simulation Environment for it",
-        "s.yaml:10:54: error: sensors.custom.noise.0: a custom noise stage runs Python once per sample and "
+        "s.yaml:11:54: error: sensors.custom.noise.0: a custom noise stage runs Python once per sample and "
         "simulation, which a BatchEnvironment cannot vectorise; express it with built-in stages, or use the "
         "single-simulation Environment",
         "4 problems in 1 of 1 suite"]
@@ -104,8 +105,8 @@ def test_batch_environment_on_a_suite_raises_the_same_positioned_problems(tmp_pa
     with pytest.raises(SuiteError) as e:
         sensorcfg.BatchEnvironment(str(MODELS / "arm.xml"), sensorcfg.load(suite), 2)
     assert [(p.line, p.loc) for p in e.value.problems] == [
-        (7, "sensors.cam.interval"), (8, "sensors.mass.constant"), (9, "sensors.gen.kind"),
-        (10, "sensors.custom.noise.0")]
+        (7, "sensors.cam.interval"), (9, "sensors.mass.constant"), (10, "sensors.gen.kind"),
+        (11, "sensors.custom.noise.0")]
 
 
 def test_callables_import_next_to_the_suite_first(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
