@@ -184,8 +184,12 @@ def _validate(doc: Doc, file: str, dirs: dict[str, Path], root: Path | None, pro
     try:
         config = SuiteConfig.model_validate(value)
     except ValidationError as e:
-        found = {(p.file, p.line, p.col) for p in doc.problems}  # a removed node: report it once
-        later = [p for p in problems_from(e, doc, SuiteConfig) if (p.file, p.line, p.col) not in found]
+        # a node left out for its own problem is reported once: not again where it is missing, nor as a flaw
+        # of the mapping that held it (a model's rule between its keys, `gaussian takes std or density`)
+        found = {(p.file, p.line, p.col) for p in doc.problems}
+        holders = {p.loc.rpartition(".")[0] for p in doc.problems if "." in p.loc}
+        later = [p for p in problems_from(e, doc, SuiteConfig)
+                 if (p.file, p.line, p.col) not in found and p.loc not in holders]
         partial, rest = _partial(value, e, doc, file, dirs, root, {p.loc for p in later})
         return LoadResult(partial, _sorted(problems + later + rest))
     loaded, rest = _complete(config, doc, file, dirs, root)
