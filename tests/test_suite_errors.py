@@ -434,6 +434,12 @@ LOAD_MISTAKES = [
         '  s: {kind: qpos, element: joint:elbow\n',
         "2:6: error: invalid YAML: this '{' is never closed; add '}' after its last entry",
         id='unclosed_mapping_at_the_end'),
+    pytest.param(
+        'sensors:\n'
+        "  s: {kind: qpos, element: 'joint:elbow}\n"
+        '  t: {kind: qvel, element: joint:elbow}\n',
+        '2:28: error: invalid YAML: this "\'" is never closed; add "\'" where the text ends',
+        id='unclosed_quote'),
     # numbers are read as YAML 1.2 reads them: past float64 is a problem, not inf or 0 (issue 24)
     pytest.param(
         'sensors:\n'

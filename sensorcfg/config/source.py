@@ -215,8 +215,11 @@ class _Stop(Exception):
         self.problem = problem
 
 
-_CLOSERS = {"[": ("]", "item"), "{": ("}", "entry")}
+# what opens -> what closes it, and where the closer goes
+_CLOSERS = {"[": ("]", "after its last item"), "{": ("}", "after its last entry"),
+            "'": ("'", "where the text ends"), '"': ('"', "where the text ends")}
 _ENDS = (yaml.StreamEndToken, yaml.DocumentStartToken, yaml.DocumentEndToken)
+_QUOTE_ENDS = ("found unexpected end of stream", "found unexpected document separator")
 
 
 def _indent(text: str, line: int) -> int:
@@ -226,17 +229,22 @@ def _indent(text: str, line: int) -> int:
 
 
 def _unclosed(error: yaml.MarkedYAMLError, loader: _BoundedLoader | None, text: str) -> yaml.Mark | None:
-    """Where the flow collection (`[` or `{`) that `error` found never closed was opened, else None.
+    """Where the flow collection (`[`, `{`) or quoted text (`'`, `"`) that `error` found never closed was
+    opened, else None.
 
-    PyYAML reports such a collection where the text ran out (or where it stopped making sense), which may
-    be far below the mistake. It never closed when the parser met the end of the document inside it, or a
-    later line indented no deeper than the line that opened it (YAML 1.2 requires a flow collection's lines
-    to be indented deeper; PyYAML does not check, so it reads on).
+    PyYAML reports these where the text ran out (or where it stopped making sense), which may be far below
+    the mistake. Quoted text never closed when the scanner met the end of the document inside it. A
+    collection never closed when the parser met the end of the document inside it, or a later line
+    indented no deeper than the line that opened it (YAML 1.2 requires a flow collection's lines to be
+    indented deeper; PyYAML does not check, so it reads on).
     """
+    if isinstance(error, yaml.scanner.ScannerError):
+        quoted = error.context_mark is not None and str(error.problem).startswith(_QUOTE_ENDS)
+        return error.context_mark if quoted else None
     if not isinstance(error, yaml.parser.ParserError) or loader is None or not loader.marks:
         return None
     opened: yaml.Mark = loader.marks[-1]  # the innermost collection being parsed
-    if text[opened.index:opened.index + 1] not in _CLOSERS:
+    if text[opened.index:opened.index + 1] not in ("[", "{"):
         return None
     found = loader.tokens[0] if loader.tokens else None
     at = error.problem_mark
@@ -249,11 +257,11 @@ def _unclosed(error: yaml.MarkedYAMLError, loader: _BoundedLoader | None, text: 
 def _syntax_problem(error: yaml.MarkedYAMLError, loader: _BoundedLoader | None, text: str, file: str,
                     col_offset: int) -> Problem:
     opened = _unclosed(error, loader, text)
-    if opened is not None:
+    if opened is not None and text[opened.index:opened.index + 1] in _CLOSERS:
         char = text[opened.index]
-        closer, part = _CLOSERS[char]
+        closer, where = _CLOSERS[char]
         return _pos(opened, file, col_offset=col_offset).problem(
-            f"invalid YAML: this {quote(char)} is never closed; add {quote(closer)} after its last {part}")
+            f"invalid YAML: this {quote(char)} is never closed; add {quote(closer)} {where}")
     mark = error.problem_mark or error.context_mark
     problem = str(error.problem or error.context).removeprefix("but ")
     what = problem + (f" ({error.context})" if error.problem and error.context else "")
