@@ -461,6 +461,27 @@ def test_specs_have_a_leading_simulation_axis():
     env.observation_spec()["arm"].validate(obs["arm"])
 
 
+# what Environment exposes that a batch has in another form: its one physics is the batch's `batch`, its one
+# random state the batch's `seed_sequence` (simulation i draws from `sim_seed(seed_sequence, i)`)
+SINGLE_ONLY = {"physics": "batch", "random_state": "seed_sequence"}
+
+
+@needs_batch
+def test_the_batch_exposes_what_the_environment_exposes():
+    """Every public attribute of Environment reads on a BatchEnvironment too (issue 24: its
+    `physics_steps_per_control_step` raised AttributeError), and the control loop's agree."""
+    single = sensorcfg.Environment(ROBOT, _one(), physics_steps_per_control_step=3)
+    env = BatchEnvironment(ROBOT, _one(), 2, physics_steps_per_control_step=3)
+    names = {n for n in dir(single) if not n.startswith("_")}
+    for name in sorted(names):
+        expected = SINGLE_ONLY.get(name, name)
+        getattr(env, expected)  # reads without error (a property's body runs)
+    for spec in ("action_spec", "observation_spec", "reward_spec", "discount_spec"):
+        getattr(env, spec)()
+    assert env.physics_steps_per_control_step == single.physics_steps_per_control_step == 3
+    assert env.control_timestep == single.control_timestep == pytest.approx(0.006)
+
+
 # -- MuJoCo 3 ----------------------------------------------------------------------------------------
 
 

@@ -422,6 +422,44 @@ LOAD_MISTAKES = [
         'sensors: {}\n',
         '2:1: error: invalid YAML: found another document (expected a single document in the stream)',
         id='two_documents'),
+    # an unclosed flow collection is reported where it opened, not where the text ran out (issue 24)
+    pytest.param(
+        'sensors:\n'
+        '  s: {kind: qpos, element: [joint:elbow, joint:wrist\n'
+        '  t: {kind: qvel, element: joint:elbow}\n',
+        "2:28: error: invalid YAML: this '[' is never closed; add ']' after its last item",
+        id='unclosed_list'),
+    pytest.param(
+        'sensors:\n'
+        '  s: {kind: qpos, element: joint:elbow\n',
+        "2:6: error: invalid YAML: this '{' is never closed; add '}' after its last entry",
+        id='unclosed_mapping_at_the_end'),
+    pytest.param(
+        'sensors:\n'
+        "  s: {kind: qpos, element: 'joint:elbow}\n"
+        '  t: {kind: qvel, element: joint:elbow}\n',
+        '2:28: error: invalid YAML: this "\'" is never closed; add "\'" where the text ends',
+        id='unclosed_quote'),
+    # numbers are read as YAML 1.2 reads them: past float64 is a problem, not inf or 0 (issue 24)
+    pytest.param(
+        'sensors:\n'
+        '  s: {kind: qpos, element: joint:elbow, noise: [{type: gaussian, std: 1e999}]}\n',
+        '2:71: error: sensors.s.noise.0.std: 1e999 is too large for a number (at most about 1.8e308); write .inf or '
+        '-.inf for infinity, or quote it to make it text',
+        id='number_too_large'),
+    pytest.param(
+        'sensors:\n'
+        '  s: {kind: qpos, element: joint:elbow, noise: [{type: gaussian, std: 1e-400}]}\n',
+        '2:71: error: sensors.s.noise.0.std: 1e-400 is too close to zero for a number (at least about 5e-324); write 0 '
+        'for zero, or quote it to make it text',
+        id='number_too_small'),
+    # YAML 1.1's spellings are text in YAML 1.2, as in the JSON Schema and editors: said, never read otherwise
+    pytest.param(
+        'sensors:\n'
+        '  s: {kind: qpos, element: joint:elbow, enabled: yes, buffer: 1_000}\n',
+        ["2:50: error: sensors.s.enabled: expected true or false; got the text 'yes'",
+         "2:63: error: sensors.s.buffer: expected an integer; got the text '1_000'"],
+        id='yaml_1_1_spellings'),
 ]
 
 

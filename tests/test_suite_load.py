@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import subprocess
 import sys
 import textwrap
@@ -14,7 +15,9 @@ import pytest
 import sensorcfg
 from sensorcfg import SuiteError
 from sensorcfg.assets import path as asset_path
+from sensorcfg.cli import main
 from sensorcfg.config import SuiteConfig, to_steps
+from sensorcfg.config.source import compose
 from sensorcfg.draws import ChoiceSteps, UniformSteps
 
 ROBOT = str(asset_path("robot.xml"))
@@ -155,6 +158,44 @@ def test_yaml_anchors_and_merge_keys() -> None:
     assert (a.interval, a.buffer, b.kind, b.element, b.interval, b.buffer) == (2, 2, "qvel", "joint:elbow", 2, 5)
 
 
+@pytest.mark.parametrize(("text", "value"), [
+    # numbers as YAML 1.2's core schema (and the JSON Schema, yaml-language-server) reads them (issue 24)
+    ("1e-3", 0.001), ("1E+2", 100.0), (".5", 0.5), ("-.5e3", -500.0), ("+.5", 0.5), ("1.", 1.0), ("+1", 1),
+    ("017", 17), ("-017", -17), ("0o17", 15), ("0x1F", 31), (".inf", math.inf), ("-.Inf", -math.inf),
+    ("5e-324", 5e-324), ("!!int 017", 17), ("!!float 1", 1.0),
+    # YAML 1.1's other spellings are text in YAML 1.2
+    ("1_000", "1_000"), ("0b101", "0b101"), ("1:20", "1:20"), ("+0x1", "+0x1"), ("0o8", "0o8"), ("yes", "yes"),
+    ("on", "on"), ("Off", "Off"), ("2001-12-14", "2001-12-14"), ("=", "="),
+    # booleans and null in their YAML 1.2 spellings; times stay text
+    ("True", True), ("FALSE", False), ("~", None), ("Null", None), ("2ms", "2ms"), ("250Hz", "250Hz"),
+    ("1e-3s", "1e-3s"), ("'1e-3'", "1e-3"),
+])
+def test_plain_scalars_are_read_as_yaml_1_2_reads_them(text: str, value: object) -> None:
+    read = compose(text, "x.yaml")
+    assert not read.problems and type(read.value) is type(value) and read.value == value
+    assert math.isnan(compose(".NaN", "x.yaml").value)
+
+
+def test_numbers_in_exponent_form_load_in_suites_extends_and_overrides(tmp_path: Path) -> None:
+    """`std: 1e-3` was text to PyYAML's YAML 1.1 rules, so a suite an editor accepted failed to load (issue 24)."""
+    write(tmp_path, "base.yaml", """
+        model: package://sensorcfg/assets/robot.xml
+        sensors:
+          s: {kind: qpos, element: joint:elbow, noise: [{type: gaussian, std: 1e-3}, {type: quantize, step: 1E-4}]}
+        """)
+    top = write(tmp_path, "top.yaml", """
+        extends: base.yaml
+        sensors:
+          t: {kind: qvel, element: joint:elbow, noise: [{type: clip, min: -.5e1, max: 5E+0}]}
+        """)
+    suite = sensorcfg.load(top)
+    assert (suite.sensors["s"].noise[0].std, suite.sensors["s"].noise[1].step) == (0.001, 0.0001)
+    assert (suite.sensors["t"].noise[0].min, suite.sensors["t"].noise[0].max) == (-5.0, 5.0)
+    suite = sensorcfg.load(top, overrides=["sensors.s.noise.0.std=2.5e-3", "sensors.t.noise.0.max=.5"])
+    assert (suite.sensors["s"].noise[0].std, suite.sensors["t"].noise[0].max) == (0.0025, 0.5)
+    assert main(["validate", str(top), "--set", "sensors.s.noise.0.std=2.5e-3"]) == 0
+
+
 def test_python_tags_are_never_constructed(tmp_path: Path) -> None:
     marker = tmp_path / "ran"
     text = f"sensors:\n  s: !!python/object/apply:os.system ['touch {marker}']\n"
@@ -257,6 +298,9 @@ def test_overrides_are_validated_like_the_file() -> None:
     pytest.param("sensors.wrist_cam.delay={uniform: [1, 3}",
                  "override 'sensors.wrist_cam.delay={uniform: [1, 3}':1:40: error: invalid YAML: expected ',' or "
                  "']', but got '}' (while parsing a flow sequence)", id="yaml"),
+    pytest.param("sensors.wrist_cam.delay={uniform: [1, 3",
+                 "override 'sensors.wrist_cam.delay={uniform: [1, 3':1:35: error: invalid YAML: this '[' is never "
+                 "closed; add ']' after its last item", id="yaml-unclosed"),
     pytest.param("buffer 2",
                  "override 'buffer 2':1:1: error: an override is written key=value, for example "
                  "sensors.cam.interval=10 or defaults.buffer=2", id="form"),

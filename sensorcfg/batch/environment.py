@@ -176,7 +176,7 @@ class BatchEnvironment(ControlLoop):
         self._nsim = int(nsim)
         self._batch_shape = (self._nsim,)
         self._keyframe = keyframe_index(self._model, keyframe, options.pop("keyframe", None))
-        self._substeps, self._control_timestep, self._step_limit = episode_timing(
+        self._n, self._control_timestep, self._step_limit = episode_timing(
             self._model, physics_steps_per_control_step, control_timestep, time_limit,
             options.get("physics_steps_per_control_step"))
         flags: dict[str, bool] = {k: bool(options[k]) for k in ("strip_singleton_buffer_dim", "pad_with_initial_value")
@@ -209,13 +209,13 @@ class BatchEnvironment(ControlLoop):
                      relays: Any = None) -> BatchUpdater:
         physics = Physics(model)
         mujoco.mj_forward(model, physics.data)
-        return BatchUpdater(observables, physics, self._nsim, self._substeps, **flags, relays=relays)
+        return BatchUpdater(observables, physics, self._nsim, self._n, **flags, relays=relays)
 
     def _relay(self, source: Any, suite: Any, flags: dict[str, bool]) -> None:
         """The model compiled again with relays (`batch.relay`) where they pay and copy exactly, and the
         updater reading them; else the model as it is."""
         layout = self._updater.layout
-        chosen = relay.plan(self._model, layout.sources, layout.recorded(), self._substeps)
+        chosen = relay.plan(self._model, layout.sources, layout.recorded(), self._n)
         if chosen is None:
             return
         try:

@@ -131,6 +131,19 @@ def _judged_with_default(key: str, sensor: dict[str, Any], rejected: set[Any]) -
     return any(key in _JUDGED_WITH.get(default, ()) and default not in sensor for default in rejected)
 
 
+def _left_out(value: Any, loc: str) -> bool:
+    """Whether the node at dotted `loc` was left out for its problem (source.py: its value is None)."""
+    node = value
+    for part in loc.split("."):
+        if isinstance(node, dict) and part in node:
+            node = node[part]
+        elif isinstance(node, list) and part.isascii() and part.isdigit() and int(part) < len(node):
+            node = node[int(part)]
+        else:
+            return False
+    return node is None
+
+
 def _complete(config: SuiteConfig, doc: Doc, file: str, dirs: dict[str, Path], root: Path | None
               ) -> tuple[LoadedSuite, list[Problem]]:
     """Effective sensors and the model path of a schema-valid suite (inside `root`, see `files`), and the
@@ -184,8 +197,12 @@ def _validate(doc: Doc, file: str, dirs: dict[str, Path], root: Path | None, pro
     try:
         config = SuiteConfig.model_validate(value)
     except ValidationError as e:
-        found = {(p.file, p.line, p.col) for p in doc.problems}  # a removed node: report it once
-        later = [p for p in problems_from(e, doc, SuiteConfig) if (p.file, p.line, p.col) not in found]
+        # a node left out for its own problem is reported once: not again where it is missing, nor as a flaw
+        # of the mapping that held it (a model's rule between its keys, `gaussian takes std or density`)
+        found = {(p.file, p.line, p.col) for p in doc.problems}
+        holders = {p.loc.rpartition(".")[0] for p in doc.problems if "." in p.loc and _left_out(value, p.loc)}
+        later = [p for p in problems_from(e, doc, SuiteConfig)
+                 if (p.file, p.line, p.col) not in found and p.loc not in holders]
         partial, rest = _partial(value, e, doc, file, dirs, root, {p.loc for p in later})
         return LoadResult(partial, _sorted(problems + later + rest))
     loaded, rest = _complete(config, doc, file, dirs, root)

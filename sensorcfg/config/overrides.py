@@ -1,6 +1,7 @@
 """Overrides: `dotted.key=value` strings applied to a merged suite before it is validated.
 
-Each value is parsed as YAML and positioned in the override's own text (`override 'KEY=VALUE':1:COL`), so
+Each value is parsed as YAML, by the rules a suite's files are read with (`source.compose`: YAML 1.2, so
+`std=1e-3` is a number), and positioned in the override's own text (`override 'KEY=VALUE':1:COL`), so
 its mistakes are reported like a file's. `null` removes a key; an index into a list is written with ASCII
 digits (`sensors.arm.noise.0.std=0.01`). A value that cannot be read (invalid YAML, a disallowed tag) is
 reported and changes nothing.

@@ -5,14 +5,21 @@ Python values here, recording for every dotted path the file, line and column of
 Only the tags `yaml.safe_load` understands are accepted: a `!!python/...` tag is a problem, never code,
 and a standard tag whose text does not fit it (`!!int abc`) is a problem at its node. Duplicate keys (which
 PyYAML silently lets the last one win) are problems too. Reading is bounded (`limits`): nesting depth,
-values (aliases expanded) and integer digits, so no file can recurse, hang or exhaust memory here. No
-mujoco, no pydantic.
+values (aliases expanded) and integer digits, so no file can recurse, hang or exhaust memory here; a
+file past a limit is stopped there, with that one problem. No mujoco, no pydantic.
+
+Plain scalars are read as YAML 1.2's core schema reads them (`_CoreLoader`), as the JSON Schema, editors
+(yaml-language-server) and other YAML 1.2 readers do, not by PyYAML's YAML 1.1 rules: `1e-3`, `1E+2`,
+`.5` and `+1` are numbers, `017` is seventeen, `0o17` and `0x1F` are integers, `true`/`false` (any of
+three spellings) the only booleans; `yes`, `on`, `1_000`, `0b101`, `1:20` and dates are text.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Iterator
+import math
+import re
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import yaml
@@ -21,7 +28,7 @@ from ..errors import Problem, SuiteError, printable, quote
 from . import limits
 from .limits import MAX_NODES
 
-__all__ = ["Doc", "Pos", "Path_", "compose", "dotted", "MAX_NODES"]
+__all__ = ["Doc", "Pos", "Path_", "compose", "dotted", "MAX_NODES", "DECIMAL"]
 
 Path_ = tuple[str | int, ...]
 
@@ -29,7 +36,85 @@ _MERGE = "tag:yaml.org,2002:merge"
 _MAP = "tag:yaml.org,2002:map"
 _SEQ = "tag:yaml.org,2002:seq"
 _INT = "tag:yaml.org,2002:int"
-_SAFE_SCALARS = frozenset(t for t in yaml.SafeLoader.yaml_constructors if t and t not in (_MAP, _SEQ))
+_FLOAT = "tag:yaml.org,2002:float"
+_BOOL = "tag:yaml.org,2002:bool"
+_NULL = "tag:yaml.org,2002:null"
+
+# A number in decimal notation as YAML 1.2 writes it, unsigned, ASCII digits only (units.py reads times with
+# it, and the JSON Schema's time pattern is built from it).
+DECIMAL = r"(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?"
+
+_SIGNED_DECIMAL = re.compile(rf"[-+]?{DECIMAL}")
+
+# YAML 1.2 core schema (yaml.org/spec/1.2.2, 10.3.2): the tag of a plain scalar, first match wins; any other
+# plain scalar is a string. The merge key `<<` (YAML 1.1's, kept: suites use it) is the one addition.
+_PLAIN: tuple[tuple[str, re.Pattern[str]], ...] = tuple((tag, re.compile(pattern)) for tag, pattern in (
+    (_NULL, r"~|null|Null|NULL|"),
+    (_BOOL, r"true|True|TRUE|false|False|FALSE"),
+    (_INT, r"[-+]?[0-9]+|0o[0-7]+|0x[0-9a-fA-F]+"),
+    (_FLOAT, rf"{_SIGNED_DECIMAL.pattern}|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN)"),
+    (_MERGE, r"<<"),
+))
+# each integer form and its base (the text given to int() is group 1)
+_INTS = ((re.compile(r"([-+]?[0-9]+)"), 10), (re.compile(r"0o([0-7]+)"), 8), (re.compile(r"0x([0-9a-fA-F]+)"), 16))
+_SPECIAL_FLOATS = re.compile(r"([-+]?)\.(?:(inf|Inf|INF)|nan|NaN|NAN)")
+_BOOLS = {"true": True, "True": True, "TRUE": True, "false": False, "False": False, "FALSE": False}
+
+
+class _Unrepresentable(ValueError):
+    """A number whose text is valid but which a float64 cannot hold; its message says so."""
+
+
+def _read_int(text: str) -> int:
+    for pattern, base in _INTS:
+        match = pattern.fullmatch(text)
+        if match:
+            return int(match.group(1), base)
+    raise ValueError(text)
+
+
+def _read_float(text: str) -> float:
+    special = _SPECIAL_FLOATS.fullmatch(text)
+    if special:
+        return (-math.inf if special.group(1) == "-" else math.inf) if special.group(2) else math.nan
+    if not _SIGNED_DECIMAL.fullmatch(text):
+        raise ValueError(text)
+    value = float(text)
+    if math.isinf(value):
+        raise _Unrepresentable(f"{text} is too large for a number (at most about 1.8e308); write .inf or "
+                               "-.inf for infinity, or quote it to make it text")
+    if value == 0 and re.search(r"[1-9]", text.partition("e")[0].partition("E")[0]):
+        raise _Unrepresentable(f"{text} is too close to zero for a number (at least about 5e-324); write 0 for "
+                               "zero, or quote it to make it text")
+    return value
+
+
+def _read_bool(text: str) -> bool:
+    return _BOOLS[text]  # KeyError: not a YAML 1.2 boolean
+
+
+def _constructor(read: Callable[[str], object]) -> Callable[[yaml.SafeLoader, yaml.ScalarNode], object]:
+    """A PyYAML constructor that reads a scalar node's text with `read`."""
+    def construct(loader: yaml.SafeLoader, node: yaml.ScalarNode) -> object:
+        return read(str(loader.construct_scalar(node)))
+    return construct
+
+
+class _CoreLoader(yaml.SafeLoader):
+    """PyYAML's safe loader with YAML 1.2's core schema: plain scalars resolved by `_PLAIN`, and numbers and
+    booleans (implicit or tagged: `!!int 017` is 17) constructed by its rules. Used only here, so PyYAML's
+    own loaders keep their behaviour."""
+
+    def resolve(self, kind: type[yaml.Node], value: str, implicit: tuple[bool, bool]) -> str:
+        if kind is yaml.ScalarNode and implicit[0]:
+            return next((tag for tag, pattern in _PLAIN if pattern.fullmatch(value)), self.DEFAULT_SCALAR_TAG)
+        return str(super().resolve(kind, value, implicit))
+
+
+_CoreLoader.add_constructor(_INT, _constructor(_read_int))
+_CoreLoader.add_constructor(_FLOAT, _constructor(_read_float))
+_CoreLoader.add_constructor(_BOOL, _constructor(_read_bool))
+_SAFE_SCALARS = frozenset(t for t in _CoreLoader.yaml_constructors if t and t not in (_MAP, _SEQ))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -97,8 +182,8 @@ class _TooLarge(yaml.MarkedYAMLError):
     """Raised while composing: the text nests too deep or holds too many values."""
 
 
-class _BoundedLoader(yaml.SafeLoader):
-    """PyYAML's safe composer, stopped at `MAX_DEPTH` nested collections and `MAX_NODES` nodes (its
+class _BoundedLoader(_CoreLoader):
+    """The core-schema composer, stopped at `MAX_DEPTH` nested collections and `MAX_NODES` nodes (its
     composer recurses once per level, so a deeply nested file would otherwise raise RecursionError)."""
 
     def __init__(self, stream: str):
@@ -122,39 +207,103 @@ class _BoundedLoader(yaml.SafeLoader):
             self.depth -= 1
 
 
-def _compose_node(text: str) -> yaml.Node | None:
-    loader = _BoundedLoader(text)
+class _Stop(Exception):
+    """Raised while building: the value expands past a limit (through aliases); the document stops there."""
+
+    def __init__(self, problem: Problem):
+        super().__init__(problem.message)
+        self.problem = problem
+
+
+# what opens -> what closes it, and where the closer goes
+_CLOSERS = {"[": ("]", "after its last item"), "{": ("}", "after its last entry"),
+            "'": ("'", "where the text ends"), '"': ('"', "where the text ends")}
+_ENDS = (yaml.StreamEndToken, yaml.DocumentStartToken, yaml.DocumentEndToken)
+_QUOTE_ENDS = ("found unexpected end of stream", "found unexpected document separator")
+
+
+def _indent(text: str, line: int) -> int:
+    lines = text.split("\n")
+    shown = lines[line] if line < len(lines) else ""
+    return len(shown) - len(shown.lstrip(" "))
+
+
+def _unclosed(error: yaml.MarkedYAMLError, loader: _BoundedLoader | None, text: str) -> yaml.Mark | None:
+    """Where the flow collection (`[`, `{`) or quoted text (`'`, `"`) that `error` found never closed was
+    opened, else None.
+
+    PyYAML reports these where the text ran out (or where it stopped making sense), which may be far below
+    the mistake. Quoted text never closed when the scanner met the end of the document inside it. A
+    collection never closed when the parser met the end of the document inside it, or a later line
+    indented no deeper than the line that opened it (YAML 1.2 requires a flow collection's lines to be
+    indented deeper; PyYAML does not check, so it reads on).
+    """
+    if isinstance(error, yaml.scanner.ScannerError):
+        quoted = error.context_mark is not None and str(error.problem).startswith(_QUOTE_ENDS)
+        return error.context_mark if quoted else None
+    if not isinstance(error, yaml.parser.ParserError) or loader is None or not loader.marks:
+        return None
+    opened: yaml.Mark = loader.marks[-1]  # the innermost collection being parsed
+    if text[opened.index:opened.index + 1] not in ("[", "{"):
+        return None
+    found = loader.tokens[0] if loader.tokens else None
+    at = error.problem_mark
+    if isinstance(found, _ENDS) or (at is not None and at.line > opened.line
+                                    and _indent(text, at.line) <= _indent(text, opened.line)):
+        return opened
+    return None
+
+
+def _syntax_problem(error: yaml.MarkedYAMLError, loader: _BoundedLoader | None, text: str, file: str,
+                    col_offset: int) -> Problem:
+    opened = _unclosed(error, loader, text)
+    if opened is not None and text[opened.index:opened.index + 1] in _CLOSERS:
+        char = text[opened.index]
+        closer, where = _CLOSERS[char]
+        return _pos(opened, file, col_offset=col_offset).problem(
+            f"invalid YAML: this {quote(char)} is never closed; add {quote(closer)} {where}")
+    mark = error.problem_mark or error.context_mark
+    problem = str(error.problem or error.context).removeprefix("but ")
+    what = problem + (f" ({error.context})" if error.problem and error.context else "")
+    pos = _pos(mark, file, col_offset=col_offset) if mark else Pos(file, 1, 1)
+    return pos.problem(f"invalid YAML: {printable(what, 200)}")
+
+
+def _compose_node(text: str, file: str, col_offset: int) -> yaml.Node | None:
+    """The composed document; SuiteError for invalid YAML or a text past the limits."""
+    loader: _BoundedLoader | None = None
     try:
+        loader = _BoundedLoader(text)  # reads the text: a character YAML does not allow is a marked error
         return loader.get_single_node()
+    except _TooLarge as e:
+        pos = _pos(e.problem_mark, file, col_offset=col_offset) if e.problem_mark else Pos(file, 1, 1)
+        raise SuiteError(pos.problem(str(e.problem))) from None
+    except yaml.MarkedYAMLError as e:
+        raise SuiteError(_syntax_problem(e, loader, text, file, col_offset)) from None
+    except yaml.YAMLError as e:
+        raise SuiteError(Problem(f"invalid YAML: {printable(str(e), 200)}", file=file)) from None
     finally:
-        loader.dispose()
+        if loader is not None:
+            loader.dispose()
 
 
 def compose(text: str, file: str, *, col_offset: int = 0) -> Doc:
-    """Parse one YAML document into a `Doc`; raises SuiteError for invalid YAML or a text past the limits.
+    """Parse one YAML document into a `Doc`; raises SuiteError for invalid YAML or a text past the limits
+    (also through aliases: then that is the one problem reported).
 
     Disallowed tags and duplicate keys do not stop the walk: they are listed in `Doc.problems` (the node
     is left out) so that the rest of the file is still checked. `col_offset` shifts columns of the first
     line (an override's value starts after `key=`).
     """
-    try:
-        node = _compose_node(text)
-    except _TooLarge as e:
-        pos = _pos(e.problem_mark, file, col_offset=col_offset) if e.problem_mark else Pos(file, 1, 1)
-        raise SuiteError(pos.problem(str(e.problem))) from None
-    except yaml.MarkedYAMLError as e:
-        mark = e.problem_mark or e.context_mark
-        problem = str(e.problem or e.context).removeprefix("but ")
-        what = problem + (f" ({e.context})" if e.problem and e.context else "")
-        pos = _pos(mark, file, col_offset=col_offset) if mark else Pos(file, 1, 1)
-        raise SuiteError(pos.problem(f"invalid YAML: {printable(what, 200)}")) from None
-    except yaml.YAMLError as e:  # pragma: no cover - PyYAML raises marked errors for text input
-        raise SuiteError(Problem(f"invalid YAML: {printable(str(e), 200)}", file=file)) from None
+    node = _compose_node(text, file, col_offset)
     doc = Doc(None)
     if node is None:
         return doc
     builder = _Builder(file, col_offset, doc)
-    doc.value = builder.build(node, ())
+    try:
+        doc.value = builder.build(node, ())
+    except _Stop as e:
+        raise SuiteError(e.problem) from None
     doc.problems.extend(builder.problems)
     return doc
 
@@ -167,10 +316,9 @@ class _Builder:
         self.col_offset = col_offset
         self.doc = doc
         self.problems: list[Problem] = []
-        self.constructor = yaml.SafeLoader("")  # constructs single safe scalars
+        self.constructor = _CoreLoader("")  # constructs single safe scalars
         self.open: set[int] = set()  # ids of the collections being built (an alias to one is a cycle)
         self.count = 0
-        self.too_deep = False
 
     def pos(self, node: yaml.Node) -> Pos:
         return _pos(node.start_mark, self.file, col_offset=self.col_offset)
@@ -179,17 +327,12 @@ class _Builder:
         self.doc.values[path] = self.pos(node)
         self.count += 1
         if self.count > limits.MAX_NODES:
-            if self.count == limits.MAX_NODES + 1:
-                self.problems.append(self.pos(node).problem(
-                    f"the file expands to more than {limits.MAX_NODES:,} values (through aliases); write it out plainly",
-                    dotted(path)))
-            return None
+            raise _Stop(self.pos(node).problem(
+                f"the file expands to more than {limits.MAX_NODES:,} values (through aliases); write it out plainly",
+                dotted(path)))
         if len(path) > limits.MAX_DEPTH:  # aliases inside aliases nest deeper than the text does
-            if not self.too_deep:
-                self.too_deep = True
-                self.problems.append(self.pos(node).problem(
-                    f"values nest more than {limits.MAX_DEPTH} levels deep (through aliases); a suite needs about 6"))
-            return None
+            raise _Stop(self.pos(node).problem(
+                f"values nest more than {limits.MAX_DEPTH} levels deep (through aliases); a suite needs about 6"))
         if isinstance(node, yaml.CollectionNode):
             if id(node) in self.open:
                 self.problems.append(self.pos(node).problem(
@@ -208,7 +351,7 @@ class _Builder:
     def scalar(self, node: yaml.Node, path: Path_) -> Any:
         """A scalar's value by its (safe) tag, or None and a problem when its text does not fit the tag."""
         tag = node.tag.replace("tag:yaml.org,2002:", "!!")
-        if node.tag == _INT and len(str(node.value).lstrip("+-").replace("_", "")) > limits.MAX_INT_DIGITS:
+        if node.tag == _INT and len(str(node.value).lstrip("+-")) > limits.MAX_INT_DIGITS:
             digits = len(str(node.value))
             self.problems.append(self.pos(node).problem(
                 f"an integer of {digits} digits is too large (at most {limits.MAX_INT_DIGITS}); no setting needs more",
@@ -216,6 +359,9 @@ class _Builder:
             return None
         try:
             return self.constructor.construct_object(node, deep=True)
+        except _Unrepresentable as e:
+            self.problems.append(self.pos(node).problem(str(e), dotted(path)))
+            return None
         except (yaml.YAMLError, ValueError, TypeError, KeyError, AttributeError, OverflowError):
             self.problems.append(self.pos(node).problem(
                 f"{quote(str(node.value))} is not a valid {tag}; fix it, or quote it to make it text", dotted(path)))

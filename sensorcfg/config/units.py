@@ -1,4 +1,4 @@
-"""Time in a suite: integer physics steps, durations (`4ms`, `0.02s`, `500us`) and rates (`50Hz`).
+"""Time in a suite: integer physics steps, durations (`4ms`, `0.02s`, `500us`, `1e-3s`) and rates (`50Hz`).
 
 Text is checked when a suite is loaded; it becomes steps only at binding, because a step is the model's
 `opt.timestep`. A duration that is not a whole number of steps is an error that names the two nearest
@@ -13,6 +13,7 @@ import warnings
 
 from ..errors import quote
 from .limits import MAX_SCHEDULE_STEPS
+from .source import DECIMAL
 
 __all__ = ["DURATION_UNITS", "RATE_UNITS", "parse_time", "timestep_problem", "to_steps", "format_seconds",
            "TIME_PATTERN"]
@@ -22,9 +23,10 @@ DURATION_UNITS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-
 # unit -> hertz per unit
 RATE_UNITS: dict[str, float] = {"Hz": 1.0, "kHz": 1e3}
 
-# ASCII digits and spaces only, so the schema's pattern (ECMAScript) and this parser agree, and '٤ms' or a
-# line separator is not read as a time.
-_NUMBER = r"(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?"
+# The number is written as YAML 1.2 writes one (`source.DECIMAL`: `4`, `0.5`, `.5`, `1e-3`), in ASCII digits and
+# spaces only, so the schema's pattern (ECMAScript) and this parser agree, and '٤ms' or a line separator is not
+# read as a time.
+_NUMBER = DECIMAL
 _SP = r"[ \t]*"
 _TEXT = re.compile(rf"\A{_SP}({_NUMBER}){_SP}([a-zA-Zµ]+){_SP}\Z")
 TIME_PATTERN = rf"^{_SP}{_NUMBER}{_SP}(?:{'|'.join(DURATION_UNITS)}|{'|'.join(RATE_UNITS)}){_SP}$"
