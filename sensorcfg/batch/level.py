@@ -1,7 +1,7 @@
 """The noise level across simulations: each simulation's level of the episode, blended with `blend`.
 
 The batch runs a sensor's stages in place, so the raw samples are kept first (the pipeline's `Keep`) for
-the final `Blend`; both are stages of the batch's table.
+the final `Blend`; both are rows of the table of batched stages (`batch.noise.BATCHED`).
 """
 
 from __future__ import annotations
@@ -9,13 +9,13 @@ from __future__ import annotations
 import numpy as np
 
 from ..noise import stages as rt
-from ..noise.level import Blend, Keep, blend
-from .noise import BATCHED, _Batched
+from ..noise.level import blend
+from .batched import Batched
 
-__all__: list[str] = []
+__all__ = ["BatchedKeep", "BatchedBlend"]
 
 
-class _BatchedKeep(_Batched):
+class BatchedKeep(Batched):
     keyed = True
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
@@ -26,11 +26,11 @@ class _BatchedKeep(_Batched):
             np.copyto(dst, src)
 
 
-class _BatchedBlend(_Batched):
+class BatchedBlend(Batched):
     keyed = True
 
-    def __init__(self, template: rt.Stage, nsim: int, *stride: int):
-        super().__init__(template, nsim, *stride)  # type: ignore[call-arg]
+    def __init__(self, template: rt.Stage, nsim: int, stride: int):
+        super().__init__(template, nsim, stride)
         self.levels = np.ones(nsim)
         template.batch_active = False  # type: ignore[attr-defined]  # some simulation's level is not 1
 
@@ -46,7 +46,3 @@ class _BatchedBlend(_Batched):
             return
         level = self.levels[sims].reshape((len(sims),) + (1,) * (src.ndim - 1))
         blend(raw, src, level, dst, self.template.bounds)  # type: ignore[attr-defined]
-
-
-BATCHED[Keep] = _BatchedKeep
-BATCHED[Blend] = _BatchedBlend
