@@ -4,13 +4,20 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from pathlib import Path
 
+import mujoco
+import numpy as np
 import pytest
+
+import sensorcfg
 
 from sensorcfg.batch.noise import BATCHED
 from sensorcfg.noise.level import Blend, Keep
 from sensorcfg.noise.misalign import Misalign
 from sensorcfg.noise.redrawn import Redrawn
+
+needs_batch = pytest.mark.skipif(int(mujoco.__version__.split(".")[0]) < 4, reason="mujoco.batch needs MuJoCo 4")
 
 
 def test_table_is_read_only():
@@ -31,3 +38,25 @@ def test_table_is_whole_without_importing_the_stage_modules():
 @pytest.mark.parametrize("stage", [Keep, Blend, Misalign, Redrawn])
 def test_stage_has_a_batched_form(stage):
     assert stage in BATCHED
+
+
+TERRAIN = str(Path(__file__).parent / "models" / "terrain.xml")
+LEVELED = ("options: {control_interval: 5, strip_singleton_buffer_dim: true}\nsensors:\n"
+           "  noisy: {kind: qvel, element: joint:hip_f, noise: [{type: gaussian, std: 0.05}, {type: lowpass, cutoff: 20Hz}]}\n"
+           "  added: {kind: qvel, element: joint:hip_f, noise: [{type: gaussian, std: 0.05}]}\n"
+           "  clean: {kind: qvel, element: joint:hip_f}\n")
+
+
+@needs_batch
+def test_batches_sharing_observables_keep_their_own_levels() -> None:
+    """A batch's noise levels live in its own stages: a second batch built over the same observables (their
+    noise stages shared) leaves the first one's level-0 episodes clean."""
+    observables = sensorcfg.loads(LEVELED).build(TERRAIN)
+    first = sensorcfg.BatchEnvironment(TERRAIN, observables, 2, seed=0)
+    first.set_noise_level(0.0)
+    first.reset()
+    sensorcfg.BatchEnvironment(TERRAIN, observables, 2, seed=1)
+    for _ in range(3):
+        obs = first.step(np.full(first.action_spec().shape, 0.3)).observation
+        np.testing.assert_array_equal(obs["noisy"], obs["clean"])
+        np.testing.assert_array_equal(obs["added"], obs["clean"])

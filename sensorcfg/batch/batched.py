@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -25,6 +26,9 @@ class Batched:
     def load(self, i: int | np.ndarray, stage: Any) -> None:
         """Take simulation i's episode start from `stage`, the template just reset with i's stream (i: an index
         array for a keyed stage: every episode start but the key is the same)."""
+
+    def link(self, batched: Sequence[Batched]) -> None:
+        """Find the other stages of its pipeline this one hands values to (`batched`: all of them, in order)."""
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
         raise NotImplementedError

@@ -298,6 +298,8 @@ class BatchPipeline:
                 raise SuiteError(f"sensor {sensor!r}: " + batch_refusal("noise stage", kind=type(stage).__name__.lower(),
                                                                         detail=f" ({what})" if what else ""))
             batched.append(make(stage, nsim, stride))
+        for stage in batched:
+            stage.link(batched)
         self.stages = stages
         self.batched = batched
         self.shape = tuple(pipeline.shape)
@@ -305,7 +307,7 @@ class BatchPipeline:
         # values through while every simulation is at level 1): applied in place by `streams.add_sums`
         core = [b for b in batched if not isinstance(b.template, (Keep, Blend))]
         self._fusable = core[0] if len(core) == 1 and getattr(core[0], "terms", None) is not None else None
-        self._blend = next((b.template for b in batched if isinstance(b.template, Blend)), None)
+        self._blend = next((b for b in batched if isinstance(b, BatchedBlend)), None)
 
     @property
     def additive(self) -> _Additive | None:
@@ -317,7 +319,7 @@ class BatchPipeline:
     def fused(self) -> _Additive | None:
         """`additive` while every simulation is at noise level 1 (in the history the sum is added in place,
         where a blend would need the raw values)."""
-        blending = self._blend is not None and self._blend.batch_active  # type: ignore[attr-defined]
+        blending = self._blend is not None and self._blend.active
         return None if blending else self.additive
 
     def sum(self, table: np.ndarray, lo: int, sims: np.ndarray, steps: np.ndarray) -> Sum:

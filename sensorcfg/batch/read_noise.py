@@ -22,10 +22,11 @@ from typing import Any, NamedTuple, cast
 
 import numpy as np
 
-from ..noise.level import Blend, blend
+from ..noise.level import blend
 from ..noise.streams import Affine, Prepared, Rows, add_rows, prepare
 from ..runtime.channels import FixedChannel
 from .layout import Layout
+from .level import BatchedBlend
 from .noise import BatchPipeline, _Additive
 
 __all__ = ["ReadNoise", "added_as_read"]
@@ -54,7 +55,7 @@ class _Sensor(NamedTuple):
     stage: _Additive  # the pipeline's fused sum: its keys and terms
     size: int  # values per sample
     span: slice  # its (simulation, slot) pairs in the concatenated arrays of `ReadNoise`
-    blend: Any  # the pipeline's batched `Blend` (its per-simulation levels), or None
+    blend: BatchedBlend | None  # the pipeline's batched `Blend` (its per-simulation levels)
     sum: Prepared  # its draws and terms, made once (`streams.prepare`)
 
 
@@ -92,7 +93,7 @@ class ReadNoise:
             if pipeline.stride != schedule.interval:  # a fixed schedule's is: sample j's numbers are the j-th
                 raise RuntimeError(f"read noise of channel {c}: its noise stride is not its interval (an internal error)")
             count = nsim * schedule.buffer
-            blend_stage = next((b for b in pipeline.batched if isinstance(b.template, Blend)), None)
+            blend_stage = next((b for b in pipeline.batched if isinstance(b, BatchedBlend)), None)
             templates = stage.template.draws(np.zeros(0, np.int64), np.zeros((0, 2), np.uint64))
             prepared = prepare(templates, cast(list[Affine], stage.terms))
             self.sensors.append(_Sensor(stage, size, slice(at, at + count), blend_stage, prepared))
@@ -132,7 +133,7 @@ class ReadNoise:
             if not j.size:
                 continue
             rows.append(Rows(sensor.sum, keys, j, starts))
-            if sensor.blend is not None and sensor.blend.template.batch_active:
+            if sensor.blend is not None and sensor.blend.active:
                 blends.append(self._blended(values, sensor, sims, starts))  # their raw values, before the noise
         add_rows(rows, values)
         for at, raw, level in blends:
@@ -143,7 +144,7 @@ class ReadNoise:
     @staticmethod
     def _blended(values: np.ndarray, sensor: _Sensor, sims: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, ...]:
         """The positions of the samples of simulations at a level other than 1, their raw values and levels."""
-        levels = sensor.blend.levels[sims]
+        levels = cast(BatchedBlend, sensor.blend).levels[sims]
         rows = np.flatnonzero(levels != 1.0)
         at = starts[rows, None] + np.arange(sensor.size)
         return at, values[at], levels[rows, None]
