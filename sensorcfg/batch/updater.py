@@ -33,10 +33,10 @@ from ..draws import (DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, ChoiceSteps, Unifor
 from .. import compiled
 from ..checks import batch_refusal, per_simulation_refusal
 from ..errors import ArgumentError, SuiteError
-from ..observables.aggregators import AGGREGATORS, builtin
+from ..observables.aggregators import AGGREGATORS
 from ..observables.feature import batch_on_demand_problem
 from ..noise.streams import add_sums
-from ..runtime.bank import _reader
+from ..runtime.bank import _reader, plain_refusal
 from ..runtime.channels import Channel, DrawnChannel, FixedChannel, RandomChannel, make_channel
 from ..runtime.updater import observation_spec
 from .layout import Layout, Source, reduce_window
@@ -206,15 +206,12 @@ class BatchUpdater:
     def _check(name: str, obs: Any, ch: Channel) -> None:
         if getattr(obs, "corruptor", None) is not None:
             raise SuiteError(f"sensor {name!r}: {batch_refusal('corruptor')}")
-        sampler = ch.sampler
-        if getattr(sampler, "struct", None) != "data" or not hasattr(sampler, "index"):
-            rule = "constant" if getattr(sampler, "struct", None) == "model" else "generic"
-            raise SuiteError(f"sensor {name!r} ({type(obs).__name__}): {batch_refusal(rule)}")
-        if ch.dtype != np.float64:
+        rule = plain_refusal(ch)
+        if rule in ("constant", "generic"):
+            raise SuiteError(f"sensor {name!r} ({type(obs).__name__}): {batch_refusal(cast(str, rule))}")
+        if rule == "dtype":
             raise SuiteError(f"sensor {name!r}: {batch_refusal('dtype', what=type(obs).__name__, dtype=str(ch.dtype))}")
-        aggregator = ch.aggregator
-        if aggregator is not None and not (ch.builtin_aggregator and ch.has_buffer_dim
-                                           and builtin(aggregator) is not None):
+        if rule == "aggregator":
             raise SuiteError(f"sensor {name!r}: its aggregator cannot be vectorised across simulations: use one of "
                              f"{', '.join(AGGREGATORS)} on a buffer (a custom callable would run per simulation)")
 

@@ -22,10 +22,10 @@ from ..observables.aggregators import AGGREGATORS, builtin
 from .cache import BoundedCache
 from .bank_noise import BankNoise, Program, program
 from .bank_read import PADS, CompiledRead, compile_read, cut, finish
-from .channels import Channel, FixedChannel
+from .channels import Channel, DrawnChannel, FixedChannel
 from .read_kernel import kernel_read, kernel_snapshot
 
-__all__ = ["FeatureBank", "BankMember", "GroupMember", "PlainRead", "ReadPlan", "ReductionGroup", "buffer_view",
+__all__ = ["FeatureBank", "BankMember", "bank_member", "plain_refusal", "qualifies", "GroupMember", "PlainRead", "ReadPlan", "ReductionGroup", "buffer_view",
            "fields_of", "read_plan", "rebind_noise", "reuse_key"]
 
 _PLANS_BUDGET = 4 << 20  # bytes of read plans kept, at least (4 x the history's size when that is more)
@@ -99,7 +99,7 @@ def fields_of(channels: list[FixedChannel]) -> list[str]:
 
 
 def _reader(ch: Channel) -> _FieldReader:
-    return cast(_FieldReader, ch.sampler)  # `qualifies` (or the batch's check) made sure it is one
+    return cast(_FieldReader, ch.sampler)  # `plain_refusal` made sure it is one
 
 
 class BankMember:
@@ -302,15 +302,34 @@ def _snapshot_rows(phases: list[tuple[int, int, list[int]]], rows: int) -> list[
     return snap
 
 
-def qualifies(ch: Any) -> TypeGuard[FixedChannel]:
-    """Whether a channel can join the bank: an uncorrupted float64 mjData feature whose noise (if any)
-    the bank can apply. A field MuJoCo computes on demand (`compute`) is read by its own reader, which fills it
-    first."""
+def plain_refusal(ch: Channel) -> str | None:
+    """Why a channel cannot be read as a plain feature (its values gathered from mjData, reduced by a built-in
+    aggregator on a buffer or not at all), as a rule's key: "constant" (an mjModel field), "generic" (not a
+    feature reader), "dtype" (not float64), "aggregator" (a custom one, or none of a buffer); None when it can.
+    The one membership rule of the feature banks (`bank_member`) and the batch (`BatchUpdater`)."""
     sampler = ch.sampler
-    return (isinstance(ch, FixedChannel) and getattr(sampler, "struct", None) == "data"
-            and hasattr(sampler, "index") and getattr(sampler, "compute", None) is None and ch.dtype == np.float64 and program(ch.noise) is not None
-            and (ch.aggregator is None or (ch.builtin_aggregator and ch.has_buffer_dim
-                                           and builtin(ch.aggregator) is not None)))
+    struct = getattr(sampler, "struct", None)
+    if struct != "data" or not hasattr(sampler, "index"):
+        return "constant" if struct == "model" else "generic"
+    if ch.dtype != np.float64:
+        return "dtype"
+    if ch.aggregator is not None and not (ch.builtin_aggregator and ch.has_buffer_dim
+                                          and builtin(ch.aggregator) is not None):
+        return "aggregator"
+    return None
+
+
+def bank_member(ch: Channel, kind: type[FixedChannel] | type[DrawnChannel]) -> bool:
+    """Whether a channel of schedule type `kind` can join a feature bank (`FeatureBank`, `planned.DrawnBank`):
+    an uncorrupted plain feature (`plain_refusal`) whose noise (if any) the bank can apply. A field MuJoCo
+    computes on demand (`compute`) is read by its own reader, which fills it first."""
+    return (isinstance(ch, kind) and plain_refusal(ch) is None and getattr(ch.sampler, "compute", None) is None
+            and program(ch.noise) is not None)
+
+
+def qualifies(ch: Channel) -> TypeGuard[FixedChannel]:
+    """Whether a channel can join the fixed-schedule bank (`bank_member`)."""
+    return bank_member(ch, FixedChannel)
 
 
 def read_plan(channels: list[FixedChannel], cols: np.ndarray, rows: int, phase: int) -> ReadPlan:

@@ -17,26 +17,19 @@ from typing import Any, NamedTuple, cast
 
 import numpy as np
 
-from .bank import BankMember, ReadPlan, _reader, read_plan, rebind_noise, reuse_key
+from .bank import BankMember, ReadPlan, _reader, bank_member, read_plan, rebind_noise, reuse_key
 from .bank_noise import BankNoise, Layer, Program, ReadOp, ops_of, program
 from .bank_read import compile_read, cut, finish
 from .channels import DrawnChannel
 from .drawn import Planner, Round, chunk_steps
 from .read_kernel import kernel_read, kernel_snapshot
-from ..observables.aggregators import builtin
 
 __all__ = ["DrawnBank", "DrawnMember", "joins"]
 
 
 def joins(ch: Any) -> bool:
-    """Whether a planned channel can join the bank: an uncorrupted float64 mjData feature (not computed on
-    demand) whose noise the bank can apply, with a built-in aggregator on a buffer or none."""
-    sampler = ch.sampler
-    return (isinstance(ch, DrawnChannel) and getattr(sampler, "struct", None) == "data"
-            and hasattr(sampler, "index") and getattr(sampler, "compute", None) is None
-            and ch.dtype == np.float64 and program(ch.noise) is not None
-            and (ch.aggregator is None or (ch.builtin_aggregator and ch.has_buffer_dim
-                                           and builtin(ch.aggregator) is not None)))
+    """Whether a planned channel can join the bank (`bank.bank_member`)."""
+    return bank_member(ch, DrawnChannel)
 
 
 class _Window(NamedTuple):
