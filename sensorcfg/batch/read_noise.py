@@ -67,11 +67,11 @@ def _starts(layout: Layout, c: int, size: int, buffer: int) -> np.ndarray:
         if i == c:
             return cast(np.ndarray, sims * plain_width + part.start + slots * size)
     at = nsim * plain_width
-    for _, part, block, members in layout.groups:
-        for i, sub, _ in members:
+    for group in layout.groups:
+        for i, sub, _ in group.members:
             if i == c:
-                return cast(np.ndarray, at + (slots * nsim + sims) * block[1] + sub.start)
-        at += nsim * part.size
+                return cast(np.ndarray, at + (slots * nsim + sims) * group.block[1] + sub.start)
+        at += nsim * group.part.size
     raise ValueError(f"channel {c} is not read")
 
 

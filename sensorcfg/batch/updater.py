@@ -33,13 +33,13 @@ from ..draws import (DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, ChoiceSteps, Unifor
 from .. import compiled
 from ..checks import batch_refusal, per_simulation_refusal
 from ..errors import ArgumentError, SuiteError
-from ..observables.aggregators import AGGREGATORS
+from ..observables.aggregators import AGGREGATORS, reduce_stacked
 from ..observables.feature import batch_on_demand_problem
 from ..noise.streams import add_sums
 from ..runtime.bank import _reader, plain_refusal
 from ..runtime.channels import Channel, DrawnChannel, FixedChannel, RandomChannel, make_channel
 from ..runtime.updater import observation_spec
-from .layout import Layout, Source, reduce_window
+from .layout import Layout, Source
 from .noise import BatchPipeline, prefetch
 from .read_noise import ReadNoise, added_as_read
 from .random_schedules import Timelines
@@ -377,9 +377,9 @@ class BatchUpdater:
             gathered, windows = layout.read_parts(values)
             for i, part, shape in layout.plain:
                 out[i] = gathered[:, part].reshape(shape)
-            for (reduce, _, _, members), window in zip(layout.groups, windows):
-                reduced = reduce_window(reduce, window)
-                for i, sub, shape in members:
+            for group, window in zip(layout.groups, windows):
+                reduced = reduce_stacked(group.aggregator, window)
+                for i, sub, shape in group.members:
                     out[i] = reduced[:, sub].reshape(self.nsim, *shape)
         if self.timelines.specs:
             self._read_drawn(out)
@@ -391,7 +391,7 @@ class BatchUpdater:
             ch = self.channels[c]
             values = self.flat.take(self.layout.drawn(c, codes, self.t, self.G))  # (nsim, buffer, width)
             if ch.aggregator is not None:
-                reduced = reduce_window(AGGREGATORS[cast(Any, ch.aggregator).name].reduce, values.transpose(1, 0, 2))
+                reduced = reduce_stacked(cast(Any, ch.aggregator).name, values.transpose(1, 0, 2))
                 out[c] = reduced.reshape(self.nsim, *ch.shape)
             elif ch.has_buffer_dim:
                 out[c] = values.reshape(self.nsim, ch.buffer_size, *ch.shape)

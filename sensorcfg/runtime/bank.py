@@ -18,7 +18,7 @@ from typing import Any, NamedTuple, Protocol, TypeGuard, cast
 
 import numpy as np
 
-from ..observables.aggregators import AGGREGATORS, builtin
+from ..observables.aggregators import AGGREGATORS, builtin, pairwise
 from .cache import BoundedCache
 from .bank_noise import BankNoise, Program, program
 from .bank_read import PADS, CompiledRead, compile_read, cut, finish
@@ -83,6 +83,7 @@ class ReductionGroup(NamedTuple):
     part: Any  # a slice of the gather (an index array in the batch's layout)
     block: tuple[int, int]
     members: list[GroupMember]
+    aggregator: str  # the built-in's name (`observables.aggregators`)
 
 
 class ReadPlan(NamedTuple):
@@ -346,9 +347,7 @@ def read_plan(channels: list[FixedChannel], cols: np.ndarray, rows: int, phase: 
         block = (steps % rows)[:, None] * width + np.arange(cols[i], cols[i + 1])
         key: tuple[Any, ...] | None = None if ch.aggregator is None else (
             cast(Any, ch.aggregator).name, ch.buffer_size)  # a builtin aggregator: it has a name
-        if key is not None and key[0] in ("sum", "mean") and cols[i + 1] - cols[i] == 1:
-            # A buffer of one-value samples is a 1-D array to numpy (and dm_control), which sums it
-            # pairwise from 8 values on; in a wider group it would be summed row by row, off in the last bits.
+        if key is not None and pairwise(key[0], int(cols[i + 1] - cols[i])):  # a group of its own
             key += (i,)
         blocks.setdefault(key, []).append((i, block))
     parts: list[np.ndarray] = []
@@ -369,7 +368,7 @@ def read_plan(channels: list[FixedChannel], cols: np.ndarray, rows: int, phase: 
             members.append(GroupMember(i, slice(col, col + block.shape[1]), channels[i].shape))
             col += block.shape[1]
         groups.append(ReductionGroup(AGGREGATORS[key[0]].reduce, slice(offset, offset + stacked.size),
-                                     stacked.shape, members))
+                                     stacked.shape, members, key[0]))
         parts.append(stacked.ravel())
         offset += stacked.size
     return ReadPlan(np.concatenate(parts).astype(np.intp), groups, plain)

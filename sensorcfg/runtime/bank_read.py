@@ -212,7 +212,7 @@ def _families(channels: Sequence[FixedChannel], groups: list[Any]) -> tuple[dict
     families: dict[str, list[_Group]] = {}
     alone = []
     for g in groups:
-        found = family(cast(Any, channels[g.members[0].member].aggregator).name, *g.block)
+        found = family(g.aggregator, *g.block)
         group = _Group(np.arange(g.part.start, g.part.stop).reshape(g.block), g.members, g.reduce, found)
         if found is None:
             alone.append(group)
