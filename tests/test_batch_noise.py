@@ -60,3 +60,29 @@ def test_batches_sharing_observables_keep_their_own_levels() -> None:
         obs = first.step(np.full(first.action_spec().shape, 0.3)).observation
         np.testing.assert_array_equal(obs["noisy"], obs["clean"])
         np.testing.assert_array_equal(obs["added"], obs["clean"])
+
+
+HISTORY_NOISE = ("options: {control_interval: 5, strip_singleton_buffer_dim: true}\nsensors:\n"
+                 "  a: {kind: qvel, element: joint:hip_f, interval: 3, delay: 2, noise: [{type: lowpass, cutoff: 20Hz}]}\n"
+                 "  b: {kind: qpos, element: joint:hip_f, interval: 2, noise: [{type: random_walk, std: 0.1}]}\n")
+
+
+def _noisy_run(env: sensorcfg.BatchEnvironment) -> list[dict[str, np.ndarray]]:
+    out = [env.reset().observation]
+    for _ in range(30):
+        out.append(env.step(np.full(env.action_spec().shape, 0.3)).observation)
+    return out
+
+
+@needs_batch
+def test_noise_plans_are_kept_within_their_budget() -> None:
+    """The batch's per-row noise plans are a bounded cache: with no budget none is kept, and every value
+    stays what it is when they are kept."""
+    want = _noisy_run(sensorcfg.BatchEnvironment(TERRAIN, sensorcfg.loads(HISTORY_NOISE), 3, seed=2))
+    env = sensorcfg.BatchEnvironment(TERRAIN, sensorcfg.loads(HISTORY_NOISE), 3, seed=2)
+    env._updater._noise_plans.budget = 0
+    got = _noisy_run(env)
+    assert len(env._updater._noise_plans) == 0
+    for g, w in zip(got, want):
+        for name in w:
+            np.testing.assert_array_equal(g[name], w[name], err_msg=name)

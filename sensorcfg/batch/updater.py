@@ -37,6 +37,7 @@ from ..observables.aggregators import AGGREGATORS, reduce_stacked
 from ..observables.feature import batch_on_demand_problem
 from ..noise.streams import add_sums
 from ..runtime.bank import _reader, plain_refusal
+from ..runtime.cache import DEFAULT_BUDGET, BoundedCache
 from ..runtime.channels import Channel, DrawnChannel, FixedChannel, RandomChannel, make_channel
 from ..runtime.updater import observation_spec
 from .layout import Layout, Source
@@ -46,6 +47,8 @@ from .random_schedules import Timelines
 from .relay import relayed
 
 __all__ = ["BatchUpdater"]
+
+_NOISE_PLANS_BUDGET = DEFAULT_BUDGET  # bytes of per-row noise plans kept, at least (the history's size when more)
 
 
 def _bound(label: str, attr: str, value: Any, default: int) -> int:
@@ -146,7 +149,8 @@ class BatchUpdater:
         self.t = np.zeros(self.nsim, np.int64)  # physics steps since each simulation's reset
         self.control_steps = np.zeros(self.nsim, np.int64)
         self.started = np.zeros(self.nsim, bool)
-        self._noise_plans: dict[int, list[list[tuple[int, np.ndarray]]]] = {}
+        # per history row: the noisy samples of a control step starting there (`_plan`), within a budget
+        self._noise_plans = BoundedCache(max(_NOISE_PLANS_BUDGET, layout.history.nbytes))
 
     # -- construction -----------------------------------------------------------------------------
 
@@ -346,7 +350,7 @@ class BatchUpdater:
 
     def _plan(self, gp: int) -> list[list[tuple[int, np.ndarray]]]:
         """Per substep, the noisy fixed channels and the simulations that sample them (cached per phase)."""
-        plan = self._noise_plans.get(gp)
+        plan: list[list[tuple[int, np.ndarray]]] | None = self._noise_plans.get(gp)
         if plan is None:
             local = self.t % self.rows
             plan = [[] for _ in range(self.substeps)]
@@ -358,7 +362,7 @@ class BatchUpdater:
                     sims = np.flatnonzero(needed[(local + k) % needed.size])
                     if sims.size:
                         plan[k - 1].append((c, sims))
-            self._noise_plans[gp] = plan
+            self._noise_plans.put(gp, plan)
         return plan
 
     # -- reads ------------------------------------------------------------------------------------

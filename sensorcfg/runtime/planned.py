@@ -114,9 +114,9 @@ class DrawnBank:
         buffers = np.array([ch.buffer_size for ch in channels])
         member = np.searchsorted(self.cols, template % self.width, side="right") - 1
         # in a round's windows (member, read, largest buffer): a member reads the last `buffer` entries
-        self.entry = member * self.planner.buffer + self.planner.buffer - buffers[member] + template // self.width
+        entry = member * self.planner.buffer + self.planner.buffer - buffers[member] + template // self.width
         self.column = template % self.width
-        self._at: dict[int, np.ndarray] = {}  # `_entries` by reads per round
+        self.entry_member, self.entry_slot = np.divmod(entry, self.planner.buffer)
 
     def _noise(self, programs: list[Program]) -> None:
         """The members' noise (`BankNoise`), drawn with the rounds for the samples they take (random walks a
@@ -216,7 +216,7 @@ class DrawnBank:
 
     def _store(self, plan: Round, first: int, count: int) -> None:
         """Gather indices of a round's reads (read slots first .. first + count, or the reset read)."""
-        entries = plan.windows.take(self._entries(*plan.windows.shape))
+        entries = plan.windows[self.entry_member, :, self.entry_slot].T  # (read, gathered value)
         slots = (first + np.arange(max(count, 1))) % self.slots
         # (padding, -1, gathers any row: a read that shows it writes the pad values over it)
         self.gathers[slots] = entries % self.rows * self.width + self.column
@@ -227,14 +227,6 @@ class DrawnBank:
             read, value = np.nonzero(padded)
             for r, values in zip(*_runs(read, value)):
                 self.pads[int(slots[r])] = values
-
-    def _entries(self, members: int, reads: int, b: int) -> np.ndarray:
-        """Where each gathered value's window entry is in a round's windows (members, reads, b), read by read
-        (one array per shape: a round's and the reset read's)."""
-        at = self._at.get(reads)
-        if at is None:
-            at = self._at[reads] = (self.entry // b * (reads * b) + self.entry % b)[None, :] + (np.arange(reads) * b)[:, None]
-        return at
 
     # -- the physics loop -------------------------------------------------------------------------
 
