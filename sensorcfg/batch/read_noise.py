@@ -25,6 +25,7 @@ import numpy as np
 from ..noise.level import blend
 from ..noise.streams import Affine, Prepared, Rows, add_rows, prepare
 from ..runtime.channels import FixedChannel
+from ..runtime.schedule import newest_sample
 from .layout import Layout
 from .level import BatchedBlend
 from .noise import BatchPipeline, _Additive
@@ -98,9 +99,9 @@ class ReadNoise:
             prepared = prepare(templates, cast(list[Affine], stage.terms))
             self.sensors.append(_Sensor(stage, size, slice(at, at + count), blend_stage, prepared))
             at += count
-            # the read at t sees sample (t - delay) // interval - buffer + 1 + slot in slot `slot`
+            # the read at t sees sample `schedule.newest(t) + schedule.offsets()[slot]` in slot `slot`
             columns.append((np.repeat(np.arange(nsim), schedule.buffer), _starts(layout, c, size, schedule.buffer).ravel(),
-                            np.tile(np.arange(schedule.buffer) - schedule.buffer + 1, nsim),
+                            np.tile(schedule.offsets(), nsim),
                             *(np.full(count, v) for v in (schedule.delay, schedule.interval))))
         self.sims, self.starts, self.first, delay, interval = (
             np.concatenate(column).astype(np.int64) for column in zip(*columns))
@@ -117,7 +118,7 @@ class ReadNoise:
 
     def apply(self, values: np.ndarray, t: np.ndarray) -> None:
         """Add each read sample's noise to `values`, one read of every simulation (`t`: steps since reset)."""
-        steps = (t[None, :] - self.pair_delay) // self.pair_interval  # (pair, simulation)
+        steps = newest_sample(t[None, :], self.pair_delay, self.pair_interval)  # (pair, simulation)
         sample = steps.ravel().take(self.pair_at)
         sample += self.first  # < 0: padding
         padding = bool((sample < 0).any())
