@@ -75,14 +75,14 @@ def _noisy_run(env: sensorcfg.BatchEnvironment) -> list[dict[str, np.ndarray]]:
 
 
 @needs_batch
-def test_noise_plans_are_kept_within_their_budget() -> None:
-    """The batch's per-row noise plans are a bounded cache: with no budget none is kept, and every value
+def test_noisy_samples_are_kept_within_their_budget() -> None:
+    """The batch's noisy samples per history row are a bounded cache: with no budget none is kept, and every value
     stays what it is when they are kept."""
     want = _noisy_run(sensorcfg.BatchEnvironment(TERRAIN, sensorcfg.loads(HISTORY_NOISE), 3, seed=2))
     env = sensorcfg.BatchEnvironment(TERRAIN, sensorcfg.loads(HISTORY_NOISE), 3, seed=2)
-    env._updater._noise_plans.budget = 0
+    env._updater._noisy_by_row.budget = 0
     got = _noisy_run(env)
-    assert len(env._updater._noise_plans) == 0
+    assert len(env._updater._noisy_by_row) == 0
     for g, w in zip(got, want):
         for name in w:
             np.testing.assert_array_equal(g[name], w[name], err_msg=name)

@@ -48,7 +48,7 @@ from .relay import relayed
 
 __all__ = ["BatchUpdater"]
 
-_NOISE_PLANS_BUDGET = DEFAULT_BUDGET  # bytes of per-row noise plans kept, at least (the history's size when more)
+_NOISY_ROWS_BUDGET = DEFAULT_BUDGET  # bytes of per-row noisy samples kept, at least (the history's size when more)
 
 
 def _bound(label: str, attr: str, value: Any, default: int) -> int:
@@ -149,8 +149,8 @@ class BatchUpdater:
         self.t = np.zeros(self.nsim, np.int64)  # physics steps since each simulation's reset
         self.control_steps = np.zeros(self.nsim, np.int64)
         self.started = np.zeros(self.nsim, bool)
-        # per history row: the noisy samples of a control step starting there (`_plan`), within a budget
-        self._noise_plans = BoundedCache(max(_NOISE_PLANS_BUDGET, layout.history.nbytes))
+        # per history row: the noisy samples of a control step starting there (`_noisy_samples`), within a budget
+        self._noisy_by_row = BoundedCache(max(_NOISY_ROWS_BUDGET, layout.history.nbytes))
 
     # -- construction -----------------------------------------------------------------------------
 
@@ -261,7 +261,7 @@ class BatchUpdater:
         if self.cameras is not None:
             self.cameras.reset(ids)
         self.layout.clear()
-        self._noise_plans.clear()
+        self._noisy_by_row.clear()
 
     def _start_episodes(self, ids: np.ndarray, random_states: list[np.random.RandomState]) -> np.ndarray:
         """Each simulation's draws at reset, in the Updater's order; returns the noisy channels' keys
@@ -316,11 +316,11 @@ class BatchUpdater:
 
     def _noise_calls(self, gp: int, active: np.ndarray, everyone: bool) -> list[tuple[int, int, np.ndarray, np.ndarray]]:
         """(substep k, channel, sims, steps) of this control step's noisy samples, in order."""
-        plan = self._plan(gp)
+        noisy = self._noisy_samples(gp)
         taken = self.timelines.taken_now() if self.timelines.specs else None
         calls = []
         for k in range(1, self.substeps + 1):
-            for c, sims in plan[k - 1]:
+            for c, sims in noisy[k - 1]:
                 if not everyone:
                     sims = sims[active[sims]]
                 if sims.size:
@@ -348,12 +348,12 @@ class BatchUpdater:
             raw = row[sims, lo:hi]
             row[sims, lo:hi] = self.corrupted[c](raw.reshape(sims.size, *shape), sims, steps).reshape(sims.size, -1)
 
-    def _plan(self, gp: int) -> list[list[tuple[int, np.ndarray]]]:
+    def _noisy_samples(self, gp: int) -> list[list[tuple[int, np.ndarray]]]:
         """Per substep, the noisy fixed channels and the simulations that sample them (cached per phase)."""
-        plan: list[list[tuple[int, np.ndarray]]] | None = self._noise_plans.get(gp)
-        if plan is None:
+        noisy: list[list[tuple[int, np.ndarray]]] | None = self._noisy_by_row.get(gp)
+        if noisy is None:
             local = self.t % self.rows
-            plan = [[] for _ in range(self.substeps)]
+            noisy = [[] for _ in range(self.substeps)]
             for c in range(self.nfixed):
                 if c not in self.corrupted:
                     continue
@@ -361,9 +361,9 @@ class BatchUpdater:
                 for k in range(1, self.substeps + 1):
                     sims = np.flatnonzero(needed[(local + k) % needed.size])
                     if sims.size:
-                        plan[k - 1].append((c, sims))
-            self._noise_plans.put(gp, plan)
-        return plan
+                        noisy[k - 1].append((c, sims))
+            self._noisy_by_row.put(gp, noisy)
+        return noisy
 
     # -- reads ------------------------------------------------------------------------------------
 

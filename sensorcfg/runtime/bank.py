@@ -251,23 +251,24 @@ class FeatureBank:
     def read(self, step: int) -> Sequence[Any]:
         """Every member's observation at `step`: fresh arrays (views of this read's own copy)."""
         phase = step % self.rows
-        plan = self._gathers.get(phase)
-        if plan is None:
-            plan = self._compile(phase)
+        compiled = self._gathers.get(phase)
+        if compiled is None:
+            compiled = self._compile(phase)
             # its index, noise positions and work buffer (the noise plan's fields are the bank's own), and the
             # compiled program's
-            self._gathers.put(phase, plan, 4 * plan.source.nbytes + (plan.kernel.nbytes if plan.kernel else 0))
-        if plan.kernel is not None and (not plan.noise or step >= self.rows):  # no padding after the noise
-            plan.kernel.run(plan.source)
-            return cut(plan)
-        self.flat.take(plan.source, None, plan.gathered, "clip")
-        if plan.noise:  # a noise program: the bank has noise
-            self._apply_noise(step, plan)
-        return finish(plan)
+            self._gathers.put(phase, compiled,
+                              4 * compiled.source.nbytes + (compiled.kernel.nbytes if compiled.kernel else 0))
+        if compiled.kernel is not None and (not compiled.noise or step >= self.rows):  # no padding after the noise
+            compiled.kernel.run(compiled.source)
+            return cut(compiled)
+        self.flat.take(compiled.source, None, compiled.gathered, "clip")
+        if compiled.noise:  # a noise program: the bank has noise
+            self._apply_noise(step, compiled)
+        return finish(compiled)
 
-    def _apply_noise(self, step: int, plan: CompiledRead) -> None:
-        gathered, index = plan.gathered, plan.source
-        cast(BankNoise, self.noise).apply(index, plan.noise)
+    def _apply_noise(self, step: int, compiled: CompiledRead) -> None:
+        gathered, index = compiled.gathered, compiled.source
+        cast(BankNoise, self.noise).apply(index, compiled.noise)
         if step < self.rows:  # early in an episode: windows reach before the reset sample
             early = self._early.get(step)
             if early is None:

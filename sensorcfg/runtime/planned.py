@@ -193,13 +193,13 @@ class DrawnBank:
             self.next_round += self.length
 
     def _plan_round(self, base: int, length: int) -> None:
-        plan = self.planner.round(self.members_, length)
-        self._store(plan, base // self.n + 1, length // self.n)
-        self.need[plan.take_step % self.rows] = True
+        round_ = self.planner.round(self.members_, length)
+        self._store(round_, base // self.n + 1, length // self.n)
+        self.need[round_.take_step % self.rows] = True
         if len(self.recent) == 3:  # rounds that ended before the current step
             self.older += np.bincount(self.recent.pop(0) // _KEY, minlength=len(self.channels))
         # a sample is shown first in its own round or the next: each counted once
-        self.recent.append(_new(plan.take_sim * _KEY + plan.take_step, self.recent[-1] if self.recent else _ZERO[:0]))
+        self.recent.append(_new(round_.take_sim * _KEY + round_.take_step, self.recent[-1] if self.recent else _ZERO[:0]))
         if self.noise is not None:  # the noise of the samples this round takes first
             for chunk in range(base, base + length, self.chunk) if base and self.walkers else ():
                 self.noise.fill(chunk, self.walkers)  # (the reset drew the first chunk's random walks)
@@ -214,9 +214,9 @@ class DrawnBank:
         bounds = np.array([position * _KEY, position * _KEY + step + 1])  # keys of steps 0..step
         return int(self.older[position]) + sum(int(np.diff(keys.searchsorted(bounds))[0]) for keys in self.recent)
 
-    def _store(self, plan: Round, first: int, count: int) -> None:
+    def _store(self, round_: Round, first: int, count: int) -> None:
         """Gather indices of a round's reads (read slots first .. first + count, or the reset read)."""
-        entries = plan.windows[self.entry_member, :, self.entry_slot].T  # (read, gathered value)
+        entries = round_.windows[self.entry_member, :, self.entry_slot].T  # (read, gathered value)
         slots = (first + np.arange(max(count, 1))) % self.slots
         # (padding, -1, gathers any row: a read that shows it writes the pad values over it)
         self.gathers[slots] = entries % self.rows * self.width + self.column
@@ -271,14 +271,14 @@ class DrawnBank:
 
     def _read_numpy(self, index: np.ndarray, pads: np.ndarray | None) -> Sequence[Any]:
         """`read` in numpy calls (the reference; also reads whose windows show padding, early in an episode)."""
-        plan = self.compiled
-        gathered = plan.gathered
+        compiled = self.compiled
+        gathered = compiled.gathered
         self.flat.take(index, None, gathered, "clip")
         if self.noise is not None:
             self.noise.apply(index, self.noise_program)
         if pads is not None:
             self._pad(pads)
-        return finish(plan)
+        return finish(compiled)
 
     def _pad(self, pads: np.ndarray) -> None:
         """Padding over the gathered values at `pads` (after their noise: it is the first sample's as delivered)."""
