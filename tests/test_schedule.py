@@ -12,7 +12,7 @@ import itertools
 import numpy as np
 import pytest
 
-from sensorcfg.runtime.schedule import Schedule
+from sensorcfg.runtime.schedule import Schedule, newest_sample
 
 GRID = list(itertools.product(range(1, 9), range(0, 9), range(1, 7)))
 
@@ -73,3 +73,18 @@ def test_samples_taken_counts_the_needed_phases() -> None:
         for step in range(1, 5 * schedule.period):
             count += step % schedule.period in phases
             assert schedule.samples_taken(phases, step) == count, (i, d, b, step)
+
+
+def test_newest_sample_broadcasts_over_schedules() -> None:
+    """The batch's read noise finds the samples of many schedules' reads in one expression: the same
+    arithmetic as each Schedule's."""
+    schedules = [Schedule(3, 2, 4, 2), Schedule(1, 0, 1, 5), Schedule(7, 11, 3, 4)]
+    steps = np.arange(0, 60, 2)
+    delay = np.array([[s.delay] for s in schedules])
+    interval = np.array([[s.interval] for s in schedules])
+    got = newest_sample(steps[None, :], delay, interval)
+    for row, s in zip(got, schedules):
+        np.testing.assert_array_equal(row, [s.newest(int(t)) for t in steps])
+        for t in steps:
+            np.testing.assert_array_equal(s.window(int(t)), s.newest(int(t)) + s.offsets())
+            assert s.window(int(t))[0] == s.window_start(int(t))

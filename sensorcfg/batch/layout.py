@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any, NamedTuple, cast
+from typing import NamedTuple, cast
 
 import numpy as np
 
@@ -25,7 +25,7 @@ from ..runtime.bank import PlainRead, ReductionGroup, read_plan
 from ..runtime.cache import DEFAULT_BUDGET, BoundedCache
 from ..runtime.channels import DrawnChannel, FixedChannel, RandomChannel
 
-__all__ = ["Layout", "Segment", "Source", "reduce_window"]
+__all__ = ["Layout", "Segment", "Source"]
 
 
 class Source(NamedTuple):
@@ -295,9 +295,9 @@ class Layout:
         at = nsim * self.plain_cols.size
         plain = values[:at].reshape(nsim, -1)
         groups = []
-        for _, part, block, _ in self.groups:
-            size = nsim * part.size
-            groups.append(values[at:at + size].reshape(block[0], nsim, block[1]))
+        for group in self.groups:
+            size = nsim * group.part.size
+            groups.append(values[at:at + size].reshape(group.block[0], nsim, group.block[1]))
             at += size
         return plain, groups
 
@@ -320,8 +320,8 @@ class Layout:
             stride = np.where(self.from_record, self.record_read_stride, w)
             table = self._tables.put(gp, (
                 (np.ascontiguousarray(base[:, self.plain_cols]), np.ascontiguousarray(stride[:, self.plain_cols])),
-                [tuple(np.ascontiguousarray(a[:, part].reshape(-1, *block).transpose(1, 0, 2)) for a in (base, stride))
-                 for _, part, block, _ in self.groups]))
+                [tuple(np.ascontiguousarray(a[:, g.part].reshape(-1, *g.block).transpose(1, 0, 2)) for a in (base, stride))
+                 for g in self.groups]))
         return table
 
     def drawn(self, c: int, codes: np.ndarray, t: np.ndarray, G: int) -> np.ndarray:
@@ -337,12 +337,3 @@ class Layout:
         return (row[:, :, None] * (nsim * w) + (np.arange(nsim) * w)[:, None, None]
                 + np.arange(self.cols[c], self.cols[c + 1]))
 
-
-def reduce_window(reduce: Any, window: np.ndarray) -> np.ndarray:
-    """`reduce` of a (buffer, nsim, width) window, as the Updater reduces each simulation's (buffer, width) one: a
-    buffer of one-value samples is contiguous there, which numpy sums pairwise from 8 values on (not row by
-    row), so each simulation's buffer is made contiguous here too; returns (nsim, width)."""
-    if window.shape[2] != 1:
-        return cast(np.ndarray, reduce(np.ascontiguousarray(window)))
-    buffers = np.ascontiguousarray(window[:, :, 0].T)  # (nsim, buffer): reduced along contiguous memory
-    return cast(np.ndarray, reduce(buffers.T))[:, None]

@@ -1,45 +1,39 @@
 """The noise level across simulations: each simulation's level of the episode, blended with `blend`.
 
 The batch runs a sensor's stages in place, so the raw samples are kept first (the pipeline's `Keep`) for
-the final `Blend`; both are stages of the batch's table.
+the final `Blend`; both are rows of the table of batched stages (`batch.noise.BATCHED`). What a batch
+knows of its levels (each simulation's level, whether any is not 1, the raw samples of the call under way)
+lives in its own batched stages, never on the sensor's stages, which other batches and environments share.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from ..noise import stages as rt
-from ..noise.level import Blend, Keep, blend
-from .noise import BATCHED, _Batched
+from ..noise.level import blend
+from .batched import Batched
 
-__all__: list[str] = []
+__all__ = ["BatchedKeep", "BatchedBlend"]
 
 
-class _BatchedKeep(_Batched):
+class BatchedBlend(Batched):
     keyed = True
 
-    def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
-        blend_stage = self.template.blend  # type: ignore[attr-defined]
-        # every simulation at level 1 (the default): nothing to keep
-        blend_stage.batch_raw = src.copy() if blend_stage.batch_active else None
-        if dst is not src:
-            np.copyto(dst, src)
-
-
-class _BatchedBlend(_Batched):
-    keyed = True
-
-    def __init__(self, template: rt.Stage, nsim: int, *stride: int):
-        super().__init__(template, nsim, *stride)  # type: ignore[call-arg]
+    def __init__(self, template: rt.Stage, nsim: int, stride: int):
+        super().__init__(template, nsim, stride)
         self.levels = np.ones(nsim)
-        template.batch_active = False  # type: ignore[attr-defined]  # some simulation's level is not 1
+        self.active = False  # some simulation's level is not 1
+        self.raw: np.ndarray | None = None  # the raw samples of the call under way (kept by `BatchedKeep`)
 
     def load(self, i: int | np.ndarray, stage: rt.Stage) -> None:
         self.levels[i] = stage.level  # type: ignore[attr-defined]
-        self.template.batch_active = bool(np.any(self.levels != 1.0))  # type: ignore[attr-defined]
+        self.active = bool(np.any(self.levels != 1.0))
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
-        raw = self.template.batch_raw  # type: ignore[attr-defined]
+        raw = self.raw
         if raw is None:  # every simulation of the call at level 1
             if dst is not src:
                 np.copyto(dst, src)
@@ -48,5 +42,20 @@ class _BatchedBlend(_Batched):
         blend(raw, src, level, dst, self.template.bounds)  # type: ignore[attr-defined]
 
 
-BATCHED[Keep] = _BatchedKeep
-BATCHED[Blend] = _BatchedBlend
+class BatchedKeep(Batched):
+    keyed = True
+
+    def __init__(self, template: rt.Stage, nsim: int, stride: int):
+        super().__init__(template, nsim, stride)
+        self.blend: BatchedBlend  # the pipeline's batched blend (`link`)
+
+    def link(self, batched: Sequence[Batched]) -> None:
+        blend_stage = self.template.blend  # type: ignore[attr-defined]
+        self.blend = next(b for b in batched if isinstance(b, BatchedBlend) and b.template is blend_stage)
+
+    def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
+        blend_stage = self.blend
+        # every simulation at level 1 (the default): nothing to keep
+        blend_stage.raw = src.copy() if blend_stage.active else None
+        if dst is not src:
+            np.copyto(dst, src)

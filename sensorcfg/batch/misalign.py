@@ -5,15 +5,15 @@ from __future__ import annotations
 import numpy as np
 
 from ..noise import stages as rt
-from ..noise.misalign import Misalign, turn
-from .noise import BATCHED, _Batched
+from ..noise.misalign import turn
+from .batched import Batched
 
-__all__: list[str] = []
+__all__ = ["BatchedMisalign"]
 
 
-class _BatchedMisalign(_Batched):
-    def __init__(self, template: rt.Stage, nsim: int, *stride: int):
-        super().__init__(template, nsim, *stride)  # type: ignore[call-arg]
+class BatchedMisalign(Batched):
+    def __init__(self, template: rt.Stage, nsim: int, stride: int):
+        super().__init__(template, nsim, stride)
         self.matrices = np.tile(np.eye(3), (nsim, 1, 1))
 
     def load(self, i: int | np.ndarray, stage: rt.Stage) -> None:
@@ -22,6 +22,3 @@ class _BatchedMisalign(_Batched):
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
         lead = (len(sims),) + (1,) * (src.ndim - 2)
         turn(src, self.matrices[sims].reshape(lead + (3, 3)), dst)
-
-
-BATCHED[Misalign] = _BatchedMisalign

@@ -17,8 +17,9 @@ A stage type without a batched form here (a custom callable) makes `BatchPipelin
 from __future__ import annotations
 
 import math
+import types
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, cast
 
 import numpy as np
@@ -28,35 +29,20 @@ from ..errors import SuiteError
 from ..noise import arithmetic as ar
 from ..noise import stages as rt
 from ..noise.level import Blend, Keep
+from ..noise.misalign import Misalign
+from ..noise.redrawn import Redrawn
 from ..noise.streams import Affine, Draw, Sum, numbers
+from .batched import Batched
+from .level import BatchedBlend, BatchedKeep
+from .misalign import BatchedMisalign
+from .redrawn import BatchedRedrawn
 
 __all__ = ["BatchPipeline", "BATCHED", "prefetch"]
 
 _BLOCK_BYTES = 8 << 20  # a random walk's stored states per stage, across simulations, at most
 
 
-class _Batched:
-    """One stage across simulations; `template` is the sensor's own stage (its parameters are shared).
-
-    `keyed`: the stage draws nothing at reset (its episode start is its key, and a state that is the
-    same for every episode), so `load` may take many simulations at once (`BatchPipeline.start`)."""
-
-    keyed = False
-
-    def __init__(self, template: Any, nsim: int, stride: int):
-        self.template = template
-        self.nsim = nsim
-        self.stride = stride
-
-    def load(self, i: int | np.ndarray, stage: Any) -> None:
-        """Take simulation i's episode start from `stage`, the template just reset with i's stream (i: an index
-        array for a keyed stage: every episode start but the key is the same)."""
-
-    def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
-        raise NotImplementedError
-
-
-class _Stateless(_Batched):
+class _Stateless(Batched):
     """Elementwise stages (quantize, clip): the single-simulation stage broadcasts over the leading axis."""
 
     keyed = True
@@ -65,7 +51,7 @@ class _Stateless(_Batched):
         self.template(src, dst, 0)
 
 
-class _Drawn(_Batched):
+class _Drawn(Batched):
     """Per-sample numbers: each call draws those of the samples taken, of every simulation at once (the
     counter-based numbers are a function of the simulation's episode key and the sample index only)."""
 
@@ -192,7 +178,7 @@ class _RandomWalk(_Additive):
             at[moving] += 1
 
 
-class _Episode(_Batched):
+class _Episode(Batched):
     """Bias or scale: each simulation's per-episode draw."""
 
     def __init__(self, template: rt.EpisodeDraw, nsim: int, stride: int):
@@ -213,7 +199,7 @@ def _by_gap(gaps: np.ndarray) -> list[tuple[int, np.ndarray]]:
     return [(int(g), np.flatnonzero(gaps == g)) for g in np.unique(gaps)]
 
 
-class _Lowpass(_Batched):
+class _Lowpass(Batched):
     keyed = True
 
     def __init__(self, template: rt.Lowpass, nsim: int, stride: int):
@@ -276,7 +262,7 @@ class _Dropout(_Drawn):
 
 
 # One row per runtime stage type (`sensorcfg.noise.stages`); a stage type missing here cannot be batched.
-BATCHED: dict[type, Callable[[Any, int, int], _Batched]] = {
+BATCHED: Mapping[type, Callable[[Any, int, int], Batched]] = types.MappingProxyType({
     rt.Gaussian: _Additive,
     rt.Uniform: _Additive,
     rt.Outlier: _Additive,
@@ -287,7 +273,11 @@ BATCHED: dict[type, Callable[[Any, int, int], _Batched]] = {
     rt.Quantize: _Stateless,
     rt.Clip: _Stateless,
     rt.Dropout: _Dropout,
-}
+    Keep: BatchedKeep,
+    Blend: BatchedBlend,
+    Misalign: BatchedMisalign,
+    Redrawn: BatchedRedrawn,
+})
 
 
 class BatchPipeline:
@@ -308,6 +298,8 @@ class BatchPipeline:
                 raise SuiteError(f"sensor {sensor!r}: " + batch_refusal("noise stage", kind=type(stage).__name__.lower(),
                                                                         detail=f" ({what})" if what else ""))
             batched.append(make(stage, nsim, stride))
+        for stage in batched:
+            stage.link(batched)
         self.stages = stages
         self.batched = batched
         self.shape = tuple(pipeline.shape)
@@ -315,7 +307,7 @@ class BatchPipeline:
         # values through while every simulation is at level 1): applied in place by `streams.add_sums`
         core = [b for b in batched if not isinstance(b.template, (Keep, Blend))]
         self._fusable = core[0] if len(core) == 1 and getattr(core[0], "terms", None) is not None else None
-        self._blend = next((b.template for b in batched if isinstance(b.template, Blend)), None)
+        self._blend = next((b for b in batched if isinstance(b, BatchedBlend)), None)
 
     @property
     def additive(self) -> _Additive | None:
@@ -327,7 +319,7 @@ class BatchPipeline:
     def fused(self) -> _Additive | None:
         """`additive` while every simulation is at noise level 1 (in the history the sum is added in place,
         where a blend would need the raw values)."""
-        blending = self._blend is not None and self._blend.batch_active  # type: ignore[attr-defined]
+        blending = self._blend is not None and self._blend.active
         return None if blending else self.additive
 
     def sum(self, table: np.ndarray, lo: int, sims: np.ndarray, steps: np.ndarray) -> Sum:

@@ -69,11 +69,11 @@ class Timelines:
         slots = (base[:, None] // n + np.arange(per_round)) % self.slots  # control steps of the round's reads
         self.taken[sims[:, None], slots] = False
         for c, planner in enumerate(self.planners):
-            plan: Round = planner.round(sims, self.chunk)
-            self.windows[c][sims[:, None], slots] = self._codes(plan.windows)
-            steps = plan.take_step
+            round_: Round = planner.round(sims, self.chunk)
+            self.windows[c][sims[:, None], slots] = self._codes(round_.windows)
+            steps = round_.take_step
             control = (steps - 1) // n  # sample at step s is taken in control step (s - 1) // n
-            self.taken[sims[plan.take_sim], control % self.slots, c, (steps - 1) % n] = True
+            self.taken[sims[round_.take_sim], control % self.slots, c, (steps - 1) % n] = True
 
     def ensure(self, sims: np.ndarray, control_steps: np.ndarray) -> None:
         """Before the control step: simulations at a round's start plan the round after next."""

@@ -22,10 +22,12 @@ from typing import Any, NamedTuple, cast
 
 import numpy as np
 
-from ..noise.level import Blend, blend
+from ..noise.level import blend
 from ..noise.streams import Affine, Prepared, Rows, add_rows, prepare
 from ..runtime.channels import FixedChannel
+from ..runtime.schedule import newest_sample
 from .layout import Layout
+from .level import BatchedBlend
 from .noise import BatchPipeline, _Additive
 
 __all__ = ["ReadNoise", "added_as_read"]
@@ -54,7 +56,7 @@ class _Sensor(NamedTuple):
     stage: _Additive  # the pipeline's fused sum: its keys and terms
     size: int  # values per sample
     span: slice  # its (simulation, slot) pairs in the concatenated arrays of `ReadNoise`
-    blend: Any  # the pipeline's batched `Blend` (its per-simulation levels), or None
+    blend: BatchedBlend | None  # the pipeline's batched `Blend` (its per-simulation levels)
     sum: Prepared  # its draws and terms, made once (`streams.prepare`)
 
 
@@ -66,11 +68,11 @@ def _starts(layout: Layout, c: int, size: int, buffer: int) -> np.ndarray:
         if i == c:
             return cast(np.ndarray, sims * plain_width + part.start + slots * size)
     at = nsim * plain_width
-    for _, part, block, members in layout.groups:
-        for i, sub, _ in members:
+    for group in layout.groups:
+        for i, sub, _ in group.members:
             if i == c:
-                return cast(np.ndarray, at + (slots * nsim + sims) * block[1] + sub.start)
-        at += nsim * part.size
+                return cast(np.ndarray, at + (slots * nsim + sims) * group.block[1] + sub.start)
+        at += nsim * group.part.size
     raise ValueError(f"channel {c} is not read")
 
 
@@ -92,14 +94,14 @@ class ReadNoise:
             if pipeline.stride != schedule.interval:  # a fixed schedule's is: sample j's numbers are the j-th
                 raise RuntimeError(f"read noise of channel {c}: its noise stride is not its interval (an internal error)")
             count = nsim * schedule.buffer
-            blend_stage = next((b for b in pipeline.batched if isinstance(b.template, Blend)), None)
+            blend_stage = next((b for b in pipeline.batched if isinstance(b, BatchedBlend)), None)
             templates = stage.template.draws(np.zeros(0, np.int64), np.zeros((0, 2), np.uint64))
             prepared = prepare(templates, cast(list[Affine], stage.terms))
             self.sensors.append(_Sensor(stage, size, slice(at, at + count), blend_stage, prepared))
             at += count
-            # the read at t sees sample (t - delay) // interval - buffer + 1 + slot in slot `slot`
+            # the read at t sees sample `schedule.newest(t) + schedule.offsets()[slot]` in slot `slot`
             columns.append((np.repeat(np.arange(nsim), schedule.buffer), _starts(layout, c, size, schedule.buffer).ravel(),
-                            np.tile(np.arange(schedule.buffer) - schedule.buffer + 1, nsim),
+                            np.tile(schedule.offsets(), nsim),
                             *(np.full(count, v) for v in (schedule.delay, schedule.interval))))
         self.sims, self.starts, self.first, delay, interval = (
             np.concatenate(column).astype(np.int64) for column in zip(*columns))
@@ -116,7 +118,7 @@ class ReadNoise:
 
     def apply(self, values: np.ndarray, t: np.ndarray) -> None:
         """Add each read sample's noise to `values`, one read of every simulation (`t`: steps since reset)."""
-        steps = (t[None, :] - self.pair_delay) // self.pair_interval  # (pair, simulation)
+        steps = newest_sample(t[None, :], self.pair_delay, self.pair_interval)  # (pair, simulation)
         sample = steps.ravel().take(self.pair_at)
         sample += self.first  # < 0: padding
         padding = bool((sample < 0).any())
@@ -132,7 +134,7 @@ class ReadNoise:
             if not j.size:
                 continue
             rows.append(Rows(sensor.sum, keys, j, starts))
-            if sensor.blend is not None and sensor.blend.template.batch_active:
+            if sensor.blend is not None and sensor.blend.active:
                 blends.append(self._blended(values, sensor, sims, starts))  # their raw values, before the noise
         add_rows(rows, values)
         for at, raw, level in blends:
@@ -143,7 +145,7 @@ class ReadNoise:
     @staticmethod
     def _blended(values: np.ndarray, sensor: _Sensor, sims: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, ...]:
         """The positions of the samples of simulations at a level other than 1, their raw values and levels."""
-        levels = sensor.blend.levels[sims]
+        levels = cast(BatchedBlend, sensor.blend).levels[sims]
         rows = np.flatnonzero(levels != 1.0)
         at = starts[rows, None] + np.arange(sensor.size)
         return at, values[at], levels[rows, None]

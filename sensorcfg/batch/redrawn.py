@@ -12,15 +12,14 @@ from typing import Any
 import numpy as np
 
 from ..noise import stages as rt
-from ..noise.redrawn import Redrawn
-from .noise import BATCHED, _Batched
+from .batched import Batched
 
-__all__: list[str] = []
+__all__ = ["BatchedRedrawn"]
 
 
-class _BatchedRedrawn(_Batched):
-    def __init__(self, template: rt.Stage, nsim: int, *stride: int):
-        super().__init__(template, nsim, *stride)  # type: ignore[call-arg]
+class BatchedRedrawn(Batched):
+    def __init__(self, template: rt.Stage, nsim: int, stride: int):
+        super().__init__(template, nsim, stride)
         self.stages: list[Any] = [None] * nsim
 
     def load(self, i: int | np.ndarray, stage: rt.Stage) -> None:
@@ -29,6 +28,3 @@ class _BatchedRedrawn(_Batched):
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
         for j, (sim, step) in enumerate(zip(sims.tolist(), steps.tolist())):
             self.stages[sim](src[j, ...], dst[j, ...], int(step))
-
-
-BATCHED[Redrawn] = _BatchedRedrawn

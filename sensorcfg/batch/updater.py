@@ -33,19 +33,22 @@ from ..draws import (DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, ChoiceSteps, Unifor
 from .. import compiled
 from ..checks import batch_refusal, per_simulation_refusal
 from ..errors import ArgumentError, SuiteError
-from ..observables.aggregators import AGGREGATORS, builtin
+from ..observables.aggregators import AGGREGATORS, reduce_stacked
 from ..observables.feature import batch_on_demand_problem
 from ..noise.streams import add_sums
-from ..runtime.bank import _reader
+from ..runtime.bank import _reader, plain_refusal
+from ..runtime.cache import DEFAULT_BUDGET, BoundedCache
 from ..runtime.channels import Channel, DrawnChannel, FixedChannel, RandomChannel, make_channel
 from ..runtime.updater import observation_spec
-from .layout import Layout, Source, reduce_window
+from .layout import Layout, Source
 from .noise import BatchPipeline, prefetch
 from .read_noise import ReadNoise, added_as_read
 from .random_schedules import Timelines
 from .relay import relayed
 
 __all__ = ["BatchUpdater"]
+
+_NOISY_ROWS_BUDGET = DEFAULT_BUDGET  # bytes of per-row noisy samples kept, at least (the history's size when more)
 
 
 def _bound(label: str, attr: str, value: Any, default: int) -> int:
@@ -146,7 +149,8 @@ class BatchUpdater:
         self.t = np.zeros(self.nsim, np.int64)  # physics steps since each simulation's reset
         self.control_steps = np.zeros(self.nsim, np.int64)
         self.started = np.zeros(self.nsim, bool)
-        self._noise_plans: dict[int, list[list[tuple[int, np.ndarray]]]] = {}
+        # per history row: the noisy samples of a control step starting there (`_noisy_samples`), within a budget
+        self._noisy_by_row = BoundedCache(max(_NOISY_ROWS_BUDGET, layout.history.nbytes))
 
     # -- construction -----------------------------------------------------------------------------
 
@@ -206,15 +210,12 @@ class BatchUpdater:
     def _check(name: str, obs: Any, ch: Channel) -> None:
         if getattr(obs, "corruptor", None) is not None:
             raise SuiteError(f"sensor {name!r}: {batch_refusal('corruptor')}")
-        sampler = ch.sampler
-        if getattr(sampler, "struct", None) != "data" or not hasattr(sampler, "index"):
-            rule = "constant" if getattr(sampler, "struct", None) == "model" else "generic"
-            raise SuiteError(f"sensor {name!r} ({type(obs).__name__}): {batch_refusal(rule)}")
-        if ch.dtype != np.float64:
+        rule = plain_refusal(ch)
+        if rule in ("constant", "generic"):
+            raise SuiteError(f"sensor {name!r} ({type(obs).__name__}): {batch_refusal(cast(str, rule))}")
+        if rule == "dtype":
             raise SuiteError(f"sensor {name!r}: {batch_refusal('dtype', what=type(obs).__name__, dtype=str(ch.dtype))}")
-        aggregator = ch.aggregator
-        if aggregator is not None and not (ch.builtin_aggregator and ch.has_buffer_dim
-                                           and builtin(aggregator) is not None):
+        if rule == "aggregator":
             raise SuiteError(f"sensor {name!r}: its aggregator cannot be vectorised across simulations: use one of "
                              f"{', '.join(AGGREGATORS)} on a buffer (a custom callable would run per simulation)")
 
@@ -260,7 +261,7 @@ class BatchUpdater:
         if self.cameras is not None:
             self.cameras.reset(ids)
         self.layout.clear()
-        self._noise_plans.clear()
+        self._noisy_by_row.clear()
 
     def _start_episodes(self, ids: np.ndarray, random_states: list[np.random.RandomState]) -> np.ndarray:
         """Each simulation's draws at reset, in the Updater's order; returns the noisy channels' keys
@@ -315,11 +316,11 @@ class BatchUpdater:
 
     def _noise_calls(self, gp: int, active: np.ndarray, everyone: bool) -> list[tuple[int, int, np.ndarray, np.ndarray]]:
         """(substep k, channel, sims, steps) of this control step's noisy samples, in order."""
-        plan = self._plan(gp)
+        noisy = self._noisy_samples(gp)
         taken = self.timelines.taken_now() if self.timelines.specs else None
         calls = []
         for k in range(1, self.substeps + 1):
-            for c, sims in plan[k - 1]:
+            for c, sims in noisy[k - 1]:
                 if not everyone:
                     sims = sims[active[sims]]
                 if sims.size:
@@ -347,12 +348,12 @@ class BatchUpdater:
             raw = row[sims, lo:hi]
             row[sims, lo:hi] = self.corrupted[c](raw.reshape(sims.size, *shape), sims, steps).reshape(sims.size, -1)
 
-    def _plan(self, gp: int) -> list[list[tuple[int, np.ndarray]]]:
+    def _noisy_samples(self, gp: int) -> list[list[tuple[int, np.ndarray]]]:
         """Per substep, the noisy fixed channels and the simulations that sample them (cached per phase)."""
-        plan = self._noise_plans.get(gp)
-        if plan is None:
+        noisy: list[list[tuple[int, np.ndarray]]] | None = self._noisy_by_row.get(gp)
+        if noisy is None:
             local = self.t % self.rows
-            plan = [[] for _ in range(self.substeps)]
+            noisy = [[] for _ in range(self.substeps)]
             for c in range(self.nfixed):
                 if c not in self.corrupted:
                     continue
@@ -360,9 +361,9 @@ class BatchUpdater:
                 for k in range(1, self.substeps + 1):
                     sims = np.flatnonzero(needed[(local + k) % needed.size])
                     if sims.size:
-                        plan[k - 1].append((c, sims))
-            self._noise_plans[gp] = plan
-        return plan
+                        noisy[k - 1].append((c, sims))
+            self._noisy_by_row.put(gp, noisy)
+        return noisy
 
     # -- reads ------------------------------------------------------------------------------------
 
@@ -380,9 +381,9 @@ class BatchUpdater:
             gathered, windows = layout.read_parts(values)
             for i, part, shape in layout.plain:
                 out[i] = gathered[:, part].reshape(shape)
-            for (reduce, _, _, members), window in zip(layout.groups, windows):
-                reduced = reduce_window(reduce, window)
-                for i, sub, shape in members:
+            for group, window in zip(layout.groups, windows):
+                reduced = reduce_stacked(group.aggregator, window)
+                for i, sub, shape in group.members:
                     out[i] = reduced[:, sub].reshape(self.nsim, *shape)
         if self.timelines.specs:
             self._read_drawn(out)
@@ -394,7 +395,7 @@ class BatchUpdater:
             ch = self.channels[c]
             values = self.flat.take(self.layout.drawn(c, codes, self.t, self.G))  # (nsim, buffer, width)
             if ch.aggregator is not None:
-                reduced = reduce_window(AGGREGATORS[cast(Any, ch.aggregator).name].reduce, values.transpose(1, 0, 2))
+                reduced = reduce_stacked(cast(Any, ch.aggregator).name, values.transpose(1, 0, 2))
                 out[c] = reduced.reshape(self.nsim, *ch.shape)
             elif ch.has_buffer_dim:
                 out[c] = values.reshape(self.nsim, ch.buffer_size, *ch.shape)

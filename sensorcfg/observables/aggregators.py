@@ -21,7 +21,7 @@ from typing import Any, NamedTuple, cast
 import numpy as np
 
 __all__ = ["AGGREGATORS", "Aggregator", "FAMILIES", "Family", "aggregated_bounds", "builtin", "family", "get_aggregator",
-           "preserves_bounds"]
+           "pairwise", "preserves_bounds", "reduce_stacked"]
 
 
 def _mean(x: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
@@ -84,16 +84,36 @@ FAMILIES: Mapping[str, Family] = types.MappingProxyType(
     {"sum": Family("sum", -0.0), "max": Family("max", -np.inf), "min": Family("min", np.inf)})
 
 
+def pairwise(name: str, width: int) -> bool:
+    """Whether numpy adds up a buffer of `width`-value samples of the built-in `name` pairwise, not row by row:
+    a sum or mean of one-value samples, whose buffer is a 1-D array to numpy (and dm_control), which sums it
+    pairwise from 8 values on. Such a buffer is reduced by itself along contiguous memory, never side by side
+    with other columns (there it would be added row by row, off in the last bits): the read plans give it a
+    group of its own, no family takes it (`family`), and a batch reduces it per simulation (`reduce_stacked`)."""
+    return width == 1 and name in ("sum", "mean")
+
+
 def family(name: str, buffer: int, width: int) -> tuple[Family, int] | None:
     """(family, divisor) of the built-in `name` reducing `buffer` samples of `width` values stacked; None
-    when it runs alone: a one-value sum or mean (numpy sums a 1-D buffer pairwise from 8 values on) or a
-    median of 3 or more (sorted). A median of 1 or 2 is their mean (numpy's median is the mean of the middle
-    values); a min or max of one value stays in its family (no rounding)."""
+    when it runs alone: a sum or mean numpy adds pairwise (`pairwise`) or a median of 3 or more (sorted). A
+    median of 1 or 2 is their mean (numpy's median is the mean of the middle values); a min or max stays in
+    its family (no rounding)."""
     if name in ("min", "max"):
         return FAMILIES[name], 1
-    if width == 1 or (name == "median" and buffer > 2):
+    if pairwise(name, width) or (name == "median" and buffer > 2):
         return None
     return FAMILIES["sum"], 1 if name == "sum" else buffer
+
+
+def reduce_stacked(name: str, window: np.ndarray) -> np.ndarray:
+    """The built-in `name` over each of n stacked buffers, a (buffer, n, width) window, as numpy reduces each
+    (buffer, width) buffer alone; returns (n, width). A buffer numpy adds pairwise (`pairwise`) is reduced
+    along contiguous memory, each of the n by itself."""
+    reduce = AGGREGATORS[name].reduce
+    if not pairwise(name, window.shape[2]):
+        return reduce(np.ascontiguousarray(window))
+    buffers = np.ascontiguousarray(window[:, :, 0].T)  # (n, buffer): reduced along contiguous memory
+    return reduce(buffers.T)[:, None]
 
 
 def builtin(aggregator: object) -> Aggregator | None:

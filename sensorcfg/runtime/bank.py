@@ -18,14 +18,14 @@ from typing import Any, NamedTuple, Protocol, TypeGuard, cast
 
 import numpy as np
 
-from ..observables.aggregators import AGGREGATORS, builtin
+from ..observables.aggregators import AGGREGATORS, builtin, pairwise
 from .cache import BoundedCache
 from .bank_noise import BankNoise, Program, program
 from .bank_read import PADS, CompiledRead, compile_read, cut, finish
-from .channels import Channel, FixedChannel
+from .channels import Channel, DrawnChannel, FixedChannel
 from .read_kernel import kernel_read, kernel_snapshot
 
-__all__ = ["FeatureBank", "BankMember", "GroupMember", "PlainRead", "ReadPlan", "ReductionGroup", "buffer_view",
+__all__ = ["FeatureBank", "BankMember", "bank_member", "plain_refusal", "qualifies", "GroupMember", "PlainRead", "ReadPlan", "ReductionGroup", "buffer_view",
            "fields_of", "read_plan", "rebind_noise", "reuse_key"]
 
 _PLANS_BUDGET = 4 << 20  # bytes of read plans kept, at least (4 x the history's size when that is more)
@@ -83,6 +83,7 @@ class ReductionGroup(NamedTuple):
     part: Any  # a slice of the gather (an index array in the batch's layout)
     block: tuple[int, int]
     members: list[GroupMember]
+    aggregator: str  # the built-in's name (`observables.aggregators`)
 
 
 class ReadPlan(NamedTuple):
@@ -99,7 +100,7 @@ def fields_of(channels: list[FixedChannel]) -> list[str]:
 
 
 def _reader(ch: Channel) -> _FieldReader:
-    return cast(_FieldReader, ch.sampler)  # `qualifies` (or the batch's check) made sure it is one
+    return cast(_FieldReader, ch.sampler)  # `plain_refusal` made sure it is one
 
 
 class BankMember:
@@ -250,23 +251,24 @@ class FeatureBank:
     def read(self, step: int) -> Sequence[Any]:
         """Every member's observation at `step`: fresh arrays (views of this read's own copy)."""
         phase = step % self.rows
-        plan = self._gathers.get(phase)
-        if plan is None:
-            plan = self._compile(phase)
+        compiled = self._gathers.get(phase)
+        if compiled is None:
+            compiled = self._compile(phase)
             # its index, noise positions and work buffer (the noise plan's fields are the bank's own), and the
             # compiled program's
-            self._gathers.put(phase, plan, 4 * plan.source.nbytes + (plan.kernel.nbytes if plan.kernel else 0))
-        if plan.kernel is not None and (not plan.noise or step >= self.rows):  # no padding after the noise
-            plan.kernel.run(plan.source)
-            return cut(plan)
-        self.flat.take(plan.source, None, plan.gathered, "clip")
-        if plan.noise:  # a noise program: the bank has noise
-            self._apply_noise(step, plan)
-        return finish(plan)
+            self._gathers.put(phase, compiled,
+                              4 * compiled.source.nbytes + (compiled.kernel.nbytes if compiled.kernel else 0))
+        if compiled.kernel is not None and (not compiled.noise or step >= self.rows):  # no padding after the noise
+            compiled.kernel.run(compiled.source)
+            return cut(compiled)
+        self.flat.take(compiled.source, None, compiled.gathered, "clip")
+        if compiled.noise:  # a noise program: the bank has noise
+            self._apply_noise(step, compiled)
+        return finish(compiled)
 
-    def _apply_noise(self, step: int, plan: CompiledRead) -> None:
-        gathered, index = plan.gathered, plan.source
-        cast(BankNoise, self.noise).apply(index, plan.noise)
+    def _apply_noise(self, step: int, compiled: CompiledRead) -> None:
+        gathered, index = compiled.gathered, compiled.source
+        cast(BankNoise, self.noise).apply(index, compiled.noise)
         if step < self.rows:  # early in an episode: windows reach before the reset sample
             early = self._early.get(step)
             if early is None:
@@ -302,15 +304,34 @@ def _snapshot_rows(phases: list[tuple[int, int, list[int]]], rows: int) -> list[
     return snap
 
 
-def qualifies(ch: Any) -> TypeGuard[FixedChannel]:
-    """Whether a channel can join the bank: an uncorrupted float64 mjData feature whose noise (if any)
-    the bank can apply. A field MuJoCo computes on demand (`compute`) is read by its own reader, which fills it
-    first."""
+def plain_refusal(ch: Channel) -> str | None:
+    """Why a channel cannot be read as a plain feature (its values gathered from mjData, reduced by a built-in
+    aggregator on a buffer or not at all), as a rule's key: "constant" (an mjModel field), "generic" (not a
+    feature reader), "dtype" (not float64), "aggregator" (a custom one, or none of a buffer); None when it can.
+    The one membership rule of the feature banks (`bank_member`) and the batch (`BatchUpdater`)."""
     sampler = ch.sampler
-    return (isinstance(ch, FixedChannel) and getattr(sampler, "struct", None) == "data"
-            and hasattr(sampler, "index") and getattr(sampler, "compute", None) is None and ch.dtype == np.float64 and program(ch.noise) is not None
-            and (ch.aggregator is None or (ch.builtin_aggregator and ch.has_buffer_dim
-                                           and builtin(ch.aggregator) is not None)))
+    struct = getattr(sampler, "struct", None)
+    if struct != "data" or not hasattr(sampler, "index"):
+        return "constant" if struct == "model" else "generic"
+    if ch.dtype != np.float64:
+        return "dtype"
+    if ch.aggregator is not None and not (ch.builtin_aggregator and ch.has_buffer_dim
+                                          and builtin(ch.aggregator) is not None):
+        return "aggregator"
+    return None
+
+
+def bank_member(ch: Channel, kind: type[FixedChannel] | type[DrawnChannel]) -> bool:
+    """Whether a channel of schedule type `kind` can join a feature bank (`FeatureBank`, `planned.DrawnBank`):
+    an uncorrupted plain feature (`plain_refusal`) whose noise (if any) the bank can apply. A field MuJoCo
+    computes on demand (`compute`) is read by its own reader, which fills it first."""
+    return (isinstance(ch, kind) and plain_refusal(ch) is None and getattr(ch.sampler, "compute", None) is None
+            and program(ch.noise) is not None)
+
+
+def qualifies(ch: Channel) -> TypeGuard[FixedChannel]:
+    """Whether a channel can join the fixed-schedule bank (`bank_member`)."""
+    return bank_member(ch, FixedChannel)
 
 
 def read_plan(channels: list[FixedChannel], cols: np.ndarray, rows: int, phase: int) -> ReadPlan:
@@ -327,9 +348,7 @@ def read_plan(channels: list[FixedChannel], cols: np.ndarray, rows: int, phase: 
         block = (steps % rows)[:, None] * width + np.arange(cols[i], cols[i + 1])
         key: tuple[Any, ...] | None = None if ch.aggregator is None else (
             cast(Any, ch.aggregator).name, ch.buffer_size)  # a builtin aggregator: it has a name
-        if key is not None and key[0] in ("sum", "mean") and cols[i + 1] - cols[i] == 1:
-            # A buffer of one-value samples is a 1-D array to numpy (and dm_control), which sums it
-            # pairwise from 8 values on; in a wider group it would be summed row by row, off in the last bits.
+        if key is not None and pairwise(key[0], int(cols[i + 1] - cols[i])):  # a group of its own
             key += (i,)
         blocks.setdefault(key, []).append((i, block))
     parts: list[np.ndarray] = []
@@ -350,7 +369,7 @@ def read_plan(channels: list[FixedChannel], cols: np.ndarray, rows: int, phase: 
             members.append(GroupMember(i, slice(col, col + block.shape[1]), channels[i].shape))
             col += block.shape[1]
         groups.append(ReductionGroup(AGGREGATORS[key[0]].reduce, slice(offset, offset + stacked.size),
-                                     stacked.shape, members))
+                                     stacked.shape, members, key[0]))
         parts.append(stacked.ravel())
         offset += stacked.size
     return ReadPlan(np.concatenate(parts).astype(np.intp), groups, plain)

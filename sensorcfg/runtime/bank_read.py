@@ -116,9 +116,9 @@ class _Cuts:
         return operator.itemgetter(*self.keys)
 
 
-def compile_read(channels: Sequence[FixedChannel], plan: Any, noise_plan: Callable[[np.ndarray], list[Layer]] | None,
+def compile_read(channels: Sequence[FixedChannel], plan: Any, noise_layers: Callable[[np.ndarray], list[Layer]] | None,
                  pads_at: int | None) -> CompiledRead:
-    """`plan`: `read_plan(...)` of one phase; `noise_plan(source)`: the bank noise's read layers for the
+    """`plan`: `read_plan(...)` of one phase; `noise_layers(source)`: the bank noise's read layers for the
     values gathered from `source` (None without noise);
     `pads_at`: where the history's source holds the families' pads (`PADS`): the gather fills the families'
     blocks too; or None: noise applies to the gathered windows first, and a second take stacks them."""
@@ -143,28 +143,28 @@ def compile_read(channels: Sequence[FixedChannel], plan: Any, noise_plan: Callab
     records = _steps(work[0], nreduced, stacked, pads_at is None)
     cuts = _Cuts(channels, plain, ordered, starts)
     gathered = work[0, nreduced:nreduced + len(source)]
-    layers = noise_plan(source) if noise_plan else []
+    layers = noise_layers(source) if noise_layers else []
     shown = work[0, :int(starts[len(plain)])]
     return CompiledRead(source, gathered, [step.run for step in records], records, shown, cuts.getter(),
                         cuts.reshapes, ops_of(layers, gathered), layers)
 
 
-def finish(plan: CompiledRead) -> Sequence[Any]:
+def finish(read: CompiledRead) -> Sequence[Any]:
     """After the windows are gathered (and their noise applied): stack, reduce, copy and cut every member's
     observation (fresh arrays: views of this read's own copy)."""
-    for step in plan.steps:
+    for step in read.steps:
         step()
-    return cut(plan)
+    return cut(read)
 
 
-def cut(plan: CompiledRead) -> Sequence[Any]:
+def cut(read: CompiledRead) -> Sequence[Any]:
     """Every member's observation from the work buffer's reduced values and plain windows: fresh arrays
     (views of this read's own copy, reshaped where the cut does not give a member's shape)."""
-    values = plan.cut(plan.shown.copy())
-    if not plan.reshapes:
+    values = read.cut(read.shown.copy())
+    if not read.reshapes:
         return values
     cut = list(values)
-    for i, shape in plan.reshapes:
+    for i, shape in read.reshapes:
         cut[i] = cut[i].reshape(shape)  # a contiguous span of the copy: a view of it
     return cut
 
@@ -212,7 +212,7 @@ def _families(channels: Sequence[FixedChannel], groups: list[Any]) -> tuple[dict
     families: dict[str, list[_Group]] = {}
     alone = []
     for g in groups:
-        found = family(cast(Any, channels[g.members[0].member].aggregator).name, *g.block)
+        found = family(g.aggregator, *g.block)
         group = _Group(np.arange(g.part.start, g.part.stop).reshape(g.block), g.members, g.reduce, found)
         if found is None:
             alone.append(group)

@@ -277,10 +277,10 @@ class DrawnChannel(Channel):
         n, slots = self.substeps, len(self.windows)
         if first is not None:
             self.windows[0] = first.windows[0, 0]
-        for i, plan in enumerate(rounds):
+        for i, round_ in enumerate(rounds):
             read = (base + i * self.chunk) // n + 1
-            self.windows[(read + np.arange(plan.windows.shape[1])) % slots] = plan.windows[0]
-            self.need[plan.take_step % self.rows] = True
+            self.windows[(read + np.arange(round_.windows.shape[1])) % slots] = round_.windows[0]
+            self.need[round_.take_step % self.rows] = True
 
     def start(self, step: int) -> None:
         if self.planner is None:  # (a channel the bank runs is never started: it needs none of this)

@@ -17,26 +17,19 @@ from typing import Any, NamedTuple, cast
 
 import numpy as np
 
-from .bank import BankMember, ReadPlan, _reader, read_plan, rebind_noise, reuse_key
+from .bank import BankMember, ReadPlan, _reader, bank_member, read_plan, rebind_noise, reuse_key
 from .bank_noise import BankNoise, Layer, Program, ReadOp, ops_of, program
 from .bank_read import compile_read, cut, finish
 from .channels import DrawnChannel
 from .drawn import Planner, Round, chunk_steps
 from .read_kernel import kernel_read, kernel_snapshot
-from ..observables.aggregators import builtin
 
 __all__ = ["DrawnBank", "DrawnMember", "joins"]
 
 
 def joins(ch: Any) -> bool:
-    """Whether a planned channel can join the bank: an uncorrupted float64 mjData feature (not computed on
-    demand) whose noise the bank can apply, with a built-in aggregator on a buffer or none."""
-    sampler = ch.sampler
-    return (isinstance(ch, DrawnChannel) and getattr(sampler, "struct", None) == "data"
-            and hasattr(sampler, "index") and getattr(sampler, "compute", None) is None
-            and ch.dtype == np.float64 and program(ch.noise) is not None
-            and (ch.aggregator is None or (ch.builtin_aggregator and ch.has_buffer_dim
-                                           and builtin(ch.aggregator) is not None)))
+    """Whether a planned channel can join the bank (`bank.bank_member`)."""
+    return bank_member(ch, DrawnChannel)
 
 
 class _Window(NamedTuple):
@@ -121,9 +114,9 @@ class DrawnBank:
         buffers = np.array([ch.buffer_size for ch in channels])
         member = np.searchsorted(self.cols, template % self.width, side="right") - 1
         # in a round's windows (member, read, largest buffer): a member reads the last `buffer` entries
-        self.entry = member * self.planner.buffer + self.planner.buffer - buffers[member] + template // self.width
+        entry = member * self.planner.buffer + self.planner.buffer - buffers[member] + template // self.width
         self.column = template % self.width
-        self._at: dict[int, np.ndarray] = {}  # `_entries` by reads per round
+        self.entry_member, self.entry_slot = np.divmod(entry, self.planner.buffer)
 
     def _noise(self, programs: list[Program]) -> None:
         """The members' noise (`BankNoise`), drawn with the rounds for the samples they take (random walks a
@@ -200,13 +193,13 @@ class DrawnBank:
             self.next_round += self.length
 
     def _plan_round(self, base: int, length: int) -> None:
-        plan = self.planner.round(self.members_, length)
-        self._store(plan, base // self.n + 1, length // self.n)
-        self.need[plan.take_step % self.rows] = True
+        round_ = self.planner.round(self.members_, length)
+        self._store(round_, base // self.n + 1, length // self.n)
+        self.need[round_.take_step % self.rows] = True
         if len(self.recent) == 3:  # rounds that ended before the current step
             self.older += np.bincount(self.recent.pop(0) // _KEY, minlength=len(self.channels))
         # a sample is shown first in its own round or the next: each counted once
-        self.recent.append(_new(plan.take_sim * _KEY + plan.take_step, self.recent[-1] if self.recent else _ZERO[:0]))
+        self.recent.append(_new(round_.take_sim * _KEY + round_.take_step, self.recent[-1] if self.recent else _ZERO[:0]))
         if self.noise is not None:  # the noise of the samples this round takes first
             for chunk in range(base, base + length, self.chunk) if base and self.walkers else ():
                 self.noise.fill(chunk, self.walkers)  # (the reset drew the first chunk's random walks)
@@ -221,9 +214,9 @@ class DrawnBank:
         bounds = np.array([position * _KEY, position * _KEY + step + 1])  # keys of steps 0..step
         return int(self.older[position]) + sum(int(np.diff(keys.searchsorted(bounds))[0]) for keys in self.recent)
 
-    def _store(self, plan: Round, first: int, count: int) -> None:
+    def _store(self, round_: Round, first: int, count: int) -> None:
         """Gather indices of a round's reads (read slots first .. first + count, or the reset read)."""
-        entries = plan.windows.take(self._entries(*plan.windows.shape))
+        entries = round_.windows[self.entry_member, :, self.entry_slot].T  # (read, gathered value)
         slots = (first + np.arange(max(count, 1))) % self.slots
         # (padding, -1, gathers any row: a read that shows it writes the pad values over it)
         self.gathers[slots] = entries % self.rows * self.width + self.column
@@ -234,14 +227,6 @@ class DrawnBank:
             read, value = np.nonzero(padded)
             for r, values in zip(*_runs(read, value)):
                 self.pads[int(slots[r])] = values
-
-    def _entries(self, members: int, reads: int, b: int) -> np.ndarray:
-        """Where each gathered value's window entry is in a round's windows (members, reads, b), read by read
-        (one array per shape: a round's and the reset read's)."""
-        at = self._at.get(reads)
-        if at is None:
-            at = self._at[reads] = (self.entry // b * (reads * b) + self.entry % b)[None, :] + (np.arange(reads) * b)[:, None]
-        return at
 
     # -- the physics loop -------------------------------------------------------------------------
 
@@ -286,14 +271,14 @@ class DrawnBank:
 
     def _read_numpy(self, index: np.ndarray, pads: np.ndarray | None) -> Sequence[Any]:
         """`read` in numpy calls (the reference; also reads whose windows show padding, early in an episode)."""
-        plan = self.compiled
-        gathered = plan.gathered
+        compiled = self.compiled
+        gathered = compiled.gathered
         self.flat.take(index, None, gathered, "clip")
         if self.noise is not None:
             self.noise.apply(index, self.noise_program)
         if pads is not None:
             self._pad(pads)
-        return finish(plan)
+        return finish(compiled)
 
     def _pad(self, pads: np.ndarray) -> None:
         """Padding over the gathered values at `pads` (after their noise: it is the first sample's as delivered)."""

@@ -99,18 +99,18 @@ class _Program:
             self.add(step.kind, step.out, step.source.reshape(-1), 0, step.source.shape[0], step.source.shape[1])
 
 
-def kernel_read(plan: CompiledRead, layers: Sequence[Layer], history: np.ndarray) -> KernelRead | None:
-    """`plan` (with its noise `layers`) as one kernel call reading `history` (flat), or None when the kernel
+def kernel_read(compiled_read: CompiledRead, layers: Sequence[Layer], history: np.ndarray) -> KernelRead | None:
+    """`compiled_read` (with its noise `layers`) as one kernel call reading `history` (flat), or None when the kernel
     is not built or a step is not one of its ops."""
     read = getattr(compiled.MODULE, "read", None)
-    if read is None or any(step.kind not in _CODES for step in plan.records):
+    if read is None or any(step.kind not in _CODES for step in compiled_read.records):
         return None
     program = _Program()
-    program.add("gather", plan.gathered, history, history.size, 0, len(plan.gathered))  # the kernel checks the index
+    program.add("gather", compiled_read.gathered, history, history.size, 0, len(compiled_read.gathered))  # the kernel checks the index
     for layer in layers:
-        program.layer(layer, plan.gathered)
+        program.layer(layer, compiled_read.gathered)
     noised = len(program.records)
-    for step in plan.records:
+    for step in compiled_read.records:
         program.step(step)
     records = np.array(program.records, np.int64).reshape(-1, 6)  # (an empty program: no records at all)
     code, before, after = (part.tobytes() for part in (records, records[:noised], records[noised:]))

@@ -25,7 +25,14 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-__all__ = ["Schedule"]
+__all__ = ["Schedule", "newest_sample"]
+
+
+def newest_sample(read_step: Any, delay: Any, interval: Any) -> Any:
+    """Index of the newest sample delivered by the read at `read_step` of a schedule with `delay` and
+    `interval` (negative: none yet). Any of them may be an array (they broadcast), so that the reads of many
+    schedules are one expression (`batch.read_noise`)."""
+    return (read_step - delay) // interval
 
 
 class Schedule(NamedTuple):
@@ -54,7 +61,7 @@ class Schedule(NamedTuple):
 
     def newest(self, read_step: Any) -> Any:
         """Index of the newest sample delivered by the read at `read_step` (negative: none yet)."""
-        return (read_step - self.delay) // self.interval
+        return newest_sample(read_step, self.delay, self.interval)
 
     def window_start(self, read_step: Any) -> Any:
         """Index of the oldest sample in the window of the read at `read_step` (may be negative: padding)."""
@@ -62,7 +69,11 @@ class Schedule(NamedTuple):
 
     def window(self, read_step: int) -> np.ndarray:
         """Sample indices the read at `read_step` sees, oldest first (negative ones are padding)."""
-        return self.window_start(read_step) + np.arange(self.buffer)
+        return self.newest(read_step) + self.offsets()
+
+    def offsets(self) -> np.ndarray:
+        """Each window slot's sample index relative to `newest`, oldest first: -(buffer - 1) .. 0."""
+        return np.arange(self.buffer) - self.buffer + 1
 
     def first_read(self, sample: Any) -> Any:
         """The step of the first read at or after sample `sample`'s delivery."""

@@ -1,0 +1,34 @@
+"""The base of a noise stage across simulations (`batch.noise`'s table holds one form per stage type)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+__all__ = ["Batched"]
+
+
+class Batched:
+    """One stage across simulations; `template` is the sensor's own stage (its parameters are shared).
+
+    `keyed`: the stage draws nothing at reset (its episode start is its key, and a state that is the
+    same for every episode), so `load` may take many simulations at once (`BatchPipeline.start`)."""
+
+    keyed = False
+
+    def __init__(self, template: Any, nsim: int, stride: int):
+        self.template = template
+        self.nsim = nsim
+        self.stride = stride
+
+    def load(self, i: int | np.ndarray, stage: Any) -> None:
+        """Take simulation i's episode start from `stage`, the template just reset with i's stream (i: an index
+        array for a keyed stage: every episode start but the key is the same)."""
+
+    def link(self, batched: Sequence[Batched]) -> None:
+        """Find the other stages of its pipeline this one hands values to (`batched`: all of them, in order)."""
+
+    def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
+        raise NotImplementedError
