@@ -49,7 +49,6 @@ class Blend(rt.Stage):
         self.level = 1.0
         self.bounds: Interval | None = None  # what the blend is kept within (the stages' bounds; None: none)
         self.raw: np.ndarray | None = None
-        self.batch_raw: Any = None  # the raw samples of a batch's current call (kept by `Keep`)
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, step: int) -> None:
         if self.level == 1.0:
