@@ -14,11 +14,15 @@ A sensor's samples wait in one of three stores, by the path that runs it; the si
   read's window of sample indices, and the samples taken within them.
 
 A slot or row also costs a numpy view in the single-simulation paths (`ROW_BYTES`). A batch keeps each
-store for every simulation. Each figure is an upper bound: the paths a sensor does not take cost less.
+store for every simulation; its features (fixed or drawn schedules) share one flat history of
+(rows, nsim, width) float64 that its noise corrupts in place (`batch/layout.py`: a row per step, no views,
+no block of noise drawn ahead), and a drawn schedule's read windows for `BATCH_ROUND_STEPS`-step rounds
+(`batch/random_schedules.py`). Each figure is an upper bound: the paths a sensor does not take cost less.
 """
 
 from __future__ import annotations
 
+import math
 import numbers
 from collections.abc import Mapping
 from typing import Any, NamedTuple
@@ -42,6 +46,7 @@ STEP_BYTES = 448  # a history row: its view, snapshot flag and share of the boun
 READ_BYTES = 128  # a drawn schedule's planned read: its row of gather indices' view
 _GIB = float(1 << 30)
 _FIXES = {"delay": "use a shorter delay or a longer interval", "buffer": "use a smaller buffer or a longer interval"}
+BATCH_ROUND_STEPS = 64  # a batch's planning round of drawn schedules, at least (`batch/random_schedules.py`)
 DRAWS = (UniformSteps, ChoiceSteps)  # schedules sensorcfg draws and plans (`DrawnChannel`, `DrawnBank`)
 
 
@@ -73,10 +78,10 @@ def _bounds(value: Any, default: int) -> tuple[int, int] | None:
     return None
 
 
-def kept(observable: Any, substeps: int) -> Kept | None:
-    """What `observable` keeps in one simulation, or None when its shape or its schedule is unknown until
-    it runs (a callable's value without a spec, a feature not yet bound to a model, a schedule drawn by
-    Python)."""
+def kept(observable: Any, substeps: int, batch: bool = False) -> Kept | None:
+    """What `observable` keeps in one simulation (of a `BatchEnvironment` with `batch`), or None when its
+    shape or its schedule is unknown until it runs (a callable's value without a spec, a feature not yet
+    bound to a model, a schedule drawn by Python)."""
     spec = observable.array_spec
     interval, delay = _bounds(observable.update_interval, 1), _bounds(observable.delay, 0)
     if spec is None or interval is None or delay is None or interval[0] < 1:
@@ -87,7 +92,15 @@ def kept(observable: Any, substeps: int) -> Kept | None:
     noisy = 2 if getattr(observable, "noise", None) is not None else 1  # the bank's noise: a second history
     drawn = isinstance(observable.update_interval, DRAWS) or isinstance(observable.delay, DRAWS)
     feature = isinstance(observable, Feature)
-    if drawn:  # planned: `Drawn.span` back, and rounds of at least 1,024 steps ahead
+    if feature and batch:  # the batch's layout: a history row per step, of the values alone
+        plan = Drawn(longest, latest, buffer, n)
+        period = n if drawn else math.lcm(n, longest)
+        span = (plan.span if drawn else Schedule(longest, latest, buffer, n).wait) + n + 1
+        rows = steps = period * -(-span // period)
+        unit, row = "steps of history", sample
+        if drawn:  # each read's window of sample steps, three rounds of control steps held
+            row += -(-3 * chunk_steps([plan], n, BATCH_ROUND_STEPS) // n * buffer * 8 // rows)
+    elif drawn:  # planned: `Drawn.span` back, and rounds of at least 1,024 steps ahead
         plan = Drawn(longest, latest, buffer, n)  # (sized by the largest values)
         steps = plan.span + 5 * chunk_steps([plan], n) + 1
         if feature:  # `DrawnBank`: the history, and each read's gather of buffer x values
@@ -119,9 +132,9 @@ def _shape(observable: Any) -> str:
 
 
 def kept_problems(observables: Mapping[str, Any], model: mujoco.MjModel, substeps: int,
-                  nsim: int = 1) -> list[tuple[str, str, str]]:
+                  nsim: int = 1, batch: bool = False) -> list[tuple[str, str, str]]:
     """(sensor, key, message) for each enabled sensor that would keep more than `MAX_KEPT_BYTES`, in all
-    `nsim` simulations, and for the shared history of the plain features when it would. Features learn
+    `nsim` simulations (of a `BatchEnvironment` with `batch`), and for the shared history of the plain features when it would. Features learn
     their shape by binding to `model` (as the Updater binds them at reset)."""
     unbound = [o for o in observables.values() if isinstance(o, Feature) and o.array_spec is None]
     if unbound:
@@ -131,7 +144,7 @@ def kept_problems(observables: Mapping[str, Any], model: mujoco.MjModel, substep
     found: list[tuple[str, str, str]] = []
     where, everything = (f" in each of {nsim:,} simulations", " in all") if nsim > 1 else ("", "")
     limit = f"a sensor may keep at most {MAX_KEPT_BYTES / _GIB:g} GiB between its samples and its reads"
-    sized = {name: k for name, o in observables.items() if o.enabled for k in [kept(o, substeps)] if k is not None}
+    sized = {name: k for name, o in observables.items() if o.enabled for k in [kept(o, substeps, batch)] if k is not None}
     for name, k in sized.items():
         if k.bytes(nsim) > MAX_KEPT_BYTES:
             found.append((name, k.key, f"{k.what} keeps {k.rows:,} {k.unit} of {k.sample:,} bytes "
@@ -143,7 +156,7 @@ def kept_problems(observables: Mapping[str, Any], model: mujoco.MjModel, substep
         longest = max(features, key=lambda name: features[name].steps)
         k = features[longest]
         width = sum(f.sample for f in features.values())
-        total = k.steps * (2 * width + STEP_BYTES) * nsim
+        total = k.steps * (width if batch else 2 * width + STEP_BYTES) * nsim
         if total > MAX_KEPT_BYTES:
             found.append((longest, k.key, f"{k.what} makes the plain features' shared history {k.steps:,} steps "
                           f"long, each of {width:,} bytes (the {len(features)} float64 features' values){where}: "

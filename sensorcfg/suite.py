@@ -194,7 +194,7 @@ class Suite:
         return mjmodel
 
     def _memory_problems(self, observables: Mapping[str, Observable], model: mujoco.MjModel,
-                         nsim: int = 1) -> list[Problem]:
+                         nsim: int = 1, batch: bool = False) -> list[Problem]:
         """What the sensors would hold, at the lines that set it, before anything is allocated: an
         observation of more than `MAX_OBSERVATION_BYTES` (a deep buffer of large images), at its buffer;
         a sensor that keeps more than `MAX_KEPT_BYTES` between its samples and its reads (`memory.py`: its
@@ -217,7 +217,7 @@ class Suite:
                               f"{MAX_OBSERVATION_BYTES / 2**30:g} GiB: use a smaller buffer or image"))
         if found:
             return self._at_lines(found)
-        return self._at_lines(kept_problems(observables, model, self._substeps(model), nsim))
+        return self._at_lines(kept_problems(observables, model, self._substeps(model), nsim, batch))
 
     def _substeps(self, model: mujoco.MjModel) -> int:
         """Physics steps per control step by the suite's options (1 when it gives none, or none that fits:

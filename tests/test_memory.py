@@ -208,3 +208,25 @@ def test_a_batch_counts_what_each_simulation_keeps() -> None:
         "f.yaml:2:52: error: sensors.s.delay: a delay of 100,000 steps keeps 100,002 samples of 1,496 bytes (17x11 "
         "float64) in each of 16 simulations: 2.5 GiB in all; a sensor may keep at most 1 GiB between its samples and "
         "its reads: use a shorter delay or a longer interval, or a smaller value")
+
+
+@needs_batch
+def test_a_batch_of_thousands_of_noisy_proprioceptive_simulations_is_not_refused() -> None:
+    """Found by review: the batch was estimated with the single Updater's stores (a noise block of 1,024
+    steps drawn ahead, a numpy view per history row), 100 times what its flat history holds, so a noisy qpos
+    over 4,096 simulations was refused as 3.1 GiB. The estimate stays above what the layout allocates."""
+    from sensorcfg.batch import BatchEnvironment
+    from sensorcfg.memory import kept
+
+    suite = sensorcfg.loads("sensors:\n  q: {kind: qpos, element: 'joint:*', buffer: 10, noise: [{type: gaussian, std: 0.1}]}\n"
+                            "  s: {kind: sensordata, element: 'sensor:*', delay: {uniform: [0, 20]}, buffer: 5}\n",
+                            file="f.yaml")
+    nsim = 4096
+    env = BatchEnvironment(MODEL, suite, nsim, seed=0)
+    env.reset()
+    observables = suite.build(MODEL, batch=True)
+    physics = sensorcfg.Physics(MODEL)
+    for observable in observables.values():
+        observable.reader(physics)
+    estimate = sum(k.bytes(nsim) for o in observables.values() for k in [kept(o, 1, batch=True)] if k)
+    assert env._updater.layout.flat.nbytes <= estimate

@@ -200,7 +200,7 @@ def model_and_observables(model: Any, suite: Any, batch: bool = False, extra: Se
         model = suite._compile(model, batch, extra)
     model = load_model(model)
     observables = suite.build(model, batch=True) if batch else suite.build(model)
-    problems = suite._memory_problems(observables, model, nsim) if nsim > 1 else []
+    problems = suite._memory_problems(observables, model, nsim, batch) if nsim > 1 else []
     if problems:
         raise SuiteError(problems)
     return model, observables, {**suite.updater_kwargs(model), "keyframe": getattr(suite.options, "keyframe", None)}
