@@ -11,7 +11,8 @@ The sensors and sites sensorcfg adds to a model (a suite's MuJoCo sensor kinds, 
 sensors that make MuJoCo fill on-demand fields) are named with `ADDED_PREFIX`, and selection does not see
 them: globs do not match them, name lists and "did you mean" leave them out, and ids count the model's own
 elements only (`site:#3` is the file's fourth site, whatever sites were added), so a suite reads the same
-elements whichever sensors it, or a batch, adds. Only sensorcfg's own features name them, exactly.
+elements whichever sensors it, or a batch, adds. A suite that names one exactly is told the name is reserved
+(a batch's helpers exist in a batch only); only sensorcfg's own features (`Feature`) name them.
 
 A list is resolved in one pass: each type's names and labels are read once, and `within`'s bodies looked
 up once, so a list of n entries costs O(n) look-ups (did-you-mean hints, each a scan of the model's
@@ -123,8 +124,9 @@ def _plural(type_name: str) -> str:
 class _Resolver:
     """One resolution's look-ups: each type's elements read once, hints given to the first misses."""
 
-    def __init__(self, model: mujoco.MjModel):
+    def __init__(self, model: mujoco.MjModel, added: bool = False):
         self.model = model
+        self.added = added  # whether names sensorcfg adds may be looked up (its own features' selectors)
         self._elements: dict[str, _Elements] = {}
         self._positions: dict[str, dict[int, int]] = {}
         self.hints = MAX_HINTS
@@ -154,6 +156,11 @@ class _Resolver:
                     f"{_plural(type_name)} are #0 to "
                     f"#{len(own) - 1}" if own else f"the model has no {_plural(type_name)}"))
             return own[k]
+        if added_by_sensorcfg(name) and not self.added:
+            raise SuiteError(Problem(
+                f"names starting with {ADDED_PREFIX!r} are reserved for the {_plural(type_name)} sensorcfg adds to a "
+                f"model (a suite's MuJoCo sensor kinds, a batch's helpers), which a suite does not select: read "
+                f"the model's own {_plural(type_name)}, or the suite sensor that adds it"))
         i = int(mujoco.mj_name2id(self.model, et.obj, name))
         if i >= 0:
             return i
@@ -243,11 +250,12 @@ def within_problems(model: mujoco.MjModel, within: str | Sequence[str] | None) -
 
 
 def resolve(model: mujoco.MjModel, element: str | Sequence[str],
-            within: str | Sequence[str] | None = None) -> Resolved:
+            within: str | Sequence[str] | None = None, *, added: bool = False) -> Resolved:
     """Resolve a selector (or a list of them) to element ids, with every mistake at the entry it is about
     (`("element", i)`, `("within", i)`; `("element",)` for one selector or the whole list). A mistake in
-    `within` is reported alone (its elements are not looked at)."""
-    r = _Resolver(model)
+    `within` is reported alone (its elements are not looked at). With `added`, names sensorcfg adds may be
+    named exactly (its own features)."""
+    r = _Resolver(model, added)
     roots, problems = _roots(r, within)
     if problems:
         return Resolved(None, problems)
@@ -292,9 +300,9 @@ def resolve(model: mujoco.MjModel, element: str | Sequence[str],
 
 
 def select(model: mujoco.MjModel, element: str | Sequence[str],
-           within: str | Sequence[str] | None = None) -> Selection:
+           within: str | Sequence[str] | None = None, *, added: bool = False) -> Selection:
     """Resolve a selector (or a list of them) to element ids; raises SuiteError listing every mistake."""
-    resolved = resolve(model, element, within)
+    resolved = resolve(model, element, within, added=added)
     if resolved.selection is None:
         raise SuiteError([p for _, p in resolved.problems])
     return resolved.selection

@@ -121,6 +121,24 @@ def test_globs_and_ids_do_not_see_what_sensorcfg_adds() -> None:
     assert "sensorcfg" not in str(info.value) and "#0 to #4" in str(info.value)
 
 
+@pytest.mark.parametrize("where", [
+    "element: 'sensor:sensorcfg:shin_vel:0'",  # the velocimeter the suite adds
+    "element: 'site:sensorcfg:shin_vel:0'",  # the site it adds at the body
+    "element: 'sensor:sensorcfg:on-demand:flg_rnepost'",  # a batch's helper: exists in a batch only
+    "element: 'site:torso_site', frame: 'site:sensorcfg:shin_vel:0'",
+])
+def test_a_name_sensorcfg_adds_is_reserved_when_named_exactly(where: str) -> None:
+    """Found by review: globs and ids did not see what sensorcfg adds, but an exact name did, so a suite
+    naming a batch's helper passed `validate --batch` and ran in the batch while Environment refused it."""
+    kind = "framepos" if "frame:" in where else ("sensordata" if "sensor:" in where else "xpos")
+    suite = sensorcfg.loads(f"sensors:\n  s: {{kind: {kind}, {where}}}\n" + ADDING, file="s.yaml")
+    for batch in (False, True):
+        problems = suite.check(str(QUADRUPED), batch=batch)
+        key = "frame" if "frame:" in where else "element"
+        assert [(p.line, p.loc) for p in problems] == [(2, f"sensors.s.{key}")], problems
+        assert "reserved" in problems[0].message
+
+
 @pytest.mark.skipif(int(mujoco.__version__.split(".")[0]) < 4, reason="mujoco.batch needs MuJoCo 4")
 def test_a_batch_reads_the_shapes_and_values_of_its_environment() -> None:
     from conftest import assert_batch_equals_single

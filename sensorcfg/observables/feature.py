@@ -186,7 +186,7 @@ def feature_index(model: mujoco.MjModel, kind: str, element: str | Sequence[str]
                   within: str | Sequence[str] | None = None, index: Any = None,
                   data: mujoco.MjData | None = None) -> tuple[str, str, np.ndarray, np.dtype]:
     """(struct, field, flat positions shaped like the value, dtype) for a feature on `model`."""
-    sel = select(model, element, within)
+    sel = select(model, element, within, added=True)  # a suite's own selectors were resolved at binding
     spec = kinds_of(sel.type)[kind]
     if spec.struct == "data" and data is None:
         data = mujoco.MjData(model)
