@@ -196,6 +196,18 @@ def test_a_bad_seed_is_an_argument_error(seed):
             BatchEnvironment(ROBOT, suite(), 2, seed=seed)
 
 
+@pytest.mark.parametrize("model", [42, b"robot.xml", ["robot.xml"]], ids=["int", "bytes", "list"])
+def test_a_model_of_another_type_is_an_argument_error(model):
+    """Found by review: make_env(path, model=42) raised numpy's or os's raw TypeError."""
+    with pytest.raises(sensorcfg.ArgumentError, match="model must be an MjModel, an MjSpec, a model path"):
+        sensorcfg.Environment(model, suite())
+    if MUJOCO4:
+        from sensorcfg.batch import BatchEnvironment
+
+        with pytest.raises(sensorcfg.ArgumentError, match="model must be an MjModel, an MjSpec, a model path"):
+            BatchEnvironment(model, suite(), 2)
+
+
 def test_the_physics_copies_independently_both_ways():
     """What the error message suggests works: a new environment with the state copied reads its own physics."""
     a = sensorcfg.Environment(ROBOT, suite(), physics_steps_per_control_step=2, seed=1)

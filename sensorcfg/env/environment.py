@@ -114,6 +114,9 @@ def model_source(model: ModelArg, suite: Any) -> tuple[mujoco.MjModel | mujoco.M
         return path, suite
     if isinstance(model, (str, os.PathLike)):
         return _model_file(model), suite
+    if not isinstance(model, (mujoco.MjModel, mujoco.MjSpec)):
+        raise ArgumentError(f"model must be an MjModel, an MjSpec, a model path (package:// and menagerie:// names "
+                            f"too) or None for the suite's 'model:'; got {type(model).__name__}")
     return model, suite
 
 
