@@ -132,6 +132,26 @@ def test_a_malformed_camera_is_a_problem_at_its_line(camera: str, expected: str)
     assert len(info.value.problems) == 1 and expected in str(info.value), str(info.value)
 
 
+@pytest.mark.parametrize("bad", ["c: {element: body:base, quat: [0, 0, 0, 0]}", "c.x: {element: body:base}"],
+                         ids=["malformed", "bad-name"])
+def test_a_malformed_camera_is_its_only_problem(bad: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Found by review: a schema mistake in one camera dropped every camera of the suite, so validate also told
+    each sensor that read one (a valid one too) that the model has no camera of that name."""
+    from sensorcfg.cli import main
+
+    name = bad.partition(":")[0]
+    shutil.copy(ROBOT, tmp_path / "robot.xml")
+    (tmp_path / "s.yaml").write_text(
+        f"model: robot.xml\ncameras:\n  {bad}\n  good: {{element: body:base}}\nsensors:\n"
+        f"  a: {{kind: rgb, element: 'camera:{name}'}}\n  b: {{kind: rgb, element: camera:good, camera: {{width: 9999}}}}\n")
+    assert main(["validate", str(tmp_path / "s.yaml")]) == 1
+    errors = [line for line in capsys.readouterr().out.splitlines() if ": error: " in line]
+    assert [line.split(": ")[2] for line in errors] == [f"cameras.{name}" + (".quat" if "quat" in bad else ""),
+                                                        "sensors.b.camera.width"], errors
+    assert "offscreen buffer" in errors[1]  # the valid camera is mounted: its sensor is judged
+    assert "quat" in bad or "a camera name starts with" in errors[0]  # not "a sensor name"
+
+
 def test_an_mjmodel_without_the_cameras_is_refused_at_the_camera() -> None:
     suite = sensorcfg.loads("cameras:\n  head: {element: body:base}\nsensors:\n  img: {kind: rgb, element: "
                             "camera:head}\n", file="f.yaml")

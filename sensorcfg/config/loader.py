@@ -101,6 +101,7 @@ def _without_invalid(value: dict[str, Any], error: ValidationError, whole_sensor
     sensors_out: set[Any] = set()
     sensor_keys_out: dict[Any, set[Any]] = {}
     defaults_out: set[Any] = set()
+    cameras_out: set[Any] = set()
     keys_out: set[Any] = set()
     for e in error.errors(include_url=False):
         loc = tuple(e["loc"])
@@ -108,6 +109,8 @@ def _without_invalid(value: dict[str, Any], error: ValidationError, whole_sensor
             sensor_keys_out.setdefault(loc[1], set()).update((loc[2], *_JUDGED_WITH.get(_rejected_key(e), ())))
         elif len(loc) >= 2 and loc[0] == "sensors":
             sensors_out.add(loc[1])
+        elif len(loc) >= 2 and loc[0] == "cameras" and isinstance(value.get("cameras"), dict):
+            cameras_out.add(loc[1])
         elif len(loc) >= 2 and loc[0] == "defaults" and isinstance(value.get("defaults"), dict):
             defaults_out.update((loc[1], *_JUDGED_WITH.get(_rejected_key(e), ())))
         elif loc and loc[0] != "sensors":
@@ -115,6 +118,10 @@ def _without_invalid(value: dict[str, Any], error: ValidationError, whole_sensor
         else:
             return None
     rest = {k: v for k, v in value.items() if k not in keys_out}
+    if cameras_out:  # the suite's other cameras are mounted; a sensor reading a rejected one cannot be judged
+        rest["cameras"] = {k: v for k, v in rest["cameras"].items() if k not in cameras_out}
+        if isinstance(rest.get("sensors"), dict):
+            sensors_out.update(k for k, v in rest["sensors"].items() if _reads_camera(v, cameras_out))
     if defaults_out:
         rest["defaults"] = {k: v for k, v in rest["defaults"].items() if k not in defaults_out}
     if isinstance(rest.get("sensors"), dict):
@@ -123,6 +130,14 @@ def _without_invalid(value: dict[str, Any], error: ValidationError, whole_sensor
                                if isinstance(v, dict) else v)
                            for k, v in rest["sensors"].items() if k not in sensors_out}
     return rest
+
+
+def _reads_camera(sensor: Any, cameras: set[Any]) -> bool:
+    """Whether a sensor's `element` names one of `cameras` ('camera:<name>', alone or in a list)."""
+    element = sensor.get("element") if isinstance(sensor, dict) else None
+    entries = element if isinstance(element, list) else [element]
+    return any(isinstance(e, str) and e.strip().startswith("camera:") and e.strip()[len("camera:"):] in cameras
+               for e in entries)
 
 
 def _judged_with_default(key: str, sensor: dict[str, Any], rejected: set[Any]) -> bool:

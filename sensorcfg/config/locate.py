@@ -34,7 +34,7 @@ _FORMS = {
     "kind": "a kind is a name such as 'qpos', 'sensordata', 'rgb' or 'generic'",
     "within": "within takes a body selector, 'body:name' (for example 'body:forearm')",
     "callable": "a callable is written 'module:function' (for example 'my_pkg.sensors:distance')",
-    "[key]": "a sensor name starts with a letter or '_' and holds letters, digits, '_', '-' or '/' "
+    "[key]": "a {} name starts with a letter or '_' and holds letters, digits, '_', '-' or '/' "
              "(no dots or spaces: names appear in dotted paths)",
 }
 
@@ -240,7 +240,8 @@ def problems_from(error: ValidationError, doc: Doc, root: type[BaseModel], prefi
     for e in error.errors(include_url=False):
         path, is_key = normalize(tuple(e["loc"]), value)
         if is_key:
-            message = f"{_FORMS['[key]']}; got {quote(path[-1])}" if path else e["msg"]
+            named = "camera" if (prefix + path)[:1] == ("cameras",) else "sensor"  # the mapping the key names
+            message = f"{_FORMS['[key]'].format(named)}; got {quote(path[-1])}" if path else e["msg"]
             out.append(problem_at(doc, prefix + path, message, key=True))
             continue
         message = _message(e, path, root, value)
