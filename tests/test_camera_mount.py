@@ -152,6 +152,17 @@ def test_a_malformed_camera_is_its_only_problem(bad: str, tmp_path: Path, capsys
     assert "quat" in bad or "a camera name starts with" in errors[0]  # not "a sensor name"
 
 
+def test_a_camera_larger_than_the_models_offscreen_buffer_renders_at_its_resolution() -> None:
+    """Found by review: a suite camera with `resolution: [1280, 720]` on a model whose offscreen buffer is
+    640x480 was refused at the sensor, with a hint to edit the robot file that `cameras:` exists to spare."""
+    suite = sensorcfg.loads("cameras:\n  big: {element: body:base, resolution: [1280, 720]}\n"
+                            "sensors:\n  img: {kind: depth, element: camera:big}\n", file="f.yaml")
+    assert suite.check(ROBOT) == []
+    model = suite.compile(ROBOT)
+    assert (model.vis.global_.offwidth, model.vis.global_.offheight) == (1280, 720)
+    assert sensorcfg.Environment(ROBOT, suite).observation_spec()["img"].shape == (1, 720, 1280, 1)
+
+
 def test_an_mjmodel_without_the_cameras_is_refused_at_the_camera() -> None:
     suite = sensorcfg.loads("cameras:\n  head: {element: body:base}\nsensors:\n  img: {kind: rgb, element: "
                             "camera:head}\n", file="f.yaml")

@@ -3,7 +3,8 @@ compiles it (`Suite._compiled`: validate, spec, run, Environment, BatchEnvironme
 without a camera (Menagerie's Panda) gets one without being edited.
 
 A camera is mounted in a body's frame, or a site's (then on the site's body, at the site's compiled pose
-composed with the camera's). Its name must be new to the model. An MjModel is taken as it is: it must
+composed with the camera's). Its name must be new to the model. The model's offscreen buffer grows to hold
+a camera's `resolution` (it never shrinks). An MjModel is taken as it is: it must
 already carry the suite's cameras (an MjModel from `Suite.compile` does).
 """
 
@@ -90,6 +91,9 @@ def mount(source: Any, cameras: Mapping[str, MountedCameraConfig]) -> tuple[mujo
         added = _body(spec, plain, body).add_camera(name=name, pos=pos, quat=quat, fovy=camera.fovy)
         if camera.resolution is not None:
             added.resolution = list(camera.resolution)
+            width, height = camera.resolution  # the offscreen buffer holds the image the suite asks for
+            buffer = spec.visual.global_
+            buffer.offwidth, buffer.offheight = max(buffer.offwidth, int(width)), max(buffer.offheight, int(height))
     return spec, found
 
 
