@@ -178,6 +178,17 @@ LOAD_MISTAKES = [
         '    interval: 2.5\n',
         "5:15: error: sensors.s.interval: expected integer physics steps, a rate like '50Hz', a duration like '4ms', or {uniform: [lo, hi]} / {choice: [...], p: [...]}; got 2.5",
         id='interval_float'),
+    pytest.param(  # a control interval is never drawn: its message offers no draw (found by review)
+        'options: {control_interval: 10.0}\n'
+        'sensors:\n'
+        '  s: {kind: qpos, element: joint:elbow}\n',
+        "1:29: error: options.control_interval: expected integer physics steps, a rate like '50Hz', or a duration like '4ms'; got 10.0",
+        id='control_interval_float'),
+    pytest.param(  # nor is a drawn delay's bound
+        'sensors:\n'
+        '  s: {kind: qpos, element: joint:elbow, delay: {uniform: [1.5, 3]}}\n',
+        "2:48: error: sensors.s.delay: expected integer physics steps, or a duration like '4ms'; got 1.5",
+        id='uniform_bound_float'),
     pytest.param(
         'sensors:\n'
         '  s:\n'

@@ -50,11 +50,13 @@ class ChoiceDraw(BaseModel):
                                         "uniform when omitted.", examples=[[0.8, 0.2]])
 
 
-def _fixed(value: Any, *, rates: bool, minimum: int) -> int | str:
+def _fixed(value: Any, *, rates: bool, minimum: int, drawn: bool = False) -> int | str:
+    """A fixed number of steps or a time; `drawn`: where a draw would be accepted too (the message says so)."""
     what = "a rate like '50Hz', " if rates else ""
     if isinstance(value, bool) or not isinstance(value, (int, str)):
-        raise ValueError(f"expected integer physics steps, {what}a duration like '4ms', or "
-                         f"{{uniform: [lo, hi]}} / {{choice: [...], p: [...]}}; got {quote(value)}")
+        forms = ["integer physics steps", *(["a rate like '50Hz'"] if rates else []), "a duration like '4ms'",
+                 *(["{uniform: [lo, hi]} / {choice: [...], p: [...]}"] if drawn else [])]
+        raise ValueError(f"expected {', '.join(forms[:-1])}, or {forms[-1]}; got {quote(value)}")
     if isinstance(value, int):
         if value < 0:
             raise ValueError(f"a number of physics steps cannot be negative; got {value}; use {minimum} or more")
@@ -72,7 +74,7 @@ def _schedule(value: Any, *, rates: bool, minimum: int) -> int | str | UniformDr
     if isinstance(value, (UniformDraw, ChoiceDraw)):  # built in Python
         return value
     if not isinstance(value, dict):
-        return _fixed(value, rates=rates, minimum=minimum)
+        return _fixed(value, rates=rates, minimum=minimum, drawn=True)
     keys = set(value)
     if keys == {"uniform"}:
         bounds = value["uniform"]
