@@ -163,6 +163,21 @@ def test_a_camera_larger_than_the_models_offscreen_buffer_renders_at_its_resolut
     assert sensorcfg.Environment(ROBOT, suite).observation_spec()["img"].shape == (1, 720, 1280, 1)
 
 
+@pytest.mark.parametrize("sensor", ["{kind: rgb, element: 'camera:#1'}", "{kind: xpos, element: [camera:wrist, 'camera:#0']}",
+                                    "{kind: framepos, element: site:imu, frame: 'camera:#1'}"],
+                         ids=["element", "list-entry", "frame"])
+def test_a_camera_id_in_a_suite_that_adds_cameras_is_a_problem_at_its_line(sensor: str) -> None:
+    """Found by review: MuJoCo numbers the suite's cameras with the model's own by their place in the body
+    tree, so `camera:#1` (the robot's wrist camera) read a camera a child suite mounted on the world."""
+    cameras = "cameras:\n  front: {element: 'body:#0', pos: [0, -1, 0.3]}\n"
+    with pytest.raises(sensorcfg.SuiteError) as info:
+        sensorcfg.loads(f"{cameras}sensors:\n  s: {sensor}\n", file="f.yaml")
+    problems = info.value.problems
+    assert len(problems) == 1 and problems[0].line == 4 and "selects a camera by id" in problems[0].message, problems
+    mounted = sensorcfg.loads(f"{cameras}sensors: {{}}\n").compile(ROBOT)
+    assert mujoco.MjModel.from_xml_path(ROBOT).camera(1).name != mounted.camera(1).name  # why
+
+
 def test_an_mjmodel_without_the_cameras_is_refused_at_the_camera() -> None:
     suite = sensorcfg.loads("cameras:\n  head: {element: body:base}\nsensors:\n  img: {kind: rgb, element: "
                             "camera:head}\n", file="f.yaml")

@@ -67,6 +67,8 @@ def effective(name: str, sensor: SensorConfig, config: SuiteConfig, doc: Doc) ->
             example = _IMAGE_EXAMPLE if sensor.kind in IMAGE_KINDS and key == "element" else example
             problems.append(Problem(f"a sensor of kind {sensor.kind!r} needs {key!r}, for example {example}",
                                     dotted(here + (key,)), *_key_where(doc, here)))
+    if config.cameras:
+        problems += _camera_ids(sensor, doc, here)
     defaults = config.defaults
     update: dict[str, Any] = {}
     for field in _FROM_DEFAULTS:
@@ -81,6 +83,25 @@ def effective(name: str, sensor: SensorConfig, config: SuiteConfig, doc: Doc) ->
     if update.get("noise", sensor.noise) is None:
         update["noise"] = ()
     return sensor.model_copy(update=update), problems
+
+
+def _camera_ids(sensor: SensorConfig, doc: Doc, here: Path_) -> list[Problem]:
+    """A camera selected by id (`camera:#1`) in a suite that adds cameras: MuJoCo numbers cameras by their
+    place in the body tree, so an added camera can take the id of one of the model's own, and the sensor
+    would read another camera than the one the id meant without the suite's cameras (a base suite that a
+    child extending it gives cameras)."""
+    found = []
+    for key in ("element", "frame", "with"):
+        value = getattr(sensor, "with_" if key == "with" else key, None)
+        entries = [(value, (key,))] if isinstance(value, str) else [(v, (key, i)) for i, v in enumerate(value or ())]
+        for text, where in entries:
+            type_name, _, name = text.partition(":")
+            if type_name.strip() == "camera" and name.strip().startswith("#"):
+                found.append(problem_at(doc, here + where, (
+                    f"{text!r} selects a camera by id, and this suite adds cameras ('cameras:'), which MuJoCo numbers "
+                    "with the model's own by their place in the body tree, so an id can name another camera than "
+                    "without them: name the camera ('camera:<name>')")))
+    return found
 
 
 def _key_where(doc: Doc, path: Path_) -> tuple[str | None, int | None, int | None]:
