@@ -368,6 +368,24 @@ def test_validate_a_folder_with_self_symlinks_checks_each_file_once(tmp_path: Pa
     assert [f["path"] for f in json.loads(proc.stdout)["files"]] == ["suites/a.yaml"]
 
 
+def test_validate_a_folder_does_not_follow_links_out_of_it(tmp_path: Path) -> None:
+    """Found by review: `validate configs/` read a link `configs/x.yaml` to any file (or a linked folder
+    outside) and quoted the file's text in its problems; `extends` and `model:` stay in the tree already."""
+    (tmp_path / "secret").write_text("Host example\n  User private_name\n")
+    (tmp_path / "elsewhere").mkdir()
+    (tmp_path / "elsewhere" / "b.yaml").write_text(OK)
+    (tmp_path / "suites" / "sub").mkdir(parents=True)
+    (tmp_path / "suites" / "sub" / "a.yaml").write_text(OK)
+    (tmp_path / "suites" / "x.yaml").symlink_to(tmp_path / "secret")
+    (tmp_path / "suites" / "out").symlink_to(tmp_path / "elsewhere")
+    (tmp_path / "suites" / "inner.yaml").symlink_to(tmp_path / "suites" / "sub" / "a.yaml")  # inside: followed
+    proc = cli("validate", "suites", "--format", "json", cwd=tmp_path, timeout=60)
+    assert "private_name" not in proc.stdout + proc.stderr
+    assert [f["path"] for f in json.loads(proc.stdout)["files"]] == ["suites/inner.yaml"]
+    assert proc.stderr.count("a link out of the folder being validated") == 2, proc.stderr
+    assert cli("validate", "suites/x.yaml", cwd=tmp_path, timeout=60).returncode == 1  # named: checked
+
+
 def test_an_unreadable_folder_is_reported_and_the_rest_is_checked(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
                                                                capsys: pytest.CaptureFixture[str]) -> None:
     (tmp_path / "a" / "locked").mkdir(parents=True)

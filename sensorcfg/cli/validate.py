@@ -115,8 +115,11 @@ def collect(paths: Sequence[str]) -> Found:
 
 def _walk(root: Path, found: Found) -> None:
     """Suite files below `root`, depth first in name order (a loop, not recursion: folders may nest
-    thousands deep); a folder reached twice (a symlink loop, or two links to one folder) is walked once."""
+    thousands deep); a folder reached twice (a symlink loop, or two links to one folder) is walked once. A
+    symlink that leads out of `root` is not followed (a link named `x.yaml` to any file would otherwise be
+    read, its text quoted in the problems): it is reported, and checked when named on the command line."""
     first = len(found.files)
+    top = root.resolve()
     stack = [root]
     while stack:
         folder = stack.pop()
@@ -132,6 +135,10 @@ def _walk(root: Path, found: Found) -> None:
             path = folder / entry.name
             try:
                 is_dir = entry.is_dir()
+                if entry.is_symlink() and (is_dir or path.suffix in SUFFIXES) and not path.resolve().is_relative_to(top):
+                    found.error(path, f"a link out of the folder being validated ({printable(str(root))}): not followed; "
+                                      "name it on the command line to check the file it leads to")
+                    continue
                 info = os.stat(path) if is_dir or path.suffix in SUFFIXES else None
             except OSError as e:  # a broken symlink, or one in a loop: a suite name is worth reporting
                 if path.suffix in SUFFIXES:
