@@ -371,7 +371,8 @@ class SensorConfig(BaseModel):
         "names it (qpos, xpos, sensordata, ...); a MuJoCo sensor type that the suite adds to the model "
         "(velocimeter, gyro, framepos, contact, ...; where an element type has an attribute of that name, "
         "the attribute); 'gravity': the unit vector along the model's gravity in the element's frame ([0, 0, -1] "
-        f"upright); {', '.join(IMAGE_KINDS)} for a camera; '{HEIGHTSCAN_KIND}' for a terrain height "
+        "upright; the direction of opt.gravity when the suite compiles the model: changing model.opt.gravity "
+        f"later does not turn it); {', '.join(IMAGE_KINDS)} for a camera; '{HEIGHTSCAN_KIND}' for a terrain height "
         f"scan; '{GENERIC_KIND}' for a Python callable.",
         examples=["qpos", "velocimeter", "framepos", "contact", "sensordata", "rgb", "heightscan", "generic"])
     element: Element | None = Field(
