@@ -60,7 +60,7 @@ def test_a_level_applies_from_the_next_episode() -> None:
 
 def test_a_bad_level_is_refused() -> None:
     env = sensorcfg.Environment(TERRAIN, sensorcfg.loads(SUITE), seed=0)
-    with pytest.raises(sensorcfg.SuiteError, match=r"a noise level is a number >= 0 .* got -1"):
+    with pytest.raises(sensorcfg.ArgumentError, match=r"a noise level is a number >= 0 .* got -1"):
         env.set_noise_level(-1)
 
 

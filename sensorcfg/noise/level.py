@@ -150,9 +150,9 @@ BOUNDS[Keep] = lambda stage, lo, hi: (lo, hi)
 def set_level(observables: Mapping[str, Any], level: float) -> None:
     """The noise level of every noisy observable from its next reset on."""
     if isinstance(level, bool) or not isinstance(level, (int, float)) or not np.isfinite(level) or level < 0:
-        from ..errors import SuiteError
+        from ..errors import ArgumentError  # a Python call's argument, not a suite's line
 
-        raise SuiteError(f"a noise level is a number >= 0 (0: clean, 1: the suite's noise); got {level!r}")
+        raise ArgumentError(f"a noise level is a number >= 0 (0: clean, 1: the suite's noise); got {level!r}")
     leveled(observables)
     for observable in observables.values():
         noise = getattr(observable, "noise", None)
