@@ -25,7 +25,7 @@ from typing import Any
 
 __all__ = ["choose_gl_backend", "current_restored", "gl_error", "GL_PACKAGES"]
 
-# backend -> what a Debian/Ubuntu machine needs for it (README, "Cameras without a display")
+# backend -> what a Debian/Ubuntu machine needs for it (docs/sensors.md, "Cameras")
 GL_PACKAGES: dict[str, str] = {
     "egl": "libegl1 libegl-mesa0 libgl1-mesa-dri",
     "osmesa": "libosmesa6",

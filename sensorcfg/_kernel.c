@@ -57,8 +57,9 @@ static int set_tables(PyObject *kn, PyObject *wn, PyObject *fn) {
     return 0;
 }
 
-/* one counter's Philox, inlined into the ziggurat's fallback (calling philox_block there for one counter
- * made the whole kernel about 20% slower); the same rounds as philox_block */
+/* one counter's Philox, inlined into the ziggurat's fallback (philox_block, called through its pointer and
+ * set up for a block, costs too much for the one counter each rejected word needs); the same rounds as
+ * philox_block */
 static inline void philox1(uint32_t x[4], uint32_t k0, uint32_t k1) {
     for (int r = 0; r < ROUNDS; r++) {
         if (r) {
@@ -109,7 +110,7 @@ typedef void (*PhiloxFn)(int, uint32_t *restrict, uint32_t *restrict, uint32_t *
 #define SIMD_PHILOX 1
 /* The same rounds with intrinsics: the compiler widens each 32-bit product to a full 64-bit one (three
  * multiplies); here one multiply of the even and one of the odd lanes gives both halves, and four vectors of
- * counters are in flight at once so that a product's latency is hidden (about 3x the portable loop's speed).
+ * counters are in flight at once so that a product's latency is hidden.
  * Lanes past n compute on zeros and are not stored past w[4 * round-up(n, lanes)] (w holds 4 * BLOCK). */
 #define PHILOX_VECTORS(V, SUFFIX, LOAD, MUL, BLEND, XOR3, SET32, SET64, ADD, SRL, SLL)                         \
     const V M0 = SET64(0xD2511F53u), M1 = SET64(0xCD9E8D57u), W0 = SET32((int)0x9E3779B9u),                   \
@@ -466,7 +467,7 @@ done:
  * index outside the table takes the nearest end, as numpy's mode="clip".
  * A batch gathers right after a rollout has filled the caches with other memory, from positions spread over
  * tens of MB: each value's line is asked for AHEAD positions early, so that the loads overlap instead of
- * waiting one by one (0.77 -> 0.45 ms for the humanoid suite's 217,088 values at 512 simulations). */
+ * waiting one by one (`benchmarks/batch_gather.py` times it). */
 #define AHEAD 128
 #if defined(__GNUC__) || defined(__clang__)
 #define PREFETCH(p) __builtin_prefetch((p), 0, 0)

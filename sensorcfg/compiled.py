@@ -41,8 +41,8 @@ _POOL_NAME = "sensorcfg-kernel"
 _POOL_LOCK = threading.Lock()
 _CPUS = os.cpu_count() or 1  # read once: each call reads /sys (7 us here), and split runs every control step
 SPLIT_VALUES = 150_000  # below this much work, one thread: each call hands the GIL between the two
-# threads, which costs more than the second core gives below this (64 and 128 simulations of the humanoid
-# benchmark with noise ran faster on one thread, 256 and 512 on two)
+# threads, which costs more than the second core gives below this (the humanoid benchmark's noisy read at 128
+# simulations runs faster on one thread, at 256 on two: `benchmarks/batch.py --noise`)
 
 
 def split(run: Callable[[int], None], work: Sequence[int]) -> None:
@@ -95,8 +95,8 @@ def take(table: np.ndarray, index: np.ndarray) -> np.ndarray:
         return table.take(index, mode="clip")
     index = np.ascontiguousarray(index)
     out = np.empty(index.shape)
-    # One thread: the copy waits on memory, not on the core (its loads are asked for ahead); a second thread
-    # made the humanoid batch's 217,088-value read slower, 0.65-0.70 against 0.59 ms a control step.
+    # One thread: the copy waits on memory, not on the core (its loads are asked for ahead), so a second
+    # thread does not make it faster (`benchmarks/batch_gather.py` times both).
     MODULE.gather(table, index, out, 0, index.size)
     return out
 

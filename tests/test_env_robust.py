@@ -1,6 +1,6 @@
 """Environments after an exception from user code, and copies of environments.
 
-Rule (README, "Environments"): an exception raised during a step by user code (a generic sensor, custom
+Rule (docs/semantics.md): an exception raised during a step by user code (a generic sensor, custom
 noise, `reward_fn`, `termination_fn`) propagates and ends the episode; the next step starts a new one
 (FIRST), whose observations are those of a fresh environment. Environments cannot be copied or pickled:
 their sensors are bound to their own MjData, so a copy would read the original's physics.

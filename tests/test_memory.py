@@ -1,4 +1,4 @@
-"""Memory in proportion to the data a sensor keeps, whatever its buffer and delay (README, Performance).
+"""Memory in proportion to the data a sensor keeps, whatever its buffer and delay (docs/semantics.md, "Memory").
 
 A 14-value sensor with buffer 1000 and delay 5000 steps keeps 0.67 MB of samples; buffer 20000 keeps
 2.2 MB. The Updater and the batch hold those samples once or twice, plus read plans kept within a budget

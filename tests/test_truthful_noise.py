@@ -1,5 +1,5 @@
 """Truthful noise: a sample's value depends on the seed, the sensor and the sample's time, never on which
-other samples were taken (README, Semantics/Noise).
+other samples were taken (docs/noise.md).
 
 Property: for random sensors with every noise stage, each value a read shows is bit-identical whatever
 the buffer size and the aggregator of that sensor. Fixed schedules, so a window's sample indices are

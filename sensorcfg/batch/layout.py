@@ -88,8 +88,8 @@ class Layout:
         substeps = self.substeps
         per_step = self._fields_per_substep(fields)
         # One rollout per run of substeps between stops, recording the fields any of them needs: an extra
-        # call costs more than recording every field at every substep (about 1 ms against 1 ms for the
-        # humanoid suite at 512 simulations, MuJoCo 4.0), so runs are cut only where a camera renders.
+        # call costs about as much as recording every field at every substep, so runs are cut only where a
+        # camera renders.
         segments: list[tuple[int, int, set[str]]] = []  # (first, last substep, fields), 1-based
         for k in range(1, substeps + 1):
             if segments and k - 1 not in stops:

@@ -21,8 +21,8 @@ from ..runtime.drawn import Drawn, Planner, Round, chunk_steps
 __all__ = ["Timelines", "drawn_of"]
 
 # Steps per planning round across simulations, at least: a reset plans two rounds of every simulation it
-# starts (512 simulations x 5 sensors x 2 x 1024 steps took about half a second); a round costs a few
-# milliseconds of fixed work whatever its length, so shorter rounds cost the step loop little.
+# starts, so a long round makes every reset slow; a round's fixed work does not grow with its length, so
+# short rounds cost the step loop little.
 _ROUND_STEPS = 64
 
 

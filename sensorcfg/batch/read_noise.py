@@ -33,11 +33,10 @@ from .noise import BatchPipeline, _Additive
 __all__ = ["ReadNoise", "added_as_read"]
 
 # Reads that show each sample once cost less than the history path (which also copies every sample and runs a
-# call per substep); reads that show each sample twice cost about as much. `benchmarks/batch_noise_paths.py`
-# (512 simulations, two gaussian stages per sensor, update and read per control step; two runs after the noise
-# kernel's fifth-session changes) gives history / read 1.67-1.93 where each sample is read once, 0.92-1.00
-# twice, 0.70-0.75 three times (1.35-1.61, 0.73 and 0.63 before): the read's cost grows by about one
-# single-read's per extra read, so the break-even lies near 1.8 reads; 1.5 keeps a margin (1.25 before).
+# call per substep); reads that show each sample twice cost about as much. The read's cost grows by about one
+# single read's per extra read while the history path draws each sample's numbers once, so the break-even lies
+# near 1.8 reads per sample; 1.5 keeps a margin. `benchmarks/batch_noise_paths.py` times both paths
+# (docs/performance.md).
 _MAX_READS_PER_SAMPLE = 1.5
 
 

@@ -1,6 +1,6 @@
 """Drawn intervals and delays planned in blocks: the planned-schedule stream rule, for one or many simulations.
 
-The rule (README, Semantics): a schedule drawn by sensorcfg's own draws (`{uniform}`, `{choice}`) draws from
+The rule (docs/semantics.md): a schedule drawn by sensorcfg's own draws (`{uniform}`, `{choice}`) draws from
 the counter-based numbers of its noise (`noise/streams.numbers`), with the sensor's episode key (k0, k1)
 (`draws.sensor_key`) turned into the schedule key (k0, k1 xor 2^63): I_j and D_j are drawn from the uniform
 of sample j, stage 0, lane 0 (intervals) or 1 (delays), value 0 (`UniformSteps.of_uniform`,
