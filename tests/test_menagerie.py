@@ -201,3 +201,26 @@ def test_a_failed_download_suggests_menagerie_root(monkeypatch: pytest.MonkeyPat
         "https://example.invalid/anymal.tar.xz: <urlopen error [Errno -2] Name or service not known>; without a "
         "network, set MENAGERIE_ROOT to a Menagerie checkout (git clone "
         "https://github.com/google-deepmind/mujoco_menagerie)"]
+
+
+def test_a_model_given_replaces_the_suite_model_line_unresolved(monkeypatch: pytest.MonkeyPatch, tmp_path: Path,
+                                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    """`--model` and an environment's `model` run the suite on the model given: its own `model:` line (here a
+    Menagerie robot that cannot be downloaded) is not resolved, so the recipes run offline on a stand-in."""
+    menagerie = pytest.importorskip("mujoco_menagerie", reason="the optional extra 'menagerie' is not installed here")
+
+    def offline(self: object, cache: object = None, progress: object = None) -> Path:
+        raise menagerie.DownloadError("no network")
+
+    monkeypatch.setattr(menagerie.Robot, "path", offline)
+    monkeypatch.delenv("MENAGERIE_ROOT", raising=False)
+    suite = tmp_path / "s.yaml"
+    suite.write_text(SUITE)
+    with pytest.raises(SuiteError, match="cannot provide"):
+        sensorcfg.load(suite)  # the line alone still says what is wrong
+    from sensorcfg.cli import main
+
+    for command in (["validate"], ["spec"], ["run", "--steps", "1"]):
+        assert main([command[0], str(suite), "--model", str(MODEL), *command[1:]]) == 0, capsys.readouterr()
+    env = sensorcfg.make_env(suite, model=str(MODEL))
+    assert env.reset().observation["q"].shape == (1, mujoco.MjModel.from_xml_path(str(MODEL)).nq)  # a buffer of 1

@@ -61,7 +61,7 @@ def add_suite_args(parser: argparse.ArgumentParser, *, suite_optional: bool = Fa
     else:
         parser.add_argument("suite", metavar="SUITE", help="suite file (YAML)")
     parser.add_argument("--model", metavar="MODEL", help="MJCF/MJB model, or package://PKG/FILE or "
-                        "menagerie://ROBOT/FILE as in a suite (default: the suite's 'model:')")
+                        "menagerie://ROBOT/FILE as in a suite (default: the suite's 'model:'; given, that line is not read)")
     add_common_suite_args(parser)
 
 
@@ -184,13 +184,16 @@ def suite_model(suite: Any, path: str) -> Any:
     return suite.compile(path) if suite._adds_to_model() else model
 
 
-def load_suite(path: str, overrides: Sequence[str] = (), extends_root: str | None = None) -> Any:
-    """The validated suite at `path` (SuiteError for its problems, UsageError when it cannot be read)."""
+def load_suite(path: str, overrides: Sequence[str] = (), extends_root: str | None = None,
+               model: str | None = None) -> Any:
+    """The validated suite at `path` (SuiteError for its problems, UsageError when it cannot be read); with
+    `model` (--model), its own `model:` line is left out (`with_model`)."""
     from ..config import parse_path
+    from ..config.overrides import with_model
     from ..suite import Suite
 
     existing_file(path, "suite file")
-    result = parse_path(path, list(overrides) or None, extends_root=extends_root)
+    result = parse_path(path, with_model(overrides, model), extends_root=extends_root)
     if result.unreadable is not None:
         raise UsageError(f"{printable(path)}: cannot read this suite: {result.unreadable}")
     return Suite(result.unwrap())

@@ -60,7 +60,7 @@ def command(args: argparse.Namespace) -> int:
             print(f"note: matplotlib is not installed, so there will be no plot; {install_hint('plot', 'matplotlib')} "
                   "to get one\n")
             plot = None
-    suite = load_suite(suite_file, args.overrides, args.extends_root)
+    suite = load_suite(suite_file, args.overrides, args.extends_root, args.model)
     model_file = model_path(suite, args.model)
     settings = settings_from(args)
     spec = build_spec(suite, model_file, control_steps=control_steps(suite, load_model(model_file), settings))

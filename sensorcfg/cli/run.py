@@ -342,5 +342,5 @@ def command(args: argparse.Namespace) -> int:
         # what matplotlib writes by itself (pgf needs LaTeX; avif a Pillow built with it)
         formats = ("png", *sorted(set(FigureCanvasBase.get_supported_filetypes()) - {"png", "pgf", "avif"}))
     out, plot = writable(args.out, ("npz",)), writable(args.plot, formats)
-    suite = load_suite(args.suite, args.overrides, args.extends_root)
+    suite = load_suite(args.suite, args.overrides, args.extends_root, args.model)
     return execute(suite, model_path(suite, args.model), settings_from(args), out, plot, args.overrides)

@@ -147,7 +147,7 @@ REPORTERS: dict[str, Callable[[Spec], str]] = {
 
 
 def command(args: argparse.Namespace) -> int:
-    suite = load_suite(args.suite, args.overrides, args.extends_root)
+    suite = load_suite(args.suite, args.overrides, args.extends_root, args.model)
     spec = build_spec(suite, model_path(suite, args.model))
     print(REPORTERS[args.format](spec))
     return EXIT_OK

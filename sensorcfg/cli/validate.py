@@ -18,6 +18,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, cast
 
+from ..config.overrides import with_model
 from ..errors import Problem, SuiteError, printable, quote
 from .common import (EXIT_INVALID, EXIT_OK, EXIT_USAGE, HelpFormatter, UsageError, add_common_suite_args,
                      importable_cwd, load_model, model_option, os_reason, user_code_problem)
@@ -58,7 +59,7 @@ def add_parser(sub: Any, epilog: str) -> None:
     p.add_argument("paths", nargs="+", metavar="PATH", help="suite files or directories")
     p.add_argument("--model", metavar="MODEL", help="check every suite against this MJCF/MJB model (or "
                    "package://PKG/FILE, menagerie://ROBOT/FILE) "
-                   "(default: each suite's own 'model:')")
+                   "(default: each suite's own 'model:'; given, that line is not read)")
     p.add_argument("--format", choices=sorted(REPORTERS), default="text", help="output format (default: text)")
     p.add_argument("--import", dest="import_callables", action="store_true",
                    help="import 'generic' and 'custom' callables too (imported, never called)")
@@ -251,7 +252,7 @@ def command(args: argparse.Namespace) -> int:
     if args.import_callables:
         importable_cwd()
     models: dict[str, Any] = {}
-    results = [check_isolated(f, model, args.overrides, args.import_callables, models, args.extends_root,
+    results = [check_isolated(f, model, with_model(args.overrides, args.model) or [], args.import_callables, models, args.extends_root,
                               args.batch) for f in found.files]
     results += found.errors
     print(REPORTERS[args.format](results))

@@ -11,16 +11,24 @@ from __future__ import annotations
 
 import dataclasses
 import re
+from collections.abc import Sequence
 from typing import Any
 
 from ..errors import Problem, SuiteError, did_you_mean, quote
 from .limits import MAX_DEPTH, MAX_OVERRIDE_BYTES
 from .source import Doc, Path_, Pos, compose, dotted
 
-__all__ = ["apply_override", "parse_key"]
+__all__ = ["apply_override", "parse_key", "with_model"]
 
 _INDEX = re.compile(r"-?[0-9]{1,9}")  # ASCII digits only: int() would also read '١' or '²'-like digits
 _LABEL_LIMIT = 80
+
+
+def with_model(overrides: Sequence[str] | None, model: object) -> list[str] | None:
+    """The overrides a suite is loaded with when the caller names its model (--model, an environment's
+    `model`): the suite's own `model:` line is dropped, not resolved (a `menagerie://` line offline, or a
+    file that is not on this machine, would otherwise stop a suite that runs on the model given)."""
+    return [*(overrides or ()), "model=null"] if model is not None else (list(overrides) if overrides else None)
 
 
 def parse_key(key: str) -> Path_:

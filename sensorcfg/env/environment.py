@@ -100,8 +100,9 @@ def model_source(model: ModelArg, suite: Any) -> tuple[mujoco.MjModel | mujoco.M
     `menagerie://` name resolved as a suite's `model:` is), or, when it is None, the suite's own `model:`."""
     if isinstance(suite, (str, os.PathLike)):
         from .. import load
+        from ..config.overrides import with_model
 
-        suite = load(suite)
+        suite = load(suite, with_model(None, model))  # a model given: the suite's `model:` is not resolved
     if model is None:
         if isinstance(suite, Mapping):
             raise ArgumentError("model is None, and a dict of observables names no model: pass an MjModel, an "
