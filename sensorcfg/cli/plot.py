@@ -17,14 +17,14 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import install_hint, printable
-from .common import UsageError
+from ..config.tables import IMAGE_KINDS
+from ..errors import printable
+from .common import UsageError, require_matplotlib
 from .describe import SensorRow
 from .quantities import ValueGroup
 
 __all__ = ["plot_run"]
 
-IMAGE_KINDS = ("rgb", "depth", "segmentation")
 MAX_LINES = 8
 FRAMES = 6
 SKIPPED, READ = "0.8", "0.88"  # colours of skipped samples' ticks and of the control steps' lines
@@ -144,10 +144,8 @@ def plot_run(path: Path, rec: Any, rows: list[SensorRow], timings: dict[str, Any
              title: str, groups: Mapping[str, Sequence[ValueGroup]]) -> None:
     """The figure of a run; `groups` says, per sensor that is not a camera, which values share a quantity
     and unit (`quantities.value_groups`): each group is an axis with its unit and a legend."""
-    try:
-        from matplotlib.figure import Figure
-    except ImportError:
-        raise UsageError(f"plotting needs matplotlib: {install_hint('plot', 'matplotlib')}") from None
+    require_matplotlib()
+    from matplotlib.figure import Figure
     n = int(round((rec.time[1] - rec.time[0]) / dt)) if len(rec.time) > 1 else 1
     physics_steps = rec.steps_done * n
     window = _window(timings, physics_steps, n)
