@@ -38,7 +38,13 @@ from .observables.feature import feature_index
 from .physics import Physics
 from .selection import keyframe_id, resolve, select, split_selector, within_problems
 
-__all__ = ["bind", "scene_flags"]
+__all__ = ["bind", "scene_flags", "twin_message"]
+
+
+def twin_message(twin: str, message: str) -> str:
+    """A problem of clean twin `twin`, said at its source's line (which wrote it): the twin runs on its own."""
+    return f"its clean twin {twin!r} runs (enabled; 'twin: false' drops it): {message}"
+
 
 Schedule = int | Callable[..., int] | None
 
@@ -77,7 +83,7 @@ class _Binder:
             # while its source is disabled), said at the source's line, which wrote it
             twin, source = self.twin
             path = ("sensors", source) + path[2:] if path[:2] == ("sensors", twin) else path
-            message = f"its clean twin {twin!r} runs (enabled; 'twin: false' drops it): {message}"
+            message = twin_message(twin, message)
         pos = self.suite.doc.pos(path, key=key)
         loc = ".".join(map(str, path))
         problem = pos.problem(message, loc) if pos else Problem(message, loc, self.suite.file)

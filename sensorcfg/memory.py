@@ -16,13 +16,12 @@ A sensor's samples wait in one of three stores, by the path that runs it; the si
 A slot or row also costs a numpy view in the single-simulation paths (`ROW_BYTES`). A batch keeps each
 store for every simulation; its features (fixed or drawn schedules) share one flat history of
 (rows, nsim, width) float64 that its noise corrupts in place (`batch/layout.py`: a row per step, no views,
-no block of noise drawn ahead), and a drawn schedule's read windows for `BATCH_ROUND_STEPS`-step rounds
+no block of noise drawn ahead), and a drawn schedule's read windows for rounds of `ROUND_STEPS` steps
 (`batch/random_schedules.py`). Each figure is an upper bound: the paths a sensor does not take cost less.
 """
 
 from __future__ import annotations
 
-import math
 import numbers
 from collections.abc import Mapping
 from typing import Any, NamedTuple
@@ -31,6 +30,7 @@ import mujoco
 import numpy as np
 
 from .config.limits import MAX_KEPT_BYTES
+from .batch.random_schedules import ROUND_STEPS
 from .draws import ChoiceSteps, UniformSteps
 from .observables.feature import Feature
 from .physics import Physics
@@ -46,7 +46,6 @@ STEP_BYTES = 448  # a history row: its view, snapshot flag and share of the boun
 READ_BYTES = 128  # a drawn schedule's planned read: its row of gather indices' view
 _GIB = float(1 << 30)
 _FIXES = {"delay": "use a shorter delay or a longer interval", "buffer": "use a smaller buffer or a longer interval"}
-BATCH_ROUND_STEPS = 64  # a batch's planning round of drawn schedules, at least (`batch/random_schedules.py`)
 DRAWS = (UniformSteps, ChoiceSteps)  # schedules sensorcfg draws and plans (`DrawnChannel`, `DrawnBank`)
 
 
@@ -94,12 +93,12 @@ def kept(observable: Any, substeps: int, batch: bool = False) -> Kept | None:
     feature = isinstance(observable, Feature)
     if feature and batch:  # the batch's layout: a history row per step, of the values alone
         plan = Drawn(longest, latest, buffer, n)
-        period = n if drawn else math.lcm(n, longest)
+        period = n if drawn else Schedule(longest, latest, buffer, n).period
         span = (plan.span if drawn else Schedule(longest, latest, buffer, n).wait) + n + 1
         rows = steps = period * -(-span // period)
         unit, row = "steps of history", sample
         if drawn:  # each read's window of sample steps, three rounds of control steps held
-            row += -(-3 * chunk_steps([plan], n, BATCH_ROUND_STEPS) // n * buffer * 8 // rows)
+            row += -(-3 * chunk_steps([plan], n, ROUND_STEPS) // n * buffer * 8 // rows)
     elif drawn:  # planned: `Drawn.span` back, and rounds of at least 1,024 steps ahead
         plan = Drawn(longest, latest, buffer, n)  # (sized by the largest values)
         steps = plan.span + 5 * chunk_steps([plan], n) + 1

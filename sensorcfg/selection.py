@@ -55,7 +55,7 @@ def ascii_id(text: str) -> int | None:
 class Selection:
     type: str
     ids: tuple[int, ...]
-    names: tuple[str, ...]
+    names: tuple[str, ...]  # labels, for messages and element lists: the name, or `#<k>` for an unnamed one
     batched: bool
 
 

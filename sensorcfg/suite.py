@@ -232,11 +232,13 @@ class Suite:
 
     def _at_lines(self, found: Sequence[tuple[str, str, str]]) -> list[Problem]:
         """(sensor, key, message) as problems at the key's line; a clean twin's at its source's, which wrote it."""
+        from .binding import twin_message
+
         problems = []
         for name, key, message in found:
             source = self._loaded.twins.get(name)
             if source is not None:
-                name, message = source, f"its clean twin {name!r} runs (enabled; 'twin: false' drops it): {message}"
+                name, message = source, twin_message(name, message)
             raw = self._loaded.doc.value["sensors"].get(name) or {}
             defaults = self._loaded.doc.value.get("defaults") or {}
             path = ("sensors", name, key) if key in raw or key not in defaults else ("defaults", key)

@@ -18,12 +18,12 @@ import numpy as np
 
 from ..runtime.drawn import Drawn, Planner, Round, chunk_steps
 
-__all__ = ["Timelines", "drawn_of"]
+__all__ = ["ROUND_STEPS", "Timelines", "drawn_of"]
 
 # Steps per planning round across simulations, at least: a reset plans two rounds of every simulation it
 # starts, so a long round makes every reset slow; a round's fixed work does not grow with its length, so
 # short rounds cost the step loop little.
-_ROUND_STEPS = 64
+ROUND_STEPS = 64
 
 
 def drawn_of(observable: Any, buffer: int, substeps: int, every_sample: bool) -> Drawn:
@@ -39,7 +39,7 @@ class Timelines:
         self.specs = list(specs)
         self.nsim, self.substeps, self.pad = nsim, substeps, pad
         drawn = [d for _, d in self.specs]
-        self.chunk = chunk_steps(drawn, substeps, _ROUND_STEPS) if drawn else substeps
+        self.chunk = chunk_steps(drawn, substeps, ROUND_STEPS) if drawn else substeps
         self.slots = 3 * self.chunk // substeps  # control steps held by the rings: two rounds ahead
         nc = len(self.specs)
         self.taken = np.zeros((nsim, self.slots, nc, substeps), bool)  # [sim, control step, channel, substep]

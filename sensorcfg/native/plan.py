@@ -16,7 +16,7 @@ import mujoco
 
 from ..config.models import SensorConfig
 from ..errors import SuiteError, did_you_mean
-from ..kinds import kinds_of
+from ..kinds import ELEMENT_TYPES, kinds_of
 from ..selection import ADDED_PREFIX, MAX_HINTS, Selection, select, split_selector
 from . import gravity
 from .table import NATIVE, OBJ, REDUCE, NativeType, available, data_fields
@@ -148,7 +148,7 @@ def _objects(model: mujoco.MjModel, row: NativeType, sel: Selection, name: str) 
 def _name(model: mujoco.MjModel, type_name: str, i: int) -> str:
     """An element's name in the model ('' when it has none; the world body is 'world')."""
     return "world" if type_name == "body" and i == 0 else (
-        mujoco.mj_id2name(model, getattr(mujoco.mjtObj, f"mjOBJ_{type_name.upper()}"), i) or "")
+        mujoco.mj_id2name(model, ELEMENT_TYPES[type_name].obj, i) or "")
 
 
 _JOINT_WORDS = {int(getattr(mujoco.mjtJoint, f"mjJNT_{t}")): t.lower() for t in ("FREE", "BALL", "SLIDE", "HINGE")}
