@@ -30,10 +30,15 @@ __all__ = ["Blend", "Keep", "LeveledPipeline", "blend", "follow", "leveled", "ow
 def blend(raw: np.ndarray, noisy: np.ndarray, level: Any, dst: np.ndarray, bounds: Interval | None = None) -> None:
     """dst = raw + level (noisy - raw) clipped to `bounds` (minimum, maximum: the interval every noisy value
     keeps, broadcast against dst; None: unbounded), where level != 1; noisy itself where level == 1."""
+    if np.ndim(level) == 0 and level == 1.0:
+        np.copyto(dst, noisy, casting="unsafe")
+        return
     mixed = raw + level * (noisy - raw)
     if bounds is not None:
         np.clip(mixed, bounds[0], bounds[1], out=mixed)
-    np.copyto(dst, np.where(np.equal(level, 1.0), noisy, mixed), casting="unsafe")
+    if np.ndim(level):  # per simulation: those at level 1 read their noisy values exactly
+        mixed = np.where(np.equal(level, 1.0), noisy, mixed)
+    np.copyto(dst, mixed, casting="unsafe")
 
 
 class Blend(rt.Stage):
