@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from . import stages as rt
-from .bounds import BOUNDS, Interval, noisy_bounds
+from .bounds import BOUNDS, Interval, noisy_bounds, own_bounds
 from .pipeline import NoisePipeline
 
 __all__ = ["Blend", "Keep", "LeveledPipeline", "blend", "follow", "leveled", "own_bounds", "set_level"]
@@ -115,14 +115,6 @@ class LeveledPipeline(NoisePipeline):
     def __call__(self, value: np.ndarray, step: int, out: np.ndarray | None = None) -> np.ndarray:
         self._blend.raw = value
         return super().__call__(value, step, out)
-
-
-def own_bounds(observable: Any) -> Interval | None:
-    """The bounds of an observable's own spec, None when it has none (or none yet: a feature's is known once
-    bound)."""
-    spec = getattr(observable, "array_spec", None)
-    minimum, maximum = getattr(spec, "minimum", None), getattr(spec, "maximum", None)
-    return None if minimum is None or maximum is None else (minimum, maximum)
 
 
 def _asking(observable: Any) -> Callable[[], Interval | None]:
