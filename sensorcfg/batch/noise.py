@@ -310,6 +310,11 @@ class BatchPipeline:
         self._blend = next((b for b in batched if isinstance(b, BatchedBlend)), None)
 
     @property
+    def blend(self) -> BatchedBlend | None:
+        """The pipeline's batched `Blend` (its per-simulation levels), None without a noise level."""
+        return self._blend
+
+    @property
     def additive(self) -> _Additive | None:
         """The fused sum when the pipeline only adds numbers x scale (+ offset), at any noise level (a level
         other than 1 blends after it): a batch may add it as it reads (`batch.read_noise`)."""

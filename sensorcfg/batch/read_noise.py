@@ -93,10 +93,9 @@ class ReadNoise:
             if pipeline.stride != schedule.interval:  # a fixed schedule's is: sample j's numbers are the j-th
                 raise RuntimeError(f"read noise of channel {c}: its noise stride is not its interval (an internal error)")
             count = nsim * schedule.buffer
-            blend_stage = next((b for b in pipeline.batched if isinstance(b, BatchedBlend)), None)
             templates = stage.template.draws(np.zeros(0, np.int64), np.zeros((0, 2), np.uint64))
             prepared = prepare(templates, cast(list[Affine], stage.terms))
-            self.sensors.append(_Sensor(stage, size, slice(at, at + count), blend_stage, prepared))
+            self.sensors.append(_Sensor(stage, size, slice(at, at + count), pipeline.blend, prepared))
             at += count
             # the read at t sees sample `schedule.newest(t) + schedule.offsets()[slot]` in slot `slot`
             columns.append((np.repeat(np.arange(nsim), schedule.buffer), _starts(layout, c, size, schedule.buffer).ravel(),
@@ -136,7 +135,7 @@ class ReadNoise:
             if sensor.blend is not None and sensor.blend.active:
                 blends.append(self._blended(values, sensor, sims, starts))  # their raw values, before the noise
         add_rows(rows, values)
-        for at, raw, level in blends:
+        for at, raw, level in blends:  # no bounds: a sum of additive terms keeps none (`noise.bounds`)
             out = np.empty_like(raw)
             blend(raw, values[at], level, out)
             values[at] = out

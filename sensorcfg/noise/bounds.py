@@ -17,7 +17,7 @@ import numpy as np
 
 from . import stages as rt
 
-__all__ = ["noisy_bounds"]
+__all__ = ["noisy_bounds", "own_bounds"]
 
 Interval = tuple[Any, Any]  # (minimum, maximum): scalars or per-value arrays
 _UNBOUNDED: Interval = (-np.inf, np.inf)
@@ -43,6 +43,14 @@ BOUNDS: dict[type, Callable[[Any, Any, Any], Interval]] = {
     rt.Lowpass: lambda stage, lo, hi: (lo, hi),
     rt.Dropout: _dropout,
 }
+
+
+def own_bounds(observable: Any) -> Interval | None:
+    """The bounds of an observable's own spec, None when it has none (or none yet: a feature's is known once
+    bound)."""
+    spec = getattr(observable, "array_spec", None)
+    minimum, maximum = getattr(spec, "minimum", None), getattr(spec, "maximum", None)
+    return None if minimum is None or maximum is None else (minimum, maximum)
 
 
 def noisy_bounds(pipeline: Any, bounds: Interval | None) -> Interval | None:

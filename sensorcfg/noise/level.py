@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from . import stages as rt
-from .bounds import BOUNDS, Interval, noisy_bounds
+from .bounds import BOUNDS, Interval, noisy_bounds, own_bounds
 from .pipeline import NoisePipeline
 
 __all__ = ["Blend", "Keep", "LeveledPipeline", "blend", "follow", "leveled", "own_bounds", "set_level"]
@@ -30,10 +30,15 @@ __all__ = ["Blend", "Keep", "LeveledPipeline", "blend", "follow", "leveled", "ow
 def blend(raw: np.ndarray, noisy: np.ndarray, level: Any, dst: np.ndarray, bounds: Interval | None = None) -> None:
     """dst = raw + level (noisy - raw) clipped to `bounds` (minimum, maximum: the interval every noisy value
     keeps, broadcast against dst; None: unbounded), where level != 1; noisy itself where level == 1."""
+    if np.ndim(level) == 0 and level == 1.0:
+        np.copyto(dst, noisy, casting="unsafe")
+        return
     mixed = raw + level * (noisy - raw)
     if bounds is not None:
         np.clip(mixed, bounds[0], bounds[1], out=mixed)
-    np.copyto(dst, np.where(np.equal(level, 1.0), noisy, mixed), casting="unsafe")
+    if np.ndim(level):  # per simulation: those at level 1 read their noisy values exactly
+        mixed = np.where(np.equal(level, 1.0), noisy, mixed)
+    np.copyto(dst, mixed, casting="unsafe")
 
 
 class Blend(rt.Stage):
@@ -110,14 +115,6 @@ class LeveledPipeline(NoisePipeline):
     def __call__(self, value: np.ndarray, step: int, out: np.ndarray | None = None) -> np.ndarray:
         self._blend.raw = value
         return super().__call__(value, step, out)
-
-
-def own_bounds(observable: Any) -> Interval | None:
-    """The bounds of an observable's own spec, None when it has none (or none yet: a feature's is known once
-    bound)."""
-    spec = getattr(observable, "array_spec", None)
-    minimum, maximum = getattr(spec, "minimum", None), getattr(spec, "maximum", None)
-    return None if minimum is None or maximum is None else (minimum, maximum)
 
 
 def _asking(observable: Any) -> Callable[[], Interval | None]:

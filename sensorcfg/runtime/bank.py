@@ -79,11 +79,15 @@ class GroupMember(NamedTuple):
 class ReductionGroup(NamedTuple):
     """Members with one aggregator and buffer size: `gathered[part]` as (buffer, group width), reduced once."""
 
-    reduce: Callable[[np.ndarray], np.ndarray]
     part: Any  # a slice of the gather (an index array in the batch's layout)
     block: tuple[int, int]
     members: list[GroupMember]
     aggregator: str  # the built-in's name (`observables.aggregators`)
+
+    @property
+    def reduce(self) -> Callable[[np.ndarray], np.ndarray]:
+        """The built-in's reduction (`AGGREGATORS`)."""
+        return AGGREGATORS[self.aggregator].reduce
 
 
 class ReadPlan(NamedTuple):
@@ -368,8 +372,7 @@ def read_plan(channels: list[FixedChannel], cols: np.ndarray, rows: int, phase: 
         for i, block in entries:
             members.append(GroupMember(i, slice(col, col + block.shape[1]), channels[i].shape))
             col += block.shape[1]
-        groups.append(ReductionGroup(AGGREGATORS[key[0]].reduce, slice(offset, offset + stacked.size),
-                                     stacked.shape, members, key[0]))
+        groups.append(ReductionGroup(slice(offset, offset + stacked.size), stacked.shape, members, key[0]))
         parts.append(stacked.ravel())
         offset += stacked.size
     return ReadPlan(np.concatenate(parts).astype(np.intp), groups, plain)

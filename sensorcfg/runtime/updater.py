@@ -18,7 +18,7 @@ from dm_env import specs
 from ..draws import episode_entropy, planned
 from ..errors import ArgumentError
 from ..observables.aggregators import aggregated_bounds
-from ..noise.bounds import noisy_bounds
+from ..noise.bounds import noisy_bounds, own_bounds
 from .mujoco_structs import structs_of as raw_structs
 from .bank import BankMember, FeatureBank, buffer_view, fields_of, qualifies
 from .channels import DrawnChannel, FixedChannel, RandomChannel, make_channel
@@ -362,7 +362,7 @@ def observation_spec(name: str, observable: Any, ch: _Reader) -> specs.Array:
     array_spec = observable.array_spec
     aggregator = observable.aggregator
     noise = getattr(observable, "noise", None)
-    own = (array_spec.minimum, array_spec.maximum) if isinstance(array_spec, specs.BoundedArray) else None
+    own = own_bounds(observable)
     bounds = noisy_bounds(noise, own)  # the bounds every noisy sample keeps (sensorcfg.noise.bounds)
     if (bounds is not None and (np.any(np.greater(bounds[0], 0)) or np.any(np.less(bounds[1], 0)))
             and shows_zeros(observable, bool(getattr(getattr(ch, "channel", ch), "pad")))):
