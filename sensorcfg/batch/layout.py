@@ -21,18 +21,12 @@ from typing import NamedTuple, cast
 
 import numpy as np
 
-from ..runtime.bank import PlainRead, ReductionGroup, read_plan
+from ..plan import Source, SuitePlan
+from ..runtime.bank import GroupMember, PlainRead, ReductionGroup
 from ..runtime.cache import DEFAULT_BUDGET, BoundedCache
 from ..runtime.channels import DrawnChannel, FixedChannel, RandomChannel
 
-__all__ = ["Layout", "Segment", "Source"]
-
-
-class Source(NamedTuple):
-    """Where a channel's values are: an mjData field, and their positions in one simulation's field."""
-
-    field: str
-    at: np.ndarray
+__all__ = ["Layout", "Segment", "Source"]  # Source: the plan's, re-exported
 
 
 class Segment(NamedTuple):
@@ -46,34 +40,32 @@ class Segment(NamedTuple):
 class Layout:
     """Columns, store and gather positions for `channels` (fixed-schedule ones first) of nsim simulations."""
 
-    def __init__(self, channels: Sequence[FixedChannel | RandomChannel | DrawnChannel], nfixed: int, noisy: set[int], span: int,
-                 sources: Sequence[Source], fields: dict[str, tuple[int, ...]], nsim: int, substeps: int,
-                 stops: set[int] | frozenset[int] = frozenset()):
-        """`span`: steps a sample of a random-schedule channel may wait to be read (0 without any);
-        `sources`: where each channel's values are in an mjData field (`relay.Source`); `stops`: substeps
-        after which a rollout must return (cameras render there)."""
-        self.channels, self.nfixed, self.nsim, self.substeps = channels, nfixed, nsim, substeps
-        self.sources = sources
-        self.fixed = cast("list[FixedChannel]", channels[:nfixed])
-        self.cols = np.cumsum([0] + [math.prod(ch.shape) for ch in channels]).astype(np.intp)
-        self.width = int(self.cols[-1])
-        period = math.lcm(substeps, *(ch.interval for ch in self.fixed))
-        span = max(span, substeps + 1, *(ch.schedule.wait + substeps + 1 for ch in self.fixed))
-        self.rows = period * -(-span // period)  # a multiple of every period, longer than any wait
-        # Reads repeat every `cycle` steps (relative to the read's own row): plans are kept per phase of it,
+    def __init__(self, plan: SuitePlan, channels: Sequence[FixedChannel | RandomChannel | DrawnChannel],
+                 noisy: set[int], fields: dict[str, tuple[int, ...]], stops: set[int] | frozenset[int] = frozenset()):
+        """`plan`: the suite plan of `channels` (its sensors in the same order: fixed-schedule ones first);
+        `noisy`: the channels whose noise the batch applies in the history; `stops`: substeps after which a
+        rollout must return (cameras render there)."""
+        self.plan = plan
+        self.channels, self.nfixed, self.nsim, self.substeps = channels, plan.nfixed, plan.nsim, plan.substeps
+        self.sources = [sensor.source for sensor in plan.sensors]
+        self.fixed = cast("list[FixedChannel]", channels[:plan.nfixed])
+        self.cols = np.array([0, *(sensor.columns[1] for sensor in plan.sensors)], np.intp)
+        self.width = plan.width
+        self.rows = plan.rows  # a multiple of every period, longer than any wait
+        # Reads repeat every `cycle` steps (relative to the read's own row): tables are kept per phase of it,
         # so their size does not grow with the history's length (buffer and delay).
-        self.cycle = period
-        self.nphase = period // substeps
+        self.cycle = plan.reads.cycle
+        self.nphase = plan.reads.nphase
         # Columns read only from the history: noisy ones (corrupted there, at their samples) and those of
         # random-schedule channels, which keep every substep (when they sample is per simulation).
         self.history_only = np.zeros(self.width, bool)
         self.always = np.zeros(self.width, bool)
         for c in range(len(channels)):
-            if c in noisy or c >= nfixed:
+            if c in noisy or c >= self.nfixed:
                 self.history_only[self.cols[c]:self.cols[c + 1]] = True
-            if c >= nfixed:
+            if c >= self.nfixed:
                 self.always[self.cols[c]:self.cols[c + 1]] = True
-        self._read_plans(noisy)
+        self._reads(noisy)
         self._segments(fields, stops)
         self._store(fields)
         self._sources()
@@ -154,7 +146,7 @@ class Layout:
                 self.record_offset[(s, f)] = r
                 view = self.flat[r:r + size].reshape(nsim, steps, *fields[f])
                 if f in self.bound[s]:  # only the span of values some channel reads is copied
-                    read = np.concatenate([s.at.ravel() for s in self.sources if s.field == f])
+                    read = np.concatenate([s.positions.ravel() for s in self.sources if s.field == f])
                     span = slice(int(read.min()), int(read.max()) + 1)
                     bound[f] = (view.reshape(nsim, -1)[:, span], span)
                 else:
@@ -194,48 +186,36 @@ class Layout:
             self.record_read_stride = np.vstack([self.record_stride[sub, self.col[None, :]],
                                                  np.zeros((1, self.col.size), np.intp)])
 
-    def _read_plans(self, noisy: set[int]) -> None:
-        """The bank's read plan at each phase of a read (steps since reset, mod rows), as row offsets."""
-        rows, substeps = self.rows, self.substeps
-        self.later = np.zeros((self.nphase, substeps, self.width), bool)
-        self.plain: list[PlainRead] = []  # parts are slices of a simulation's plain values
-        self.groups: list[ReductionGroup] = []  # parts are positions in a read (index arrays)
+    def _reads(self, noisy: set[int]) -> None:
+        """The plan's read table as the batch uses it: row offsets per phase, outputs as index arrays, which
+        read positions come from the control step's records, and what the history keeps."""
+        plan, substeps, rows = self.plan, self.substeps, self.rows
+        columns = np.zeros(self.width, bool)
+        for c in noisy:
+            columns[self.cols[c]:self.cols[c + 1]] = True
+        # a noisy channel's history keeps every sample taken; a noise-free one's, those a later read shows
+        self.later = np.where(columns, plan.taken, plan.read_later)
+        self.plain: list[PlainRead] = []  # parts are positions in a read (index arrays)
+        self.groups: list[ReductionGroup] = []
         if not self.fixed:
             return
-        fixed_cols = self.cols[:self.nfixed + 1]
-        deltas = []
-        for q in range(self.nphase):
-            index, groups, plain = read_plan(self.fixed, fixed_cols, rows, q * substeps)
-            row, col = np.divmod(index, int(fixed_cols[-1]))
-            deltas.append((row - q * substeps) % rows)
-        delta = np.stack(deltas)  # (phase, read width): row offset from the read's own row
-        self.delta = np.vstack([delta, delta[:1]])  # + the reset read: phase 0's, all from the history
-        self.col = col
-        at, positions = 0, []  # the layout (which positions form which output) is the same at every phase
-        for i, part, shape in plain:
-            self.plain.append(PlainRead(i, slice(at, at + part.stop - part.start), (self.nsim, *shape)))
-            positions.append(np.arange(part.start, part.stop))
-            at += part.stop - part.start
-        self.plain_cols = np.concatenate(positions) if positions else np.zeros(0, np.intp)
-        self.groups = [group._replace(part=np.arange(group.part.start, group.part.stop)) for group in groups]
+        self.delta, self.col = plan.reads.delta, plan.reads.column
+        delta = self.delta[:self.nphase]
+        at = 0
+        for out in plan.reads.plain:
+            size = out.positions.size
+            self.plain.append(PlainRead(out.sensor, slice(at, at + size), (self.nsim, *plan.sensors[out.sensor].output)))
+            at += size
+        self.plain_cols = (np.concatenate([out.positions for out in plan.reads.plain]) if plan.reads.plain
+                           else np.zeros(0, np.intp))
+        self.groups = [ReductionGroup(block.positions, (block.buffer, block.positions.size // block.buffer),
+                                      [GroupMember(m.sensor, slice(*m.columns), plan.sensors[m.sensor].shape)
+                                       for m in block.outputs], block.aggregator)
+                       for block in plan.reads.blocks]
         # positions a read takes from its control step's records: noise-free samples of the last substeps steps
-        recent = ((delta == 0) | (delta > rows - substeps)) & ~self.history_only[col][None, :]
-        self.from_record = np.vstack([recent, np.zeros((1, col.size), bool)])  # never at a reset read
+        recent = ((delta == 0) | (delta > rows - substeps)) & ~self.history_only[self.col][None, :]
+        self.from_record = np.vstack([recent, np.zeros((1, self.col.size), bool)])  # never at a reset read
         self.substep = np.where(recent, np.where(delta == 0, substeps, delta - (rows - substeps)), substeps)  # of a recent sample
-        # Per phase and substep, the columns the history keeps: a noisy channel's samples (the steps its
-        # single-simulation plan samples at); a noise-free channel's samples that a later read takes from
-        # there: sample s = t + k is read at R < s + b i + d, so later ones need k + b i + d - 1 >= 2n.
-        for c, ch in enumerate(self.fixed):
-            schedule, i = ch.schedule, ch.interval
-            sampled = set(schedule.needed_phases())
-            for q in range(self.nphase):
-                for k in range(1, substeps + 1):
-                    if c in noisy:
-                        keep = (q * substeps + k) % schedule.period in sampled
-                    else:
-                        keep = (q * substeps + k) % i == 0 and schedule.last_read((q * substeps + k) // i) >= q * substeps + 2 * substeps
-                    if keep:
-                        self.later[q, k - 1, self.cols[c]:self.cols[c + 1]] = True
 
     def clear(self) -> None:
         """Forget cached positions (a reset changed which simulation is at which phase)."""

@@ -29,7 +29,7 @@ import numpy as np
 
 from ..native.plan import Added
 from ..selection import ADDED_PREFIX
-from .layout import Source
+from ..plan import Source
 
 __all__ = ["RELAYS", "SENSOR_COST", "Plan", "exact", "plan", "positions", "relayed"]
 
@@ -116,7 +116,7 @@ def plan(model: mujoco.MjModel, sources: Sequence[Source], recorded: Mapping[str
     gain, before = 0, recorded.get("sensordata", 0)
     after = before
     for field, steps in sorted(recorded.items()):  # (the fields in a fixed order: the same model in every process)
-        read = [s.at.ravel() for s in sources if s.field == field]
+        read = [s.positions.ravel() for s in sources if s.field == field]
         planned = _field_plan(model, field, np.concatenate(read)) if field in RELAYS and read else None
         if planned is None:
             continue
@@ -147,7 +147,7 @@ def relayed(sources: Iterable[Source], where: Mapping[str, Mapping[int, int]]) -
     for s in sources:
         if s.field in where:
             lookup = where[s.field]
-            s = Source("sensordata", np.vectorize(lookup.__getitem__, otypes=[np.intp])(s.at))
+            s = Source("sensordata", np.vectorize(lookup.__getitem__, otypes=[np.intp])(s.positions))
         out.append(s)
     return out
 

@@ -40,7 +40,8 @@ from ..runtime.bank import _reader, plain_refusal
 from ..runtime.cache import DEFAULT_BUDGET, BoundedCache
 from ..runtime.channels import Channel, DrawnChannel, FixedChannel, RandomChannel, make_channel
 from ..runtime.updater import observation_spec
-from .layout import Layout, Source
+from ..plan import Source, SuitePlan, compile_plan
+from .layout import Layout
 from .noise import BatchPipeline, prefetch
 from .read_noise import ReadNoise, added_as_read
 from .random_schedules import Timelines
@@ -166,13 +167,17 @@ class BatchUpdater:
         return read
 
     def _layout(self, physics: Any, cameras: list[_Entry], drawn: list[_Entry]) -> Layout:
-        """The store the rollouts record into and the history the reads gather from."""
+        """The suite plan of the batch's channels, and the store the rollouts record into and the history the
+        reads gather from."""
         substeps = self.substeps
         fields = _fields(physics, self.sources)
-        span = max((_random_span(e, substeps) for e in drawn), default=0)  # how long a drawn sample may wait
+        for entry in drawn:  # the batch must know how long a drawn sample may wait
+            _random_span(entry, substeps)
         stops = set().union(*(_camera_stops(cast(FixedChannel, e.channel), substeps) for e in cameras))
-        return Layout(self.channels, self.nfixed, set(self.corrupted), span, self.sources, fields, self.nsim, substeps,
-                      stops)
+        model = physics.model if not hasattr(physics.model, "ptr") else physics.model.ptr
+        self.plan: SuitePlan = compile_plan(self.fixed, [cast(DrawnChannel, e.channel) for e in drawn], self.sources,
+                                            fields, self.nsim, substeps, float(model.opt.timestep), self.pad)
+        return Layout(self.plan, self.channels, set(self.corrupted), fields, stops)
 
     def _bind(self, observables: Mapping[str, Any], physics: Any, strip: bool) -> list[_Entry]:
         """Each enabled observable bound to `physics` with its channel, as the single-simulation Updater

@@ -95,6 +95,7 @@ class LeveledPipeline(NoisePipeline):
         self._bounded = False  # the blend's bounds are found once, at the first reset to a level other than 1
         super().__init__([*pipeline.stages, self._blend], [*pipeline.names, "level"], ctx, streams=pipeline.streams)
         self.stride = pipeline.stride
+        self.configs = pipeline.configs
 
     @property
     def stages(self) -> tuple[rt.Stage, ...]:

@@ -48,6 +48,7 @@ class NoisePipeline:
         lone = self._stages[0] if len(self._stages) == 1 else None
         self._lone = lone if isinstance(lone, rt._Additive) and self._direct else None
         self.streams: rt.Streams
+        self.configs: tuple[Any, ...] = ()  # the validated stage configs (`build_noise`)
         self.stride = 1
         if streams is None:
             self.reset(np.random.default_rng(0))
@@ -328,4 +329,6 @@ def build_noise(stages: Sequence[NoiseStage], shape: tuple[int, ...], dtype: Any
         raise SuiteError(problems)
     for i, stage in enumerate(built):
         stage.stream = i  # its part of the sensor's counter-based streams
-    return NoisePipeline(_fuse(built), [c.type for c in configs], ctx)
+    pipeline = NoisePipeline(_fuse(built), [c.type for c in configs], ctx)
+    pipeline.configs = configs  # the stages as configured: the suite plan's noise program (`plan.noise`)
+    return pipeline

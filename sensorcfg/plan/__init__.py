@@ -1,0 +1,12 @@
+"""The suite plan: what an engine executes, compiled once from a suite, a model and a batch size.
+
+Records (`plan.records`) hold integers and read-only arrays only; docs/architecture.md ("The suite plan")
+says what each holds and what an engine must do with it.
+"""
+
+from .compile import compile_plan, history_rows
+from .records import (DrawnSteps, DrawnTiming, FixedTiming, NoiseProgram, NoiseStep, PlainOutput, ReadTable,
+                      ReducedOutput, ReductionBlock, SensorRecord, Source, SuitePlan)
+
+__all__ = ["DrawnSteps", "DrawnTiming", "FixedTiming", "NoiseProgram", "NoiseStep", "PlainOutput", "ReadTable",
+           "ReducedOutput", "ReductionBlock", "SensorRecord", "Source", "SuitePlan", "compile_plan", "history_rows"]
