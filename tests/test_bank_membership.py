@@ -8,8 +8,8 @@ import pytest
 
 import sensorcfg
 from sensorcfg import assets
-from sensorcfg.batch import updater as batch_updater
-from sensorcfg.batch.updater import BatchUpdater
+from sensorcfg.plan import bind as plan_bind
+from sensorcfg.plan.bind import check_plain
 from sensorcfg.draws import UniformSteps
 from sensorcfg.errors import SuiteError
 from sensorcfg.runtime import bank as bank_module
@@ -42,8 +42,8 @@ def test_banks_and_batch_ask_one_rule(monkeypatch: pytest.MonkeyPatch) -> None:
     """A channel the rule refuses joins neither bank and is refused by the batch with the rule's message."""
     (obs, fixed), (_, drawn) = channel(), channel(update_interval=DRAWN)
     assert qualifies(fixed) and joins(drawn)
-    for module in (bank_module, batch_updater):
+    for module in (bank_module, plan_bind):
         monkeypatch.setattr(module, "plain_refusal", lambda ch: "dtype")
     assert not qualifies(fixed) and not joins(drawn)
     with pytest.raises(SuiteError, match="float64"):
-        BatchUpdater._check("s", obs, fixed)
+        check_plain("s", obs, fixed)

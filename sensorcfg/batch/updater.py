@@ -21,26 +21,22 @@ sensor. `samples_taken` is not kept.
 from __future__ import annotations
 
 import math
-import numbers
 from collections.abc import Mapping
-from typing import Any, NamedTuple, cast
+from typing import Any, cast
 
 import numpy as np
 from dm_env import specs
 
-from ..draws import (DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, ChoiceSteps, UniformSteps,
-                     episode_entropy, sensor_keys)
+from ..draws import episode_entropy, sensor_keys
 from .. import compiled
-from ..checks import batch_refusal, per_simulation_refusal
-from ..errors import ArgumentError, SuiteError
-from ..observables.aggregators import AGGREGATORS, reduce_stacked
-from ..observables.feature import batch_on_demand_problem
+from ..errors import ArgumentError
+from ..observables.aggregators import reduce_stacked
 from ..noise.streams import add_sums
-from ..runtime.bank import _reader, plain_refusal
 from ..runtime.cache import DEFAULT_BUDGET, BoundedCache
-from ..runtime.channels import Channel, DrawnChannel, FixedChannel, RandomChannel, make_channel
+from ..runtime.channels import DrawnChannel, FixedChannel
 from ..runtime.updater import observation_spec
-from ..plan import Source, SuitePlan, compile_plan
+from ..plan import SuitePlan
+from ..plan.bind import Bound, Entry, bind, plan_suite
 from .layout import Layout
 from .noise import BatchPipeline, prefetch
 from .read_noise import ReadNoise, added_as_read
@@ -52,58 +48,11 @@ __all__ = ["BatchUpdater"]
 _NOISY_ROWS_BUDGET = DEFAULT_BUDGET  # bytes of per-row noisy samples kept, at least (the history's size when more)
 
 
-def _bound(label: str, attr: str, value: Any, default: int) -> int:
-    """The largest value an interval or delay setting can take (drawn ones must say, to size the history)."""
-    if not value:
-        return default
-    if isinstance(value, numbers.Integral):
-        return int(value)
-    if isinstance(value, UniformSteps):
-        return int(value.high)
-    if isinstance(value, ChoiceSteps):
-        return int(max(value.values))
-    raise SuiteError(f"sensor {label!r}: its {attr} is a callable ({value!r}) that cannot be vectorised across "
-                     "simulations: the batch must know its largest value; use {uniform: [lo, hi]} or "
-                     "{choice: [...]}")
-
-
-class _Entry(NamedTuple):
-    """An enabled observable of the batch, with its (single-simulation) channel."""
-
-    name: str
-    observable: Any
-    channel: FixedChannel | RandomChannel | DrawnChannel
-
-
-def _fields(physics: Any, sources: list[Source]) -> dict[str, tuple[int, ...]]:
-    """The mjData fields the channels read, in order of first use, with their shapes."""
-    data = physics.data if not hasattr(physics.data, "ptr") else physics.data.ptr
-    fields: dict[str, tuple[int, ...]] = {}
-    for source in sources:
-        fields.setdefault(source.field, tuple(getattr(data, source.field).shape))
-    return fields
-
-
-def _random_span(entry: _Entry, substeps: int) -> int:
-    """How long a sample of a drawn schedule may wait to be read, at most (`Drawn.span`)."""
-    _bound(entry.name, "update_interval", entry.observable.update_interval, DEFAULT_UPDATE_INTERVAL)
-    _bound(entry.name, "delay", entry.observable.delay, DEFAULT_DELAY)
-    if not isinstance(entry.channel, DrawnChannel):
-        raise SuiteError(f"sensor {entry.name!r}: its drawn interval or delay can give values below the least "
-                         "allowed (interval 1, delay 0 steps)")
-    return entry.channel.drawn.span
-
-
 def _camera_stops(ch: FixedChannel, substeps: int) -> set[int]:
     """The substeps (1..substeps) after which the camera may render: a rollout returns there."""
     needed = set(ch.needed_phases())
     period = ch.period()
     return {k for k in range(1, substeps + 1) for t in range(0, math.lcm(period, substeps), substeps) if (t + k) % period in needed}
-
-
-def _per_simulation(obs: Any) -> bool:
-    """Observables that need a simulation's whole MjData (cameras, height scans): run per simulation."""
-    return hasattr(obs, "camera_id") or getattr(obs, "per_simulation", False)
 
 
 class BatchUpdater:
@@ -125,22 +74,21 @@ class BatchUpdater:
             raise ArgumentError("BatchEnvironment needs a dict of observables (or a Suite); got "
                              f"{type(observables).__name__}")
         self.nsim, self.substeps, self.pad = int(nsim), int(substeps), bool(pad_with_initial_value)
-        entries = self._bind(observables, physics, bool(strip_singleton_buffer_dim))
-        self.names = [entry.name for entry in entries]
-        self._spec = {e.name: observation_spec(e.name, e.observable, e.channel) for e in entries}
-        model = physics.model if not hasattr(physics.model, "ptr") else physics.model.ptr
-        cameras, fixed, drawn = self._arrange(entries, model)
-        ordered = fixed + drawn  # history columns: fixed channels first (the read plan's), then random ones
+        bound = bind(observables, physics, self.substeps, bool(strip_singleton_buffer_dim), self.pad)
+        self.names = [entry.name for entry in bound.entries]
+        self._spec = {e.name: observation_spec(e.name, e.observable, e.channel) for e in bound.entries}
+        cameras, fixed, drawn = bound.cameras, bound.fixed, bound.drawn
+        ordered = fixed + drawn  # history columns: fixed channels first (the read table's), then drawn ones
         self.fixed = [cast(FixedChannel, e.channel) for e in fixed]
         self.nfixed = len(fixed)
         self.output_index = {e.name: i for i, e in enumerate(ordered + cameras)}
         self.cameras = self._cameras(cameras, physics)  # the caller sets `cameras.batch`
         self.labels = [e.name for e in ordered]
         self.channels = [e.channel for e in ordered]
-        sources = [Source(_reader(ch).field, _reader(ch).index) for ch in self.channels]
+        sources = bound.sources()
         self.sources = relayed(sources, relays) if relays else sources
         read = self._noise(ordered, cameras)
-        layout = self.layout = self._layout(physics, cameras, drawn)
+        layout = self.layout = self._layout(physics, bound)
         self.read_noise = ReadNoise(read, self.fixed, layout, self.pad) if read else None
         self.reset_values = layout.reset_values
         self.history, self.flat, self.cols, self.rows = layout.history, layout.flat, layout.cols, layout.rows
@@ -155,7 +103,7 @@ class BatchUpdater:
 
     # -- construction -----------------------------------------------------------------------------
 
-    def _noise(self, ordered: list[_Entry], cameras: list[_Entry]) -> dict[int, BatchPipeline]:
+    def _noise(self, ordered: list[Entry], cameras: list[Entry]) -> dict[int, BatchPipeline]:
         """Every noisy channel's pipeline (`noise`), and those corrupted in the history (`corrupted`); returns
         the others: fixed channels whose noise only adds numbers, added as they are read (`batch.read_noise`)
         where that draws fewer numbers."""
@@ -166,42 +114,14 @@ class BatchUpdater:
         self.corrupted = {c: p for c, p in self.noise.items() if c not in read}
         return read
 
-    def _layout(self, physics: Any, cameras: list[_Entry], drawn: list[_Entry]) -> Layout:
-        """The suite plan of the batch's channels, and the store the rollouts record into and the history the
+    def _layout(self, physics: Any, bound: Bound) -> Layout:
+        """The suite plan of the batch's features, and the store the rollouts record into and the history the
         reads gather from."""
-        substeps = self.substeps
-        fields = _fields(physics, self.sources)
-        for entry in drawn:  # the batch must know how long a drawn sample may wait
-            _random_span(entry, substeps)
-        stops = set().union(*(_camera_stops(cast(FixedChannel, e.channel), substeps) for e in cameras))
-        model = physics.model if not hasattr(physics.model, "ptr") else physics.model.ptr
-        self.plan: SuitePlan = compile_plan(self.fixed, [cast(DrawnChannel, e.channel) for e in drawn], self.sources,
-                                            fields, self.nsim, substeps, float(model.opt.timestep), self.pad)
-        return Layout(self.plan, self.channels, set(self.corrupted), fields, stops)
+        self.plan: SuitePlan = plan_suite(bound, physics, self.sources, self.nsim, self.substeps, self.pad)
+        stops = set().union(*(_camera_stops(cast(FixedChannel, e.channel), self.substeps) for e in bound.cameras))
+        return Layout(self.plan, self.channels, set(self.corrupted), dict(self.plan.fields), stops)
 
-    def _bind(self, observables: Mapping[str, Any], physics: Any, strip: bool) -> list[_Entry]:
-        """Each enabled observable bound to `physics` with its channel, as the single-simulation Updater
-        binds them (`make_channel`); each simulation's episode later draws its own schedules and noise."""
-        random_state = np.random.RandomState(0)
-        return [_Entry(name, obs, make_channel(name, obs, physics, random_state, None, self.substeps, strip, self.pad))
-                for name, obs in observables.items() if obs.enabled]
-
-    def _arrange(self, entries: list[_Entry], model: Any) -> tuple[list[_Entry], list[_Entry], list[_Entry]]:
-        """Cameras, fixed-schedule features and drawn-schedule features, each checked for the batch (a field
-        MuJoCo computes on demand cannot be computed between a rollout's substeps)."""
-        cameras = [e for e in entries if _per_simulation(e.observable)]
-        features = [e for e in entries if not _per_simulation(e.observable)]
-        for entry in cameras:
-            self._check_camera(*entry)
-        for entry in features:
-            self._check(*entry)
-            problem = batch_on_demand_problem(model, _reader(entry.channel).field)
-            if problem:
-                raise SuiteError(f"sensor {entry.name!r}: {problem}")
-        return (cameras, [e for e in features if isinstance(e.channel, FixedChannel)],
-                [e for e in features if not isinstance(e.channel, FixedChannel)])
-
-    def _cameras(self, cameras: list[_Entry], physics: Any) -> Any:
+    def _cameras(self, cameras: list[Entry], physics: Any) -> Any:
         """The cameras, rendered per simulation (`batch.camera`), or None."""
         if not cameras:
             return None
@@ -210,28 +130,6 @@ class BatchUpdater:
         model = physics.model if not hasattr(physics.model, "ptr") else physics.model.ptr
         return BatchCameras([(self.output_index[e.name], e.observable, cast(FixedChannel, e.channel)) for e in cameras],
                             model, self.nsim, self.substeps, self.pad)
-
-    @staticmethod
-    def _check(name: str, obs: Any, ch: Channel) -> None:
-        if getattr(obs, "corruptor", None) is not None:
-            raise SuiteError(f"sensor {name!r}: {batch_refusal('corruptor')}")
-        rule = plain_refusal(ch)
-        if rule in ("constant", "generic"):
-            raise SuiteError(f"sensor {name!r} ({type(obs).__name__}): {batch_refusal(cast(str, rule))}")
-        if rule == "dtype":
-            raise SuiteError(f"sensor {name!r}: {batch_refusal('dtype', what=type(obs).__name__, dtype=str(ch.dtype))}")
-        if rule == "aggregator":
-            raise SuiteError(f"sensor {name!r}: its aggregator cannot be vectorised across simulations: use one of "
-                             f"{', '.join(AGGREGATORS)} on a buffer (a custom callable would run per simulation)")
-
-    @staticmethod
-    def _check_camera(name: str, obs: Any, ch: Channel) -> None:
-        what = ("a corruptor" if getattr(obs, "corruptor", None) is not None
-                else "an aggregator" if ch.aggregator is not None
-                else "a drawn interval or delay" if not isinstance(ch, FixedChannel) else None)
-        if what:
-            camera = hasattr(obs, "camera_id")
-            raise SuiteError(f"{'camera' if camera else 'height scan'} {name!r}: {per_simulation_refusal(camera, what)}")
 
     # -- episodes ---------------------------------------------------------------------------------
 
