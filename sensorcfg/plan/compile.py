@@ -57,7 +57,8 @@ def _record(channel: FixedChannel | DrawnChannel, source: Source, first: int) ->
     aggregator = None if channel.aggregator is None else str(getattr(channel.aggregator, "name"))
     output = channel.shape if aggregator is not None else channel.buffered_shape
     return SensorRecord(channel.name, tuple(channel.shape), (first, first + size), tuple(output), aggregator,
-                        _timing(channel), program(channel.noise, tuple(channel.shape), stride), source)
+                        _timing(channel), program(channel.noise, tuple(channel.shape), stride),
+                        Source(source.field, frozen(source.positions, np.intp)))
 
 
 def _read_table(fixed: Sequence[FixedChannel], cols: np.ndarray, rows: int, substeps: int,
