@@ -18,8 +18,8 @@ DEVICE = "cpu"
 
 
 @wp.kernel
-def _words(counters: wp.array2d(dtype=wp.uint32), keys: wp.array2d(dtype=wp.uint32),
-           out: wp.array2d(dtype=wp.uint32)):
+def _words(counters: wp.array2d[wp.uint32], keys: wp.array2d[wp.uint32],
+           out: wp.array2d[wp.uint32]):
     i = wp.tid()
     c = wp.vec4ui(counters[i, 0], counters[i, 1], counters[i, 2], counters[i, 3])
     w = philox.philox4x32(c, wp.vec2ui(keys[i, 0], keys[i, 1]))
@@ -28,8 +28,8 @@ def _words(counters: wp.array2d(dtype=wp.uint32), keys: wp.array2d(dtype=wp.uint
 
 
 @wp.kernel
-def _values(keys: wp.array2d(dtype=wp.uint64), samples: wp.array(dtype=wp.int64), tag: wp.uint32, size: int,
-            is_normal: bool, z: philox.Ziggurat, out: wp.array2d(dtype=wp.float64)):
+def _values(keys: wp.array2d[wp.uint64], samples: wp.array[wp.int64], tag: wp.uint32, size: int,
+            is_normal: bool, z: philox.Ziggurat, out: wp.array2d[wp.float64]):
     i, v = wp.tid()
     out[i, v] = philox.value(keys[i, 0], keys[i, 1], samples[i], tag, v, is_normal, z)
 

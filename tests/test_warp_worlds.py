@@ -104,3 +104,29 @@ def test_bad_masks_and_keyframes_are_refused(mjm: mujoco.MjModel) -> None:
         worlds.reset(wp.zeros(3, dtype=bool, device=DEVICE))
     with pytest.raises(ValueError):
         worlds.reset(wp.zeros(2, dtype=wp.float32, device=DEVICE))
+
+
+def test_step_and_reset_allocate_nothing_of_their_own(mjm: mujoco.MjModel, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A reset allocates no device memory; a step only the temporaries `mjw.step` itself allocates (from the
+    device's stream-ordered memory pool on CUDA, which graph capture records, as mujoco_warp's own
+    `ScopedCapture` of `mjw.step` does)."""
+    import mujoco_warp as mjw
+
+    worlds = Worlds(mjm, NWORLD, device=DEVICE, keyframe=0)
+    masks = [wp.array([0, 1, 1], dtype=wp.int32, device=DEVICE), wp.array([True, False, True], device=DEVICE)]
+    worlds.step(1)
+    worlds.reset(masks[0])
+    allocator = worlds.device.get_allocator()
+    sizes: list[int] = []
+    allocate = allocator.allocate
+    monkeypatch.setattr(allocator, "allocate", lambda size: sizes.append(size) or allocate(size))
+    for mask in masks:
+        worlds.reset(mask)
+    assert sizes == []
+    worlds.step(2)
+    ours = list(sizes)
+    sizes.clear()
+    with wp.ScopedDevice(DEVICE):
+        mjw.step(worlds.model, worlds.data)
+        mjw.step(worlds.model, worlds.data)
+    assert ours == sizes

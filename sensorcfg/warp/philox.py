@@ -42,9 +42,9 @@ _MAX_STAGE, _MAX_LANE, _MAX_SIZE = 256, 3, 1 << 22  # as `streams.numbers` allow
 class Ziggurat:
     """Marsaglia and Tsang's 128-layer tables (`streams._ziggurat_tables`) on a device."""
 
-    kn: wp.array(dtype=wp.uint32)
-    wn: wp.array(dtype=wp.float64)
-    fn: wp.array(dtype=wp.float64)
+    kn: wp.array[wp.uint32]
+    wn: wp.array[wp.float64]
+    fn: wp.array[wp.float64]
 
 
 _TABLES: dict[str, Ziggurat] = {}
@@ -180,8 +180,8 @@ def value(k0: wp.uint64, k1: wp.uint64, sample: wp.int64, tag: wp.uint32, v: wp.
 
 
 @wp.kernel
-def _numbers(keys: wp.array2d(dtype=wp.uint64), samples: wp.array(dtype=wp.int64), tag: wp.uint32,
-             size: wp.int32, is_normal: bool, z: Ziggurat, out: wp.array2d(dtype=wp.float64)):
+def _numbers(keys: wp.array2d[wp.uint64], samples: wp.array[wp.int64], tag: wp.uint32,
+             size: wp.int32, is_normal: bool, z: Ziggurat, out: wp.array2d[wp.float64]):
     i, q = wp.tid()
     c = counter(samples[i], tag, q, keys[i, 1])
     k = key(keys[i, 0])

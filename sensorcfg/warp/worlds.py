@@ -1,7 +1,8 @@
 """nworld MuJoCo Warp worlds of one MjModel on one Warp device: step, reset by mask, step counts, divergence.
 
-Everything stays on the device: `step` and `reset` only launch kernels (no host copy, no allocation, no
-Python per world), so both can be recorded in a CUDA graph (`wp.ScopedCapture`) and replayed.
+Everything stays on the device: `step` and `reset` only launch kernels (no host copy, no Python per world,
+no allocation of their own: `mjw.step` allocates its temporaries, from the stream-ordered memory pool on CUDA),
+so both can be recorded in a CUDA graph (`wp.ScopedCapture`, as mujoco_warp captures `mjw.step`) and replayed.
 
 Conventions:
 - `steps[w]` (int64) counts the physics steps (`mjw.step`, one timestep each) of world w since its last
@@ -35,8 +36,8 @@ def default_sizes(mjm: mujoco.MjModel, keyframe: int | None = None) -> tuple[int
 
 
 @wp.kernel
-def _select(mask: wp.array(dtype=wp.int32), selected: wp.array(dtype=bool), steps: wp.array(dtype=wp.int64),
-            diverged: wp.array(dtype=bool)):
+def _select(mask: wp.array[wp.int32], selected: wp.array[bool], steps: wp.array[wp.int64],
+            diverged: wp.array[bool]):
     """The worlds to reset (mask nonzero): their step counts and divergence cleared."""
     w = wp.tid()
     on = mask[w] != 0
@@ -47,8 +48,8 @@ def _select(mask: wp.array(dtype=wp.int32), selected: wp.array(dtype=bool), step
 
 
 @wp.kernel
-def _select_bool(mask: wp.array(dtype=bool), selected: wp.array(dtype=bool), steps: wp.array(dtype=wp.int64),
-                 diverged: wp.array(dtype=bool)):
+def _select_bool(mask: wp.array[bool], selected: wp.array[bool], steps: wp.array[wp.int64],
+                 diverged: wp.array[bool]):
     w = wp.tid()
     on = mask[w]
     selected[w] = on
@@ -58,14 +59,14 @@ def _select_bool(mask: wp.array(dtype=bool), selected: wp.array(dtype=bool), ste
 
 
 @wp.kernel
-def _keyframe(key: int, selected: wp.array(dtype=bool), key_time: wp.array(dtype=float),
-              key_qpos: wp.array2d(dtype=float), key_qvel: wp.array2d(dtype=float),
-              key_act: wp.array2d(dtype=float), key_ctrl: wp.array2d(dtype=float),
-              key_mpos: wp.array2d(dtype=wp.vec3), key_mquat: wp.array2d(dtype=wp.quat),
-              key_plastic: wp.array2d(dtype=float), time: wp.array(dtype=float), qpos: wp.array2d(dtype=float),
-              qvel: wp.array2d(dtype=float), act: wp.array2d(dtype=float), ctrl: wp.array2d(dtype=float),
-              mocap_pos: wp.array2d(dtype=wp.vec3), mocap_quat: wp.array2d(dtype=wp.quat),
-              plastic: wp.array2d(dtype=float)):
+def _keyframe(key: int, selected: wp.array[bool], key_time: wp.array[float],
+              key_qpos: wp.array2d[float], key_qvel: wp.array2d[float],
+              key_act: wp.array2d[float], key_ctrl: wp.array2d[float],
+              key_mpos: wp.array2d[wp.vec3], key_mquat: wp.array2d[wp.quat],
+              key_plastic: wp.array2d[float], time: wp.array[float], qpos: wp.array2d[float],
+              qvel: wp.array2d[float], act: wp.array2d[float], ctrl: wp.array2d[float],
+              mocap_pos: wp.array2d[wp.vec3], mocap_quat: wp.array2d[wp.quat],
+              plastic: wp.array2d[float]):
     """Keyframe `key`'s state into the selected worlds (after `mjw.reset_data` cleared them)."""
     w = wp.tid()
     if not selected[w]:
@@ -87,8 +88,8 @@ def _keyframe(key: int, selected: wp.array(dtype=bool), key_time: wp.array(dtype
 
 
 @wp.kernel
-def _count(qpos: wp.array2d(dtype=float), qvel: wp.array2d(dtype=float), qacc: wp.array2d(dtype=float),
-           steps: wp.array(dtype=wp.int64), diverged: wp.array(dtype=bool)):
+def _count(qpos: wp.array2d[float], qvel: wp.array2d[float], qacc: wp.array2d[float],
+           steps: wp.array[wp.int64], diverged: wp.array[bool]):
     """After one step: the world's step count advanced, and it is marked diverged if its state is not finite."""
     w = wp.tid()
     steps[w] = steps[w] + wp.int64(1)
