@@ -1,0 +1,171 @@
+"""nworld MuJoCo Warp worlds of one MjModel on one Warp device: step, reset by mask, step counts, divergence.
+
+Everything stays on the device: `step` and `reset` only launch kernels (no host copy, no Python per world,
+no allocation of their own: `mjw.step` allocates its temporaries, from the stream-ordered memory pool on CUDA),
+so both can be recorded in a CUDA graph (`wp.ScopedCapture`, as mujoco_warp captures `mjw.step`) and replayed.
+
+Conventions:
+- `steps[w]` (int64) counts the physics steps (`mjw.step`, one timestep each) of world w since its last
+  reset: the engine's clock. MuJoCo Warp's `data.time` is float32 and drifts; never schedule by it.
+- `diverged[w]` (bool) is set once a step leaves world w's qpos, qvel or qacc non-finite, and stays set until
+  the world is reset. Unlike `mujoco.mj_step` (whose checks reset a diverged world and warn), MuJoCo Warp
+  goes on with non-finite numbers: the caller decides what a diverged world's readings are.
+- `overflow` is MuJoCo Warp's per-world bitmask (`mjw.OverflowType`) of contacts or constraints that did not
+  fit `nconmax` / `njmax`: such a world's physics is wrong, not just slow.
+- A reset world starts from keyframe `keyframe` (time, qpos, qvel, act, ctrl, mocap, plastic), or from
+  the model's qpos0 and zeros with no keyframe, as `mujoco.mj_resetDataKeyframe` / `mj_resetData` do; its
+  derived quantities (positions, sensors) are those of the old state until the next `forward` or `step`.
+"""
+
+import mujoco
+import mujoco_warp as mjw
+import numpy as np
+import warp as wp
+
+__all__ = ["Worlds", "default_sizes"]
+
+
+def default_sizes(mjm: mujoco.MjModel, keyframe: int | None = None) -> tuple[int, int]:
+    """(nconmax, njmax) per world: at least 64 contacts and 128 constraint rows, and four times what
+    `mj_forward` finds at the initial state (the keyframe's, else qpos0)."""
+    data = mujoco.MjData(mjm)
+    if keyframe is not None:
+        mujoco.mj_resetDataKeyframe(mjm, data, keyframe)
+    mujoco.mj_forward(mjm, data)
+    return max(64, 4 * data.ncon), max(128, 4 * data.nefc)
+
+
+@wp.kernel
+def _select(mask: wp.array[wp.int32], selected: wp.array[bool], steps: wp.array[wp.int64],
+            diverged: wp.array[bool]):
+    """The worlds to reset (mask nonzero): their step counts and divergence cleared."""
+    w = wp.tid()
+    on = mask[w] != 0
+    selected[w] = on
+    if on:
+        steps[w] = wp.int64(0)
+        diverged[w] = False
+
+
+@wp.kernel
+def _select_bool(mask: wp.array[bool], selected: wp.array[bool], steps: wp.array[wp.int64],
+                 diverged: wp.array[bool]):
+    w = wp.tid()
+    on = mask[w]
+    selected[w] = on
+    if on:
+        steps[w] = wp.int64(0)
+        diverged[w] = False
+
+
+@wp.kernel
+def _keyframe(key: int, selected: wp.array[bool], key_time: wp.array[float],
+              key_qpos: wp.array2d[float], key_qvel: wp.array2d[float],
+              key_act: wp.array2d[float], key_ctrl: wp.array2d[float],
+              key_mpos: wp.array2d[wp.vec3], key_mquat: wp.array2d[wp.quat],
+              key_plastic: wp.array2d[float], time: wp.array[float], qpos: wp.array2d[float],
+              qvel: wp.array2d[float], act: wp.array2d[float], ctrl: wp.array2d[float],
+              mocap_pos: wp.array2d[wp.vec3], mocap_quat: wp.array2d[wp.quat],
+              plastic: wp.array2d[float]):
+    """Keyframe `key`'s state into the selected worlds (after `mjw.reset_data` cleared them)."""
+    w = wp.tid()
+    if not selected[w]:
+        return
+    time[w] = key_time[key]
+    for i in range(qpos.shape[1]):
+        qpos[w, i] = key_qpos[key, i]
+    for i in range(qvel.shape[1]):
+        qvel[w, i] = key_qvel[key, i]
+    for i in range(act.shape[1]):
+        act[w, i] = key_act[key, i]
+    for i in range(ctrl.shape[1]):
+        ctrl[w, i] = key_ctrl[key, i]
+    for i in range(mocap_pos.shape[1]):
+        mocap_pos[w, i] = key_mpos[key, i]
+        mocap_quat[w, i] = key_mquat[key, i]
+    for i in range(plastic.shape[1]):
+        plastic[w, i] = key_plastic[key, i]
+
+
+@wp.kernel
+def _count(qpos: wp.array2d[float], qvel: wp.array2d[float], qacc: wp.array2d[float],
+           steps: wp.array[wp.int64], diverged: wp.array[bool]):
+    """After one step: the world's step count advanced, and it is marked diverged if its state is not finite."""
+    w = wp.tid()
+    steps[w] = steps[w] + wp.int64(1)
+    bad = diverged[w]
+    for i in range(qpos.shape[1]):
+        bad = bad or not wp.isfinite(qpos[w, i])
+    for i in range(qvel.shape[1]):
+        bad = bad or not (wp.isfinite(qvel[w, i]) and wp.isfinite(qacc[w, i]))
+    diverged[w] = bad
+
+
+class Worlds:
+    """nworld worlds of `mjm` on `device`, all reset to `keyframe` (an index of mjm's keyframes; None: qpos0).
+
+    `model`, `data`: MuJoCo Warp's (`mjw.put_model(mjm)`, `mjw.make_data(mjm, nworld, nconmax, njmax)`);
+    `steps` (nworld,) int64 and `diverged` (nworld,) bool device arrays (see the module's conventions).
+    nconmax / njmax (contacts / constraint rows per world) default to `default_sizes`."""
+
+    def __init__(self, mjm: mujoco.MjModel, nworld: int, device: wp.Device | str | None = None,
+                 keyframe: int | None = None, nconmax: int | None = None, njmax: int | None = None):
+        if nworld < 1:
+            raise ValueError(f"nworld must be at least 1; got {nworld}")
+        if keyframe is not None and not 0 <= keyframe < mjm.nkey:
+            raise ValueError(f"keyframe {keyframe} is not one of the model's {mjm.nkey} keyframes")
+        self.device = wp.get_device(device)
+        self.nworld = nworld
+        self.keyframe = keyframe
+        sizes = default_sizes(mjm, keyframe) if nconmax is None or njmax is None else (nconmax, njmax)
+        self.nconmax = sizes[0] if nconmax is None else nconmax
+        self.njmax = sizes[1] if njmax is None else njmax
+        with wp.ScopedDevice(self.device):
+            self.model = mjw.put_model(mjm)
+            self.data = mjw.make_data(mjm, nworld=nworld, nconmax=self.nconmax, njmax=self.njmax)
+            self.steps = wp.zeros(nworld, dtype=wp.int64)
+            self.diverged = wp.zeros(nworld, dtype=bool)
+            self._selected = wp.zeros(nworld, dtype=bool)
+            everything = wp.ones(nworld, dtype=bool)
+        self.reset(everything)
+
+    @property
+    def overflow(self) -> wp.array:
+        """(nworld,) int32: MuJoCo Warp's overflow bits of each world (nonzero: its physics is not to be trusted)."""
+        return self.data.overflow
+
+    def step(self, substeps: int = 1) -> None:
+        """`substeps` physics steps of every world (each `mjw.step`, then the step counts and divergence)."""
+        with wp.ScopedDevice(self.device):
+            for _ in range(substeps):
+                mjw.step(self.model, self.data)
+                wp.launch(_count, dim=self.nworld, inputs=[self.data.qpos, self.data.qvel, self.data.qacc],
+                          outputs=[self.steps, self.diverged])
+
+    def forward(self) -> None:
+        """`mjw.forward` of every world: derived quantities (and sensors) of the current states, which a step's
+        next forward recomputes anyway (the states themselves are not changed)."""
+        with wp.ScopedDevice(self.device):
+            mjw.forward(self.model, self.data)
+
+    def reset(self, mask: wp.array) -> None:
+        """Restart the worlds where `mask` ((nworld,) bool or int32 device array) is set: state from the
+        keyframe or qpos0, step count 0, divergence cleared. The other worlds are not touched."""
+        if mask.shape != (self.nworld,):
+            raise ValueError(f"a reset mask is ({self.nworld},); got {mask.shape}")
+        select = _select_bool if mask.dtype == wp.bool else _select
+        if select is _select and mask.dtype != wp.int32:
+            raise ValueError(f"a reset mask is bool or int32; got {wp.types.type_repr(mask.dtype)}")
+        m, d = self.model, self.data
+        with wp.ScopedDevice(self.device):
+            wp.launch(select, dim=self.nworld, inputs=[mask], outputs=[self._selected, self.steps, self.diverged])
+            mjw.reset_data(m, d, self._selected)
+            if self.keyframe is not None:
+                wp.launch(_keyframe, dim=self.nworld,
+                          inputs=[self.keyframe, self._selected, m.key_time, m.key_qpos, m.key_qvel, m.key_act,
+                                  m.key_ctrl, m.key_mpos, m.key_mquat, m.key_plastic],
+                          outputs=[d.time, d.qpos, d.qvel, d.act, d.ctrl, d.mocap_pos, d.mocap_quat, d.plastic])
+
+    def state(self, name: str) -> np.ndarray:
+        """A host copy of one of `data`'s (nworld, ...) arrays, for tests and diagnostics (not per step)."""
+        return np.asarray(getattr(self.data, name).numpy())
