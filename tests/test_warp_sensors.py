@@ -1,0 +1,121 @@
+"""The Warp engine's sensor layer (`sensorcfg.warp.sensors`) on Warp's CPU device, fed a CPU MuJoCo trajectory:
+world i reads what the single-simulation Updater reads on the same trajectory. Noise-free values are the
+float32 copies of the Updater's (exactly); noisy ones agree to float32 rounding, with the same random numbers
+(the same keys, samples, stages and values)."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+wp = pytest.importorskip("warp")
+pytest.importorskip("mujoco_warp")
+
+import sensorcfg  # noqa: E402
+from sensorcfg import assets  # noqa: E402
+from sensorcfg.draws import episode_entropy, sensor_keys  # noqa: E402
+from sensorcfg.noise import build_noise  # noqa: E402
+from sensorcfg.physics import Physics  # noqa: E402
+from sensorcfg.plan.bind import bind, plan_suite  # noqa: E402
+from sensorcfg.warp.sensors import Sensors  # noqa: E402
+
+ROBOT = str(assets.path("robot.xml"))
+FEATURES = [
+    ("qpos", ["joint:shoulder", "joint:elbow"]),
+    ("qvel", "joint:elbow"),
+    ("sensordata", "sensor:imu_accel"),
+    ("xpos", "site:hand_site"),
+    ("xquat", "body:hand"),
+]
+NOISE = [
+    {"type": "gaussian", "std": 0.01},
+    {"type": "gaussian", "mean": 0.001, "std": 0.02},
+    {"type": "uniform", "low": -0.01, "high": 0.02},
+    {"type": "quantize", "step": 0.001},
+    {"type": "clip", "min": -0.5, "max": 0.5},
+    {"type": "dropout", "p": 0.3, "mode": "hold"},
+    {"type": "dropout", "p": 0.3, "mode": "zero", "per": "value"},
+    {"type": "outlier", "p": 0.1, "scale": 1.0},
+    {"type": "lowpass", "cutoff": 20.0},
+]
+
+
+def suite(seed: int, noise: bool) -> dict[str, sensorcfg.Observable]:
+    rng = np.random.default_rng(seed)
+    physics = Physics(mujoco.MjModel.from_xml_path(ROBOT))
+    out = {}
+    for j in range(int(rng.integers(3, 7))):
+        kind, element = FEATURES[int(rng.integers(len(FEATURES)))]
+        obs = sensorcfg.Feature(kind, element, update_interval=int(rng.integers(1, 6)), delay=int(rng.integers(0, 7)),
+                                buffer_size=int(rng.integers(1, 6)),
+                                aggregator=[None, None, "min", "max", "sum", "mean", "median"][int(rng.integers(7))])
+        obs.reader(physics)
+        if noise and rng.random() < 0.7:
+            picks = rng.choice(len(NOISE), size=int(rng.integers(1, 4)), replace=False)
+            obs.noise = build_noise([NOISE[int(p)] for p in picks], obs.array_spec.shape, obs.array_spec.dtype,
+                                    physics.timestep)
+        obs.enabled = True
+        out[f"s{j}_{kind}"] = obs
+    return out
+
+
+def fields_of(datas: list[mujoco.MjData], names: list[str]) -> dict[str, wp.array]:
+    return {f: wp.array(np.stack([np.ravel(getattr(d, f)) for d in datas]).astype(np.float32), dtype=wp.float32,
+                        device="cpu") for f in names}
+
+
+@pytest.mark.parametrize("seed, noise", [(s, s % 3 != 0) for s in range(6)])
+def test_world_i_reads_what_the_updater_reads_on_the_same_trajectory(seed: int, noise: bool) -> None:
+    nworld, substeps, pad = 3, 1 + seed % 3, bool(seed % 2)
+    model = mujoco.MjModel.from_xml_path(ROBOT)
+    physics = Physics(model)
+    mujoco.mj_forward(model, physics.data)
+    bound = bind(suite(seed, noise), physics, substeps, False, pad)
+    plan = plan_suite(bound, physics, bound.sources(), nworld, substeps, pad)
+    sensors = Sensors(plan, wp.get_device("cpu"), 2, {})
+    names = [f for f, _ in plan.fields]
+    plain = {s.name for s in plan.sensors if s.noise is None and s.aggregator is None}
+    # the CPU side: one Updater and MjData per world, seeded per world
+    updaters, physicss, states = [], [], []
+    table = np.zeros(sensors.key_table.shape, np.uint64)
+    for w in range(nworld):
+        p = Physics(model)
+        mujoco.mj_resetData(model, p.data)
+        mujoco.mj_forward(model, p.data)
+        u = sensorcfg.Updater(suite(seed, noise), substeps, pad_with_initial_value=pad)
+        u.reset(p, np.random.RandomState(100 + w))
+        if sensors.noisy_names:
+            table[w, 0] = sensor_keys(episode_entropy(np.random.RandomState(100 + w)), sensors.noisy_names)
+        updaters.append(u)
+        physicss.append(p)
+    sensors.key_table.assign(table)
+    steps = wp.zeros(nworld, dtype=wp.int64, device="cpu")
+    everyone = wp.ones(nworld, dtype=wp.int32, device="cpu")
+    sensors.reset(everyone, fields_of([p.data for p in physicss], names), steps)
+    lo, hi = model.actuator_ctrlrange.T
+    actions = np.random.default_rng(seed).uniform(lo, hi, (30, nworld, model.nu))
+    for t in range(31):
+        expected = []
+        if t:  # each world's control step through its Updater, keeping the states it sampled
+            snapshots: list[list[mujoco.MjData]] = [[] for _ in range(substeps)]
+            for w, (u, p) in enumerate(zip(updaters, physicss)):
+                p.data.ctrl[:] = actions[t - 1, w]
+
+                def step(p=p) -> None:
+                    mujoco.mj_step(model, p.data)
+                    snapshots[sum(len(s) > w for s in snapshots)].append(mujoco.MjData(model))
+                    mujoco.mj_copyData(snapshots[sum(len(s) > w for s in snapshots) - 1][-1], model, p.data)
+                u.control_step(step)
+            for k in range(substeps):
+                steps.assign(np.full(nworld, (t - 1) * substeps + k + 1, np.int64))
+                sensors.record(fields_of(snapshots[k], names), steps)
+        got = {name: array.numpy() for name, array in sensors.read(steps).items()}
+        for w, u in enumerate(updaters):
+            for name, value in u.get_observation().items():
+                assert got[name][w].shape == value.shape, name
+                if name in plain:  # a noise-free plain read is a copy of the float32 field
+                    assert got[name][w].tobytes() == value.astype(np.float32).tobytes(), (w, t, name)
+                else:  # sums of float32 samples and noise arithmetic: to float32 rounding
+                    np.testing.assert_allclose(got[name][w], value, rtol=1e-5, atol=1e-6,
+                                               err_msg=f"world {w} step {t} {name}")
