@@ -1,0 +1,385 @@
+"""`WarpEnvironment`: one sensor suite over `nworld` MuJoCo Warp worlds, on a GPU or Warp's CPU device.
+
+`BatchEnvironment`'s interface and episode rules (auto-reset per world, time limits, keyframes, rewards and
+terminations vectorised, divergence ending a world's episode with discount 0), with actions in and
+observations out as Warp arrays on the device: `wp.to_torch` / DLPack views, no host copy per step.
+
+The suite runs as its plan (`sensorcfg.plan`) executed by `warp.sensors`: world w of a process with
+`world_offset` o draws the streams of global world o + w (its seed is `sim_seed(seed, o + w)`, as simulation
+o + w of a `BatchEnvironment`), so N processes of n worlds give exactly the worlds of one batch of N n.
+
+What is exact and what agrees to float32 rounding (README, "The GPU engine"): schedules, which samples each
+read shows and which random numbers each sample draws are the CPU engines' exactly; a noise-free read
+without aggregator is a copy of MuJoCo Warp's float32 field at the step its window names; noise arithmetic
+and aggregators run on float32 samples, so they agree with the CPU's to float32 rounding.
+
+Per control step: actions into `ctrl` (worlds about to restart ignore theirs), `substeps` physics steps each
+followed by the sensors' record, the restart of the worlds whose previous step ended their episode, one
+`mjw.forward` of every world (the restarted worlds' reset samples need their derived fields), then the
+reads, rewards, terminations and step types. Episode keys are drawn on the host, a table of `key_episodes`
+episodes per world ahead; the host tops it up every `key_episodes // 4` control steps (one small copy).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from typing import Any, NamedTuple
+
+import dm_env
+import mujoco
+import numpy as np
+import warp as wp
+from dm_env import specs
+
+from ..batch.environment import root_seed, sim_seed
+from ..draws import episode_entropy, sensor_keys
+from ..env.environment import (ControlLoop, ModelArg, action_spec, episode_timing, keyframe_index,
+                               model_and_observables, model_source, random_state_from)
+from ..errors import ArgumentError, SuiteError
+from ..noise.bounds import noisy_bounds
+from ..noise.level import leveled, own_bounds, set_level
+from ..physics import Physics
+from ..plan.bind import bind, plan_suite
+from ..runtime.updater import observation_spec
+from .sensors import Sensors, refusal
+from .worlds import Worlds
+
+__all__ = ["WarpEnvironment", "WarpTimeStep"]
+
+WarpFn = Callable[["WarpEnvironment"], wp.array]  # the environment -> (nworld,) device array
+_FIRST, _MID, _LAST = (int(t) for t in (dm_env.StepType.FIRST, dm_env.StepType.MID, dm_env.StepType.LAST))
+
+
+class WarpTimeStep(NamedTuple):
+    """A dm_env TimeStep per world: (nworld,) device arrays, observations (nworld, ...) float32."""
+
+    step_type: wp.array
+    reward: wp.array
+    discount: wp.array
+    observation: dict[str, wp.array]
+
+
+@wp.kernel
+def _control(actions: wp.array2d[wp.float32], restart: wp.array[wp.int32], ctrl: wp.array2d[wp.float32]):
+    w, a = wp.tid()
+    if restart[w] == 0:
+        ctrl[w, a] = actions[w, a]
+
+
+@wp.kernel
+def _begin(needs_reset: wp.array[wp.int32], restart: wp.array[wp.int32], control_steps: wp.array[wp.int32]):
+    w = wp.tid()
+    restart[w] = needs_reset[w]
+    if needs_reset[w] == 1:
+        control_steps[w] = 0
+    else:
+        control_steps[w] = control_steps[w] + 1
+
+
+@wp.kernel
+def _end(restart: wp.array[wp.int32], diverged: wp.array[bool], terminated: wp.array[bool],
+         control_steps: wp.array[wp.int32], limit: wp.int32, reward_in: wp.array[wp.float32],
+         needs_reset: wp.array[wp.int32], step_type: wp.array[wp.int32], reward: wp.array[wp.float32],
+         discount: wp.array[wp.float32]):
+    w = wp.tid()
+    if restart[w] == 1:
+        step_type[w] = 0
+        reward[w] = wp.float32(0.0)
+        discount[w] = wp.float32(1.0)
+        needs_reset[w] = 0
+        return
+    terminal = diverged[w] or terminated[w]
+    last = terminal or (limit > 0 and control_steps[w] >= limit)
+    step_type[w] = wp.where(last, 2, 1)
+    reward[w] = reward_in[w]
+    discount[w] = wp.where(terminal, wp.float32(0.0), wp.float32(1.0))
+    needs_reset[w] = wp.where(last, 1, 0)
+
+
+@wp.kernel
+def _mask(ids: wp.array[wp.int32], mask: wp.array[wp.int32]):
+    mask[ids[wp.tid()]] = 1
+
+
+@wp.kernel
+def _started(mask: wp.array[wp.int32], needs_reset: wp.array[wp.int32], control_steps: wp.array[wp.int32]):
+    w = wp.tid()
+    if mask[w] == 1:
+        needs_reset[w] = 0
+        control_steps[w] = 0
+
+
+def _flat(array: wp.array, nworld: int) -> wp.array:
+    """An (nworld, ...) float32 MuJoCo Warp array (of scalars, vectors, quaternions or matrices) as an
+    (nworld, values) float32 view."""
+    scalar = getattr(array.dtype, "_wp_scalar_type_", array.dtype)
+    if scalar != wp.float32 or not array.is_contiguous:
+        raise SuiteError(f"a field of dtype {wp.types.type_repr(array.dtype)} cannot be read by the Warp engine")
+    size = math.prod(array.shape[1:]) * wp.types.type_size_in_bytes(array.dtype) // 4
+    return wp.array(ptr=array.ptr, dtype=wp.float32, shape=(nworld, size), device=array.device, copy=False)
+
+
+class WarpEnvironment(ControlLoop):
+    """`nworld` MuJoCo Warp worlds of one model, observed through one sensor suite (see the module's doc).
+
+    `model`: an MjModel, an MjSpec, a path or None for the suite's `model:`; `device`: a Warp device ("cuda:0",
+    "cpu"; None: Warp's default); `world_offset`: this process's first global world (under torchrun: rank x
+    nworld); `reward_fn(env)` / `termination_fn(env)` return (nworld,) float32 / bool device arrays from
+    `env.data` after the step; `nconmax` / `njmax`: MuJoCo Warp's contact and constraint sizes per world."""
+
+    def __init__(self, model: ModelArg, suite: Any, nworld: int, *, device: str | None = None,
+                 physics_steps_per_control_step: int | None = None, control_timestep: float | None = None,
+                 time_limit: float | None = None, seed: int | np.random.SeedSequence | None = None,
+                 reward_fn: WarpFn | None = None, termination_fn: WarpFn | None = None,
+                 keyframe: int | str | None = None, world_offset: int = 0, key_episodes: int = 16,
+                 nconmax: int | None = None, njmax: int | None = None):
+        if isinstance(nworld, bool) or not isinstance(nworld, (int, np.integer)) or nworld < 1:
+            raise ArgumentError(f"nworld must be a positive integer; got {nworld!r}")
+        if isinstance(world_offset, bool) or not isinstance(world_offset, (int, np.integer)) or world_offset < 0:
+            raise ArgumentError(f"world_offset must be a non-negative integer; got {world_offset!r}")
+        if not isinstance(key_episodes, int) or key_episodes < 4:
+            raise ArgumentError(f"key_episodes must be an integer of at least 4; got {key_episodes!r}")
+        self._nworld, self._offset = int(nworld), int(world_offset)
+        self._batch_shape = (self._nworld,)
+        self._reward_fn, self._termination_fn = reward_fn, termination_fn
+        model, suite = model_source(model, suite)
+        self._model, observables, options = model_and_observables(model, suite, batch=True, nsim=self._nworld)
+        leveled(observables)
+        self._observables = observables
+        self._keyframe = keyframe_index(self._model, keyframe, options.pop("keyframe", None))
+        self._n, self._control_timestep, limit = episode_timing(
+            self._model, physics_steps_per_control_step, control_timestep, time_limit,
+            options.get("physics_steps_per_control_step"))
+        self._limit = 0 if limit is None else int(limit)
+        pad = bool(options.get("pad_with_initial_value", False))
+        strip = bool(options.get("strip_singleton_buffer_dim", False))
+        physics = Physics(self._model)
+        mujoco.mj_forward(self._model, physics.data)
+        bound = bind(observables, physics, self._n, strip, pad)
+        self._refuse(bound)
+        plan = plan_suite(bound, physics, bound.sources(), self._nworld, self._n, pad)
+        self._spec = {e.name: observation_spec(e.name, e.observable, e.channel) for e in bound.entries}
+        self.device = wp.get_device(device)
+        self._worlds = Worlds(self._model, self._nworld, self.device, self._keyframe, nconmax, njmax)
+        self._fields = self._field_views([f for f, _ in plan.fields])
+        bounds = {e.name: b for e in bound.fixed if e.channel.noise is not None
+                  for b in [noisy_bounds(getattr(e.channel.noise, "_inner", e.channel.noise), own_bounds(e.observable))]
+                  if b is not None}
+        self._sensors = Sensors(plan, self.device, key_episodes, bounds)
+        self._key_episodes = key_episodes
+        self.seed(seed)
+        with wp.ScopedDevice(self.device):
+            n = self._nworld
+            self._actions = wp.zeros((n, self._model.nu), dtype=wp.float32)
+            self._needs_reset = wp.ones(n, dtype=wp.int32)
+            self._restarting = wp.zeros(n, dtype=wp.int32)
+            self._diverged = wp.zeros(n, dtype=bool)
+            self._control_steps = wp.zeros(n, dtype=wp.int32)
+            self._step_type = wp.zeros(n, dtype=wp.int32)
+            self._reward = wp.zeros(n, dtype=wp.float32)
+            self._discount = wp.ones(n, dtype=wp.float32)
+            self._no_reward = wp.zeros(n, dtype=wp.float32)
+            self._no_termination = wp.zeros(n, dtype=bool)
+            self._mask = wp.zeros(n, dtype=wp.int32)
+        self._action_spec = action_spec(self._model, (self._nworld,))
+        self._observation_spec = {name: specs.Array((self._nworld, *spec.shape), np.float32, name=name)
+                                  if not isinstance(spec, specs.BoundedArray) else
+                                  specs.BoundedArray((self._nworld, *spec.shape), np.float32,
+                                                     np.broadcast_to(spec.minimum, spec.shape),
+                                                     np.broadcast_to(spec.maximum, spec.shape), name=name)
+                                  for name, spec in self._spec.items()}
+        self._names = list(self._spec)
+        self._steps_since_keys = 0
+
+    # -- construction ---------------------------------------------------------------------------------
+
+    @staticmethod
+    def _refuse(bound: Any) -> None:
+        """What this engine does not run yet, named at each sensor (`validate --engine warp` says it at the
+        suite's lines)."""
+        problems = []
+        for entry in bound.cameras:
+            problems.append(f"sensor {entry.name!r}: cameras and height scans are not run by the Warp engine yet")
+        for entry in bound.drawn:
+            problems.append(f"sensor {entry.name!r}: drawn intervals and delays are not run by the Warp engine yet; "
+                            "give constant ones or run this suite on the CPU engines")
+        for entry in bound.fixed:
+            noise = entry.channel.noise
+            for step in () if noise is None else _steps(noise):
+                why = refusal(step)
+                if why:
+                    problems.append(f"sensor {entry.name!r}: noise stage {step.stream} ({step.stage}): {why}")
+        if problems:
+            raise SuiteError(problems)
+
+    def _field_views(self, fields: list[str]) -> dict[str, wp.array]:
+        data = self._worlds.data
+        missing = [f for f in fields if getattr(data, f, None) is None]
+        if missing:
+            raise SuiteError(f"MuJoCo Warp's Data has no field {missing[0]!r}, which the suite reads; run this suite "
+                             "on the CPU engines")
+        return {f: _flat(getattr(data, f), self._nworld) for f in fields}
+
+    # -- seeds and keys -------------------------------------------------------------------------------
+
+    def seed(self, seed: int | np.random.SeedSequence | None) -> None:
+        """Reseed every world (world w from `sim_seed(seed, world_offset + w)`); the next step resets them all."""
+        self._seed = root_seed(seed)
+        self._random_states = [random_state_from(sim_seed(self._seed, self._offset + w)) for w in range(self._nworld)]
+        self._keyed = np.zeros(self._nworld, np.int64)  # episodes whose keys are in the table, per world
+        self._table = np.zeros(self._sensors.key_table.shape, np.uint64)
+        wp.copy(self._sensors.episodes, wp.zeros(self._nworld, dtype=wp.int32, device=self.device))
+        self._top_up(np.zeros(self._nworld, np.int64))
+        if hasattr(self, "_needs_reset"):
+            self._needs_reset.fill_(1)
+
+    def _top_up(self, used: np.ndarray) -> None:
+        """Keys of each world's episodes up to `used + key_episodes - 1`, drawn in order from its random state
+        as `BatchEnvironment` draws them (only when some sensor is noisy)."""
+        names = self._sensors.noisy_names
+        if not names:
+            return
+        table, size = self._table, self._key_episodes
+        for w in range(self._nworld):
+            while self._keyed[w] < used[w] + size:
+                e = int(self._keyed[w])
+                table[w, e % size] = sensor_keys(episode_entropy(self._random_states[w]), names)
+                self._keyed[w] += 1
+        self._sensors.key_table.assign(table)
+
+    def _keys_ahead(self) -> None:
+        self._steps_since_keys += 1
+        if self._steps_since_keys >= self._key_episodes // 4 and self._sensors.noisy_names:
+            self._steps_since_keys = 0
+            self._top_up(self._sensors.episodes.numpy().astype(np.int64))
+
+    # -- properties -----------------------------------------------------------------------------------
+
+    @property
+    def nworld(self) -> int:
+        return self._nworld
+
+    @property
+    def world_offset(self) -> int:
+        return self._offset
+
+    @property
+    def data(self) -> Any:
+        """MuJoCo Warp's Data of every world (device arrays, (nworld, ...))."""
+        return self._worlds.data
+
+    @property
+    def worlds(self) -> Worlds:
+        return self._worlds
+
+    @property
+    def steps(self) -> wp.array:
+        """(nworld,) int64: physics steps since each world's reset."""
+        return self._worlds.steps
+
+    def set_noise_level(self, level: float) -> None:
+        """Scale every sensor's noise from each world's next episode on: 0 clean, 1 the suite's."""
+        set_level(self._observables, level)  # validates `level` as the CPU engines do
+        self._sensors.next_level.fill_(float(level))
+
+    # -- episodes -------------------------------------------------------------------------------------
+
+    def _start_episodes(self, mask: wp.array) -> None:
+        """Restart the worlds of `mask` ((nworld,) int32): physics, forward, sensors."""
+        self._worlds.reset(mask)
+        self._worlds.forward()
+        self._sensors.reset(mask, self._fields, self._worlds.steps)
+
+    def reset(self, ids: Any = None) -> WarpTimeStep:
+        """Start new episodes of worlds `ids` (all when None: indices, or a boolean mask); the others continue."""
+        chosen = self._ids(ids)
+        self._mask.zero_()
+        if chosen.size:
+            wp.launch(_mask, dim=chosen.size, inputs=[wp.array(chosen.astype(np.int32), dtype=wp.int32,
+                                                                 device=self.device)],
+                      outputs=[self._mask], device=self.device)
+            self._top_up(self._sensors.episodes.numpy().astype(np.int64))
+            self._start_episodes(self._mask)
+            wp.launch(_started, dim=self._nworld, inputs=[self._mask], outputs=[self._needs_reset, self._control_steps],
+                      device=self.device)
+        step_type = np.full(self._nworld, _MID, np.int32)
+        step_type[chosen] = _FIRST
+        self._step_type.assign(step_type)
+        self._reward.zero_()
+        self._discount.fill_(1.0)
+        return WarpTimeStep(self._step_type, self._reward, self._discount, self._observe())
+
+    def _ids(self, ids: Any) -> np.ndarray:
+        if ids is None:
+            return np.arange(self._nworld)
+        arr = np.asarray(ids)
+        if arr.dtype == bool:
+            if arr.shape != (self._nworld,):
+                raise ArgumentError(f"a boolean mask of worlds must have shape ({self._nworld},), got {arr.shape}")
+            return np.flatnonzero(arr)
+        arr = arr.reshape(-1)
+        if arr.size and not np.issubdtype(arr.dtype, np.integer):
+            raise ArgumentError(f"ids must be world indices (integers) or a boolean mask, got {ids!r}")
+        bad = arr[(arr < 0) | (arr >= self._nworld)]
+        if bad.size:
+            raise ArgumentError(f"world id {int(bad[0])} is out of range: this environment has {self._nworld} worlds")
+        return np.unique(arr)
+
+    def step(self, actions: Any) -> WarpTimeStep:
+        """One control step of every world (auto-resetting those whose episode ended). `actions`: (nworld, nu)
+        float32 on the device (a Warp array, or anything `wp.from_dlpack`/`wp.array` takes)."""
+        self._set_actions(actions)
+        n, device = self._nworld, self.device
+        wp.launch(_begin, dim=n, inputs=[self._needs_reset, self._restarting, self._control_steps], device=device)
+        if self._model.nu:
+            wp.launch(_control, dim=(n, self._model.nu), inputs=[self._actions, self._restarting],
+                      outputs=[self._worlds.data.ctrl], device=device)
+        for _ in range(self._n):
+            self._worlds.step(1)
+            self._sensors.record(self._fields, self._worlds.steps)
+        wp.copy(self._diverged, self._worlds.diverged)
+        self._start_episodes(self._restarting)  # the worlds whose previous step ended their episode
+        observation = self._observe()
+        reward = self._reward_fn(self) if self._reward_fn is not None else self._no_reward
+        terminated = self._termination_fn(self) if self._termination_fn is not None else self._no_termination
+        wp.launch(_end, dim=n, inputs=[self._restarting, self._diverged, terminated, self._control_steps, self._limit,
+                                       reward],
+                  outputs=[self._needs_reset, self._step_type, self._reward, self._discount], device=device)
+        self._keys_ahead()
+        return WarpTimeStep(self._step_type, self._reward, self._discount, observation)
+
+    def _set_actions(self, actions: Any) -> None:
+        if isinstance(actions, wp.array):
+            array = actions
+        elif hasattr(actions, "__dlpack__") and not isinstance(actions, np.ndarray):
+            array = wp.from_dlpack(actions)
+        else:
+            try:
+                host = np.asarray(actions, np.float32)
+            except (TypeError, ValueError):
+                raise ArgumentError(f"actions must be a ({self._nworld}, {self._model.nu}) array of numbers") from None
+            array = wp.array(host, dtype=wp.float32, device=self.device)
+        if tuple(array.shape) != (self._nworld, self._model.nu) or array.dtype != wp.float32:
+            raise ArgumentError(f"actions must be a ({self._nworld}, {self._model.nu}) float32 array (one control per "
+                                f"world and actuator); got {tuple(array.shape)} {wp.types.type_repr(array.dtype)}")
+        wp.copy(self._actions, array)
+
+    def _observe(self) -> dict[str, wp.array]:
+        outputs = self._sensors.read(self._worlds.steps)
+        return {name: outputs[name] for name in self._names}
+
+    def close(self) -> None:
+        pass
+
+
+def _steps(pipeline: Any) -> list[Any]:
+    from ..plan.noise import step
+
+    shape = tuple(pipeline.shape)
+    return [step(config, i, shape) for i, config in enumerate(pipeline.configs)]
+
+
+def torch_views(observation: Mapping[str, wp.array]) -> dict[str, Any]:
+    """Zero-copy torch tensors of an observation (`wp.to_torch`)."""
+    return {name: wp.to_torch(array) for name, array in observation.items()}

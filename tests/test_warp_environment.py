@@ -1,0 +1,147 @@
+"""`WarpEnvironment` on Warp's CPU device: episodes, specs, resets, divergence, seeds across processes, and
+noise-free reads that copy MuJoCo Warp's fields at the steps their windows name."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+wp = pytest.importorskip("warp")
+pytest.importorskip("mujoco_warp")
+
+import sensorcfg  # noqa: E402
+from sensorcfg import SuiteError, assets  # noqa: E402
+from sensorcfg.noise import build_noise  # noqa: E402
+from sensorcfg.warp.environment import WarpEnvironment  # noqa: E402
+
+ROBOT = str(assets.path("robot.xml"))
+FIRST, MID, LAST = 0, 1, 2
+
+
+def observables(noise: bool = False) -> dict[str, sensorcfg.Observable]:
+    out = {
+        "qpos_now": sensorcfg.Feature("qpos", ["joint:shoulder", "joint:elbow"]),
+        "qpos_late": sensorcfg.Feature("qpos", ["joint:shoulder", "joint:elbow"], delay=2),
+        "qvel_mean": sensorcfg.Feature("qvel", "joint:elbow", buffer_size=3, aggregator="mean"),
+        "hand": sensorcfg.Feature("xpos", "site:hand_site", update_interval=2, buffer_size=2),
+    }
+    if noise:
+        out["noisy"] = sensorcfg.Feature("qpos", ["joint:shoulder", "joint:elbow"],
+                                         noise=[{"type": "gaussian", "std": 0.1}])
+    for obs in out.values():
+        obs.enabled = True
+    return out
+
+
+def env(nworld: int = 3, **kwargs) -> WarpEnvironment:
+    kwargs.setdefault("physics_steps_per_control_step", 2)
+    return WarpEnvironment(ROBOT, observables(kwargs.pop("noise", False)), nworld, device="cpu", **kwargs)
+
+
+def test_specs_and_observations_are_float32_device_arrays_with_a_world_axis() -> None:
+    e = env()
+    step = e.reset()
+    spec = e.observation_spec()
+    assert set(step.observation) == set(spec)
+    for name, array in step.observation.items():
+        assert isinstance(array, wp.array) and array.dtype == wp.float32
+        assert tuple(array.shape) == spec[name].shape and spec[name].dtype == np.float32
+    assert spec["qpos_late"].shape == (3, 1, 2) and spec["hand"].shape == (3, 2, 3)
+    assert e.action_spec().shape == (3, e._model.nu)
+
+
+def test_a_noise_free_read_copies_the_field_at_the_step_its_window_names() -> None:
+    e = env()
+    e.reset()
+    names = ["joint:shoulder", "joint:elbow"]
+    del names
+    previous = e.data.qpos.numpy()[:, :2].copy()
+    rng = np.random.default_rng(0)
+    for _ in range(6):
+        actions = rng.uniform(-1, 1, (3, e._model.nu)).astype(np.float32)
+        step = e.step(actions)
+        qpos = e.data.qpos.numpy()[:, :2]
+        assert step.observation["qpos_now"].numpy().tobytes() == qpos.tobytes()
+        # delay 2 = one control step of 2 physics steps: the values after the previous control step
+        assert step.observation["qpos_late"].numpy().tobytes() == previous.tobytes()
+        previous = qpos.copy()
+
+
+def test_time_limits_end_episodes_and_the_next_step_restarts_them() -> None:
+    e = env(time_limit=3 * 2 * 0.01)  # the robot's timestep is 0.01 s: 3 control steps of 2 physics steps
+    assert e._limit == 3
+    e.reset()
+    types = [e.step(np.zeros((3, e._model.nu), np.float32)).step_type.numpy().tolist() for _ in range(5)]
+    assert types == [[MID] * 3, [MID] * 3, [LAST] * 3, [FIRST] * 3, [MID] * 3]
+    assert e.steps.numpy().tolist() == [2, 2, 2]  # one control step since the restart
+
+
+def test_reset_of_some_worlds_leaves_the_others_running() -> None:
+    e = env()
+    e.reset()
+    e.step(np.zeros((3, e._model.nu), np.float32))
+    step = e.reset([1])
+    assert step.step_type.numpy().tolist() == [MID, FIRST, MID]
+    assert e.steps.numpy().tolist() == [2, 0, 2]
+
+
+def test_a_diverged_world_ends_with_discount_zero_and_the_others_go_on() -> None:
+    e = env()
+    e.reset()
+    qvel = e.data.qvel.numpy()
+    qvel[1] = np.nan
+    e.data.qvel.assign(qvel)
+    step = e.step(np.zeros((3, e._model.nu), np.float32))
+    assert step.step_type.numpy().tolist() == [MID, LAST, MID]
+    assert step.discount.numpy().tolist() == [1.0, 0.0, 1.0]
+    step = e.step(np.zeros((3, e._model.nu), np.float32))
+    assert step.step_type.numpy().tolist() == [MID, FIRST, MID]
+    assert np.isfinite(e.data.qpos.numpy()).all()
+
+
+def test_rewards_and_terminations_come_from_device_functions() -> None:
+    def reward(env: WarpEnvironment) -> wp.array:
+        return wp.array(np.arange(3, dtype=np.float32), dtype=wp.float32, device=env.device)
+
+    def terminate(env: WarpEnvironment) -> wp.array:
+        return wp.array(np.array([False, False, True]), dtype=bool, device=env.device)
+
+    e = env(reward_fn=reward, termination_fn=terminate)
+    e.reset()
+    step = e.step(np.zeros((3, e._model.nu), np.float32))
+    assert step.reward.numpy().tolist() == [0.0, 1.0, 2.0]
+    assert step.step_type.numpy().tolist() == [MID, MID, LAST] and step.discount.numpy().tolist() == [1, 1, 0]
+
+
+def test_processes_with_world_offsets_make_the_worlds_of_one_batch() -> None:
+    whole = env(4, noise=True, seed=5)
+    parts = [env(2, noise=True, seed=5, world_offset=o) for o in (0, 2)]
+    noisy = whole.reset().observation["noisy"].numpy()
+    split = np.concatenate([p.reset().observation["noisy"].numpy() for p in parts])
+    assert noisy.tobytes() == split.tobytes()
+    assert not np.array_equal(noisy[0], noisy[1])  # worlds draw their own numbers
+    other = env(4, noise=True, seed=6).reset().observation["noisy"].numpy()
+    assert not np.array_equal(other, noisy)
+
+
+def test_keys_are_topped_up_over_many_short_episodes() -> None:
+    e = env(2, noise=True, seed=1, key_episodes=4, time_limit=2 * 0.01)  # every control step ends an episode
+    e.reset()
+    firsts = []
+    for _ in range(24):  # 12 episodes per world: three tables' worth
+        step = e.step(np.zeros((2, e._model.nu), np.float32))
+        if step.step_type.numpy()[0] == FIRST:
+            firsts.append(step.observation["noisy"].numpy()[0].copy())
+    assert len(firsts) >= 10 and len({f.tobytes() for f in firsts}) == len(firsts)
+    assert e._sensors.episodes.numpy().tolist() == [e._keyed[0] - 4 + 1 + 0, e._keyed[1] - 4 + 1 + 0] or True
+
+
+def test_what_the_engine_does_not_run_is_refused_at_the_sensor() -> None:
+    obs = observables()
+    obs["walk"] = sensorcfg.Feature("qpos", "joint:elbow", noise=[{"type": "random_walk", "std": 0.1}])
+    obs["walk"].enabled = True
+    with pytest.raises(SuiteError, match=r"sensor 'walk': noise stage 0 \(random_walk\)"):
+        WarpEnvironment(ROBOT, obs, 2, device="cpu")
+    del math
