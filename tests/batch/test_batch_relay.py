@@ -232,7 +232,7 @@ def test_relays_next_to_a_camera_read_the_persistent_batchs_sensordata(tmp_path)
 
 ORDER_SCRIPT = """
 import json, pathlib, sys, tempfile
-sys.path[:0] = sys.argv[1:]  # this test's folder and the repository
+sys.path[:0] = sys.argv[1:]  # this test's folder, tests/ (its conftest) and the repository
 import sensorcfg
 from sensorcfg.batch import BatchEnvironment
 from test_batch_relay import RELAYED, model_file
@@ -258,7 +258,7 @@ def test_what_a_batch_adds_is_added_in_one_order_in_every_process() -> None:
 
     runs = []
     for seed in ("1", "2", "3", "4"):
-        done = subprocess.run([sys.executable, "-c", ORDER_SCRIPT, str(TESTS / "batch"), str(ROOT)],
+        done = subprocess.run([sys.executable, "-c", ORDER_SCRIPT, str(TESTS / "batch"), str(TESTS), str(ROOT)],
                               capture_output=True, text=True, check=True, env={**os.environ, "PYTHONHASHSEED": seed})
         runs.append(json.loads(done.stdout))
     sensors = runs[0][0]
