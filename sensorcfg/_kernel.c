@@ -5,7 +5,7 @@
  *   mode="clip"), which two threads can share.
  *
  * `add` is the compiled form of sensorcfg.noise.streams.numbers: one draw's numbers, bit-identical to the
- * numpy reference in streams.py (tests/test_streams.py compares the two). Philox4x32-10 on the counters
+ * numpy reference in streams.py (tests/noise/test_streams.py compares the two). Philox4x32-10 on the counters
  * (sample, tag | q, lo32(k1), hi32(k1)) with key (lo32(k0), hi32(k0)); uniforms w 2^-32; normals by
  * Marsaglia and Tsang's ziggurat on each 32-bit word, a rejected word going on with words of its own
  * (lane 3, the key's second word xor (1 + word + 16 a) at attempt a), exactly as streams._fallback does.
@@ -519,7 +519,7 @@ static PyObject *tables(PyObject *self, PyObject *args) {
 
 /* read(program int64, index int64): a feature bank's compiled read (sensorcfg/runtime/read_kernel.py encodes
  * it; the numpy steps of runtime/bank_read.py and runtime/bank_noise.py are the reference, compared bit for bit
- * by tests/test_read_kernel.py). `program` holds records of READ_SLOTS int64s: an op code and its operands,
+ * by tests/runtime/test_read_kernel.py). `program` holds records of READ_SLOTS int64s: an op code and its operands,
  * raw addresses of float64 / int64 arrays the encoder keeps alive, counts. `index`: the history positions
  * the read gathers (n of them). Each op is numpy's elementwise arithmetic in numpy's order, so the bits are
  * numpy's: maximum and minimum keep the second operand on ties and the first NaN, as numpy's loops do;
@@ -598,7 +598,7 @@ static PyObject *read_bank(PyObject *self, PyObject *args) {
 
 /* plan(g, t, a, prev, tail, reads, floor, windows, take_sim, take_step, buffer, substeps, length): the
  * ordering, windows and samples to take of a planning round (sensorcfg/runtime/drawn.py, Planner.round; its
- * numpy steps are the reference, compared by tests/test_planned_kernel.py). The round's delivered samples
+ * numpy steps are the reference, compared by tests/runtime/test_planned_kernel.py). The round's delivered samples
  * of simulations 0..m-1 (g: position, t: time, a: arrival, all <= the round's end) are put in order per
  * simulation by (arrival, time), ties in their given order (numpy's stable argsort of the same key); each
  * simulation's sequence is its `tail` (the last `buffer` delivered before, -1: none) followed by them; the
@@ -795,7 +795,7 @@ static PyObject *snapshot(PyObject *self, PyObject *const *args, Py_ssize_t narg
 
 /* simd(name): which Philox runs: "fastest" (what the CPU has, as at import), "avx512f", "avx2" (ValueError where
  * the CPU lacks it) or "portable" (the compiler's loop); returns the name of the one now in use. The numbers are
- * the same with each (tests/test_streams.py runs them all). */
+ * the same with each (tests/noise/test_streams.py runs them all). */
 static PyObject *simd(PyObject *self, PyObject *args) {
     const char *name;
     if (!PyArg_ParseTuple(args, "s", &name)) return NULL;

@@ -39,7 +39,7 @@ from .runtime.schedule import Schedule
 
 __all__ = ["Kept", "kept", "kept_problems"]
 
-# Bytes each store costs beyond its samples, measured on the paths named (tests/test_memory.py checks
+# Bytes each store costs beyond its samples, measured on the paths named (tests/runtime/test_memory.py checks
 # that the estimate stays above what the Updater allocates):
 ROW_BYTES = 192  # a ring slot: its numpy view and list entry (`FixedChannel.rows`)
 STEP_BYTES = 448  # a history row: its view, snapshot flag and share of the bounded read-plan caches

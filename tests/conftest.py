@@ -16,7 +16,11 @@ import pytest
 
 import sensorcfg  # noqa: F401  first: it picks the GL backend (EGL when headless) before mujoco is imported
 
-MODELS = Path(__file__).parent / "models"
+# Paths every test computes from: tests sit in folders by layer (tests/config/, tests/runtime/, ...), so a test
+# names the shared models and the repository through these, never through its own `__file__`.
+TESTS = Path(__file__).resolve().parent
+MODELS = TESTS / "models"
+ROOT = TESTS.parent
 
 _ORACLE_MODULES = {
     "mjcf": "dm_control.mjcf",

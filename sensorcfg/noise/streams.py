@@ -15,7 +15,7 @@ gives four 32-bit words w0..w3 for values 4(v // 4) .. 4(v // 4) + 3. A uniform 
 library's (Python's `math`), not numpy's, whose vectorised ones differ from it in the last bit on some CPUs.
 
 The compiled kernel (`sensorcfg/_kernel.c`'s `add`, loaded by `sensorcfg.compiled`) computes the same numbers
-bit for bit, several times faster; numpy is the reference (tests/test_streams.py compares the two) and the
+bit for bit, several times faster; numpy is the reference (tests/noise/test_streams.py compares the two) and the
 path without a compiler. `KERNEL` says which one runs; SENSORCFG_NUMPY_STREAMS=1 forces numpy.
 `add_sums` adds sums of such numbers, scaled and shifted, into rows of a table in place (the batch's
 additive noise, added to the values a read gathered or into its history).

@@ -145,7 +145,7 @@ class Planner:
     def _reset_round(self, sims: np.ndarray) -> Round:
         """`round(sims, 0)` of simulations just started, in closed form: sample 0 is at step 0 and arrives
         after its delay D_0, so the reset read shows it when D_0 = 0 and padding before it; it is in flight
-        otherwise; nothing is taken (tests/test_planned_kernel.py compares the two)."""
+        otherwise; nothing is taken (tests/runtime/test_planned_kernel.py compares the two)."""
         delays = np.zeros(len(sims), np.int64)
         kinds = self.schedule_of[sims]
         for k, (_, delay) in enumerate(self.schedules):

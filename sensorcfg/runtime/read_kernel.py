@@ -5,7 +5,7 @@ from the history, the noise layers (`bank_noise.Layer`), the take that stacks th
 families' reductions and the means' divisions. Here the same list is encoded once as records of int64s (an
 op code, the addresses of the arrays it works on, counts), which the kernel runs in one call: the same
 arithmetic, in the same order, on the same arrays, so the bits are numpy's (the numpy steps are the
-reference; tests/test_read_kernel.py compares the two). The encoder keeps every array it points to alive.
+reference; tests/runtime/test_read_kernel.py compares the two). The encoder keeps every array it points to alive.
 
 A read with a step the kernel does not have (a reduction that runs alone: a median of 3 or more, a one-value
 sum or mean) keeps its numpy steps, and so does every read when the kernel is not built or
