@@ -24,6 +24,8 @@ import warp as wp
 
 __all__ = ["Worlds", "default_sizes"]
 
+wp.set_module_options({"enable_backward": False})
+
 
 def default_sizes(mjm: mujoco.MjModel, keyframe: int | None = None) -> tuple[int, int]:
     """(nconmax, njmax) per world: at least 64 contacts and 128 constraint rows, and four times what
