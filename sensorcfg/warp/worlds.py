@@ -170,4 +170,4 @@ class Worlds:
 
     def state(self, name: str) -> np.ndarray:
         """A host copy of one of `data`'s (nworld, ...) arrays, for tests and diagnostics (not per step)."""
-        return np.asarray(getattr(self.data, name).numpy())
+        return np.array(getattr(self.data, name).numpy(), copy=True)  # on the CPU device .numpy() is a view
