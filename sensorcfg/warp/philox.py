@@ -15,7 +15,10 @@ first word; the rare wedge and tail values go through the device's exp and log (
 device, CUDA's on a GPU, which may differ from the C library's in the last bit).
 
 `philox4x32`, `block`, `uniform`, `normal` and `value` are `@wp.func`s for the engine's own kernels; `numbers`
-is one stage's numbers for m samples, as `streams.numbers` gives for a `Draw`.
+is one stage's numbers for m samples, as `streams.numbers` gives for a `Draw`. A function is compiled into the
+module of the kernel calling it, under that module's options: a module whose kernels call these functions
+sets `wp.set_module_options(MODULE_OPTIONS)`, without which the compiler may fuse the ziggurat's wedge test
+(f + u (f' - f)) into one FMA, rounding differently from numpy (CUDA does by default).
 """
 
 import numpy as np
@@ -23,8 +26,12 @@ import warp as wp
 
 from ..noise import streams
 
-__all__ = ["Ziggurat", "block", "counter", "normal", "numbers", "philox4x32", "tag", "uniform", "value",
+__all__ = ["MODULE_OPTIONS", "Ziggurat", "block", "counter", "normal", "numbers", "philox4x32", "tag", "uniform", "value",
            "ziggurat"]
+
+MODULE_OPTIONS = {"fuse_fp": False, "enable_backward": False}  # numpy's roundings; no adjoints (nothing is
+# differentiated), which halves the compile time
+wp.set_module_options(MODULE_OPTIONS)
 
 _M0 = wp.constant(wp.uint64(0xD2511F53))  # Philox4x32 multipliers
 _M1 = wp.constant(wp.uint64(0xCD9E8D57))

@@ -24,6 +24,8 @@ import warp as wp
 
 __all__ = ["Worlds", "default_sizes"]
 
+wp.set_module_options({"enable_backward": False})
+
 
 def default_sizes(mjm: mujoco.MjModel, keyframe: int | None = None) -> tuple[int, int]:
     """(nconmax, njmax) per world: at least 64 contacts and 128 constraint rows, and four times what
@@ -168,4 +170,4 @@ class Worlds:
 
     def state(self, name: str) -> np.ndarray:
         """A host copy of one of `data`'s (nworld, ...) arrays, for tests and diagnostics (not per step)."""
-        return np.asarray(getattr(self.data, name).numpy())
+        return np.array(getattr(self.data, name).numpy(), copy=True)  # on the CPU device .numpy() is a view

@@ -15,6 +15,7 @@ from sensorcfg.noise.streams import Draw  # noqa: E402
 from sensorcfg.warp import philox  # noqa: E402
 
 DEVICE = "cpu"
+wp.set_module_options(philox.MODULE_OPTIONS)  # this module's kernels call philox's functions
 
 
 @wp.kernel
@@ -122,3 +123,10 @@ def test_out_of_range_draws_are_refused() -> None:
     for stage, lane, size in ((256, 0, 1), (0, 3, 1), (0, 0, (1 << 22) + 1)):
         with pytest.raises(ValueError):
             philox.numbers(keys, samples, stage, lane, size, True, device=DEVICE)
+
+
+def test_modules_calling_the_functions_do_not_fuse_multiply_adds() -> None:
+    """The ziggurat's wedge test rounds as numpy only without FMA contraction (CUDA's default)."""
+    assert philox.MODULE_OPTIONS["fuse_fp"] is False
+    for module in ("sensorcfg.warp.philox", __name__):
+        assert wp.get_module(module).options["fuse_fp"] is False
