@@ -4,6 +4,8 @@
   build a dm_control Physics, so parity tests skip in this session only).
 - `oracle-mujoco3`: MuJoCo 3.17.0 with dm_control 1.0.50 as the parity oracle; a skipped parity test is a
   failure here (SENSORCFG_REQUIRE_ORACLE=1).
+- `tests-warp`: the Warp engine (`sensorcfg[warp]`) on Warp's CPU device, with the suite plan's tests; a
+  missing Warp fails here (SENSORCFG_REQUIRE_WARP=1).
 - `typecheck`: mypy (pinned) over the package; any error fails the session.
 
 Both test sessions build the compiled noise kernel (setup.py; the machines have a C compiler) and set
@@ -16,15 +18,15 @@ import os
 
 import nox
 
-nox.options.sessions = ["tests-mujoco4", "oracle-mujoco3", "typecheck"]
+nox.options.sessions = ["tests-mujoco4", "oracle-mujoco3", "tests-warp", "typecheck"]
 nox.options.reuse_existing_virtualenvs = True
 nox.options.error_on_missing_interpreters = True
 
 ENV = {"MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"), "PYTHONHASHSEED": "0", "SENSORCFG_REQUIRE_KERNEL": "1"}
 
 
-def _pytest(session: nox.Session, **env: str) -> None:
-    session.run("python", "-m", "pytest", "-q", "-p", "no:cacheprovider", *session.posargs,
+def _pytest(session: nox.Session, *paths: str, **env: str) -> None:
+    session.run("python", "-m", "pytest", "-q", "-p", "no:cacheprovider", *paths, *session.posargs,
                 env={**ENV, **env}, success_codes=[0])
 
 
@@ -40,6 +42,17 @@ def oracle_mujoco3(session: nox.Session) -> None:
     session.install("-e", ".[test,gym,plot,menagerie]", "mujoco==3.17.0", "dm-control==1.0.50")
     session.run("python", "-c", "import mujoco, dm_control; print('mujoco', mujoco.__version__)")
     _pytest(session, SENSORCFG_REQUIRE_ORACLE="1")
+
+
+@nox.session(name="tests-warp")
+def tests_warp(session: nox.Session) -> None:
+    """The Warp engine on Warp's CPU device (the same kernels as on a GPU, compiled by LLVM; cached under
+    ~/.cache/warp): its own tests and the suite plan's, with `sensorcfg[warp]` installed (required here)."""
+    session.install("-e", ".[test,warp]", "mujoco>=4,<5")
+    session.run("python", "-c", "import mujoco, mujoco_warp, warp; print('mujoco', mujoco.__version__, "
+                "'mujoco_warp', mujoco_warp.__version__ if hasattr(mujoco_warp, '__version__') else '?', "
+                "'warp', warp.__version__)")
+    _pytest(session, "tests/warp", "tests/plan", SENSORCFG_REQUIRE_WARP="1")
 
 
 # The libraries whose type stubs mypy reads, at the versions the package was last checked against, so that a

@@ -73,3 +73,16 @@ def assert_batch_equals_single(model: str, suite: object, nsim: int, seed: int, 
         for i, env in enumerate(singles):
             for name, value in env.step(actions[i]).observation.items():
                 np.testing.assert_array_equal(out.observation[name][i], value, err_msg=name)
+
+
+def warp_or_skip() -> types.ModuleType:
+    """Warp (with MuJoCo Warp importable), or skip the module; where SENSORCFG_REQUIRE_WARP=1 (the `tests-warp`
+    nox session, which installs `sensorcfg[warp]`) a missing one fails instead."""
+    try:
+        importlib.import_module("mujoco_warp")
+        return importlib.import_module("warp")
+    except ImportError as e:
+        message = f"sensorcfg[warp] is not installed: {e}"
+        if os.environ.get("SENSORCFG_REQUIRE_WARP", "") not in ("", "0"):
+            pytest.fail(f"{message} (SENSORCFG_REQUIRE_WARP=1 forbids skipping)", pytrace=False)
+        pytest.skip(message, allow_module_level=True)

@@ -42,10 +42,13 @@ from ..noise.level import leveled, own_bounds, set_level
 from ..physics import Physics
 from ..plan.bind import bind, plan_suite
 from ..runtime.updater import observation_spec
+from .philox import MODULE_OPTIONS
 from .sensors import Sensors, refusal
 from .worlds import Worlds
 
 __all__ = ["WarpEnvironment", "WarpTimeStep"]
+
+wp.set_module_options(MODULE_OPTIONS)
 
 WarpFn = Callable[["WarpEnvironment"], wp.array]  # the environment -> (nworld,) device array
 _FIRST, _MID, _LAST = (int(t) for t in (dm_env.StepType.FIRST, dm_env.StepType.MID, dm_env.StepType.LAST))

@@ -26,7 +26,7 @@ import numpy as np
 import warp as wp
 
 from ..plan import FixedTiming, NoiseProgram, NoiseStep, SuitePlan
-from .philox import Ziggurat, value, ziggurat
+from .philox import MODULE_OPTIONS, Ziggurat, value, ziggurat
 
 __all__ = ["STAGES", "Sensors", "refusal"]
 
@@ -40,6 +40,8 @@ STAGES: Mapping[str, tuple[int, tuple[str, ...]]] = {
     "outlier": (5, ("p", "scale")),
     "lowpass": (6, ("cutoff",)),
 }
+wp.set_module_options(MODULE_OPTIONS)  # numpy's roundings in the noise arithmetic (no fused multiply-adds)
+
 _DROPOUT_MODES = {"hold": 0, "zero": 1, "nan": 2}
 _NO_BOUND = (-math.inf, math.inf)
 

@@ -7,8 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-wp = pytest.importorskip("warp")
-pytest.importorskip("mujoco_warp")
+from conftest import warp_or_skip  # noqa: E402
+
+wp = warp_or_skip()
 
 from sensorcfg.noise import streams  # noqa: E402
 from sensorcfg.noise.streams import Draw  # noqa: E402

@@ -9,8 +9,9 @@ import mujoco
 import numpy as np
 import pytest
 
-wp = pytest.importorskip("warp")
-pytest.importorskip("mujoco_warp")
+from conftest import warp_or_skip  # noqa: E402
+
+wp = warp_or_skip()
 
 import sensorcfg  # noqa: E402
 from sensorcfg import assets  # noqa: E402
@@ -77,7 +78,7 @@ def test_world_i_reads_what_the_updater_reads_on_the_same_trajectory(seed: int, 
     names = [f for f, _ in plan.fields]
     plain = {s.name for s in plan.sensors if s.noise is None and s.aggregator is None}
     # the CPU side: one Updater and MjData per world, seeded per world
-    updaters, physicss, states = [], [], []
+    updaters, physicss = [], []
     table = np.zeros(sensors.key_table.shape, np.uint64)
     for w in range(nworld):
         p = Physics(model)
@@ -96,7 +97,6 @@ def test_world_i_reads_what_the_updater_reads_on_the_same_trajectory(seed: int, 
     lo, hi = model.actuator_ctrlrange.T
     actions = np.random.default_rng(seed).uniform(lo, hi, (30, nworld, model.nu))
     for t in range(31):
-        expected = []
         if t:  # each world's control step through its Updater, keeping the states it sampled
             snapshots: list[list[mujoco.MjData]] = [[] for _ in range(substeps)]
             for w, (u, p) in enumerate(zip(updaters, physicss)):

@@ -3,19 +3,19 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import mujoco
 import numpy as np
 import pytest
 
-wp = pytest.importorskip("warp")
-pytest.importorskip("mujoco_warp")
+from conftest import MODELS, warp_or_skip  # noqa: E402
+
+wp = warp_or_skip()
 
 from sensorcfg.warp.worlds import Worlds  # noqa: E402
 
 DEVICE = "cpu"
-MODEL = Path(__file__).parent / "models" / "arm.xml"  # free base, hinges, slide, ball, tendon, filtered actuators
+MODEL = MODELS / "arm.xml"  # free base, hinges, slide, ball, tendon, filtered actuators
 NWORLD = 3
 CTRL = np.array([[0.0, 0.0, 0.0, 0.0], [0.5, -0.3, 0.8, -1.0], [-1.0, 1.0, -0.5, 0.2]])  # a control per world
 
