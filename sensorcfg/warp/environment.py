@@ -170,6 +170,7 @@ class WarpEnvironment(ControlLoop):
                   for b in [noisy_bounds(getattr(e.channel.noise, "_inner", e.channel.noise), own_bounds(e.observable))]
                   if b is not None}
         self._sensors = Sensors(plan, self.device, key_episodes, bounds)
+        self._pipelines = {e.name: e.channel.noise for e in bound.fixed}
         self._key_episodes = key_episodes
         self.seed(seed)
         with wp.ScopedDevice(self.device):
@@ -232,6 +233,7 @@ class WarpEnvironment(ControlLoop):
         self._random_states = [random_state_from(sim_seed(self._seed, self._offset + w)) for w in range(self._nworld)]
         self._keyed = np.zeros(self._nworld, np.int64)  # episodes whose keys are in the table, per world
         self._table = np.zeros(self._sensors.key_table.shape, np.uint64)
+        self._values = np.zeros(self._sensors.episode_table.shape, np.float64)
         wp.copy(self._sensors.episodes, wp.zeros(self._nworld, dtype=wp.int32, device=self.device))
         self._top_up(np.zeros(self._nworld, np.int64))
         if hasattr(self, "_needs_reset"):
@@ -243,13 +245,16 @@ class WarpEnvironment(ControlLoop):
         names = self._sensors.noisy_names
         if not names:
             return
-        table, size = self._table, self._key_episodes
+        table, values, size = self._table, self._values, self._key_episodes
         for w in range(self._nworld):
             while self._keyed[w] < used[w] + size:
-                e = int(self._keyed[w])
-                table[w, e % size] = sensor_keys(episode_entropy(self._random_states[w]), names)
+                e = int(self._keyed[w]) % size
+                table[w, e], values[w, e] = episode_keys(self._sensors, self._pipelines,
+                                                         episode_entropy(self._random_states[w]))
                 self._keyed[w] += 1
         self._sensors.key_table.assign(table)
+        if self._sensors.episode_slots:
+            self._sensors.episode_table.assign(values)
 
     def _keys_ahead(self) -> None:
         self._steps_since_keys += 1
@@ -374,6 +379,29 @@ class WarpEnvironment(ControlLoop):
 
     def close(self) -> None:
         pass
+
+
+def episode_keys(sensors: Sensors, pipelines: Mapping[str, Any], entropy: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    """An episode's keys of the noisy sensors (`draws.sensor_keys`, as the CPU engines key them) and the values
+    their stages draw at its reset (`Sensors.episode_slots`), from the episode's entropy."""
+    keys = sensor_keys(entropy, sensors.noisy_names)
+    values = np.zeros(sensors.drawn.shape[1])
+    for n, stream, slot, count in sensors.episode_slots:
+        values[slot:slot + count] = _drawn_at_reset(pipelines[sensors.noisy_names[n]], keys[n], stream)
+    return keys, values
+
+
+def _drawn_at_reset(pipeline: Any, key: np.ndarray, stream: int) -> np.ndarray:
+    """The values stage `stream` of a sensor's (CPU) pipeline draws at the reset of the episode keyed `key`:
+    a bias's or scale's values, a random walk's start (`noise.stages`, the rule's one home)."""
+    from ..noise.stages import EpisodeDraw, RandomWalk, Sum
+
+    pipeline.reset(key, pipeline.stride)
+    for stage in pipeline.stages:
+        for part in stage.parts if isinstance(stage, Sum) else [stage]:
+            if getattr(part, "stream", None) == stream and isinstance(part, (EpisodeDraw, RandomWalk)):
+                return np.ravel(part.value if isinstance(part, EpisodeDraw) else part.start)
+    raise ValueError(f"no stage {stream} draws values at reset")  # the plan and the pipeline disagree
 
 
 def _steps(pipeline: Any) -> list[Any]:

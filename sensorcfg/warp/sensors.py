@@ -39,7 +39,11 @@ STAGES: Mapping[str, tuple[int, tuple[str, ...]]] = {
     "dropout": (4, ("p",)),
     "outlier": (5, ("p", "scale")),
     "lowpass": (6, ("cutoff",)),
+    "bias": (7, ()),  # the episode's drawn values (`Sensors.episode_slots`)
+    "scale": (8, ()),
+    "random_walk": (9, ("std", "correlation_time")),  # slots 0, 1: the walk's a and c per sample index
 }
+EPISODE_DRAWS = frozenset({"bias", "scale", "random_walk"})  # stages with values drawn at each reset
 wp.set_module_options(MODULE_OPTIONS)  # numpy's roundings in the noise arithmetic (no fused multiply-adds)
 
 _DROPOUT_MODES = {"hold": 0, "zero": 1, "nan": 2}
@@ -82,8 +86,9 @@ def _noise(steps: wp.array[wp.int64], mask: wp.array[wp.int32], rows: wp.int32, 
            s_taken: wp.array[wp.int32], s_period: wp.array[wp.int32], s_stride: wp.array[wp.int64],
            s_first: wp.array[wp.int32], s_stop: wp.array[wp.int32], s_leveled: wp.array[wp.int32],
            taken: wp.array[wp.int32], st_code: wp.array[wp.int32], st_tag: wp.array[wp.uint32],
-           st_mode: wp.array[wp.int32], st_per_value: wp.array[wp.int32], params: wp.array3d[wp.float64],
-           keys: wp.array3d[wp.uint64], level: wp.array[wp.float64], state: wp.array3d[wp.float64],
+           st_mode: wp.array[wp.int32], st_per_value: wp.array[wp.int32], st_slot: wp.array[wp.int32],
+           params: wp.array3d[wp.float64], keys: wp.array3d[wp.uint64], level: wp.array[wp.float64],
+           drawn: wp.array2d[wp.float64], state: wp.array3d[wp.float64], walked: wp.array3d[wp.int64],
            z: Ziggurat):
     w, i = wp.tid()
     if mask[w] == 0:
@@ -132,6 +137,20 @@ def _noise(steps: wp.array[wp.int64], mask: wp.array[wp.int32], rows: wp.int32, 
             else:
                 state[w, k, v] = state[w, k, v] + params[k, 0, v] * (x - state[w, k, v])
             x = state[w, k, v]
+        elif code == 7:  # bias: the episode's value
+            x = x + drawn[w, st_slot[k] + v]
+        elif code == 8:  # scale: the episode's gain
+            x = x * drawn[w, st_slot[k] + v]
+        elif code == 9:  # random walk over every sample index up to j, from the episode's start at index 0
+            if j == wp.int64(0):
+                state[w, k, v] = drawn[w, st_slot[k] + v]
+            else:
+                b = state[w, k, v]
+                for i in range(wp.int32(walked[w, k, v]) + 1, wp.int32(j) + 1):
+                    b = b * params[k, 0, v] + value(k0, k1, wp.int64(i), tag, v, True, z) * params[k, 1, v]
+                state[w, k, v] = b
+            walked[w, k, v] = j
+            x = x + state[w, k, v]
     if s_leveled[sensor] == 1 and level[w] != wp.float64(1.0):
         x = _clip(raw + level[w] * (x - raw), v_low[i], v_high[i])
     history[w, r, c] = wp.float32(x)
@@ -156,6 +175,14 @@ def _start(mask: wp.array[wp.int32], episodes: wp.array[wp.int32], table: wp.arr
     keys[w, n, 1] = table[w, e, n, 1]
     if n == 0:
         level[w] = next_level[0]
+
+
+@wp.kernel
+def _start_drawn(mask: wp.array[wp.int32], episodes: wp.array[wp.int32], table: wp.array3d[wp.float64],
+                 drawn: wp.array2d[wp.float64]):
+    w, i = wp.tid()
+    if mask[w] == 1:
+        drawn[w, i] = table[w, episodes[w] % table.shape[1], i]
 
 
 @wp.kernel
@@ -247,7 +274,20 @@ def _stage_params(step: NoiseStep, size: int, interval: int, timestep: float) ->
         out[1] = np.where(step.param("max") is None, np.inf, out[1])
     if step.stage == "lowpass":  # every nominal sample is taken: `interval` steps apart
         out[0] = -np.expm1(-(interval * timestep) * (2.0 * math.pi * out[0]))
+    if step.stage == "random_walk":  # `noise.stages.RandomWalk`'s coefficients for a sample index's time
+        out[:2] = _walk(step, size, interval * timestep)
     return out
+
+
+def _walk(step: NoiseStep, size: int, dt: float) -> np.ndarray:
+    """A random walk's (a, c) per value for samples `dt` seconds apart, as `RandomWalk._coefficients` gives
+    them (a Brownian walk: a = 1, which multiplies exactly)."""
+    from ..noise.stages import Context, RandomWalk
+
+    std, tau = step.param("std"), step.param("correlation_time")
+    walk = RandomWalk(Context((size,), np.dtype(np.float64), np.dtype(np.float64), dt), std, tau)
+    a, c = walk._coefficients(dt)
+    return np.stack([np.broadcast_to(1.0 if a is None else a, (size,)), np.broadcast_to(c, (size,))])
 
 
 class Sensors:
@@ -295,7 +335,9 @@ class Sensors:
         self.noisy_names = [s.name for _, s in noisy]
         v_col, v_sensor, v_index, v_low, v_high = [], [], [], [], []
         s_taken, s_period, s_stride, s_first, s_stop, s_leveled, taken = [], [], [], [], [], [], []
-        codes, tags, modes, per_value, params = [], [], [], [], []
+        codes, tags, modes, per_value, params, slots = [], [], [], [], [], []
+        self.episode_slots: list[tuple[int, int, int, int]] = []  # (noisy sensor, stream, first slot, values)
+        nslot = 0
         size = max([1, *(s.columns[1] - s.columns[0] for _, s in noisy)])
         for n, (_, sensor) in enumerate(noisy):
             timing, program = sensor.timing, sensor.noise
@@ -318,6 +360,10 @@ class Sensors:
                 options = dict(step.options)
                 modes.append(_DROPOUT_MODES.get(options.get("mode", "hold"), 0))
                 per_value.append(int(options.get("per") == "value"))
+                slots.append(nslot)
+                if step.stage in EPISODE_DRAWS:
+                    self.episode_slots.append((n, step.stream, nslot, stop - first))
+                    nslot += stop - first
                 block = np.zeros((3, size))
                 block[:, :stop - first] = _stage_params(step, stop - first, timing.interval, plan.timestep)
                 params.append(block)
@@ -330,7 +376,7 @@ class Sensors:
                         i32(s_period), wp.array(np.asarray(s_stride, np.int64), dtype=wp.int64), i32(s_first),
                         i32(s_stop), i32(s_leveled), i32(taken), i32(codes),
                         wp.array(np.asarray(tags, np.uint32), dtype=wp.uint32), i32(modes), i32(per_value),
-                        wp.array(np.asarray(params, np.float64).reshape(-1, 3, size), dtype=wp.float64)]
+                        i32(slots), wp.array(np.asarray(params, np.float64).reshape(-1, 3, size), dtype=wp.float64)]
         nsim, nnoisy = plan.nsim, max(1, len(noisy))
         self.keys = wp.zeros((nsim, nnoisy, 2), dtype=wp.uint64)
         self.key_table = wp.zeros((nsim, key_episodes, nnoisy, 2), dtype=wp.uint64)
@@ -338,6 +384,9 @@ class Sensors:
         self.level = wp.ones(nsim, dtype=wp.float64)
         self.next_level = wp.ones(1, dtype=wp.float64)
         self.state = wp.zeros((nsim, max(1, len(codes)), size), dtype=wp.float64)
+        self.walked = wp.zeros((nsim, max(1, len(codes)), size), dtype=wp.int64)
+        self.episode_table = wp.zeros((nsim, key_episodes, max(1, nslot)), dtype=wp.float64)
+        self.drawn = wp.zeros((nsim, max(1, nslot)), dtype=wp.float64)
 
     def _outputs(self) -> dict[str, wp.array]:
         """Each sensor's output: a view of the gather (plain) or of the reduced blocks, (nworld, *output)."""
@@ -376,8 +425,8 @@ class Sensors:
                       outputs=[self.history], device=self.device)
         if self._values:
             wp.launch(_noise, dim=(n, self._values),
-                      inputs=[steps, mask, rows, self.history, *self._tables, self.keys, self.level, self.state,
-                              self.z], device=self.device)
+                      inputs=[steps, mask, rows, self.history, *self._tables, self.keys,
+                              self.level, self.drawn, self.state, self.walked, self.z], device=self.device)
 
     def reset(self, mask: wp.array, fields: Mapping[str, wp.array], steps: wp.array) -> None:
         """Start the masked worlds' episodes (their `steps` already 0 and `fields` their reset state)."""
@@ -385,6 +434,8 @@ class Sensors:
         wp.launch(_start, dim=(n, self.keys.shape[1]),
                   inputs=[mask, self.episodes, self.key_table, self.keys, self.next_level, self.level],
                   device=self.device)
+        wp.launch(_start_drawn, dim=(n, self.drawn.shape[1]), inputs=[mask, self.episodes, self.episode_table],
+                  outputs=[self.drawn], device=self.device)
         wp.launch(_count_episode, dim=n, inputs=[mask, self.episodes], device=self.device)
         self.record(fields, steps, mask)
         wp.launch(_pad, dim=(n, self.plan.rows, self.plan.width),

@@ -15,10 +15,11 @@ wp = warp_or_skip()
 
 import sensorcfg  # noqa: E402
 from sensorcfg import assets  # noqa: E402
-from sensorcfg.draws import episode_entropy, sensor_keys  # noqa: E402
+from sensorcfg.draws import episode_entropy  # noqa: E402
 from sensorcfg.noise import build_noise  # noqa: E402
 from sensorcfg.physics import Physics  # noqa: E402
 from sensorcfg.plan.bind import bind, plan_suite  # noqa: E402
+from sensorcfg.warp.environment import episode_keys  # noqa: E402
 from sensorcfg.warp.sensors import Sensors  # noqa: E402
 
 ROBOT = str(assets.path("robot.xml"))
@@ -39,6 +40,10 @@ NOISE = [
     {"type": "dropout", "p": 0.3, "mode": "zero", "per": "value"},
     {"type": "outlier", "p": 0.1, "scale": 1.0},
     {"type": "lowpass", "cutoff": 20.0},
+    {"type": "bias", "std": 0.1},
+    {"type": "scale", "low": 0.9, "high": 1.1},
+    {"type": "random_walk", "std": 0.01, "correlation_time": 0.05},
+    {"type": "random_walk", "std": 0.01},
 ]
 
 
@@ -66,7 +71,7 @@ def fields_of(datas: list[mujoco.MjData], names: list[str]) -> dict[str, wp.arra
                         device="cpu") for f in names}
 
 
-@pytest.mark.parametrize("seed, noise", [(s, s % 3 != 0) for s in range(6)])
+@pytest.mark.parametrize("seed, noise", [(s, s % 3 != 0) for s in (*range(9), 11, 13)])
 def test_world_i_reads_what_the_updater_reads_on_the_same_trajectory(seed: int, noise: bool) -> None:
     nworld, substeps, pad = 3, 1 + seed % 3, bool(seed % 2)
     model = mujoco.MjModel.from_xml_path(ROBOT)
@@ -80,6 +85,8 @@ def test_world_i_reads_what_the_updater_reads_on_the_same_trajectory(seed: int, 
     # the CPU side: one Updater and MjData per world, seeded per world
     updaters, physicss = [], []
     table = np.zeros(sensors.key_table.shape, np.uint64)
+    values = np.zeros(sensors.episode_table.shape)
+    pipelines = {e.name: e.channel.noise for e in bound.fixed}
     for w in range(nworld):
         p = Physics(model)
         mujoco.mj_resetData(model, p.data)
@@ -87,10 +94,11 @@ def test_world_i_reads_what_the_updater_reads_on_the_same_trajectory(seed: int, 
         u = sensorcfg.Updater(suite(seed, noise), substeps, pad_with_initial_value=pad)
         u.reset(p, np.random.RandomState(100 + w))
         if sensors.noisy_names:
-            table[w, 0] = sensor_keys(episode_entropy(np.random.RandomState(100 + w)), sensors.noisy_names)
+            table[w, 0], values[w, 0] = episode_keys(sensors, pipelines, episode_entropy(np.random.RandomState(100 + w)))
         updaters.append(u)
         physicss.append(p)
     sensors.key_table.assign(table)
+    sensors.episode_table.assign(values)
     steps = wp.zeros(nworld, dtype=wp.int64, device="cpu")
     everyone = wp.ones(nworld, dtype=wp.int32, device="cpu")
     sensors.reset(everyone, fields_of([p.data for p in physicss], names), steps)
