@@ -147,9 +147,11 @@ def test_keys_are_topped_up_over_many_short_episodes() -> None:
 
 def test_what_the_engine_does_not_run_is_refused_at_the_sensor() -> None:
     obs = observables()
-    obs["walk"] = noisy("walk", [{"type": "random_walk", "std": 0.1}])
-    obs["walk"].enabled = True
-    with pytest.raises(SuiteError, match=r"sensor 'walk': noise stage 0 \(random_walk\)"):
+    obs["turned"] = sensorcfg.Feature("xpos", "site:hand_site")
+    obs["turned"].noise = build_noise([{"type": "gaussian", "std": 0.1}, {"type": "misalign", "std": 0.01}], (3,),
+                                      np.float64, TIMESTEP)
+    obs["turned"].enabled = True
+    with pytest.raises(SuiteError, match=r"sensor 'turned': noise stage 1 \(misalign\)"):
         WarpEnvironment(ROBOT, obs, 2, device="cpu")
 
 
