@@ -129,14 +129,16 @@ class WarpEnvironment(ControlLoop):
     `model`: an MjModel, an MjSpec, a path or None for the suite's `model:`; `device`: a Warp device ("cuda:0",
     "cpu"; None: Warp's default); `world_offset`: this process's first global world (under torchrun: rank x
     nworld); `reward_fn(env)` / `termination_fn(env)` return (nworld,) float32 / bool device arrays from
-    `env.data` after the step; `nconmax` / `njmax`: MuJoCo Warp's contact and constraint sizes per world."""
+    `env.data` after the step (on a GPU they are recorded into the step's CUDA graph: device work only, no host
+    reads); `nconmax` / `njmax`: MuJoCo Warp's contact and constraint sizes per world; `capture`: replay each
+    control step as one CUDA graph (default: on CUDA devices; ignored on the CPU)."""
 
     def __init__(self, model: ModelArg, suite: Any, nworld: int, *, device: str | None = None,
                  physics_steps_per_control_step: int | None = None, control_timestep: float | None = None,
                  time_limit: float | None = None, seed: int | np.random.SeedSequence | None = None,
                  reward_fn: WarpFn | None = None, termination_fn: WarpFn | None = None,
                  keyframe: int | str | None = None, world_offset: int = 0, key_episodes: int = 16,
-                 nconmax: int | None = None, njmax: int | None = None):
+                 nconmax: int | None = None, njmax: int | None = None, capture: bool | None = None):
         if isinstance(nworld, bool) or not isinstance(nworld, (int, np.integer)) or nworld < 1:
             raise ArgumentError(f"nworld must be a positive integer; got {nworld!r}")
         if isinstance(world_offset, bool) or not isinstance(world_offset, (int, np.integer)) or world_offset < 0:
@@ -195,6 +197,10 @@ class WarpEnvironment(ControlLoop):
                                   for name, spec in self._spec.items()}
         self._names = list(self._spec)
         self._steps_since_keys = 0
+        # a CUDA graph of the control step's device work, recorded at the second step (the first loads modules)
+        self._capture = self.device.is_cuda if capture is None else bool(capture) and self.device.is_cuda
+        self._graph: Any = None
+        self._warm = False
 
     # -- construction ---------------------------------------------------------------------------------
 
@@ -338,6 +344,22 @@ class WarpEnvironment(ControlLoop):
         """One control step of every world (auto-resetting those whose episode ended). `actions`: (nworld, nu)
         float32 on the device (a Warp array, or anything `wp.from_dlpack`/`wp.array` takes)."""
         self._set_actions(actions)
+        if self._graph is not None:
+            wp.capture_launch(self._graph)
+        elif self._capture and self._warm:
+            with wp.ScopedCapture(device=self.device) as capture:
+                self._device_step()
+            self._graph = capture.graph
+            wp.capture_launch(self._graph)
+        else:
+            self._device_step()
+            self._warm = True
+        self._keys_ahead()
+        return WarpTimeStep(self._step_type, self._reward, self._discount, self._observation)
+
+    def _device_step(self) -> None:
+        """The control step's device work, from the actions in `_actions` to the step types: no host copy, no
+        allocation of its own, the same launches every step (so that it can be replayed as a CUDA graph)."""
         n, device = self._nworld, self.device
         wp.launch(_begin, dim=n, inputs=[self._needs_reset, self._restarting, self._control_steps], device=device)
         if self._model.nu:
@@ -348,14 +370,12 @@ class WarpEnvironment(ControlLoop):
             self._sensors.record(self._fields, self._worlds.steps)
         wp.copy(self._diverged, self._worlds.diverged)
         self._start_episodes(self._restarting)  # the worlds whose previous step ended their episode
-        observation = self._observe()
+        self._observation = self._observe()
         reward = self._reward_fn(self) if self._reward_fn is not None else self._no_reward
         terminated = self._termination_fn(self) if self._termination_fn is not None else self._no_termination
         wp.launch(_end, dim=n, inputs=[self._restarting, self._diverged, terminated, self._control_steps, self._limit,
                                        reward],
                   outputs=[self._needs_reset, self._step_type, self._reward, self._discount], device=device)
-        self._keys_ahead()
-        return WarpTimeStep(self._step_type, self._reward, self._discount, observation)
 
     def _set_actions(self, actions: Any) -> None:
         if isinstance(actions, wp.array):
