@@ -5,11 +5,14 @@ float32 copies of the Updater's (exactly); noisy ones agree to float32 rounding,
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
 import mujoco
 import numpy as np
 import pytest
 
-from conftest import warp_or_skip  # noqa: E402
+from conftest import MODELS, ROOT, warp_or_skip  # noqa: E402
 
 wp = warp_or_skip()
 
@@ -71,13 +74,13 @@ def fields_of(datas: list[mujoco.MjData], names: list[str]) -> dict[str, wp.arra
                         device="cpu") for f in names}
 
 
-@pytest.mark.parametrize("seed, noise", [(s, s % 3 != 0) for s in (*range(9), 11, 13)])
-def test_world_i_reads_what_the_updater_reads_on_the_same_trajectory(seed: int, noise: bool) -> None:
-    nworld, substeps, pad = 3, 1 + seed % 3, bool(seed % 2)
-    model = mujoco.MjModel.from_xml_path(ROBOT)
+def replay(make: Callable[[], dict[str, Any]], model: mujoco.MjModel, nworld: int, substeps: int, pad: bool,
+           control_steps: int, seed: int) -> None:
+    """World w of the Warp sensor layer against an Updater over `make()`'s observables, both reading world w's
+    CPU trajectory (random actions): plain noise-free reads bit for bit, the rest to float32 rounding."""
     physics = Physics(model)
     mujoco.mj_forward(model, physics.data)
-    bound = bind(suite(seed, noise), physics, substeps, False, pad)
+    bound = bind(make(), physics, substeps, False, pad)
     plan = plan_suite(bound, physics, bound.sources(), nworld, substeps, pad)
     sensors = Sensors(plan, wp.get_device("cpu"), 2, {})
     names = [f for f, _ in plan.fields]
@@ -91,7 +94,7 @@ def test_world_i_reads_what_the_updater_reads_on_the_same_trajectory(seed: int, 
         p = Physics(model)
         mujoco.mj_resetData(model, p.data)
         mujoco.mj_forward(model, p.data)
-        u = sensorcfg.Updater(suite(seed, noise), substeps, pad_with_initial_value=pad)
+        u = sensorcfg.Updater(make(), substeps, pad_with_initial_value=pad)
         u.reset(p, np.random.RandomState(100 + w))
         if sensors.noisy_names:
             table[w, 0], values[w, 0] = episode_keys(sensors, pipelines, episode_entropy(np.random.RandomState(100 + w)))
@@ -103,17 +106,18 @@ def test_world_i_reads_what_the_updater_reads_on_the_same_trajectory(seed: int, 
     everyone = wp.ones(nworld, dtype=wp.int32, device="cpu")
     sensors.reset(everyone, fields_of([p.data for p in physicss], names), steps)
     lo, hi = model.actuator_ctrlrange.T
-    actions = np.random.default_rng(seed).uniform(lo, hi, (30, nworld, model.nu))
-    for t in range(31):
+    actions = np.random.default_rng(seed).uniform(lo, hi, (control_steps, nworld, model.nu))
+    for t in range(control_steps + 1):
         if t:  # each world's control step through its Updater, keeping the states it sampled
             snapshots: list[list[mujoco.MjData]] = [[] for _ in range(substeps)]
             for w, (u, p) in enumerate(zip(updaters, physicss)):
                 p.data.ctrl[:] = actions[t - 1, w]
 
-                def step(p=p) -> None:
+                def step(p: Physics = p, w: int = w) -> None:
                     mujoco.mj_step(model, p.data)
-                    snapshots[sum(len(s) > w for s in snapshots)].append(mujoco.MjData(model))
-                    mujoco.mj_copyData(snapshots[sum(len(s) > w for s in snapshots) - 1][-1], model, p.data)
+                    copy = mujoco.MjData(model)
+                    mujoco.mj_copyData(copy, model, p.data)
+                    snapshots[sum(len(s) > w for s in snapshots)].append(copy)
                 u.control_step(step)
             for k in range(substeps):
                 steps.assign(np.full(nworld, (t - 1) * substeps + k + 1, np.int64))
@@ -127,3 +131,25 @@ def test_world_i_reads_what_the_updater_reads_on_the_same_trajectory(seed: int, 
                 else:  # sums of float32 samples and noise arithmetic: to float32 rounding
                     np.testing.assert_allclose(got[name][w], value, rtol=1e-5, atol=1e-6,
                                                err_msg=f"world {w} step {t} {name}")
+
+
+@pytest.mark.parametrize("seed, noise", [(s, s % 3 != 0) for s in (*range(9), 11, 13)])
+def test_world_i_reads_what_the_updater_reads_on_the_same_trajectory(seed: int, noise: bool) -> None:
+    replay(lambda: suite(seed, noise), mujoco.MjModel.from_xml_path(ROBOT), 3, 1 + seed % 3, bool(seed % 2), 30, seed)
+
+
+@pytest.mark.parametrize("recipe, like", [("quadruped", "go2_like.xml"), ("humanoid", "g1_like.xml")])
+def test_the_recipes_read_the_same_on_both_engines(recipe: str, like: str) -> None:
+    """docs/recipes.md's suites on our stand-ins of Menagerie's Go2 and G1 (their height scan aside: the Warp
+    engine does not run height scans)."""
+    text = (ROOT / "docs" / "recipes" / f"{recipe}.yaml").read_text()
+    line = next(line for line in text.splitlines() if line.startswith("model: "))
+    loaded = sensorcfg.loads(text.replace(line, ""), file=f"{recipe}.yaml")
+    model = loaded.compile(str(MODELS / like), batch=True)
+
+    def make() -> dict[str, Any]:
+        built = loaded.build(model, batch=True)
+        return {name: obs for name, obs in built.items() if obs.enabled and not getattr(obs, "per_simulation", False)}
+
+    substeps = loaded.updater_kwargs(model).get("physics_steps_per_control_step") or 4
+    replay(make, model, 2, int(substeps), False, 12, 0)
