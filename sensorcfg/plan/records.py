@@ -37,7 +37,7 @@ FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 
 
-def frozen(array: npt.ArrayLike, dtype: npt.DTypeLike = None) -> np.ndarray:
+def frozen(array: npt.ArrayLike, dtype: npt.DTypeLike | None = None) -> np.ndarray:
     """A read-only contiguous copy: a plan's arrays cannot be changed by the engine that runs it."""
     out = np.array(array, dtype=dtype, copy=True, order="C")
     out.flags.writeable = False
