@@ -164,14 +164,39 @@ class Suite:
             problems.append(pos.problem(message, loc) if pos else Problem(message, loc, self.file))
         return problems
 
-    def _bind(self, model: ModelLike, import_callables: bool, batch: bool = False, call_callables: bool = True) -> tuple[
-            dict[str, Observable], list[Problem]]:
+    def _bind(self, model: ModelLike, import_callables: bool, batch: bool = False, call_callables: bool = True,
+              warp: bool = False) -> tuple[dict[str, Observable], list[Problem]]:
         from .binding import bind
 
+        batch = batch or warp  # the Warp engine refuses what a batch refuses, and more
         mjmodel, refused = self._compiled(model, batch)
         observables, problems = bind(self._loaded, mjmodel, import_callables=import_callables,
                                      call_callables=call_callables, batch=batch, refused=refused)
-        return observables, problems + self._memory_problems(observables, mjmodel)
+        problems += self._memory_problems(observables, mjmodel)
+        if warp:
+            problems += self._warp_problems(observables, mjmodel)
+        return observables, problems
+
+    def _warp_problems(self, observables: Mapping[str, Observable], model: mujoco.MjModel) -> list[Problem]:
+        """What `WarpEnvironment` does not run besides what a batch refuses (`warp.support.refusals`), at the
+        lines that ask for it: of every enabled sensor that bound; a clean twin's only while its source does
+        not run (else its source's problems say the same at the same lines)."""
+        from .observables import Feature
+        from .physics import Physics
+        from .warp.support import refusals
+
+        physics: Physics | None = None
+        found: list[tuple[str, str | tuple[str | int, ...], str]] = []
+        for name, observable in observables.items():
+            source = observables.get(self._loaded.twins.get(name, ""))
+            if not observable.enabled or (source is not None and source.enabled):
+                continue
+            field = None
+            if isinstance(observable, Feature):  # the field its reader reads, as WarpEnvironment finds it
+                physics = physics or Physics(model)
+                field = observable.reader(physics).field
+            found += [(name, key, message) for key, message in refusals(observable, field)]
+        return list(dict.fromkeys(self._at_lines(found)))  # a `defaults` line's problem once, not per sensor
 
     def compile(self, model: ModelLike = None, *, batch: bool = False) -> mujoco.MjModel:
         """The model with the MuJoCo sensors (and sites) the suite's native kinds add: `model` is an MJCF
@@ -230,8 +255,10 @@ class Suite:
         except ValueError:  # reported by binding at its line
             return 1
 
-    def _at_lines(self, found: Sequence[tuple[str, str, str]]) -> list[Problem]:
-        """(sensor, key, message) as problems at the key's line; a clean twin's at its source's, which wrote it."""
+    def _at_lines(self, found: Sequence[tuple[str, str | tuple[str | int, ...], str]]) -> list[Problem]:
+        """(sensor, key, message) as problems at the key's line (a key, or a path below the sensor such as
+        ("noise", 0, "type"); the nearest written node above it when the suite does not write it); a clean
+        twin's at its source's, which wrote it."""
         from .binding import twin_message
 
         problems = []
@@ -239,37 +266,44 @@ class Suite:
             source = self._loaded.twins.get(name)
             if source is not None:
                 name, message = source, twin_message(name, message)
+            head, rest = (key, ()) if isinstance(key, str) else (str(key[0]), tuple(key[1:]))
             raw = self._loaded.doc.value["sensors"].get(name) or {}
             defaults = self._loaded.doc.value.get("defaults") or {}
-            path = ("sensors", name, key) if key in raw or key not in defaults else ("defaults", key)
+            path = (("sensors", name, head) if head in raw or head not in defaults else ("defaults", head)) + rest
+            path = next((path[:n] for n in range(len(path), 2, -1) if path[:n] in self._loaded.doc.values), path)
             pos = self._loaded.doc.pos(path) or self._loaded.doc.pos(("sensors", name))
-            problems.append(pos.problem(message, ".".join(path)) if pos else Problem(message, ".".join(path)))
+            loc = ".".join(map(str, path))
+            problems.append(pos.problem(message, loc) if pos else Problem(message, loc))
         return problems
 
     def build(self, model: ModelLike = None, *, import_callables: bool = True,
-              batch: bool = False) -> dict[str, Observable]:
+              batch: bool = False, warp: bool = False) -> dict[str, Observable]:
         """The observables of every sensor, in file order, with their `enabled` flags set.
 
         `model` is a `mujoco.MjModel`, a model path, an `MjSpec`, or None for the suite's own `model:`; a
         path or spec is compiled with the suite's MuJoCo sensor kinds, an MjModel must already carry them
         (`Suite.compile`), and the observables then run only on that model. `generic`
         callables are imported (pass `import_callables=False` to leave them unimported placeholders).
-        With `batch`, what BatchEnvironment cannot run is a problem too. Raises SuiteError listing every problem.
+        With `batch`, what BatchEnvironment cannot run is a problem too; with `warp`, what WarpEnvironment cannot
+        run (all a batch cannot, and more: `sensorcfg.warp.support`). Raises SuiteError listing every problem.
         """
-        observables, problems = self._bind(model, import_callables, batch)
+        observables, problems = self._bind(model, import_callables, batch, warp=warp)
         if problems:
             raise SuiteError(problems)
         return observables
 
-    def check(self, model: ModelLike = None, *, import_callables: bool = False, batch: bool = False) -> list[Problem]:
+    def check(self, model: ModelLike = None, *, import_callables: bool = False, batch: bool = False,
+              warp: bool = False) -> list[Problem]:
         """Every problem of the suite against `model` (empty when it builds); never raises for a mistake.
 
         `generic` and `custom` callables are not imported unless `import_callables` is true, and never called;
-        with `batch`, what BatchEnvironment cannot run is a problem too. `options` are checked too (the
-        keyframe exists; a control interval is a whole number of the model's physics steps).
+        with `batch`, what BatchEnvironment cannot run is a problem too; with `warp`, what WarpEnvironment
+        cannot run (all a batch cannot, and more: `sensorcfg.warp.support`; Warp need not be installed).
+        `options` are checked too (the keyframe exists; a control interval is a whole number of the model's
+        physics steps).
         """
         try:
-            return self._bind(model, import_callables, batch, call_callables=False)[1]
+            return self._bind(model, import_callables, batch, call_callables=False, warp=warp)[1]
         except SuiteError as e:
             return list(e.problems)
 

@@ -27,11 +27,15 @@ __all__ = ["add_parser", "FileResult", "Found", "REPORTERS", "collect", "check_f
 
 SUFFIXES = (".yaml", ".yml")
 
+# --engine -> (the batch's checks, the Warp engine's checks): what `Suite.check` is asked besides `Environment`'s
+ENGINES: dict[str, tuple[bool, bool]] = {"single": (False, False), "batch": (True, False), "warp": (True, True)}
+
 EXAMPLES = """examples:
   sensorcfg validate configs/                        every *.yaml / *.yml below configs/
   sensorcfg validate my_suite.yaml --model robot.xml also check elements, kinds, units and shapes
   sensorcfg validate configs/imu.yaml --set defaults.buffer=2 --format json
   sensorcfg validate configs/ --import               also import 'generic' and 'custom' callables
+  sensorcfg validate configs/ --engine warp          also what the Warp engine (GPU) does not run
 
 Without --model, a suite that names its model ('model: robot.xml') is checked against it; one that does
 not is checked for syntax and schema only (the summary says how many)."""
@@ -63,9 +67,12 @@ def add_parser(sub: Any, epilog: str) -> None:
     p.add_argument("--format", choices=sorted(REPORTERS), default="text", help="output format (default: text)")
     p.add_argument("--import", dest="import_callables", action="store_true",
                    help="import 'generic' and 'custom' callables too (imported, never called)")
-    p.add_argument("--batch", action="store_true",
-                   help="also check what BatchEnvironment needs (no noise, aggregators or drawn schedules on "
-                   "cameras; float64 mjData features; no generic or custom callables; ...)")
+    p.add_argument("--engine", choices=list(ENGINES), default="single",
+                   help="check what this engine runs: single (Environment; the default), batch (BatchEnvironment: "
+                   "no noise, aggregators or drawn schedules on cameras; float64 mjData features; no generic or "
+                   "custom callables; ...), warp (WarpEnvironment: what batch refuses, and cameras, height scans, "
+                   "drawn schedules, some noise stages and fields; Warp need not be installed)")
+    p.add_argument("--batch", action="store_true", help="the same as --engine batch")
     add_common_suite_args(p, every=True)
     p.set_defaults(handler=command)
 
@@ -155,11 +162,12 @@ def _walk(root: Path, found: Found) -> None:
     found.files[first:] = sorted(found.files[first:])  # path order: a folder's files and subfolders by name
 
 def check_file(path: Path, model: tuple[str, Any] | None, overrides: Sequence[str], import_callables: bool,
-               models: dict[str, Any] | None = None, extends_root: str | None = None, batch: bool = False
+               models: dict[str, Any] | None = None, extends_root: str | None = None, engine: str = "single"
                ) -> FileResult:
     """One suite's problems. `model` is (name, MjModel) from --model, or None for the suite's own `model:`;
-    `models` caches the suites' own models by path so a folder of suites for one robot loads it once.
-    Sensors that pass the schema are checked against the model even when others do not."""
+    `models` caches the suites' own models by path so a folder of suites for one robot loads it once;
+    `engine` a key of `ENGINES`. Sensors that pass the schema are checked against the model even when others
+    do not."""
     from ..config import parse_path
     from ..suite import Suite
 
@@ -170,6 +178,7 @@ def check_file(path: Path, model: tuple[str, Any] | None, overrides: Sequence[st
     if result.suite is None or (model is None and result.suite.model is None):
         return FileResult(str(path), None, problems, loaded=result.suite is not None and not problems)
     suite = Suite(result.suite)
+    batch, warp = ENGINES[engine]
     if model is not None:
         name, target = model
     else:
@@ -184,7 +193,7 @@ def check_file(path: Path, model: tuple[str, Any] | None, overrides: Sequence[st
     if target is not None and suite._adds_to_model(batch):
         target = name  # the path: the suite compiles it with what it adds (sensors, cameras), as the environments do
     seen = {(p.file, p.line, p.col, p.message) for p in problems}
-    problems += [p for p in suite.check(target, import_callables=import_callables, batch=batch)
+    problems += [p for p in suite.check(target, import_callables=import_callables, batch=batch, warp=warp)
                  if (p.file, p.line, p.col, p.message) not in seen]
     files = list(dict.fromkeys(p.file for p in problems))
     problems.sort(key=lambda p: (files.index(p.file), p.line or 0, p.col or 0))
@@ -252,8 +261,9 @@ def command(args: argparse.Namespace) -> int:
     if args.import_callables:
         importable_cwd()
     models: dict[str, Any] = {}
+    engine = "batch" if args.batch and args.engine == "single" else args.engine  # (warp's checks include batch's)
     results = [check_isolated(f, model, with_model(args.overrides, args.model) or [], args.import_callables, models, args.extends_root,
-                              args.batch) for f in found.files]
+                              engine) for f in found.files]
     results += found.errors
     print(REPORTERS[args.format](results))
     errors = [r for r in results if r.error]

@@ -36,14 +36,15 @@ from ..batch.environment import root_seed, sim_seed
 from ..draws import episode_entropy, sensor_keys
 from ..env.environment import (ControlLoop, ModelArg, action_spec, episode_timing, keyframe_index,
                                model_and_observables, model_source, random_state_from)
-from ..errors import ArgumentError, SuiteError
+from ..errors import ArgumentError, Problem, SuiteError
 from ..noise.bounds import noisy_bounds
 from ..noise.level import leveled, own_bounds, set_level
 from ..physics import Physics
 from ..plan.bind import bind, plan_suite
 from ..runtime.updater import observation_spec
 from .philox import MODULE_OPTIONS
-from .sensors import Sensors, refusal
+from .sensors import Sensors
+from .support import field_refusal, refusals
 from .worlds import Worlds
 
 __all__ = ["WarpEnvironment", "WarpTimeStep"]
@@ -206,29 +207,19 @@ class WarpEnvironment(ControlLoop):
 
     @staticmethod
     def _refuse(bound: Any) -> None:
-        """What this engine does not run yet, named at each sensor (`validate --engine warp` says it at the
-        suite's lines)."""
-        problems = []
-        for entry in bound.cameras:
-            problems.append(f"sensor {entry.name!r}: cameras and height scans are not run by the Warp engine yet")
-        for entry in bound.drawn:
-            problems.append(f"sensor {entry.name!r}: drawn intervals and delays are not run by the Warp engine yet; "
-                            "give constant ones or run this suite on the CPU engines")
-        for entry in bound.fixed:
-            noise = entry.channel.noise
-            for step in () if noise is None else _steps(noise):
-                why = refusal(step)
-                if why:
-                    problems.append(f"sensor {entry.name!r}: noise stage {step.stream} ({step.stage}): {why}")
+        """What this engine does not run (`support.refusals`), each at its sensor's key (`validate --engine
+        warp` says the same at the suite's lines)."""
+        fields = {e.name: source.field for e, source in zip((*bound.fixed, *bound.drawn), bound.sources())}
+        problems = [Problem(message, ".".join(map(str, ("sensors", entry.name, *key))))
+                    for entry in bound.entries for key, message in refusals(entry.observable, fields.get(entry.name))]
         if problems:
             raise SuiteError(problems)
 
     def _field_views(self, fields: list[str]) -> dict[str, wp.array]:
         data = self._worlds.data
-        missing = [f for f in fields if getattr(data, f, None) is None]
+        missing = [f for f in fields if getattr(data, f, None) is None]  # (an installed MuJoCo Warp unlike FIELDS')
         if missing:
-            raise SuiteError(f"MuJoCo Warp's Data has no field {missing[0]!r}, which the suite reads; run this suite "
-                             "on the CPU engines")
+            raise SuiteError(field_refusal(missing[0]))
         return {f: _flat(getattr(data, f), self._nworld) for f in fields}
 
     # -- seeds and keys -------------------------------------------------------------------------------
@@ -422,13 +413,6 @@ def _drawn_at_reset(pipeline: Any, key: np.ndarray, stream: int) -> np.ndarray:
             if getattr(part, "stream", None) == stream and isinstance(part, (EpisodeDraw, RandomWalk)):
                 return np.ravel(part.value if isinstance(part, EpisodeDraw) else part.start)
     raise ValueError(f"no stage {stream} draws values at reset")  # the plan and the pipeline disagree
-
-
-def _steps(pipeline: Any) -> list[Any]:
-    from ..plan.noise import step
-
-    shape = tuple(pipeline.shape)
-    return [step(config, i, shape) for i, config in enumerate(pipeline.configs)]
 
 
 def torch_views(observation: Mapping[str, wp.array]) -> dict[str, Any]:

@@ -13,8 +13,8 @@ per world indexed by the world's own step: the row of step s is `s % rows` (the 
 
 Values are float32 (MuJoCo Warp's); noise arithmetic runs in float64 on them, with the random numbers of
 `noise/streams.py` (`philox.value`), keyed by (sensor key, sample index, stage, lane, value) as on the CPU.
-Noise stages run here: gaussian, uniform, clip, quantize, dropout, outlier, lowpass (`STAGES`); the others
-are refused by `refusal`.
+The noise stages run here are `support.STAGES` (`STAGES` holds each one's kernel code); `support.refusals`
+refuses the others.
 """
 
 from __future__ import annotations
@@ -27,11 +27,12 @@ import warp as wp
 
 from ..plan import FixedTiming, NoiseProgram, NoiseStep, SuitePlan
 from .philox import MODULE_OPTIONS, Ziggurat, value, ziggurat
+from .support import STAGES as _RUN
 
-__all__ = ["STAGES", "Sensors", "refusal"]
+__all__ = ["STAGES", "Sensors"]
 
 # stage type -> (code, the parameters filling slots 0..2 of `params`); a lowpass's slot 0 is computed (alpha)
-STAGES: Mapping[str, tuple[int, tuple[str, ...]]] = {
+_KERNEL: Mapping[str, tuple[int, tuple[str, ...]]] = {
     "gaussian": (0, ("mean", "std")),
     "uniform": (1, ("low", "high")),
     "clip": (2, ("min", "max")),
@@ -43,22 +44,12 @@ STAGES: Mapping[str, tuple[int, tuple[str, ...]]] = {
     "scale": (8, ()),
     "random_walk": (9, ("std", "correlation_time")),  # slots 0, 1: the walk's a and c per sample index
 }
+STAGES: Mapping[str, tuple[int, tuple[str, ...]]] = {stage: _KERNEL[stage] for stage in _RUN}  # those it runs
 EPISODE_DRAWS = frozenset({"bias", "scale", "random_walk"})  # stages with values drawn at each reset
 wp.set_module_options(MODULE_OPTIONS)  # numpy's roundings in the noise arithmetic (no fused multiply-adds)
 
 _DROPOUT_MODES = {"hold": 0, "zero": 1, "nan": 2}
 _NO_BOUND = (-math.inf, math.inf)
-
-
-def refusal(step: NoiseStep) -> str | None:
-    """Why the Warp engine cannot run a noise stage, or None."""
-    if step.stage not in STAGES:
-        return (f"a {step.stage} stage is not run by the Warp engine yet (it runs "
-                f"{', '.join(STAGES)}); run this suite on the CPU engines")
-    if step.drawn:
-        return (f"parameters drawn per episode ({', '.join(step.drawn)}) are not run by the Warp engine yet; "
-                "give fixed values or run this suite on the CPU engines")
-    return None
 
 
 @wp.kernel

@@ -151,7 +151,7 @@ def test_what_the_engine_does_not_run_is_refused_at_the_sensor() -> None:
     obs["turned"].noise = build_noise([{"type": "gaussian", "std": 0.1}, {"type": "misalign", "std": 0.01}], (3,),
                                       np.float64, TIMESTEP)
     obs["turned"].enabled = True
-    with pytest.raises(SuiteError, match=r"sensor 'turned': noise stage 1 \(misalign\)"):
+    with pytest.raises(SuiteError, match=r"sensors.turned.noise.1.type: a misalign noise stage is not run"):
         WarpEnvironment(ROBOT, obs, 2, device="cpu")
 
 

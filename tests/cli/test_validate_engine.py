@@ -1,0 +1,127 @@
+"""`sensorcfg validate --engine warp`: what the Warp engine does not run, at the suite's lines, without Warp.
+
+The checks come from `sensorcfg.warp.support` (the rules `WarpEnvironment` refuses by; tests/warp checks
+that it refuses the same suite with the same problems). Every command here runs with Warp and MuJoCo Warp
+made unimportable, as on a CI or pre-commit machine without them.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import sensorcfg
+from conftest import MODELS
+
+# a suite the single-simulation Environment and the CPU batch both run, with one thing of each class the Warp
+# engine does not: a noise stage outside its kernels (misalign), a drawn interval, a camera, a field MuJoCo Warp lacks
+WARP_SUITE = """model: arm.xml  # copied next to the suite
+sensors:
+  turned:
+    kind: xpos
+    element: site:tip
+    noise: [{type: misalign, std: 1deg}]
+  drawn: {kind: qvel, element: joint:elbow, interval: {uniform: [1, 3]}}
+  cam:
+    kind: rgb
+    element: camera:hand_cam
+    camera: {width: 32, height: 24}
+  tip_quat: {kind: xquat, element: site:tip}
+"""
+
+WARP_PROBLEMS = [
+    "s.yaml:6:20: error: sensors.turned.noise.0.type: a misalign noise stage is not run by the Warp engine yet "
+    "(it runs gaussian, uniform, bias, scale, random_walk, quantize, clip, dropout, outlier, lowpass); use those, "
+    "or run this suite on the CPU engines",
+    "s.yaml:7:55: error: sensors.drawn.interval: a drawn interval is not run by the Warp engine yet; give a "
+    "constant one, or run this suite on the CPU engines",
+    "s.yaml:9:11: error: sensors.cam.kind: cameras are rendered per simulation on the CPU, which the Warp engine "
+    "does not do yet; remove this sensor, or run this suite on the CPU engines",
+    "s.yaml:12:20: error: sensors.tip_quat.kind: kind 'xquat' reads mjData's site_xquat, which MuJoCo Warp's Data "
+    "does not hold as float32 values; read 'xmat' instead (the same orientation as a matrix), or run this suite "
+    "on the CPU engines",
+]
+
+# what the Warp engine runs: fixed schedules, its noise stages, aggregators, MuJoCo sensor kinds, clean twins
+CLEAN_SUITE = """model: arm.xml
+defaults: {twin: "{name}_clean"}
+sensors:
+  joints:
+    kind: qpos
+    element: [joint:shoulder, joint:elbow]
+    delay: 4ms
+    noise: [{type: gaussian, std: 0.01}, {type: quantize, step: 0.001}, {type: clip, min: -1, max: 1}]
+  speed: {kind: qvel, element: joint:elbow, interval: 4ms, buffer: 3, aggregator: mean,
+          noise: [{type: uniform, low: -0.1, high: 0.1}, {type: lowpass, cutoff: 20Hz}]}
+  hand: {kind: xmat, element: site:tip, noise: [{type: dropout, p: 0.1}, {type: outlier, p: 0.01, scale: 1}]}
+  gyro: {kind: gyro, element: site:imu, noise: [{type: gaussian, std: 0.001}]}
+  force: {kind: force, element: actuator:shoulder_motor,
+          noise: [{type: bias, std: 0.1}, {type: scale, low: 0.9, high: 1.1}, {type: random_walk, std: 0.01}]}
+"""
+
+
+def validate(suite: Path, *args: str) -> subprocess.CompletedProcess:
+    """`sensorcfg validate` of `suite` (named from its folder) in a process where `import warp` and `import
+    mujoco_warp` fail."""
+    code = ("import sys, runpy; sys.modules['warp'] = sys.modules['mujoco_warp'] = None; "
+            f"sys.argv = ['sensorcfg', 'validate', *{[suite.name, *args]!r}]; "
+            "runpy.run_module('sensorcfg', run_name='__main__')")
+    here = str(Path(sensorcfg.__file__).parents[1])  # the sensorcfg under test, whatever the working directory
+    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"),
+           "PYTHONPATH": os.pathsep.join([here, *filter(None, [os.environ.get("PYTHONPATH")])])}
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300,
+                          cwd=suite.parent, env=env)
+    assert "Traceback" not in done.stderr, done.stderr
+    return done
+
+
+def suite_file(tmp_path: Path, text: str) -> Path:
+    shutil.copy(MODELS / "arm.xml", tmp_path)  # a suite's model lies in its folder tree
+    suite = tmp_path / "s.yaml"
+    suite.write_text(text)
+    return suite
+
+
+def test_validate_engine_warp_reports_what_the_warp_engine_does_not_run_at_its_line(tmp_path: Path) -> None:
+    suite = suite_file(tmp_path, WARP_SUITE)
+    for args in [(), ("--batch",), ("--engine", "batch")]:  # Environment and BatchEnvironment run all of it
+        done = validate(suite, *args)
+        assert (done.returncode, done.stdout) == (0, "1 suite valid\n"), args
+    for args in [("--engine", "warp"), ("--engine", "warp", "--batch"), ("--batch", "--engine", "warp")]:
+        done = validate(suite, *args)
+        assert done.returncode == 1 and done.stdout.splitlines() == [*WARP_PROBLEMS, "4 problems in 1 of 1 suite"]
+
+
+def test_validate_engine_warp_checks_what_the_batch_refuses_too(tmp_path: Path) -> None:
+    suite = suite_file(tmp_path, "model: arm.xml\nsensors:\n  mass: {kind: mass, element: body:hand, constant: true}\n")
+    expected = ["s.yaml:3:52: error: sensors.mass.constant: a BatchEnvironment reads mjData fields across "
+                "simulations, not model constants; remove it, or use the single-simulation Environment",
+                "1 problem in 1 of 1 suite"]
+    assert validate(suite, "--engine", "warp").stdout.splitlines() == expected
+
+
+def test_validate_engine_warp_says_a_defaults_line_once_and_a_twins_at_its_sources_line(tmp_path: Path) -> None:
+    suite = suite_file(tmp_path, """model: arm.xml
+defaults:
+  noise: [{type: gaussian, std: {uniform: [0.01, 0.02]}}]
+sensors:
+  a: {kind: qpos, element: joint:elbow}
+  b: {kind: qvel, element: joint:elbow}
+  c: {kind: qvel, element: joint:shoulder, twin: c_clean, enabled: false, buffer: 2, interval: {choice: [1, 2]},
+      noise: []}
+""")
+    assert validate(suite, "--engine", "warp").stdout.splitlines() == [
+        "s.yaml:3:33: error: defaults.noise.0.std: its std is drawn per episode, which the Warp engine does not run "
+        "yet; give a fixed value, or run this suite on the CPU engines",
+        "s.yaml:7:96: error: sensors.c.interval: its clean twin 'c_clean' runs (enabled; 'twin: false' drops it): "
+        "a drawn interval is not run by the Warp engine yet; give a constant one, or run this suite on the CPU "
+        "engines",
+        "2 problems in 1 of 1 suite"]
+
+
+def test_a_suite_the_warp_engine_runs_validates_clean(tmp_path: Path) -> None:
+    done = validate(suite_file(tmp_path, CLEAN_SUITE), "--engine", "warp")
+    assert (done.returncode, done.stdout) == (0, "1 suite valid\n"), done.stdout
