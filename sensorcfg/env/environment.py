@@ -176,13 +176,14 @@ def action_spec(model: mujoco.MjModel, leading: tuple[int, ...] = ()) -> specs.B
                               minimum=np.where(limited, lo, -np.inf), maximum=np.where(limited, hi, np.inf))
 
 
-def model_and_observables(model: Any, suite: Any, batch: bool = False, extra: Sequence[Any] = (), nsim: int = 1
-                          ) -> tuple[mujoco.MjModel, dict[str, Any], dict[str, Any]]:
+def model_and_observables(model: Any, suite: Any, batch: bool = False, extra: Sequence[Any] = (), nsim: int = 1,
+                          warp: bool = False) -> tuple[mujoco.MjModel, dict[str, Any], dict[str, Any]]:
     """The model (a path or an MjSpec compiled with the suite's MuJoCo sensor kinds, then the `extra`
     sensors: a batch's relays), its observables and the Updater's keyword arguments, from a Suite, a suite
     path, or a dict of observables; the suite's `options.keyframe` too, under "keyframe" (the environment
-    pops it). With `batch`, what a BatchEnvironment cannot run is a problem too, and so is what the
-    suite's sensors would keep in `nsim` simulations (`Suite._memory_problems`)."""
+    pops it). With `batch`, what a BatchEnvironment cannot run is a problem too (with `warp`, what a
+    WarpEnvironment cannot), and so is what the suite's sensors would keep in `nsim` simulations
+    (`Suite._memory_problems`)."""
     if isinstance(suite, Mapping):
         if isinstance(model, (str, os.PathLike, mujoco.MjSpec)) and (extra or isinstance(model, mujoco.MjSpec)):
             from ..native import compile_model
@@ -203,7 +204,7 @@ def model_and_observables(model: Any, suite: Any, batch: bool = False, extra: Se
             load_model(model)  # a missing or broken file: the same error as without a suite
         model = suite._compile(model, batch, extra)
     model = load_model(model)
-    observables = suite.build(model, batch=True) if batch else suite.build(model)
+    observables = suite.build(model, batch=True, warp=warp) if batch else suite.build(model)
     problems = suite._memory_problems(observables, model, nsim, batch) if nsim > 1 else []
     if problems:
         raise SuiteError(problems)

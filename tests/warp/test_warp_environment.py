@@ -164,3 +164,13 @@ def test_a_noise_level_applies_from_each_worlds_next_episode() -> None:
                               e.data.qpos.numpy()[:, [7, 8]])  # this episode keeps its level
     clean = e.reset().observation
     assert clean["noisy"].numpy()[:, 0].tobytes() == clean["qpos_now"].numpy()[:, 0].tobytes()
+
+
+def test_a_suite_file_is_refused_at_its_lines(tmp_path) -> None:
+    suite = tmp_path / "s.yaml"
+    suite.write_text("version: 1\nsensors:\n  tip:\n    kind: xpos\n    element: site:hand_site\n"
+                     "    noise:\n      - {type: misalign, std: 0.01}\n")
+    with pytest.raises(SuiteError) as raised:
+        WarpEnvironment(ROBOT, str(suite), 2, device="cpu")
+    assert str(raised.value).startswith(f"{suite}:7:"), str(raised.value)
+    assert "sensors.tip.noise.0.type: a misalign noise stage is not run by the Warp engine" in str(raised.value)
