@@ -150,8 +150,7 @@ class WarpEnvironment(ControlLoop):
         self._batch_shape = (self._nworld,)
         self._reward_fn, self._termination_fn = reward_fn, termination_fn
         model, suite = model_source(model, suite)
-        self._model, observables, options = model_and_observables(model, suite, batch=True, nsim=self._nworld,
-                                                                      warp=True)
+        self._model, observables, options = model_and_observables(model, suite, True, (), self._nworld, warp=True)
         leveled(observables)
         self._observables = observables
         self._keyframe = keyframe_index(self._model, keyframe, options.pop("keyframe", None))
