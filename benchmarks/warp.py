@@ -55,6 +55,7 @@ class Row:
     overhead: float  # %
     observations: int  # arrays per read (twins included)
     values: int  # float32 values per world and read
+    setup: float  # seconds to build the environment (host-side seeds and key table included)
 
 
 def humanoid_model(path: str | None) -> Any:
@@ -127,8 +128,11 @@ def measure(label: str, model: Any, suite: Path, nworld: int, device: str, steps
     from sensorcfg.warp.environment import WarpEnvironment
 
     budgets = mjw.OverflowType.ITERATIONS | mjw.OverflowType.LS_ITERATIONS
+    built = time.perf_counter()
     env = WarpEnvironment(model, str(suite), nworld, device=device, physics_steps_per_control_step=SUBSTEPS,
                           seed=0)
+    wp.synchronize_device(env.device)
+    built = time.perf_counter() - built
     worlds, ctrl = env.worlds, env.worlds.data.ctrl
     # a solver budget reached is by design in MJX-tuned models (Menagerie's *_mjx.xml: iterations="1"), and
     # MuJoCo Warp prints it from the device per world and step: those two are not printed (the other
@@ -166,7 +170,8 @@ def measure(label: str, model: Any, suite: Path, nworld: int, device: str, steps
     physics_rate, suite_rate = statistics.median(rates["physics"]), statistics.median(rates["suite"])
     spec = env.observation_spec()
     values = sum(int(_size(s.shape[1:])) for s in spec.values())
-    return Row(label, nworld, physics_rate, suite_rate, (physics_rate / suite_rate - 1) * 100, len(spec), values)
+    return Row(label, nworld, physics_rate, suite_rate, (physics_rate / suite_rate - 1) * 100, len(spec), values,
+               built)
 
 
 def _size(shape: tuple[int, ...]) -> int:
@@ -230,7 +235,8 @@ def main(argv: list[str] | None = None) -> None:
         for nworld in worlds:
             rows.append(measure(name, model, suite, nworld, args.device, steps, args.pairs, verify=args.quick))
             r = rows[-1]
-            print(f"  {r.model} x {r.worlds}: {r.observations} observations, {r.values} values per world", flush=True)
+            print(f"  {r.model} x {r.worlds}: {r.observations} observations, {r.values} values per world; built in "
+                  f"{r.setup:.1f} s", flush=True)
     print(f"{'model':<10}{'worlds':>8}{'physics M world-steps/s':>26}{'with suite':>12}{'overhead %':>12}")
     for r in rows:
         print(f"{r.model:<10}{r.worlds:>8}{r.physics / 1e6:>26.4g}{r.suite / 1e6:>12.4g}{r.overhead:>12.1f}")
