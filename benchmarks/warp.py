@@ -14,7 +14,10 @@ buffers, aggregators, two noise stages per sensor, clean twins. A control step i
 Both run on the same worlds in this process, in pairs (alternating which goes first); the table gives
 the medians of the pairs, in physics world-steps per second (worlds x physics steps / s), and the
 overhead: (physics rate / suite rate - 1) x 100 %. The device is synchronised before each timer is read.
-WarpEnvironment has no CUDA-graph capture, so both loops time plain launches (the table says so).
+WarpEnvironment has no CUDA-graph capture, so both loops time plain launches (the table says so). Each
+pair also times one `Worlds.forward()` per control step, printed per row as % of the physics' time: the
+part of the overhead that is the restart path's forward, run every control step whether a world restarts
+or not.
 
     python benchmarks/warp.py --device cuda:0 --worlds 1024,4096,16384 --model-go2 .../scene_mjx.xml
     python benchmarks/warp.py --quick        # CPU device, 2 worlds, a few steps: checks, not speed
@@ -56,6 +59,7 @@ class Row:
     observations: int  # arrays per read (twins included)
     values: int  # float32 values per world and read
     setup: float  # seconds to build the environment (host-side seeds and key table included)
+    forward: float  # one mjw.forward of every world per control step, in % of the physics' time
 
 
 def humanoid_model(path: str | None) -> Any:
@@ -146,6 +150,10 @@ def measure(label: str, model: Any, suite: Path, nworld: int, device: str, steps
             wp.copy(ctrl, actions[k % len(actions)])
             worlds.step(SUBSTEPS)
 
+    def forward() -> None:  # what WarpEnvironment.step's restart path runs every control step
+        for _ in range(steps):
+            worlds.forward()
+
     def with_suite() -> None:
         for k in range(steps):
             last.update(env.step(actions[k % len(actions)]).observation)
@@ -156,10 +164,10 @@ def measure(label: str, model: Any, suite: Path, nworld: int, device: str, steps
         worlds.step(SUBSTEPS)
         env.step(actions[k])
     wp.synchronize_device(env.device)
-    rates: dict[str, list[float]] = {"physics": [], "suite": []}
-    loops = {"physics": physics, "suite": with_suite}
+    rates: dict[str, list[float]] = {"physics": [], "suite": [], "forward": []}
+    loops = {"physics": physics, "suite": with_suite, "forward": forward}
     for p in range(pairs):
-        for name in ("physics", "suite") if p % 2 == 0 else ("suite", "physics"):
+        for name in ("physics", "suite", "forward") if p % 2 == 0 else ("suite", "physics", "forward"):
             rates[name].append(nworld * steps * SUBSTEPS / timed(loops[name], env.device))
     if verify:
         check(env, last, f"{label} x {nworld}")
@@ -171,7 +179,7 @@ def measure(label: str, model: Any, suite: Path, nworld: int, device: str, steps
     spec = env.observation_spec()
     values = sum(int(_size(s.shape[1:])) for s in spec.values())
     return Row(label, nworld, physics_rate, suite_rate, (physics_rate / suite_rate - 1) * 100, len(spec), values,
-               built)
+               built, physics_rate / statistics.median(rates["forward"]) * 100)
 
 
 def _size(shape: tuple[int, ...]) -> int:
@@ -236,7 +244,8 @@ def main(argv: list[str] | None = None) -> None:
             rows.append(measure(name, model, suite, nworld, args.device, steps, args.pairs, verify=args.quick))
             r = rows[-1]
             print(f"  {r.model} x {r.worlds}: {r.observations} observations, {r.values} values per world; built in "
-                  f"{r.setup:.1f} s", flush=True)
+                  f"{r.setup:.1f} s; one mjw.forward per control step costs {r.forward:.0f}% of the physics",
+                  flush=True)
     print(f"{'model':<10}{'worlds':>8}{'physics M world-steps/s':>26}{'with suite':>12}{'overhead %':>12}")
     for r in rows:
         print(f"{r.model:<10}{r.worlds:>8}{r.physics / 1e6:>26.4g}{r.suite / 1e6:>12.4g}{r.overhead:>12.1f}")
