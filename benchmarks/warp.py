@@ -1,0 +1,261 @@
+"""The Warp engine's cost: world-steps/s of MuJoCo Warp physics alone and of `WarpEnvironment` with a suite.
+
+Setting: Unitree Go2 (tests/models/go2_like.xml, or Menagerie's unitree_go2/scene_mjx.xml through
+--model-go2) with benchmarks/suites/go2_sim2real.yaml, and dm_control's humanoid (benchmarks/_humanoid.py,
+or --model-humanoid) with benchmarks/suites/humanoid_sim2real.yaml: 20 sensors each, constant delays,
+buffers, aggregators, two noise stages per sensor, clean twins. A control step is 4 physics steps.
+
+- physics alone: per control step the actions copied into `ctrl`, then `Worlds.step(4)` (4 `mjw.step` of
+  every world, each with the worlds' step counts and divergence check);
+- with suite: `WarpEnvironment.step(actions)`: the same physics, the sensors' record after each physics
+  step, the episode bookkeeping (the masked restart and one `mjw.forward` of every world per control
+  step), the reads and the key table's top-up on the host.
+
+Both run on the same worlds in this process, in pairs (alternating which goes first); the table gives
+the medians of the pairs, in physics world-steps per second (worlds x physics steps / s), and the
+overhead: (physics rate / suite rate - 1) x 100 %. The device is synchronised before each timer is read.
+WarpEnvironment has no CUDA-graph capture, so both loops time plain launches (the table says so). Each
+pair also times one `Worlds.forward()` per control step, printed per row as % of the physics' time: the
+part of the overhead that is the restart path's forward, run every control step whether a world restarts
+or not.
+
+    python benchmarks/warp.py --device cuda:0 --worlds 1024,4096,16384 --model-go2 .../scene_mjx.xml
+    python benchmarks/warp.py --quick        # CPU device, 2 worlds, a few steps: checks, not speed
+
+`--quick` (CI) also checks every observation against the observation spec (shape, float32) and that all
+values are finite. On Warp's CPU device the figures say nothing about GPU speed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import os
+import statistics
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+HERE = Path(__file__).resolve().parent
+# run as a script, this folder comes first on sys.path, and this file would shadow the `warp` package
+sys.path[:] = [p for p in sys.path if Path(p or os.curdir).resolve() != HERE]
+ROOT = HERE.parent
+SUITES = HERE / "suites"
+GO2_LIKE = ROOT / "tests" / "models" / "go2_like.xml"
+SUBSTEPS = 4
+
+
+@dataclass(frozen=True)
+class Row:
+    model: str
+    worlds: int
+    physics: float  # world-steps/s, median of the pairs
+    suite: float
+    overhead: float  # %
+    observations: int  # arrays per read (twins included)
+    values: int  # float32 values per world and read
+    setup: float  # seconds to build the environment (host-side seeds and key table included)
+    forward: float  # one mjw.forward of every world per control step, in % of the physics' time
+
+
+def humanoid_model(path: str | None) -> Any:
+    """The humanoid as a path (given) or an MjSpec of dm_control's suite/humanoid.xml (the suite adds its
+    MuJoCo sensor kinds through the spec)."""
+    if path:
+        return path
+    import importlib.util
+
+    import mujoco
+
+    spec = importlib.util.spec_from_file_location("_humanoid", HERE / "_humanoid.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    xml, assets = module.humanoid_xml()
+    return mujoco.MjSpec.from_string(xml, assets)
+
+
+def actions_for(env: Any, count: int, seed: int = 0) -> list[Any]:
+    """`count` (nworld, nu) float32 device arrays of uniform controls over each actuator's ctrlrange
+    ([-1, 1] where it has none), cycled through by both loops."""
+    import numpy as np
+    import warp as wp
+
+    spec = env.action_spec()
+    low = np.where(np.isfinite(spec.minimum), spec.minimum, -1.0)
+    high = np.where(np.isfinite(spec.maximum), spec.maximum, 1.0)
+    rng = np.random.default_rng(seed)
+    return [wp.array(rng.uniform(low, high, spec.shape).astype(np.float32), dtype=wp.float32, device=env.device)
+            for _ in range(count)]
+
+
+def timed(run: Callable[[], None], device: Any) -> float:
+    import warp as wp
+
+    wp.synchronize_device(device)
+    t0 = time.perf_counter()
+    run()
+    wp.synchronize_device(device)
+    return time.perf_counter() - t0
+
+
+def check(env: Any, observation: dict[str, Any], label: str) -> None:
+    """Every observation the spec's shape, float32, finite; the physics state finite."""
+    import numpy as np
+    import warp as wp
+
+    spec = env.observation_spec()
+    if set(observation) != set(spec):
+        raise SystemExit(f"{label}: observations {sorted(observation)} are not the spec's {sorted(spec)}")
+    for name, array in observation.items():
+        if tuple(array.shape) != spec[name].shape or array.dtype != wp.float32:
+            raise SystemExit(f"{label}: {name} is {tuple(array.shape)} {wp.types.type_repr(array.dtype)}, the spec "
+                             f"says {spec[name].shape} float32")
+        values = array.numpy()
+        if not np.isfinite(values).all():
+            raise SystemExit(f"{label}: {name} has non-finite values")
+    for field in ("qpos", "qvel"):
+        if not np.isfinite(env.worlds.state(field)).all():
+            raise SystemExit(f"{label}: the physics' {field} is not finite")
+
+
+def measure(label: str, model: Any, suite: Path, nworld: int, device: str, steps: int, pairs: int,
+            verify: bool) -> Row:
+    import mujoco_warp as mjw
+    import numpy as np
+    import warp as wp
+
+    from sensorcfg.warp.environment import WarpEnvironment
+
+    budgets = mjw.OverflowType.ITERATIONS | mjw.OverflowType.LS_ITERATIONS
+    built = time.perf_counter()
+    env = WarpEnvironment(model, str(suite), nworld, device=device, physics_steps_per_control_step=SUBSTEPS,
+                          seed=0)
+    wp.synchronize_device(env.device)
+    built = time.perf_counter() - built
+    worlds, ctrl = env.worlds, env.worlds.data.ctrl
+    # a solver budget reached is by design in MJX-tuned models (Menagerie's *_mjx.xml: iterations="1"), and
+    # MuJoCo Warp prints it from the device per world and step: those two are not printed (the other
+    # overflows are, and are counted below)
+    worlds.model.opt.warn_overflow = int(worlds.model.opt.warn_overflow) & ~int(budgets)
+    actions = actions_for(env, 8)
+    last: dict[str, Any] = {}
+
+    def physics() -> None:
+        for k in range(steps):
+            wp.copy(ctrl, actions[k % len(actions)])
+            worlds.step(SUBSTEPS)
+
+    def forward() -> None:  # what WarpEnvironment.step's restart path runs every control step
+        for _ in range(steps):
+            worlds.forward()
+
+    def with_suite() -> None:
+        for k in range(steps):
+            last.update(env.step(actions[k % len(actions)]).observation)
+
+    env.reset()
+    for k in range(2):  # warm-up: kernels loaded (compiled on a cold cache), memory pools grown
+        wp.copy(ctrl, actions[k])
+        worlds.step(SUBSTEPS)
+        env.step(actions[k])
+    wp.synchronize_device(env.device)
+    rates: dict[str, list[float]] = {"physics": [], "suite": [], "forward": []}
+    loops = {"physics": physics, "suite": with_suite, "forward": forward}
+    for p in range(pairs):
+        for name in ("physics", "suite", "forward") if p % 2 == 0 else ("suite", "physics", "forward"):
+            rates[name].append(nworld * steps * SUBSTEPS / timed(loops[name], env.device))
+    if verify:
+        check(env, last, f"{label} x {nworld}")
+    overflowed = int(((worlds.overflow.numpy().astype(np.int64) & ~int(budgets)) != 0).sum())
+    if overflowed:
+        print(f"  {label} x {nworld}: {overflowed} world(s) overflowed MuJoCo Warp's contact or constraint sizes "
+              "(their physics is wrong; the timing is still of the work done)")
+    physics_rate, suite_rate = statistics.median(rates["physics"]), statistics.median(rates["suite"])
+    spec = env.observation_spec()
+    values = sum(int(_size(s.shape[1:])) for s in spec.values())
+    return Row(label, nworld, physics_rate, suite_rate, (physics_rate / suite_rate - 1) * 100, len(spec), values,
+               built, physics_rate / statistics.median(rates["forward"]) * 100)
+
+
+def _size(shape: tuple[int, ...]) -> int:
+    n = 1
+    for d in shape:
+        n *= d
+    return n
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--device", default="cpu", help="a Warp device: cpu, cuda:0 (default: cpu)")
+    parser.add_argument("--worlds", help="world counts, comma-separated (default: 8,32 on cpu, 1024,4096,16384 "
+                        "on cuda)")
+    parser.add_argument("--steps", type=int, help="control steps per timed run (default: 10 on cpu, 200 on cuda)")
+    parser.add_argument("--pairs", type=int, default=3, help="timed pairs per setting; medians (default: 3)")
+    parser.add_argument("--models", default="go2,humanoid", help="which models: go2, humanoid (default: both)")
+    parser.add_argument("--model-go2", help="Go2's scene (default: tests/models/go2_like.xml; on the GPU give "
+                        "Menagerie's unitree_go2/scene_mjx.xml)")
+    parser.add_argument("--model-humanoid", help="the humanoid's MJCF (default: dm_control's suite/humanoid.xml, "
+                        "as benchmarks/_humanoid.py finds it)")
+    parser.add_argument("--quick", action="store_true", help="CI: CPU device, 2 worlds, 3 control steps, 1 pair; "
+                        "checks the observations against the spec and that they are finite")
+    parser.add_argument("--json", help="also write the rows to this file")
+    args = parser.parse_args(argv)
+    if args.quick:
+        args.device, args.worlds, args.steps, args.pairs = "cpu", args.worlds or "2", args.steps or 3, 1
+    cuda = args.device.startswith("cuda")
+    worlds = [int(w) for w in (args.worlds or ("1024,4096,16384" if cuda else "8,32")).split(",")]
+    steps = args.steps or (200 if cuda else 10)
+    models = [m.strip() for m in args.models.split(",") if m.strip()]
+    unknown = sorted(set(models) - {"go2", "humanoid"})
+    if unknown or args.pairs < 1 or steps < 1 or min(worlds) < 1:
+        parser.error(f"--models takes go2 and humanoid (got {unknown})" if unknown else
+                     "--pairs, --steps and --worlds must be positive")
+
+    import mujoco
+    import warp as wp
+
+    wp.config.log_level = logging.WARNING  # no line per module loaded
+    wp.init()
+    device = wp.get_device(args.device)
+    go2 = args.model_go2 or str(GO2_LIKE)
+    settings = {"go2": (go2, SUITES / "go2_sim2real.yaml"),
+                "humanoid": (humanoid_model(args.model_humanoid) if "humanoid" in models else None,
+                             SUITES / "humanoid_sim2real.yaml")}
+    print(f"device {device.alias} ({device.name}); mujoco {mujoco.__version__}, warp {wp.__version__}; "
+          f"{SUBSTEPS} physics steps per control step, {steps} control steps per run, medians of {args.pairs} "
+          f"pair(s)")
+    print("CUDA graphs: not used (WarpEnvironment has no capture option): physics alone and with suite both time "
+          "plain launches")
+    print("MuJoCo Warp's solver-budget warnings (iterations, ls_iterations reached) are not printed; other "
+          "overflows are counted per row")
+    if not args.model_go2 and "go2" in models:
+        print(f"go2: {GO2_LIKE.relative_to(ROOT)} (a stand-in; --model-go2 for Menagerie's scene_mjx.xml)")
+    if not cuda:
+        print("Warp's CPU device: correctness runs, not GPU speed")
+    rows = []
+    for name in models:
+        model, suite = settings[name]
+        for nworld in worlds:
+            rows.append(measure(name, model, suite, nworld, args.device, steps, args.pairs, verify=args.quick))
+            r = rows[-1]
+            print(f"  {r.model} x {r.worlds}: {r.observations} observations, {r.values} values per world; built in "
+                  f"{r.setup:.1f} s; one mjw.forward per control step costs {r.forward:.0f}% of the physics",
+                  flush=True)
+    print(f"{'model':<10}{'worlds':>8}{'physics M world-steps/s':>26}{'with suite':>12}{'overhead %':>12}")
+    for r in rows:
+        print(f"{r.model:<10}{r.worlds:>8}{r.physics / 1e6:>26.4g}{r.suite / 1e6:>12.4g}{r.overhead:>12.1f}")
+    if args.quick:
+        print("quick: every observation matched its spec (shape, float32) and was finite")
+    if args.json:
+        Path(args.json).write_text(json.dumps({"device": args.device, "substeps": SUBSTEPS, "steps": steps,
+                                               "pairs": args.pairs, "graphs": False,
+                                               "rows": [asdict(r) for r in rows]}, indent=1))
+
+
+if __name__ == "__main__":
+    main()
