@@ -107,6 +107,13 @@ def _mask(ids: wp.array[wp.int32], mask: wp.array[wp.int32]):
 
 
 @wp.kernel
+def _any(mask: wp.array[wp.int32], out: wp.array[wp.int32]):
+    w = wp.tid()
+    if mask[w] == 1:
+        out[0] = 1
+
+
+@wp.kernel
 def _started(mask: wp.array[wp.int32], needs_reset: wp.array[wp.int32], control_steps: wp.array[wp.int32]):
     w = wp.tid()
     if mask[w] == 1:
@@ -138,7 +145,7 @@ class WarpEnvironment(ControlLoop):
                  physics_steps_per_control_step: int | None = None, control_timestep: float | None = None,
                  time_limit: float | None = None, seed: int | np.random.SeedSequence | None = None,
                  reward_fn: WarpFn | None = None, termination_fn: WarpFn | None = None,
-                 keyframe: int | str | None = None, world_offset: int = 0, key_episodes: int = 16,
+                 keyframe: int | str | None = None, world_offset: int = 0, key_episodes: int = 8,
                  nconmax: int | None = None, njmax: int | None = None, capture: bool | None = None):
         if isinstance(nworld, bool) or not isinstance(nworld, (int, np.integer)) or nworld < 1:
             raise ArgumentError(f"nworld must be a positive integer; got {nworld!r}")
@@ -189,6 +196,7 @@ class WarpEnvironment(ControlLoop):
             self._no_reward = wp.zeros(n, dtype=wp.float32)
             self._no_termination = wp.zeros(n, dtype=bool)
             self._mask = wp.zeros(n, dtype=wp.int32)
+            self._any = wp.zeros(1, dtype=wp.int32)
         self._action_spec = action_spec(self._model, (self._nworld,))
         self._observation_spec = {name: specs.Array((self._nworld, *spec.shape), np.float32, name=name)
                                   if not isinstance(spec, specs.BoundedArray) else
@@ -243,15 +251,14 @@ class WarpEnvironment(ControlLoop):
         if not names:
             return
         table, values, size = self._table, self._values, self._key_episodes
-        for w in range(self._nworld):
+        worlds = np.flatnonzero(self._keyed < used + size)
+        for w in worlds.tolist():
             while self._keyed[w] < used[w] + size:
                 e = int(self._keyed[w]) % size
                 table[w, e], values[w, e] = episode_keys(self._sensors, self._pipelines,
                                                          episode_entropy(self._random_states[w]))
                 self._keyed[w] += 1
-        self._sensors.key_table.assign(table)
-        if self._sensors.episode_slots:
-            self._sensors.episode_table.assign(values)
+        self._sensors.set_keys(worlds, table[worlds], values[worlds])
 
     def _keys_ahead(self) -> None:
         self._steps_since_keys += 1
@@ -291,9 +298,15 @@ class WarpEnvironment(ControlLoop):
     # -- episodes -------------------------------------------------------------------------------------
 
     def _start_episodes(self, mask: wp.array) -> None:
-        """Restart the worlds of `mask` ((nworld,) int32): physics, forward, sensors."""
+        """Restart the worlds of `mask` ((nworld,) int32): physics, forward, sensors; nothing when no world is
+        masked (a conditional node of the step's CUDA graph: `wp.capture_if`)."""
+        self._any.zero_()
+        wp.launch(_any, dim=self._nworld, inputs=[mask], outputs=[self._any], device=self.device)
+        wp.capture_if(self._any, on_true=self._restart_masked, mask=mask)
+
+    def _restart_masked(self, mask: wp.array) -> None:
         self._worlds.reset(mask)
-        self._worlds.forward()
+        self._worlds.forward()  # MuJoCo Warp has no per-world forward: every world's derived fields, again
         self._sensors.reset(mask, self._fields, self._worlds.steps)
 
     def reset(self, ids: Any = None) -> WarpTimeStep:

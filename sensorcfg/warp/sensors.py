@@ -148,11 +148,25 @@ def _noise(steps: wp.array[wp.int64], mask: wp.array[wp.int32], rows: wp.int32, 
 
 
 @wp.kernel
-def _pad(mask: wp.array[wp.int32], pad: wp.int32, history: wp.array3d[wp.float32]):
-    w, r, c = wp.tid()
-    if mask[w] == 0 or r == 0:
+def _pad(mask: wp.array[wp.int32], pad: wp.int32, rows: wp.int32, history: wp.array3d[wp.float32]):
+    w, c = wp.tid()
+    if mask[w] == 0:
         return
-    history[w, r, c] = wp.where(pad == 1, history[w, 0, c], wp.float32(0.0))
+    value = wp.where(pad == 1, history[w, 0, c], wp.float32(0.0))
+    for r in range(1, rows):
+        history[w, r, c] = value
+
+
+@wp.kernel
+def _scatter_keys(worlds: wp.array[wp.int32], keys: wp.array4d[wp.uint64], values: wp.array3d[wp.float64],
+                  key_table: wp.array4d[wp.uint64], episode_table: wp.array3d[wp.float64]):
+    i, e = wp.tid()
+    w = worlds[i]
+    for n in range(keys.shape[2]):
+        key_table[w, e, n, 0] = keys[i, e, n, 0]
+        key_table[w, e, n, 1] = keys[i, e, n, 1]
+    for v in range(values.shape[2]):
+        episode_table[w, e, v] = values[i, e, v]
 
 
 @wp.kernel
@@ -444,8 +458,17 @@ class Sensors:
                   outputs=[self.drawn], device=self.device)
         wp.launch(_count_episode, dim=n, inputs=[mask, self.episodes], device=self.device)
         self.record(fields, steps, mask)
-        wp.launch(_pad, dim=(n, self.plan.rows, self.plan.width),
-                  inputs=[mask, int(self.plan.pad_with_initial_value), self.history], device=self.device)
+        wp.launch(_pad, dim=(n, self.plan.width),
+                  inputs=[mask, int(self.plan.pad_with_initial_value), self.plan.rows, self.history], device=self.device)
+
+    def set_keys(self, worlds: np.ndarray, keys: np.ndarray, values: np.ndarray) -> None:
+        """The key tables of `worlds` (their rows of `key_table` and `episode_table`), from the host."""
+        if worlds.size:
+            wp.launch(_scatter_keys, dim=(worlds.size, self.key_table.shape[1]),
+                      inputs=[wp.array(worlds.astype(np.int32), dtype=wp.int32, device=self.device),
+                              wp.array(keys, dtype=wp.uint64, device=self.device),
+                              wp.array(values, dtype=wp.float64, device=self.device)],
+                      outputs=[self.key_table, self.episode_table], device=self.device)
 
     def read(self, steps: wp.array) -> dict[str, wp.array]:
         """Every sensor's read at each world's step `steps` (a multiple of the plan's substeps)."""
