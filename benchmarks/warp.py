@@ -14,10 +14,11 @@ buffers, aggregators, two noise stages per sensor, clean twins. A control step i
 Both run on the same worlds in this process, in pairs (alternating which goes first); the table gives
 the medians of the pairs, in physics world-steps per second (worlds x physics steps / s), and the
 overhead: (physics rate / suite rate - 1) x 100 %. The device is synchronised before each timer is read.
-WarpEnvironment has no CUDA-graph capture, so both loops time plain launches (the table says so). Each
-pair also times one `Worlds.forward()` per control step, printed per row as % of the physics' time: the
-part of the overhead that is the restart path's forward, run every control step whether a world restarts
-or not.
+On CUDA both loops replay each control step as one CUDA graph (WarpEnvironment records its own; the physics
+loop is recorded here the same way); on Warp's CPU device both run plain launches. Each
+pair also times one `Worlds.forward()` per control step, printed per row as % of the physics' time: what a
+control step in which some world restarts adds (the restart path's forward of every world); the timed loops
+have no restarts.
 
     python benchmarks/warp.py --device cuda:0 --worlds 1024,4096,16384 --model-go2 .../scene_mjx.xml
     python benchmarks/warp.py --quick        # CPU device, 2 worlds, a few steps: checks, not speed
@@ -145,12 +146,28 @@ def measure(label: str, model: Any, suite: Path, nworld: int, device: str, steps
     actions = actions_for(env, 8)
     last: dict[str, Any] = {}
 
+    buffer = wp.empty_like(actions[0])
+
+    def control_step() -> None:  # the physics of a control step, as WarpEnvironment.step runs it
+        wp.copy(ctrl, buffer)
+        worlds.step(SUBSTEPS)
+
+    graph = None
+    if env.device.is_cuda:  # captured as WarpEnvironment captures its step (after a first, eager one)
+        control_step()
+        with wp.ScopedCapture(device=env.device) as capture:
+            control_step()
+        graph = capture.graph
+
     def physics() -> None:
         for k in range(steps):
-            wp.copy(ctrl, actions[k % len(actions)])
-            worlds.step(SUBSTEPS)
+            wp.copy(buffer, actions[k % len(actions)])
+            if graph is None:
+                control_step()
+            else:
+                wp.capture_launch(graph)
 
-    def forward() -> None:  # what WarpEnvironment.step's restart path runs every control step
+    def forward() -> None:  # what WarpEnvironment.step's restart path adds in a control step with a restart
         for _ in range(steps):
             worlds.forward()
 
@@ -229,8 +246,8 @@ def main(argv: list[str] | None = None) -> None:
     print(f"device {device.alias} ({device.name}); mujoco {mujoco.__version__}, warp {wp.__version__}; "
           f"{SUBSTEPS} physics steps per control step, {steps} control steps per run, medians of {args.pairs} "
           f"pair(s)")
-    print("CUDA graphs: not used (WarpEnvironment has no capture option): physics alone and with suite both time "
-          "plain launches")
+    print("CUDA graphs: " + ("each control step, physics alone and with the suite, is replayed as one graph" if cuda
+                             else "none on the CPU device (plain launches, physics alone and with the suite)"))
     print("MuJoCo Warp's solver-budget warnings (iterations, ls_iterations reached) are not printed; other "
           "overflows are counted per row")
     if not args.model_go2 and "go2" in models:
@@ -253,7 +270,7 @@ def main(argv: list[str] | None = None) -> None:
         print("quick: every observation matched its spec (shape, float32) and was finite")
     if args.json:
         Path(args.json).write_text(json.dumps({"device": args.device, "substeps": SUBSTEPS, "steps": steps,
-                                               "pairs": args.pairs, "graphs": False,
+                                               "pairs": args.pairs, "graphs": cuda,
                                                "rows": [asdict(r) for r in rows]}, indent=1))
 
 
