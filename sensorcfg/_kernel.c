@@ -1,22 +1,45 @@
-/* sensorcfg's optional compiled kernels (loaded by sensorcfg/compiled.py; numpy does the same work where they
- * are not built):
- * - `add`: the counter-based noise numbers of sensorcfg.noise.streams, summed and added into rows of a table;
- * - `gather` / `scatter`: a batch's copies between its recording and its history (numpy's take / put with
- *   mode="clip"), which two threads can share.
+/* sensorcfg's optional compiled kernels, loaded by sensorcfg/compiled.py (`MODULE`); where they are not built,
+ * or SENSORCFG_NUMPY_STREAMS=1, numpy does the same work and gives the same bits. Each entry point, what it
+ * does, its arguments, its Python caller and the test that pins it against numpy:
  *
- * `add` is the compiled form of sensorcfg.noise.streams.numbers: one draw's numbers, bit-identical to the
- * numpy reference in streams.py (tests/noise/test_streams.py compares the two). Philox4x32-10 on the counters
+ * - add(keys, samples, size, lanes, out, width, lo, rows, accumulate): the counter-based noise numbers of
+ *   sensorcfg.noise.streams for m samples (keys (m, 2) uint64: each sample's episode key; samples (m,) int64;
+ *   `size` values each), up to 8 lanes (tag, normal, scale or None, offset or None: one stage's numbers,
+ *   scaled and shifted) summed per value and written, or added (`accumulate`), into out[rows[r], lo:lo + size]
+ *   (out (n, width) float64; rows None: row r; width 0: out flat, rows[r] where sample r's values start).
+ *   Called by noise/streams.py (`numbers`, `add_sums`, `add_rows`, on two threads through `compiled.split`);
+ *   pinned by tests/noise/test_streams.py::test_the_compiled_kernel_gives_the_numpy_numbers_bit_for_bit,
+ *   test_sums_added_in_place_equal_the_numpy_arithmetic_on_both_paths, test_sums_written_replace_the_rows,
+ *   test_prepared_rows_add_what_add_sums_adds (and test_the_kernel_refuses_rows_outside_its_table).
+ * - tables(kn, wn, fn): the ziggurat's tables (uint32 and float64, 128 each), given once by noise/streams.py
+ *   at import (`_kernel`) before any `add`; the numbers' tests above pin them.
+ * - gather(table, index, out, start, stop) / scatter(table, index, values, start, stop): numpy's
+ *   take / put with mode="clip" of a float64 table at int64 positions, for i in [start, stop). Called by
+ *   compiled.py (`take`, `put`): a batch's copies between its recording and its history and its read's gather
+ *   (batch/updater.py); pinned by tests/runtime/test_compiled.py::test_take_and_put_are_numpys_with_clip.
+ * - read(program, index): a feature bank's whole read on its work buffer, one call: `program` (bytes) holds
+ *   records of READ_SLOTS int64s, an op code and its operands (raw addresses of float64 / int64 arrays that
+ *   runtime/read_kernel.py encodes and keeps alive, counts); `index` (int64): the history positions gathered.
+ *   Called by runtime/bank.py (`FeatureBank.read`) and runtime/planned.py (`DrawnBank.read`) through
+ *   runtime/read_kernel.py (`kernel_read`); pinned by tests/runtime/test_read_kernel.py (each op on signed zeros,
+ *   infinities and ties; whole Updaters with and without it) and
+ *   tests/noise/test_streams.py::test_the_read_kernel_refuses_an_index_of_another_length.
+ * - snapshot(program, keep, step): a bank's snapshot at a physics step: `program` (bytes, 7 int64s: addresses
+ *   and counts that runtime/read_kernel.py encodes) says where the state, its positions and the history
+ *   lie; row step % rows of the history takes the state at the positions (numpy's take, mode="clip"),
+ *   where the row is marked as sampled (the mark then cleared) or, without marks, always; `keep` holds the
+ *   arrays the addresses point to. Called by runtime/bank.py (`FeatureBank`) and runtime/planned.py
+ *   (`DrawnBank`) through runtime/read_kernel.py (`kernel_snapshot`), at every sampled step; pinned by
+ *   tests/runtime/test_read_kernel.py::test_the_compiled_snapshot_is_the_numpy_snapshot.
+ *
+ * The noise numbers, bit-identical to the numpy reference in streams.py: Philox4x32-10 on the counters
  * (sample, tag | q, lo32(k1), hi32(k1)) with key (lo32(k0), hi32(k0)); uniforms w 2^-32; normals by
  * Marsaglia and Tsang's ziggurat on each 32-bit word, a rejected word going on with words of its own
  * (lane 3, the key's second word xor (1 + word + 16 a) at attempt a), exactly as streams._fallback does.
  * exp and log are the C library's, which the reference also calls (through Python's math module).
  *
- * Its entry point, `add`: up to 8 lanes (a stage's numbers, scaled and shifted) summed per value and
- * written or added into rows of a table, which serves streams.numbers (one lane, written) and the batch's
- * additive noise added in place (streams.add_sums) to the values a read gathered or to its history.
- *
- * Built by setup.py as an optional extension: without a C compiler the package installs without it and
- * streams.py uses numpy. No numpy C API: arrays arrive through the buffer protocol. */
+ * Built by setup.py as an optional extension: without a C compiler the package installs without it. No
+ * numpy C API: arrays arrive through the buffer protocol. */
 
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -57,9 +80,8 @@ static int set_tables(PyObject *kn, PyObject *wn, PyObject *fn) {
     return 0;
 }
 
-/* one counter's Philox, inlined into the ziggurat's fallback (philox_block, called through its pointer and
- * set up for a block, costs too much for the one counter each rejected word needs); the same rounds as
- * philox_block */
+/* one counter's Philox, inlined into the ziggurat's fallback (philox_block, set up for a block, costs too much
+ * for the one counter each rejected word needs); the same rounds as philox_block */
 static inline void philox1(uint32_t x[4], uint32_t k0, uint32_t k1) {
     for (int r = 0; r < ROUNDS; r++) {
         if (r) {
@@ -80,8 +102,8 @@ static inline void philox1(uint32_t x[4], uint32_t k0, uint32_t k1) {
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__)
 __attribute__((target_clones("avx512f", "avx2", "default")))
 #endif
-static void philox_portable(int n, uint32_t *restrict x0, uint32_t *restrict x1, uint32_t *restrict x2,
-                            uint32_t *restrict x3, uint32_t *restrict k0, uint32_t *restrict k1, uint32_t *restrict w) {
+static void philox_block(int n, uint32_t *restrict x0, uint32_t *restrict x1, uint32_t *restrict x2,
+                        uint32_t *restrict x3, uint32_t *restrict k0, uint32_t *restrict k1, uint32_t *restrict w) {
     for (int r = 0; r < ROUNDS; r++) {
         for (int i = 0; i < n; i++) {
             uint64_t p0 = (uint64_t)x0[i] * 0xD2511F53u, p1 = (uint64_t)x2[i] * 0xCD9E8D57u;
@@ -101,112 +123,6 @@ static void philox_portable(int n, uint32_t *restrict x0, uint32_t *restrict x1,
         w[4 * i + 3] = x3[i];
     }
 }
-
-typedef void (*PhiloxFn)(int, uint32_t *restrict, uint32_t *restrict, uint32_t *restrict, uint32_t *restrict,
-                         uint32_t *restrict, uint32_t *restrict, uint32_t *restrict);
-
-#if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__)
-#include <immintrin.h>
-#define SIMD_PHILOX 1
-/* The same rounds with intrinsics: the compiler widens each 32-bit product to a full 64-bit one (three
- * multiplies); here one multiply of the even and one of the odd lanes gives both halves, and four vectors of
- * counters are in flight at once so that a product's latency is hidden.
- * Lanes past n compute on zeros and are not stored past w[4 * round-up(n, lanes)] (w holds 4 * BLOCK). */
-#define PHILOX_VECTORS(V, SUFFIX, LOAD, MUL, BLEND, XOR3, SET32, SET64, ADD, SRL, SLL)                         \
-    const V M0 = SET64(0xD2511F53u), M1 = SET64(0xCD9E8D57u), W0 = SET32((int)0x9E3779B9u),                   \
-            W1 = SET32((int)0xBB67AE85u);                                                                      \
-    for (int i = 0; i < n; i += 4 * LANES) {                                                                   \
-        V a0[4], a1[4], a2[4], a3[4], c0[4], c1[4];                                                            \
-        for (int v = 0; v < 4; v++) {                                                                          \
-            int at = i + LANES * v, left = n - at;                                                             \
-            a0[v] = LOAD(x0 + at, left), a1[v] = LOAD(x1 + at, left), a2[v] = LOAD(x2 + at, left);             \
-            a3[v] = LOAD(x3 + at, left), c0[v] = LOAD(k0 + at, left), c1[v] = LOAD(k1 + at, left);             \
-        }                                                                                                      \
-        for (int r = 0; r < ROUNDS; r++) {                                                                     \
-            for (int v = 0; v < 4; v++) {                                                                      \
-                V e0 = MUL(a0[v], M0), o0 = MUL(SRL(a0[v], 32), M0);                                           \
-                V e1 = MUL(a2[v], M1), o1 = MUL(SRL(a2[v], 32), M1);                                           \
-                V lo0 = BLEND(e0, SLL(o0, 32)), hi0 = BLEND(SRL(e0, 32), o0);                                  \
-                V lo1 = BLEND(e1, SLL(o1, 32)), hi1 = BLEND(SRL(e1, 32), o1);                                  \
-                a0[v] = XOR3(hi1, a1[v], c0[v]);                                                               \
-                a2[v] = XOR3(hi0, a3[v], c1[v]);                                                               \
-                a1[v] = lo1;                                                                                   \
-                a3[v] = lo0;                                                                                   \
-                c0[v] = ADD(c0[v], W0);                                                                        \
-                c1[v] = ADD(c1[v], W1);                                                                        \
-            }                                                                                                  \
-        }                                                                                                      \
-        for (int v = 0; v < 4 && i + LANES * v < n; v++) interleave##SUFFIX(a0[v], a1[v], a2[v], a3[v], w + 4 * (i + LANES * v)); \
-    }
-
-/* four vectors of words (counters in lanes) stored counter after counter, four words each */
-__attribute__((target("avx512f"))) static inline void interleave512(__m512i a0, __m512i a1, __m512i a2, __m512i a3,
-                                                                    uint32_t *w) {
-    __m512i t0 = _mm512_unpacklo_epi32(a0, a1), t1 = _mm512_unpackhi_epi32(a0, a1);
-    __m512i t2 = _mm512_unpacklo_epi32(a2, a3), t3 = _mm512_unpackhi_epi32(a2, a3);
-    /* per 128-bit lane: u0 counter 0, u1 counter 1, u2 counter 2, u3 counter 3 (of counters 4l .. 4l + 3) */
-    __m512i u0 = _mm512_unpacklo_epi64(t0, t2), u1 = _mm512_unpackhi_epi64(t0, t2);
-    __m512i u2 = _mm512_unpacklo_epi64(t1, t3), u3 = _mm512_unpackhi_epi64(t1, t3);
-    __m512i v0 = _mm512_shuffle_i32x4(u0, u1, 0x44), v1 = _mm512_shuffle_i32x4(u2, u3, 0x44);
-    __m512i v2 = _mm512_shuffle_i32x4(u0, u1, 0xEE), v3 = _mm512_shuffle_i32x4(u2, u3, 0xEE);
-    _mm512_storeu_si512(w, _mm512_shuffle_i32x4(v0, v1, 0x88));
-    _mm512_storeu_si512(w + 16, _mm512_shuffle_i32x4(v0, v1, 0xDD));
-    _mm512_storeu_si512(w + 32, _mm512_shuffle_i32x4(v2, v3, 0x88));
-    _mm512_storeu_si512(w + 48, _mm512_shuffle_i32x4(v2, v3, 0xDD));
-}
-
-__attribute__((target("avx2"))) static inline void interleave256(__m256i a0, __m256i a1, __m256i a2, __m256i a3,
-                                                                 uint32_t *w) {
-    __m256i t0 = _mm256_unpacklo_epi32(a0, a1), t1 = _mm256_unpackhi_epi32(a0, a1);
-    __m256i t2 = _mm256_unpacklo_epi32(a2, a3), t3 = _mm256_unpackhi_epi32(a2, a3);
-    __m256i u0 = _mm256_unpacklo_epi64(t0, t2), u1 = _mm256_unpackhi_epi64(t0, t2);
-    __m256i u2 = _mm256_unpacklo_epi64(t1, t3), u3 = _mm256_unpackhi_epi64(t1, t3);
-    _mm256_storeu_si256((__m256i *)w, _mm256_permute2x128_si256(u0, u1, 0x20));
-    _mm256_storeu_si256((__m256i *)(w + 8), _mm256_permute2x128_si256(u2, u3, 0x20));
-    _mm256_storeu_si256((__m256i *)(w + 16), _mm256_permute2x128_si256(u0, u1, 0x31));
-    _mm256_storeu_si256((__m256i *)(w + 24), _mm256_permute2x128_si256(u2, u3, 0x31));
-}
-
-#define LOAD512(p, left) _mm512_maskz_loadu_epi32((__mmask16)((left) >= 16 ? 0xFFFF : (left) > 0 ? (1u << (left)) - 1 : 0), (p))
-#define BLEND512(a, b) _mm512_mask_blend_epi32((__mmask16)0xAAAA, (a), (b))
-#define XOR512(a, b, c) _mm512_ternarylogic_epi32((a), (b), (c), 0x96)
-__attribute__((target("avx512f"))) static void philox_avx512(int n, uint32_t *restrict x0, uint32_t *restrict x1,
-                                                             uint32_t *restrict x2, uint32_t *restrict x3,
-                                                             uint32_t *restrict k0, uint32_t *restrict k1,
-                                                             uint32_t *restrict w) {
-    enum { LANES = 16 };
-    PHILOX_VECTORS(__m512i, 512, LOAD512, _mm512_mul_epu32, BLEND512, XOR512, _mm512_set1_epi32, _mm512_set1_epi64,
-                   _mm512_add_epi32, _mm512_srli_epi64, _mm512_slli_epi64)
-}
-
-__attribute__((target("avx2"))) static inline __m256i load256(const uint32_t *p, int left) {
-    static const int32_t ones[16] = {-1, -1, -1, -1, -1, -1, -1, -1, 0, 0, 0, 0, 0, 0, 0, 0};
-    int skip = left >= 8 ? 0 : left > 0 ? 8 - left : 8;
-    return _mm256_maskload_epi32((const int *)p, _mm256_loadu_si256((const __m256i *)(ones + skip)));
-}
-#define BLEND256(a, b) _mm256_blend_epi32((a), (b), 0xAA)
-#define XOR256(a, b, c) _mm256_xor_si256(_mm256_xor_si256((a), (b)), (c))
-__attribute__((target("avx2"))) static void philox_avx2(int n, uint32_t *restrict x0, uint32_t *restrict x1,
-                                                        uint32_t *restrict x2, uint32_t *restrict x3,
-                                                        uint32_t *restrict k0, uint32_t *restrict k1,
-                                                        uint32_t *restrict w) {
-    enum { LANES = 8 };
-    PHILOX_VECTORS(__m256i, 256, load256, _mm256_mul_epu32, BLEND256, XOR256, _mm256_set1_epi32, _mm256_set1_epi64x,
-                   _mm256_add_epi32, _mm256_srli_epi64, _mm256_slli_epi64)
-}
-
-/* the fastest the CPU runs (`simd` can switch back to the portable loop, for the tests) */
-static PhiloxFn fastest_philox(void) {
-    __builtin_cpu_init();
-    if (__builtin_cpu_supports("avx512f")) return philox_avx512;
-    if (__builtin_cpu_supports("avx2")) return philox_avx2;
-    return philox_portable;
-}
-#else
-static PhiloxFn fastest_philox(void) { return philox_portable; }
-#endif
-
-static PhiloxFn philox_block = philox_portable; /* set at import (PyInit__kernel) */
 
 static inline uint32_t abs32(int32_t v) { return v < 0 ? 0u - (uint32_t)v : (uint32_t)v; }
 
@@ -596,173 +512,6 @@ static PyObject *read_bank(PyObject *self, PyObject *args) {
     Py_RETURN_NONE;
 }
 
-/* plan(g, t, a, prev, tail, reads, floor, windows, take_sim, take_step, buffer, substeps, length): the
- * ordering, windows and samples to take of a planning round (sensorcfg/runtime/drawn.py, Planner.round; its
- * numpy steps are the reference, compared by tests/runtime/test_planned_kernel.py). The round's delivered samples
- * of simulations 0..m-1 (g: position, t: time, a: arrival, all <= the round's end) are put in order per
- * simulation by (arrival, time), ties in their given order (numpy's stable argsort of the same key); each
- * simulation's sequence is its `tail` (the last `buffer` delivered before, -1: none) followed by them; the
- * read at prev + substeps - prev % substeps + k substeps (k < reads per round; the one read at step 0 when
- * length is 0) shows the last `buffer` entries delivered by it. `tail` becomes each sequence's last
- * `buffer`. With length > 0, the entries shown (> floor of their simulation, where `reads` (m, buffer)
- * uint8 allows, when given) are the samples to take, in (simulation, read, entry) order; returns their count. */
-static int before(const int64_t *a, const int64_t *t, int64_t i, int64_t j) {
-    return a[i] < a[j] || (a[i] == a[j] && t[i] < t[j]);
-}
-
-static void merge_sort(int64_t *x, int64_t *tmp, Py_ssize_t n, const int64_t *a, const int64_t *t) {
-    if (n < 2) return;
-    Py_ssize_t h = n / 2;
-    merge_sort(x, tmp, h, a, t);
-    merge_sort(x + h, tmp, n - h, a, t);
-    if (!before(a, t, x[h], x[h - 1])) return; /* already in order (the usual case: nearly sorted) */
-    memcpy(tmp, x, sizeof(int64_t) * n);
-    Py_ssize_t i = 0, j = h, k = 0;
-    while (i < h && j < n) x[k++] = before(a, t, tmp[j], tmp[i]) ? tmp[j++] : tmp[i++];
-    while (i < h) x[k++] = tmp[i++];
-    while (j < n) x[k++] = tmp[j++];
-}
-
-/* insertion sort while it moves few entries (arrivals are nearly in order of time: a delay displaces a sample
- * by a few places), merge sort past 8 moves per entry; both stable */
-static void sort_arrivals(int64_t *x, int64_t *tmp, Py_ssize_t n, const int64_t *a, const int64_t *t) {
-    Py_ssize_t moves = 0;
-    for (Py_ssize_t i = 1; i < n; i++) {
-        int64_t v = x[i];
-        Py_ssize_t j = i;
-        while (j > 0 && before(a, t, v, x[j - 1])) {
-            x[j] = x[j - 1];
-            j--;
-        }
-        x[j] = v;
-        moves += i - j;
-        if (moves > 8 * n) {
-            merge_sort(x, tmp, n, a, t);
-            return;
-        }
-    }
-}
-
-static PyObject *plan_round(PyObject *self, PyObject *args) {
-    Py_buffer gb, tb, ab, prevb, tailb, readsb, floorb, winb, simb, stepb;
-    Py_ssize_t b, n, length;
-    if (!PyArg_ParseTuple(args, "y*y*y*y*w*y*y*w*w*w*nnn", &gb, &tb, &ab, &prevb, &tailb, &readsb, &floorb, &winb,
-                          &simb, &stepb, &b, &n, &length))
-        return NULL;
-    Py_ssize_t N = gb.len / 8, m = prevb.len / 8, R = length ? (length / n > 1 ? length / n : 1) : 1;
-    PyObject *result = NULL;
-    int64_t *order = NULL, *tmp = NULL, *start = NULL, *seq = NULL;
-    if (tb.len != gb.len || ab.len != gb.len || tailb.len != 8 * m * b || winb.len != 8 * m * R * b ||
-        floorb.len != 8 * m || (readsb.len && readsb.len != m * b) || simb.len < 8 * m * R * b ||
-        stepb.len < 8 * m * R * b || b < 1 || n < 1) {
-        PyErr_SetString(PyExc_ValueError, "plan: arrays and sizes disagree");
-        goto done;
-    }
-    const int64_t *g = gb.buf, *t = tb.buf, *a = ab.buf, *prev = prevb.buf, *floor_ = floorb.buf;
-    const uint8_t *reads = readsb.len ? (const uint8_t *)readsb.buf : NULL;
-    int64_t *tail = tailb.buf, *win = winb.buf, *take_sim = simb.buf, *take_step = stepb.buf;
-    order = PyMem_Malloc(sizeof(int64_t) * (N + 1));
-    tmp = PyMem_Malloc(sizeof(int64_t) * (N + 1));
-    seq = PyMem_Malloc(sizeof(int64_t) * (N + b));
-    start = PyMem_Calloc(m + 1, sizeof(int64_t));
-    if (!order || !tmp || !seq || !start) {
-        PyErr_NoMemory();
-        goto done;
-    }
-    for (Py_ssize_t i = 0; i < N; i++) {
-        if (g[i] < 0 || g[i] >= m) {
-            PyErr_SetString(PyExc_ValueError, "plan: a sample of no simulation");
-            goto done;
-        }
-        start[g[i] + 1]++;
-    }
-    for (Py_ssize_t s = 0; s < m; s++) start[s + 1] += start[s];
-    for (Py_ssize_t i = 0; i < N; i++) order[start[g[i]]++] = i; /* by simulation, in their given order */
-    for (Py_ssize_t s = m; s > 0; s--) start[s] = start[s - 1];
-    start[0] = 0;
-    Py_ssize_t taken = 0;
-    for (Py_ssize_t s = 0; s < m; s++) {
-        int64_t *mine = order + start[s];
-        Py_ssize_t count = start[s + 1] - start[s];
-        sort_arrivals(mine, tmp, count, a, t);
-        for (Py_ssize_t e = 0; e < b; e++) seq[e] = tail[s * b + e];
-        for (Py_ssize_t k = 0; k < count; k++) seq[b + k] = t[mine[k]];
-        int64_t first = length ? prev[s] + n - ((prev[s] % n) + n) % n : 0;
-        Py_ssize_t delivered = 0;
-        for (Py_ssize_t r = 0; r < R; r++) {
-            int64_t read = first + n * r;
-            while (delivered < count && a[mine[delivered]] <= read) delivered++;
-            int64_t *w = win + (s * R + r) * b;
-            for (Py_ssize_t e = 0; e < b; e++) {
-                w[e] = seq[delivered + e];
-                if (length && w[e] > floor_[s] && (!reads || reads[s * b + e])) {
-                    take_sim[taken] = s;
-                    take_step[taken++] = w[e];
-                }
-            }
-        }
-        for (Py_ssize_t e = 0; e < b; e++) tail[s * b + e] = seq[count + e];
-    }
-    result = PyLong_FromSsize_t(taken);
-done:
-    PyMem_Free(order);
-    PyMem_Free(tmp);
-    PyMem_Free(seq);
-    PyMem_Free(start);
-    PyBuffer_Release(&gb), PyBuffer_Release(&tb), PyBuffer_Release(&ab), PyBuffer_Release(&prevb);
-    PyBuffer_Release(&tailb), PyBuffer_Release(&readsb), PyBuffer_Release(&floorb), PyBuffer_Release(&winb);
-    PyBuffer_Release(&simb), PyBuffer_Release(&stepb);
-    return result;
-}
-
-/* uniforms(keys uint64 (m, 2), first int64 (m), counts int64 (m), tag, out float64): the uniform of value 0 of
- * samples first[s] .. first[s] + counts[s] - 1 of key s, key after key, into out (word 0 of the Philox of
- * counter (j, tag, lo32(k1), hi32(k1)) times 2^-32): streams.numbers of size-1 uniform draws over runs of
- * samples, without a key per sample (the planned schedules' intervals and delays, runtime/drawn.py). */
-static PyObject *uniform_runs(PyObject *self, PyObject *args) {
-    Py_buffer keysb, firstb, countsb, outb;
-    unsigned int tag;
-    if (!PyArg_ParseTuple(args, "y*y*y*Iw*", &keysb, &firstb, &countsb, &tag, &outb)) return NULL;
-    Py_ssize_t m = firstb.len / 8, total = 0;
-    const int64_t *first = firstb.buf, *counts = countsb.buf;
-    const uint64_t *k = keysb.buf;
-    int bad = keysb.len != 16 * m || countsb.len != 8 * m;
-    for (Py_ssize_t s = 0; !bad && s < m; s++) { /* compared without sums that could overflow */
-        bad = counts[s] < 0 || counts[s] > outb.len / 8 - total;
-        if (!bad) total += counts[s];
-    }
-    if (bad || outb.len != 8 * total) {
-        PyErr_SetString(PyExc_ValueError, "uniforms: keys (m, 2), first (m,), counts (m,) and out (sum of counts) disagree");
-        PyBuffer_Release(&keysb), PyBuffer_Release(&firstb), PyBuffer_Release(&countsb), PyBuffer_Release(&outb);
-        return NULL;
-    }
-    double *out = outb.buf;
-    Py_BEGIN_ALLOW_THREADS
-    uint32_t x[4][BLOCK], kk[2][BLOCK], w[4 * BLOCK];
-    for (Py_ssize_t s = 0; s < m; s++) {
-        uint32_t k0lo = (uint32_t)k[2 * s], k0hi = (uint32_t)(k[2 * s] >> 32);
-        uint32_t k1lo = (uint32_t)k[2 * s + 1], k1hi = (uint32_t)(k[2 * s + 1] >> 32);
-        for (int64_t done = 0; done < counts[s];) {
-            int n = counts[s] - done < BLOCK ? (int)(counts[s] - done) : BLOCK;
-            for (int i = 0; i < n; i++) {
-                x[0][i] = (uint32_t)(uint64_t)(first[s] + done + i);
-                x[1][i] = tag;
-                x[2][i] = k1lo;
-                x[3][i] = k1hi;
-                kk[0][i] = k0lo;
-                kk[1][i] = k0hi;
-            }
-            philox_block(n, x[0], x[1], x[2], x[3], kk[0], kk[1], w);
-            for (int i = 0; i < n; i++) out[i] = (double)w[4 * i] * TWO_M32;
-            out += n;
-            done += n;
-        }
-    }
-    Py_END_ALLOW_THREADS
-    PyBuffer_Release(&keysb), PyBuffer_Release(&firstb), PyBuffer_Release(&countsb), PyBuffer_Release(&outb);
-    Py_RETURN_NONE;
-}
-
 /* snapshot(program, keep, step): a bank's snapshot at `step` (sensorcfg/runtime/read_kernel.py): program is
  * int64 (need, raw, n, source, width, history, rows), addresses and counts; when need[step % rows] (need 0:
  * always), clear it and copy raw[clip(source[i])] into row step % rows of history for i < width (numpy's
@@ -793,36 +542,6 @@ static PyObject *snapshot(PyObject *self, PyObject *const *args, Py_ssize_t narg
     Py_RETURN_NONE;
 }
 
-/* simd(name): which Philox runs: "fastest" (what the CPU has, as at import), "avx512f", "avx2" (ValueError where
- * the CPU lacks it) or "portable" (the compiler's loop); returns the name of the one now in use. The numbers are
- * the same with each (tests/noise/test_streams.py runs them all). */
-static PyObject *simd(PyObject *self, PyObject *args) {
-    const char *name;
-    if (!PyArg_ParseTuple(args, "s", &name)) return NULL;
-#ifdef SIMD_PHILOX
-    __builtin_cpu_init();
-#endif
-    struct { const char *name; PhiloxFn fn; int runs; } known[] = {
-#ifdef SIMD_PHILOX
-        {"avx512f", philox_avx512, __builtin_cpu_supports("avx512f")}, {"avx2", philox_avx2, __builtin_cpu_supports("avx2")},
-#endif
-        {"portable", philox_portable, 1}};
-    int count = (int)(sizeof(known) / sizeof(known[0]));
-    PhiloxFn fn = strcmp(name, "fastest") == 0 ? fastest_philox() : NULL;
-    for (int i = 0; i < count && !fn; i++) {
-        if (strcmp(name, known[i].name) == 0 && known[i].runs) fn = known[i].fn;
-    }
-    if (!fn) {
-        PyErr_Format(PyExc_ValueError, "simd: %s is not a Philox this CPU runs", name);
-        return NULL;
-    }
-    philox_block = fn; /* a switch for tests and benchmarks: not while other threads run `add` */
-    for (int i = 0; i < count; i++)
-        if (known[i].fn == fn) return PyUnicode_FromString(known[i].name);
-    PyErr_SetString(PyExc_RuntimeError, "simd: unknown Philox");
-    return NULL;
-}
-
 static PyMethodDef methods[] = {
     {"add", add, METH_VARARGS,
      "add(keys, samples, size, lanes, out, width, lo, rows, accumulate): the lanes' numbers, summed, into out's rows."},
@@ -831,21 +550,11 @@ static PyMethodDef methods[] = {
     {"scatter", scatter, METH_VARARGS, "scatter(table, index, values, start, stop): table[index[i]] = values[i] (clipped)."},
     {"read", read_bank, METH_VARARGS,
      "read(program, index): a feature bank's compiled read on its work buffer (sensorcfg/runtime/read_kernel.py)."},
-    {"plan", plan_round, METH_VARARGS,
-     "plan(g, t, a, prev, tail, reads, floor, windows, take_sim, take_step, buffer, substeps, length): a planning "
-     "round's windows and samples to take (sensorcfg/runtime/drawn.py)."},
-    {"uniforms", uniform_runs, METH_VARARGS,
-     "uniforms(keys, first, counts, tag, out): size-1 uniforms of runs of samples, one key per run "
-     "(sensorcfg.noise.streams.uniform_runs)."},
     {"snapshot", (PyCFunction)(void (*)(void))snapshot, METH_FASTCALL,
      "snapshot(program, keep, step): a bank's snapshot of the state at `step` (sensorcfg/runtime/read_kernel.py)."},
-    {"simd", simd, METH_VARARGS, "simd(name): which Philox runs (fastest, avx512f, avx2 or portable); the one in use."},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_kernel",
                                     "sensorcfg's optional compiled kernels (see sensorcfg/compiled.py).", -1, methods};
 
-PyMODINIT_FUNC PyInit__kernel(void) {
-    philox_block = fastest_philox();
-    return PyModule_Create(&module);
-}
+PyMODINIT_FUNC PyInit__kernel(void) { return PyModule_Create(&module); }

@@ -250,20 +250,15 @@ def uniform_runs(keys: np.ndarray, first: np.ndarray, counts: np.ndarray, lane: 
                  ) -> np.ndarray:
     """The uniform (value 0, stage 0, lane `lane`) of samples first[s] .. first[s] + counts[s] - 1 of key s
     (keys (m, 2)), run after run: `numbers` of one size-1 uniform draw, with a key per run instead of per
-    sample (the planned schedules' draws). The kernel's `uniforms` where built, else `numbers` itself."""
+    sample (the planned schedules' draws)."""
     counts = np.ascontiguousarray(counts, np.int64)
     total = int(counts.sum())
     if not total:
         return np.zeros(0)
-    if compiled and _COMPILED is not None and lane < 3:
-        out = np.empty(total)
-        _COMPILED.uniforms(np.ascontiguousarray(keys, np.uint64), np.ascontiguousarray(first, np.int64), counts,
-                           lane << 22, out)
-        return out
     starts = np.cumsum(counts) - counts
     samples = np.repeat(np.asarray(first, np.int64) - starts, counts) + np.arange(total)
     draw = Draw(np.repeat(np.asarray(keys, np.uint64).reshape(-1, 2), counts, axis=0), samples, 0, lane, 1, False)
-    return numbers([draw], compiled=False)[0][:, 0]
+    return numbers([draw], compiled=compiled)[0][:, 0]
 
 
 MAX_TERMS = 8  # terms of one sum the kernel adds in one pass (`add_sums`); a longer sum is not fused

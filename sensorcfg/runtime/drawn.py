@@ -25,17 +25,15 @@ from __future__ import annotations
 import math
 import numbers
 from collections.abc import Sequence
-from typing import Any, NamedTuple, cast
+from typing import Any, NamedTuple
 
 import numpy as np
 
-from .. import compiled
 from ..noise import streams
 
 __all__ = ["Drawn", "Planner", "Round", "chunk_steps"]
 
 _MIN_CHUNK = 1024  # steps per planning round, at least
-_PLAN = getattr(compiled.MODULE, "plan", None)  # a round's ordering, windows and samples taken, compiled
 
 
 def _largest(value: Any) -> int:
@@ -145,7 +143,7 @@ class Planner:
     def _reset_round(self, sims: np.ndarray) -> Round:
         """`round(sims, 0)` of simulations just started, in closed form: sample 0 is at step 0 and arrives
         after its delay D_0, so the reset read shows it when D_0 = 0 and padding before it; it is in flight
-        otherwise; nothing is taken (tests/runtime/test_planned_kernel.py compares the two)."""
+        otherwise; nothing is taken (tests/runtime/test_planner.py compares the two)."""
         delays = np.zeros(len(sims), np.int64)
         kinds = self.schedule_of[sims]
         for k, (_, delay) in enumerate(self.schedules):
@@ -220,11 +218,8 @@ class Planner:
         g, t, a = self._in_flight(sims, end, g, t, t + d)
         mask = self._mask(sims)
         floor = np.maximum(prev - length, 0)
-        if _PLAN is None:  # numpy: the reference
-            windows = self._windows(sims, g, t, a, prev, length)
-            sim, steps = _shown(windows, floor, mask) if length else (np.zeros(0, np.intp), np.zeros(0, np.int64))
-        else:  # the same steps compiled (`_kernel.plan`)
-            windows, sim, steps = self._compiled(sims, (g, t, a), prev, floor, mask, length)
+        windows = self._windows(sims, g, t, a, prev, length)
+        sim, steps = _shown(windows, floor, mask) if length else (np.zeros(0, np.intp), np.zeros(0, np.int64))
         self.end[sims] = end
         return Round(windows, *self._every(sims, new, sim, steps, length))
 
@@ -252,21 +247,6 @@ class Planner:
         windows = seq[(offset[:, None] + k)[..., None] + np.arange(b)]
         self.tail[sims] = seq[offset[:, None] + delivered[:, None] + np.arange(b)]
         return windows
-
-    def _compiled(self, sims: np.ndarray, delivered: tuple[np.ndarray, np.ndarray, np.ndarray], prev: np.ndarray,
-                  floor: np.ndarray, mask: np.ndarray | None, length: int) -> tuple[np.ndarray, ...]:
-        """`_windows` and `_shown` in one kernel call: (windows, simulation and step of the samples shown)."""
-        b, m = self.buffer, len(sims)
-        reads = max(1, length // self.substeps) if length else 1
-        windows = np.empty((m, reads, b), np.int64)
-        tail = np.ascontiguousarray(self.tail[sims])
-        sim, steps = np.empty(windows.size, np.int64), np.empty(windows.size, np.int64)
-        g, t, a = (np.ascontiguousarray(x, np.int64) for x in delivered)
-        count = cast(Any, _PLAN)(g, t, a, np.ascontiguousarray(prev, np.int64), tail,
-                                 b"" if mask is None else np.ascontiguousarray(mask, np.uint8), floor.astype(np.int64),
-                                 windows, sim, steps, b, self.substeps, length)
-        self.tail[sims] = tail
-        return windows, sim[:count], steps[:count]
 
     def _mask(self, sims: np.ndarray) -> np.ndarray | None:
         """Per simulation, the window entries whose samples it takes (None: all): not those before a smaller

@@ -1,8 +1,9 @@
 """A feature bank's read run by the compiled kernel (`runtime/read_kernel.py`) gives the numpy steps' bits:
 each op against its numpy reference on values that tell orders apart (signed zeros, infinities, ties,
 rounding), and whole Updaters (fixed and planned schedules, every bank noise stage, every family
-reduction, padding) with and without the kernel. Where the kernel is meant to be built
-(SENSORCFG_REQUIRE_KERNEL=1) a missing kernel fails; without it the kernel reads are None."""
+reduction, padding) with and without the kernel; a bank's snapshot by the kernel and by numpy's take. Where
+the kernel is meant to be built (SENSORCFG_REQUIRE_KERNEL=1) a missing kernel fails; without it the kernel
+reads are None."""
 
 from __future__ import annotations
 
@@ -51,8 +52,7 @@ def _plan(work: np.ndarray, gathered: np.ndarray, records: list[Step]) -> Compil
 @pytest.mark.skipif(not KERNEL, reason="the kernel is not built: numpy runs every read")
 @pytest.mark.parametrize("seed", range(6))
 def test_each_op_is_its_numpy_reference(seed) -> None:
-    """Gather, noise layers, the stacking take, the families' reductions and the divisions, one program (or
-    its two halves in turn)."""
+    """Gather, noise layers, the stacking take, the families' reductions and the divisions, one program."""
     rng = np.random.default_rng(seed)
     n, width, buffer = 24, int(rng.integers(1, 6)), int(rng.integers(1, 5))
     history = _awkward(rng, (200,))
@@ -65,7 +65,7 @@ def test_each_op_is_its_numpy_reference(seed) -> None:
               Layer("quantize", some, None, (np.abs(_awkward(rng, (10,))) + 0.01,)),
               Layer("clip", np.arange(n), None, (np.minimum(_awkward(rng, (n,)), 0.0), np.maximum(_awkward(rng, (n,)), 0.0)))]
     runs = []
-    for use_kernel in ("whole", "halves", False):  # (the awkward values overflow and divide infinities: no warnings)
+    for use_kernel in (True, False):  # (the awkward values overflow and divide infinities: no warnings)
         work = np.zeros(n + 3 * buffer * width + 3 * width)
         gathered, blocks = work[:n], work[n:n + 3 * buffer * width]
         take = np.resize(np.arange(n)[::-1], 3 * buffer * width)
@@ -81,12 +81,7 @@ def test_each_op_is_its_numpy_reference(seed) -> None:
         if use_kernel:
             kernel = read_kernel.kernel_read(plan, layers, history)
             assert kernel is not None
-            if use_kernel == "whole":
-                kernel.run(np.ascontiguousarray(index, np.int64))
-            else:  # the gather and noise, then the rest (a read writes padding between them)
-                kernel.noised(np.ascontiguousarray(index, np.int64))
-                assert _bits(gathered) != _bits(np.zeros(n)) and not work[n:].any()
-                kernel.reduced(np.ascontiguousarray(index, np.int64))
+            kernel.run(np.ascontiguousarray(index, np.int64))
         else:
             errors = np.seterr(all="ignore")
             history.take(index, None, gathered, "clip")
@@ -96,7 +91,7 @@ def test_each_op_is_its_numpy_reference(seed) -> None:
                 step()
             np.seterr(**errors)
         runs.append(work.copy())
-    assert _bits(runs[0]) == _bits(runs[2]) and _bits(runs[1]) == _bits(runs[2])
+    assert _bits(runs[0]) == _bits(runs[1])
 
 
 def _suite(seed: int, drawn: bool) -> dict[str, sensorcfg.Observable]:
@@ -143,3 +138,56 @@ def test_updaters_read_the_same_bits_with_and_without_the_kernel(seed, drawn, mo
         for name in a:
             assert _bits(a[name]) == _bits(b[name]), f"read {read} {name}"
             assert type(a[name]) is type(b[name]) and np.shape(a[name]) == np.shape(b[name])
+
+
+SNAPSHOT_SUITE = """
+version: 1
+sensors:
+  q: {kind: qpos, element: "joint:*", delay: {uniform: [0, 3]}, buffer: 2}
+  v: {kind: qvel, element: "joint:*", interval: {choice: [1, 3]}, delay: 1}
+  f: {kind: force, element: "actuator:*", interval: {uniform: [1, 4]}}
+  fixed_q: {kind: qpos, element: "joint:*", interval: 2, delay: 1, buffer: 3}
+  fixed_v: {kind: qvel, element: "joint:elbow"}
+"""
+
+
+def _snapshots(bank, marks, task, physics, model) -> tuple[np.ndarray, np.ndarray | None]:
+    """The history (and marks) after `task` ran at steps past the history's length, the state changing every
+    step, `marks` setting the drawn bank's rows sampled (None: a fixed bank, sampled at every call)."""
+    bank.history[:] = -1.0
+    state = np.random.default_rng(1)
+    for step in range(bank.rows + 50):
+        if marks is not None:
+            bank.need[step % bank.rows] = marks[step]
+        physics.data.qpos[:] = state.standard_normal(model.nq)
+        physics.data.qvel[:] = state.standard_normal(model.nv)
+        physics.data.actuator_force[:] = state.standard_normal(model.nu)
+        task(step)
+    return bank.history.copy(), None if marks is None else bank.need.copy()
+
+
+@pytest.mark.skipif(not KERNEL, reason="the kernel is not built: numpy takes every snapshot")
+def test_the_compiled_snapshot_is_the_numpy_snapshot(monkeypatch) -> None:
+    """`_kernel.snapshot` copies the state into the history row of a step: for the drawn bank where and only
+    where a sample is taken then (clearing the mark), for the fixed bank at every call; the same history and
+    marks as numpy's take, over steps past the history's length (rows wrap), the state changing every step."""
+    model = mujoco.MjModel.from_xml_path(str(assets.path("robot.xml")))
+    env = sensorcfg.Environment(model, sensorcfg.loads(SNAPSHOT_SUITE), physics_steps_per_control_step=2, seed=3)
+    env.reset()
+    drawn, fixed = env.updater._drawn, env.updater._bank
+    assert drawn is not None and fixed is not None
+    kernel_tasks = drawn.snapshot_task(), fixed._snapshot_task(None)
+    monkeypatch.setattr(compiled, "MODULE", None)
+    numpy_tasks = drawn.snapshot_task(), fixed._snapshot_task(None)
+    assert all(isinstance(task, functools.partial) for task in kernel_tasks)
+    assert not any(isinstance(task, functools.partial) for task in numpy_tasks)
+    marks = np.random.default_rng(0).random(drawn.rows + 50) < 0.5
+    (kernel_history, kernel_need), (numpy_history, numpy_need) = (
+        _snapshots(drawn, marks, task, env.physics, model) for task in (kernel_tasks[0], numpy_tasks[0]))
+    assert np.array_equal(kernel_history, numpy_history)
+    assert kernel_need is not None and numpy_need is not None
+    assert np.array_equal(kernel_need, numpy_need) and not kernel_need.any()
+    assert (kernel_history != -1.0).any() and (kernel_history == -1.0).any()  # rows written and rows skipped
+    (kernel_history, _), (numpy_history, _) = (_snapshots(fixed, None, task, env.physics, model)
+                                               for task in (kernel_tasks[1], numpy_tasks[1]))
+    assert np.array_equal(kernel_history, numpy_history) and not (kernel_history == -1.0).any()
