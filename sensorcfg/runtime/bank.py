@@ -24,12 +24,20 @@ from .bank_noise import BankNoise, Program, program
 from .bank_read import PADS, CompiledRead, compile_read, cut, finish
 from .channels import Channel, DrawnChannel, FixedChannel
 from .read_kernel import kernel_read, kernel_snapshot
+from .schedule import Schedule, history_rows
 
 __all__ = ["FeatureBank", "BankMember", "bank_member", "plain_refusal", "qualifies", "GroupMember", "PlainRead", "ReadPlan", "ReductionGroup", "buffer_view",
-           "fields_of", "read_plan", "rebind_noise", "reuse_key"]
+           "fields_of", "noise_chunk", "read_plan", "rebind_noise", "reuse_key"]
 
 _PLANS_BUDGET = 4 << 20  # bytes of read plans kept, at least (4 x the history's size when that is more)
 _CHUNK_STEPS = 1024  # physics steps of noise drawn at a time (rounded up to the sampling period): one Philox call each
+
+
+def noise_chunk(schedules: Sequence[Schedule], substeps: int) -> int:
+    """Steps of noise a bank draws at a time (and holds ahead in its history): `_CHUNK_STEPS` rounded up to
+    every sampling period."""
+    period = math.lcm(substeps, *(s.interval for s in schedules))
+    return period * -(-_CHUNK_STEPS // period)
 
 
 def buffer_view(data: Any, fields: list[str]) -> tuple[np.ndarray, dict[str, int]] | None:
@@ -152,14 +160,12 @@ class FeatureBank:
         self.width = int(self.cols[-1])
         self.source = np.concatenate(
             [offsets[_reader(ch).field] + _reader(ch).index.ravel() for ch in channels]).astype(np.intp)
-        period = math.lcm(substeps, *(ch.interval for ch in channels))
-        span = max(ch.schedule.wait for ch in channels) + substeps + 1
         programs = [program(ch.noise) for ch in channels]
         noisy = any(programs)
         # Noise is drawn a chunk ahead; the history then also holds a chunk (rows: a multiple of the chunk).
-        self.chunk = period * -(-_CHUNK_STEPS // period) if noisy else 0
-        unit = self.chunk or period
-        self.rows = unit * -(-(span + self.chunk) // unit)  # a multiple of every sampling period
+        schedules = [ch.schedule for ch in channels]
+        self.chunk = noise_chunk(schedules, substeps) if noisy else 0
+        self.rows = history_rows(schedules, substeps, ahead=self.chunk)  # a multiple of every sampling period
         # the history, then the values reductions of different buffers are padded with (`bank_read.PADS`)
         self.flat = np.zeros(self.rows * self.width + len(PADS))
         self.flat[self.rows * self.width:] = PADS

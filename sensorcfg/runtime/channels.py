@@ -27,7 +27,7 @@ from ..draws import (DEFAULT_BUFFER_SIZE, DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL
 from ..errors import SuiteError
 from ..observables.aggregators import builtin
 from .drawn import Drawn, Planner, Round, chunk_steps
-from .schedule import Schedule
+from .schedule import Schedule, history_rows
 
 __all__ = ["Channel", "ChannelSpec", "DrawnChannel", "FixedChannel", "RandomChannel", "make_channel"]
 
@@ -285,7 +285,7 @@ class DrawnChannel(Channel):
     def start(self, step: int) -> None:
         if self.planner is None:  # (a channel the bank runs is never started: it needs none of this)
             self.chunk = chunk_steps([self.drawn], self.substeps)
-            self.rows = self.chunk * -(-(self.drawn.span + 2 * self.chunk + 1) // self.chunk)
+            self.rows = history_rows([], self.substeps, reach=self.drawn.span + self.chunk + 1, ahead=self.chunk)
             self.need = np.zeros(self.rows, bool)
             self.windows = np.full((self.rows // self.substeps, self.buffer_size), -1, np.int64)
             self.values = [None] * self.rows

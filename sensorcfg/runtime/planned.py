@@ -21,10 +21,11 @@ from .bank import BankMember, ReadPlan, _reader, bank_member, read_plan, rebind_
 from .bank_noise import BankNoise, Layer, Program, ReadOp, ops_of, program
 from .bank_read import compile_read, cut, finish
 from .channels import DrawnChannel
-from .drawn import Planner, Round, chunk_steps
+from .drawn import Drawn, Planner, Round, chunk_steps
 from .read_kernel import kernel_read, kernel_snapshot
+from .schedule import history_rows
 
-__all__ = ["DrawnBank", "DrawnMember", "joins"]
+__all__ = ["DrawnBank", "DrawnMember", "drawn_bank_rows", "joins"]
 
 
 def joins(ch: Any) -> bool:
@@ -56,6 +57,13 @@ class DrawnMember(BankMember):
     __slots__ = ()
 
 
+def drawn_bank_rows(schedules: list[Drawn], substeps: int) -> int:
+    """Rows of a `DrawnBank`'s history: `Drawn.span` steps back and a long round (`_LONG` chunks) planned
+    ahead, plus the chunk the reset plans (`schedule.history_rows`)."""
+    chunk = chunk_steps(schedules, substeps, _RESET_STEPS)
+    return history_rows([], substeps, reach=max(d.span for d in schedules) + _LONG * chunk + 1, ahead=chunk)
+
+
 class DrawnBank:
     """All planned float64 features of one Updater: a history of `rows` steps (plus a padding row)."""
 
@@ -74,7 +82,7 @@ class DrawnBank:
         # steps back.
         self.length = _LONG * self.chunk
         span = max(ch.drawn.span for ch in channels)
-        self.rows = self.chunk * -(-(span + self.chunk + self.length + 1) // self.chunk)
+        self.rows = drawn_bank_rows([ch.drawn for ch in channels], substeps)
         # A round is planned this many steps before it starts: every sample its reads show is then still
         # ahead (a read shows samples at most `span` steps old), and so is every sample of the round before
         # whose first read falls in it (at most delay + substeps - 1 steps old).

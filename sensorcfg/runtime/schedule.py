@@ -14,18 +14,21 @@ dm_control's semantics in closed form:
 - samples wait in a ring of `capacity = b + ceil(d / i) + 1` slots: sample k lives in slot `k % capacity`.
 
 Every consumer calls this module: `FixedChannel`, the feature bank's read plans and sample counts, the
-batch's store (what the history keeps), the batch's camera rings and the CLI's timing panels. Functions
+batch's store (what the history keeps), the batch's camera rings and the CLI's timing panels. How many rows a
+step-indexed history has (`history_rows`) is decided here too, for every history and for the memory check
+that bounds them. Functions
 that take a sample index or a step accept numpy integer arrays too.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
 
-__all__ = ["Schedule", "newest_sample"]
+__all__ = ["Schedule", "history_rows", "newest_sample"]
 
 
 def newest_sample(read_step: Any, delay: Any, interval: Any) -> Any:
@@ -111,3 +114,18 @@ class Schedule(NamedTuple):
         then every needed phase of every period so far."""
         full, rest = divmod(step, self.period)
         return 1 + full * len(phases) + sum(1 for p in phases if p <= rest) - (1 if 0 in phases else 0)
+
+
+def history_rows(schedules: Sequence[Schedule], substeps: int, reach: int = 0, ahead: int = 0) -> int:
+    """Rows of a step-indexed history (the values of step s in row `s % rows`) that serves the reads of
+    `schedules` (a sample waits `wait` steps at most, then a control step of `substeps` ends with its read),
+    samples `reach` steps old (drawn schedules' `Drawn.span` and what they plan ahead), and `ahead` steps
+    drawn ahead of the current one (noise or a planning round; a multiple of every sampling period).
+
+    Rows are a multiple of every sampling period (of `ahead` when drawing ahead), so that each periodic
+    pattern of samples and reads lands on the same rows every time round: `period * ceil(steps / period)`.
+    The one sizing rule of the feature banks, the batch's layout and the memory check (`sensorcfg.memory`),
+    so that the check bounds what they allocate."""
+    unit = ahead or math.lcm(substeps, *(s.interval for s in schedules))
+    steps = max(reach, substeps + 1, *(s.wait + substeps + 1 for s in schedules)) + ahead
+    return unit * -(-steps // unit)
