@@ -73,7 +73,8 @@ class BatchCameras:
 
     def _frame(self, i: int | np.integer, camera: _Camera) -> np.ndarray:
         self.batch.get_data(int(i), self.data)
-        return camera.render()
+        frame: np.ndarray = camera.render()
+        return frame
 
     def render_substeps(self, t: np.ndarray, active: np.ndarray) -> list[int]:
         """The substeps (1..substeps) of this control step after which some camera samples some simulation."""

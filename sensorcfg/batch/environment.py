@@ -63,6 +63,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple, cast
 import dm_env
 import mujoco
 import numpy as np
+from numpy.typing import NDArray
 
 from ..env.episode import episode_end
 from ..env.environment import (_BAD_STATE, ControlLoop, ModelArg, action_spec, episode_timing, keyframe_index,
@@ -82,7 +83,9 @@ BatchRewardFn = Callable[[Any], Any]  # mujoco.batch.Batch -> (nsim,) rewards
 BatchTerminationFn = Callable[[Any], Any]  # mujoco.batch.Batch -> (nsim,) bools
 
 _BAD_INDEX = np.array([int(w) for w in _BAD_STATE])
-_FIRST, _MID, _LAST = (int(t) for t in (dm_env.StepType.FIRST, dm_env.StepType.MID, dm_env.StepType.LAST))
+_FIRST: int = int(dm_env.StepType.FIRST)
+_MID: int = int(dm_env.StepType.MID)
+_LAST: int = int(dm_env.StepType.LAST)
 
 
 def _batch_module() -> Any:
@@ -139,19 +142,23 @@ def sim_seed(seed: int | np.random.SeedSequence | None, i: int) -> np.random.See
 class BatchTimeStep(NamedTuple):
     """A dm_env TimeStep per simulation: arrays with a leading nsim axis."""
 
-    step_type: np.ndarray  # (nsim,) dm_env.StepType values
+    step_type: NDArray[np.uint8]  # (nsim,) dm_env.StepType values
     reward: np.ndarray  # (nsim,) float64
     discount: np.ndarray  # (nsim,) float64
     observation: dict[str, np.ndarray]  # (nsim, ...) each
 
-    def first(self) -> np.ndarray:
-        return self.step_type == _FIRST
+    def _is(self, step_type: int) -> NDArray[np.bool_]:
+        matches: NDArray[np.bool_] = self.step_type == step_type  # (numpy types == as Any)
+        return matches
 
-    def mid(self) -> np.ndarray:
-        return self.step_type == _MID
+    def first(self) -> NDArray[np.bool_]:
+        return self._is(_FIRST)
 
-    def last(self) -> np.ndarray:
-        return self.step_type == _LAST
+    def mid(self) -> NDArray[np.bool_]:
+        return self._is(_MID)
+
+    def last(self) -> NDArray[np.bool_]:
+        return self._is(_LAST)
 
 
 class BatchEnvironment(ControlLoop):
@@ -395,13 +402,14 @@ class BatchEnvironment(ControlLoop):
 
     def _bad_counts(self) -> np.ndarray:
         warning = self._batch.warning  # (nsim, mjNWARNING, (lastinfo, number))
-        return warning[:, _BAD_INDEX, 1].sum(axis=1, dtype=np.int64)
+        counts: np.ndarray = warning[:, _BAD_INDEX, 1].sum(axis=1, dtype=np.int64)
+        return counts
 
     def _diverged(self, active: np.ndarray, failed: np.ndarray, messages: dict[int, str]) -> np.ndarray:
         bad = self._bad_counts()
         warned = bad != self._bad
         self._bad = bad
-        diverged = active & (failed | warned)
+        diverged: np.ndarray = active & (failed | warned)
         if diverged.any():
             for at in np.flatnonzero(diverged):
                 i = int(at)

@@ -39,7 +39,7 @@ class BatchedBlend(Batched):
                 np.copyto(dst, src)
             return
         level = self.levels[sims].reshape((len(sims),) + (1,) * (src.ndim - 1))
-        blend(raw, src, level, dst, self.template.bounds)  # type: ignore[attr-defined]
+        blend(raw, src, level, dst, self.template.bounds)
 
 
 class BatchedKeep(Batched):
@@ -50,7 +50,7 @@ class BatchedKeep(Batched):
         self.blend: BatchedBlend  # the pipeline's batched blend (`link`)
 
     def link(self, batched: Sequence[Batched]) -> None:
-        blend_stage = self.template.blend  # type: ignore[attr-defined]
+        blend_stage = self.template.blend
         self.blend = next(b for b in batched if isinstance(b, BatchedBlend) and b.template is blend_stage)
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:

@@ -136,7 +136,8 @@ class _RandomWalk(_Additive):
         """The walk's states at `steps`, (m, ...): the start at sample 0, else from the held parts (walking
         on to the parts that are due)."""
         if not steps.any():  # reset samples: the walk at sample 0 is its start
-            return self.carry[sims]
+            start: np.ndarray = self.carry[sims]
+            return start
         part, j = np.divmod(steps // self.stride, self.sub)
         stale = part != self.part[sims]
         if stale.any():
@@ -148,7 +149,8 @@ class _RandomWalk(_Additive):
         rows = cast(np.ndarray, self.rows)
         if sims.size == self.nsim and (j == j[0]).all():  # every simulation (sims is sorted), in step: a view
             return rows[:, j[0]]
-        return rows[sims, j]
+        taken: np.ndarray = rows[sims, j]
+        return taken
 
     def draw(self, sims: np.ndarray, parts: np.ndarray) -> np.ndarray:
         """Walk each simulation from its held part to `parts` (every part in between, in order)."""

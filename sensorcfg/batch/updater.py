@@ -212,7 +212,7 @@ class BatchUpdater:
             raise SuiteError(f"sensor {name!r}: {batch_refusal('corruptor')}")
         rule = plain_refusal(ch)
         if rule in ("constant", "generic"):
-            raise SuiteError(f"sensor {name!r} ({type(obs).__name__}): {batch_refusal(cast(str, rule))}")
+            raise SuiteError(f"sensor {name!r} ({type(obs).__name__}): {batch_refusal(rule)}")
         if rule == "dtype":
             raise SuiteError(f"sensor {name!r}: {batch_refusal('dtype', what=type(obs).__name__, dtype=str(ch.dtype))}")
         if rule == "aggregator":

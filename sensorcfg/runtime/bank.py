@@ -258,7 +258,7 @@ class FeatureBank:
             compiled = compile_read(self.channels, plan, lambda source: noise.read_layers(source % self.width), None)
         return compiled._replace(kernel=kernel_read(compiled, compiled.layers, self.flat))
 
-    def read(self, step: int) -> Sequence[Any]:
+    def read(self, step: int) -> Sequence[np.ndarray]:
         """Every member's observation at `step`: fresh arrays (views of this read's own copy)."""
         phase = step % self.rows
         compiled = self._gathers.get(phase)

@@ -121,7 +121,8 @@ class BankNoise:
         sample steps; the steps of an episode's first chunk (the reset sample first, when it is not among
         them) and their positions."""
         def places(i: int, offsets: np.ndarray) -> np.ndarray:
-            return offsets * self.width + self.cols[i]
+            at: np.ndarray = offsets * self.width + self.cols[i]
+            return at
 
         first = [offsets if len(offsets) and offsets[0] == 0 else np.concatenate(([0], offsets)).astype(np.intp)
                  for offsets in sample_offsets]
@@ -189,7 +190,7 @@ class BankNoise:
         cached = self.affines.get((i, j))
         if cached is None or cached[0] is not stage:
             cached = self.affines[(i, j)] = (stage, stage.affine())
-        return cast("list[Affine] | None", cached[1])
+        return cached[1]
 
     # -- reads ------------------------------------------------------------------------------------
 

@@ -66,7 +66,7 @@ class CompiledRead(NamedTuple):
     steps: list[Callable[[], Any]]  # on the work buffer, in order: the families' take, reductions, divisions
     records: list[Step]  # the same steps, as records (`read_kernel` compiles them)
     shown: np.ndarray  # the part of the work buffer the observations show, (n,)
-    cut: Callable[[np.ndarray], tuple[Any, ...]]  # a copy of `shown` -> every member's value
+    cut: Callable[[np.ndarray], tuple[np.ndarray, ...]]  # a copy of `shown` -> every member's value
     reshapes: list[tuple[int, tuple[int, ...]]]  # members whose cut needs a reshape: (member, its shape)
     noise: list[Any]  # the bank noise's read program for `source` ([] without noise)
     layers: list[Layer]  # the same program, as records
@@ -109,7 +109,7 @@ class _Cuts:
             if len(shape) != 1:
                 self.reshapes.append((i, shape))
 
-    def getter(self) -> Callable[[np.ndarray], tuple[Any, ...]]:
+    def getter(self) -> Callable[[np.ndarray], tuple[np.ndarray, ...]]:
         if len(self.keys) == 1:
             key = self.keys[0]
             return lambda values: (values[key],)
@@ -149,7 +149,7 @@ def compile_read(channels: Sequence[FixedChannel], plan: Any, noise_layers: Call
                         cuts.reshapes, ops_of(layers, gathered), layers)
 
 
-def finish(read: CompiledRead) -> Sequence[Any]:
+def finish(read: CompiledRead) -> Sequence[np.ndarray]:
     """After the windows are gathered (and their noise applied): stack, reduce, copy and cut every member's
     observation (fresh arrays: views of this read's own copy)."""
     for step in read.steps:
@@ -157,7 +157,7 @@ def finish(read: CompiledRead) -> Sequence[Any]:
     return cut(read)
 
 
-def cut(read: CompiledRead) -> Sequence[Any]:
+def cut(read: CompiledRead) -> Sequence[np.ndarray]:
     """Every member's observation from the work buffer's reduced values and plain windows: fresh arrays
     (views of this read's own copy, reshaped where the cut does not give a member's shape)."""
     values = read.cut(read.shown.copy())

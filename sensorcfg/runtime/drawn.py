@@ -249,7 +249,7 @@ class Planner:
         reads = first[:, None] + n * np.arange(max(1, length // n) if length else 1)
         k = (np.searchsorted(g * w1 + rel, (np.arange(m) * w1 - prev)[:, None] + reads, side="right")
              - dstart[:, None])
-        windows = seq[(offset[:, None] + k)[..., None] + np.arange(b)]
+        windows: np.ndarray = seq[(offset[:, None] + k)[..., None] + np.arange(b)]
         self.tail[sims] = seq[offset[:, None] + delivered[:, None] + np.arange(b)]
         return windows
 
@@ -272,7 +272,8 @@ class Planner:
         """Per simulation, the window entries whose samples it takes (None: all): not those before a smaller
         buffer's entries, none with stateful noise (it takes every sample instead)."""
         if self.uneven or self.every[sims].any():
-            return self.reads[sims] & ~self.every[sims][:, None]
+            mask: np.ndarray = self.reads[sims] & ~self.every[sims][:, None]
+            return mask
         return None
 
     def _every(self, sims: np.ndarray, new: tuple[np.ndarray, np.ndarray], sim: np.ndarray, steps: np.ndarray,

@@ -107,7 +107,7 @@ class DrawnBank:
         self._noise([program(ch.noise) or () for ch in channels])
         self.kernel = kernel_read(self.compiled, self.noise_layers, self.flat)  # the read in one call, where built
         self.run = None if self.kernel is None else self.kernel.run
-        self._read_step, self._outputs = -1, cast(Sequence[Any], [])
+        self._read_step, self._outputs = -1, cast(Sequence[np.ndarray], [])
         self._pad_program: list[ReadOp] | None = None
         self._pad_work = np.zeros(0)
 
@@ -257,7 +257,7 @@ class DrawnBank:
 
         return snapshot
 
-    def read(self, step: int) -> Sequence[Any]:
+    def read(self, step: int) -> Sequence[np.ndarray]:
         """Every member's observation at `step` (computed once per step)."""
         if step == self._read_step:
             return self._outputs
@@ -277,7 +277,7 @@ class DrawnBank:
         self._read_step, self._outputs = step, outputs
         return outputs
 
-    def _read_numpy(self, index: np.ndarray, pads: np.ndarray | None) -> Sequence[Any]:
+    def _read_numpy(self, index: np.ndarray, pads: np.ndarray | None) -> Sequence[np.ndarray]:
         """`read` in numpy calls (the reference; also reads whose windows show padding, early in an episode)."""
         compiled = self.compiled
         gathered = compiled.gathered
@@ -313,7 +313,8 @@ def _new(steps: np.ndarray, before: np.ndarray) -> np.ndarray:
     if not len(before) or not len(steps):
         return steps
     at = np.searchsorted(before, steps)
-    return steps[before.take(at, mode="clip") != steps]
+    new: np.ndarray = steps[before.take(at, mode="clip") != steps]
+    return new
 
 
 _ZERO = np.zeros(1, np.intp)

@@ -140,7 +140,8 @@ class Updater:
         """The bank that reads every observation, in order, when one does."""
         for kind in (BankMember, DrawnMember):
             if readers and all(type(r) is kind and r.position == i for i, r in enumerate(readers)):
-                return cast(Any, readers[0]).bank
+                bank: FeatureBank | DrawnBank = readers[0].bank
+                return bank
         return None
 
     def _bind(self, physics: Any, random_state: Any) -> list[tuple[type, list[tuple[str, Any]]]]:
@@ -180,8 +181,9 @@ class Updater:
         key = FeatureBank.key(members, data, self._substeps, self._pad)
         cached = getattr(self, "_bank_cache", None)
         if cached is not None and cached[0] == key:  # same sensors: keep the layout and its read plans
-            cached[1].rebind(members)
-            return cached[1]
+            kept: FeatureBank = cached[1]
+            kept.rebind(members)
+            return kept
         view = buffer_view(data, fields_of(members))
         if view is None:  # fields outside MjData's main buffer: read them one by one
             return None
