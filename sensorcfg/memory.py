@@ -47,7 +47,7 @@ __all__ = ["Kept", "kept", "kept_problems"]
 # Bytes each store costs beyond its samples, measured on the paths named (tests/test_memory.py checks
 # that the estimate stays above what the Updater allocates):
 ROW_BYTES = 192  # a ring slot: its numpy view and list entry (`FixedChannel.rows`)
-STEP_BYTES = 448  # a history row: its view, snapshot flag and share of the bounded read-plan caches
+STEP_BYTES = 448  # a history row: its view, snapshot flag and share of the bounded read-layout caches
 READ_BYTES = 128  # a drawn schedule's planned read: its row of gather indices' view
 _GIB = float(1 << 30)
 _FIXES = {"delay": "use a shorter delay or a longer interval", "buffer": "use a smaller buffer or a longer interval"}

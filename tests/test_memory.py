@@ -1,7 +1,7 @@
 """Memory in proportion to the data a sensor keeps, whatever its buffer and delay (docs/semantics.md, "Memory").
 
 A 14-value sensor with buffer 1000 and delay 5000 steps keeps 0.67 MB of samples; buffer 20000 keeps
-2.2 MB. The Updater and the batch hold those samples once or twice, plus read plans kept within a budget
+2.2 MB. The Updater and the batch hold those samples once or twice, plus read layouts kept within a budget
 (`runtime.cache`), and stop growing once every phase has been read.
 """
 
@@ -60,7 +60,7 @@ def test_updater_memory_is_bounded_by_the_data_kept(buffer, delay, aggregator):
         tracemalloc.stop()
     early, late = traced(step, 50, 400)
     assert built < 4 * kept + MB, f"{built / MB:.1f} MB at reset for {kept / MB:.2f} MB of samples"
-    # read plans are kept within the cache budgets, whatever the number of phases
+    # read layouts are kept within the cache budgets, whatever the number of phases
     assert late < 4 * kept + 2 * max(DEFAULT_BUDGET, 2 * kept) + MB, f"{late / MB:.1f} MB"
     assert observable.buffer_size == buffer
 

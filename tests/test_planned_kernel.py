@@ -37,7 +37,7 @@ def _schedules(rng: np.random.Generator, count: int, substeps: int) -> list[Draw
 def _plan(schedules: list[Drawn], seed: int, kernel: bool, monkeypatch: pytest.MonkeyPatch) -> list[object]:
     """Rounds of random lengths for random subsets of the simulations (restarted at random), and the state
     after each."""
-    monkeypatch.setattr(drawn, "_PLAN", drawn._PLAN if kernel else None)
+    monkeypatch.setattr(drawn, "_ROUND_KERNEL", drawn._ROUND_KERNEL if kernel else None)
     rng = np.random.default_rng(seed)
     planner = Planner(schedules, len(schedules))
     everyone = np.arange(len(schedules))

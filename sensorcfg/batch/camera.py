@@ -4,7 +4,7 @@ A frame needs the simulation's whole MjData as it was right after its physics st
 cameras is persistent (one MjData per simulation: memory grows with nsim) and a control step is split
 into one `rollout` per substep at which some camera samples. Each sampled frame costs one `get_data` and
 one render of that simulation: a Python loop over the simulations that sample it. Which steps sample is
-the single-simulation channel's periodic plan (`FixedChannel.needed_phases`), so a frame that no read can
+the single-simulation channel's periodic sampling pattern (`FixedChannel.needed_phases`), so a frame that no read can
 see is never rendered; a camera sampling every step with a buffer of 1 renders once per control step.
 
 Frames wait in a per-simulation ring laid out as `FixedChannel`'s, read with one fancy index for all
@@ -76,32 +76,32 @@ class BatchCameras:
         frame: np.ndarray = camera.render()
         return frame
 
-    def render_substeps(self, t: np.ndarray, active: np.ndarray) -> list[int]:
+    def render_substeps(self, age: np.ndarray, active: np.ndarray) -> list[int]:
         """The substeps (1..substeps) of this control step after which some camera samples some simulation."""
         out = set()
         for camera in self.cameras:
             period = camera.needed.size
             for k in range(1, self.substeps + 1):
-                if k not in out and (camera.needed[(t + k) % period] & active).any():
+                if k not in out and (camera.needed[(age + k) % period] & active).any():
                     out.add(k)
         return sorted(out)
 
-    def sample(self, k: int, t: np.ndarray, active: np.ndarray) -> None:
-        """Render the frames due after substep k (`t`: steps since reset before this control step)."""
+    def sample(self, k: int, age: np.ndarray, active: np.ndarray) -> None:
+        """Render the frames due after substep k (`age`: each simulation's steps since reset before this control step)."""
         for camera in self.cameras:
             ch = camera.ch
-            due = np.flatnonzero(camera.needed[(t + k) % camera.needed.size] & active)
+            due = np.flatnonzero(camera.needed[(age + k) % camera.needed.size] & active)
             if camera.many is not None and due.size:  # all due simulations at once (height scans)
                 frames = camera.many(due)
                 if camera.noise is None:
-                    camera.ring[due, ch.schedule.slot((t[due] + k) // ch.interval)] = frames
+                    camera.ring[due, ch.schedule.slot((age[due] + k) // ch.interval)] = frames
                     continue
                 for row, i in enumerate(due):
-                    step = int(t[i]) + k
+                    step = int(age[i]) + k
                     camera.ring[i, ch.schedule.slot(step // ch.interval)] = _noisy(camera, i, frames[row], step)
                 continue
             for i in due:  # one get_data and one render per simulation: the documented cost
-                step = int(t[i]) + k
+                step = int(age[i]) + k
                 camera.ring[i, ch.schedule.slot(step // ch.interval)] = _noisy(camera, i, self._frame(i, camera), step)
 
     def reset_noise(self, i: int, entropy: list[int]) -> None:
@@ -120,11 +120,11 @@ class BatchCameras:
                 camera.ring[i] = frame if self.pad else 0
                 camera.ring[i, 0] = frame
 
-    def read(self, t: np.ndarray, out: list[Any]) -> None:
+    def read(self, age: np.ndarray, out: list[Any]) -> None:
         """Each camera's observation of every simulation into `out` at its position."""
         sims = np.arange(self.nsim)[:, None]
         for position, camera in zip(self.positions, self.cameras):
             ch = camera.ch
-            start = ch.schedule.window_start(t)
+            start = ch.schedule.window_start(age)
             window = camera.ring[sims, ch.schedule.slot(start[:, None] + np.arange(ch.buffer_size))]
             out[position] = window if ch.has_buffer_dim else window[:, 0]

@@ -222,7 +222,7 @@ class BatchEnvironment(ControlLoop):
         """The model compiled again with relays (`batch.relay`) where they pay and copy exactly, and the
         updater reading them; else the model as it is."""
         layout = self._updater.layout
-        chosen = relay.plan(self._model, layout.sources, layout.recorded(), self._n)
+        chosen = relay.choose(self._model, layout.sources, layout.recorded(), self._n)
         if chosen is None:
             return
         try:

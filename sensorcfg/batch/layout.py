@@ -21,7 +21,7 @@ from typing import NamedTuple, cast
 
 import numpy as np
 
-from ..runtime.bank import PlainRead, ReductionGroup, read_plan
+from ..runtime.bank import PlainRead, ReductionGroup, read_layout
 from ..runtime.cache import DEFAULT_BUDGET, BoundedCache
 from ..runtime.channels import DrawnChannel, FixedChannel, RandomChannel
 
@@ -205,7 +205,7 @@ class Layout:
         fixed_cols = self.cols[:self.nfixed + 1]
         deltas = []
         for q in range(self.nphase):
-            index, groups, plain = read_plan(self.fixed, fixed_cols, rows, q * substeps)
+            index, groups, plain = read_layout(self.fixed, fixed_cols, rows, q * substeps)
             row, col = np.divmod(index, int(fixed_cols[-1]))
             deltas.append((row - q * substeps) % rows)
         delta = np.stack(deltas)  # (phase, read width): row offset from the read's own row

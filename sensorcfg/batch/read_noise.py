@@ -114,9 +114,9 @@ class ReadNoise:
         for sensor in self.sensors:
             self.keys[sensor.span] = sensor.stage.keys[self.sims[sensor.span]]
 
-    def apply(self, values: np.ndarray, t: np.ndarray) -> None:
-        """Add each read sample's noise to `values`, one read of every simulation (`t`: steps since reset)."""
-        steps = newest_sample(t[None, :], self.pair_delay, self.pair_interval)  # (pair, simulation)
+    def apply(self, values: np.ndarray, age: np.ndarray) -> None:
+        """Add each read sample's noise to `values`, one read of every simulation (`age`: each one's steps since reset)."""
+        steps = newest_sample(age[None, :], self.pair_delay, self.pair_interval)  # (pair, simulation)
         sample = steps.ravel().take(self.pair_at)
         sample += self.first  # < 0: padding
         padding = bool((sample < 0).any())

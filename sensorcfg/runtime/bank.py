@@ -26,10 +26,10 @@ from .channels import Channel, DrawnChannel, FixedChannel
 from .read_kernel import kernel_read, kernel_snapshot
 from .schedule import Schedule, history_rows
 
-__all__ = ["FeatureBank", "BankMember", "bank_member", "plain_refusal", "qualifies", "GroupMember", "PlainRead", "ReadPlan", "ReductionGroup", "buffer_view",
-           "fields_of", "noise_chunk", "read_plan", "rebind_noise", "reuse_key"]
+__all__ = ["FeatureBank", "BankMember", "bank_member", "plain_refusal", "qualifies", "GroupMember", "PlainRead", "ReadLayout", "ReductionGroup", "buffer_view",
+           "fields_of", "noise_chunk", "read_layout", "rebind_noise", "reuse_key"]
 
-_PLANS_BUDGET = 4 << 20  # bytes of read plans kept, at least (4 x the history's size when that is more)
+_READS_BUDGET = 4 << 20  # bytes of read layouts kept, at least (4 x the history's size when that is more)
 _CHUNK_STEPS = 1024  # physics steps of noise drawn at a time (rounded up to the sampling period): one Philox call each
 
 
@@ -68,6 +68,28 @@ class _FieldReader(Protocol):
     def __call__(self) -> Any: ...
 
 
+class _Windowed(Protocol):
+    def window(self, read_step: int) -> np.ndarray: ...
+
+
+class LaidOut(Protocol):
+    """What `read_layout` reads of a member: a `FixedChannel`, or the drawn bank's stand-in for one
+    (`planned.DrawnBank`: window position p reads history row p)."""
+
+    @property
+    def interval(self) -> int: ...
+    @property
+    def schedule(self) -> _Windowed: ...
+    @property
+    def aggregator(self) -> Callable[[np.ndarray], Any] | None: ...
+    @property
+    def buffer_size(self) -> int: ...
+    @property
+    def buffered_shape(self) -> tuple[int, ...]: ...
+    @property
+    def shape(self) -> tuple[int, ...]: ...
+
+
 class PlainRead(NamedTuple):
     """A member read without reduction: `gathered[part]` reshaped to `shape`."""
 
@@ -98,7 +120,7 @@ class ReductionGroup(NamedTuple):
         return AGGREGATORS[self.aggregator].reduce
 
 
-class ReadPlan(NamedTuple):
+class ReadLayout(NamedTuple):
     """One `gather` index (row * width + column of the history) and how to cut and reduce what it gathers."""
 
     gather: np.ndarray
@@ -173,9 +195,9 @@ class FeatureBank:
         self.history_rows = list(self.history)
         self.phases = [(ch.period(), len(phases), phases) for ch in channels for phases in [ch.needed_phases()]]
         self.snap_rows = _snapshot_rows(self.phases, self.rows)
-        # read plans per phase, and early reads' padded positions per step: kept within a byte budget
-        self._gathers = BoundedCache(max(_PLANS_BUDGET, 4 * self.history.nbytes))
-        self._early = BoundedCache(_PLANS_BUDGET // 4)
+        # read layouts per phase, and early reads' padded positions per step: kept within a byte budget
+        self._gathers = BoundedCache(max(_READS_BUDGET, 4 * self.history.nbytes))
+        self._early = BoundedCache(_READS_BUDGET // 4)
         self.noise = self._noise(programs) if noisy else None
         self.pad_values = np.zeros(self.width)
 
@@ -187,7 +209,7 @@ class FeatureBank:
 
     @staticmethod
     def key(channels: list[FixedChannel], data: Any, substeps: int, pad: bool) -> tuple[Any, ...]:
-        """What the bank's layout and plans depend on: equal keys let a reset reuse the bank."""
+        """What the bank's history and read layouts depend on: equal keys let a reset reuse the bank."""
         return reuse_key(channels, data, substeps, pad, [(ch.interval, ch.delay) for ch in channels])
 
     def rebind(self, channels: list[FixedChannel]) -> None:
@@ -202,7 +224,7 @@ class FeatureBank:
         return [t for t, snap in enumerate(self.snap_rows) if snap]
 
     def tasks(self, sync: Callable[[], None] | None = None) -> list[tuple[int, list[int], Any]]:
-        """(period, phases, task(step)) for the Updater's plan: snapshots (each calling `sync` first when
+        """(period, phases, task(step)) for the Updater's sampling table: snapshots (each calling `sync` first when
         given), and noise drawn a chunk ahead."""
         out = [(self.rows, self.snapshot_steps(), self._snapshot_task(sync))]
         if self.noise is not None:
@@ -224,8 +246,8 @@ class FeatureBank:
                 self.noise.apply(first, self.noise.read_program(first, self.pad_values))
 
     def _snapshot_task(self, sync: Callable[[], None] | None) -> Callable[[int], None]:
-        """Copy every member's values into the history row of `step`: a closure over what it uses (the plan
-        calls it at every sampled step)."""
+        """Copy every member's values into the history row of `step`: a closure over what it uses (the
+        sampling table calls it at every sampled step)."""
         take, source, rows, count = self.raw.take, self.source, self.history_rows, self.rows
         compiled_snapshot = None if sync else kernel_snapshot(self.raw, source, self.history, None, self._data)
         if compiled_snapshot is not None:
@@ -250,12 +272,12 @@ class FeatureBank:
         return self.channels[position].schedule.samples_taken(self.phases[position][2], step)
 
     def _compile(self, phase: int) -> CompiledRead:
-        plan = read_plan(self.channels, self.cols, self.rows, phase)
+        layout = read_layout(self.channels, self.cols, self.rows, phase)
         if self.noise is None:  # gather the families' blocks straight from the history
-            compiled = compile_read(self.channels, plan, None, self.rows * self.width)
+            compiled = compile_read(self.channels, layout, None, self.rows * self.width)
         else:
             noise = self.noise
-            compiled = compile_read(self.channels, plan, lambda source: noise.read_layers(source % self.width), None)
+            compiled = compile_read(self.channels, layout, lambda source: noise.read_layers(source % self.width), None)
         return compiled._replace(kernel=kernel_read(compiled, compiled.layers, self.flat))
 
     def read(self, step: int) -> Sequence[np.ndarray]:
@@ -264,7 +286,7 @@ class FeatureBank:
         compiled = self._gathers.get(phase)
         if compiled is None:
             compiled = self._compile(phase)
-            # its index, noise positions and work buffer (the noise plan's fields are the bank's own), and the
+            # its index, noise positions and work buffer (the noise program's fields are the bank's own), and the
             # compiled program's
             self._gathers.put(phase, compiled,
                               4 * compiled.source.nbytes + (compiled.kernel.nbytes if compiled.kernel else 0))
@@ -344,22 +366,31 @@ def qualifies(ch: Channel) -> TypeGuard[FixedChannel]:
     return bank_member(ch, FixedChannel)
 
 
-def read_plan(channels: list[FixedChannel], cols: np.ndarray, rows: int, phase: int) -> ReadPlan:
+def _builtin_name(aggregator: Callable[[np.ndarray], Any]) -> str:
+    """A bank member's aggregator's name: a built-in, as `plain_refusal` made sure."""
+    found = builtin(aggregator)
+    if found is None:
+        raise ValueError(f"{aggregator!r} is not a built-in aggregator: it cannot reduce a bank's read")
+    return found.name
+
+
+def read_layout(channels: Sequence[LaidOut], cols: np.ndarray, rows: int, phase: int) -> ReadLayout:
     """For reads at steps = phase (mod rows) of a step-indexed history of `rows` rows of `cols[-1]` values,
     channel i in columns cols[i]:cols[i+1]: one flat gather index (row * width + column), and how to cut
-    and reduce it (`ReadPlan`).
+    and reduce it (`ReadLayout`).
 
     Shared by `FeatureBank` and the batched bank of `sensorcfg.batch`.
     """
     width = int(cols[-1])
-    blocks: dict[Any, list[tuple[int, np.ndarray]]] = {}
+    # per group key (aggregator, buffer, the member when it is reduced alone (else -1)); None: not reduced
+    blocks: dict[tuple[str, int, int] | None, list[tuple[int, np.ndarray]]] = {}
     for i, ch in enumerate(channels):
         steps = ch.interval * ch.schedule.window(phase)
         block = (steps % rows)[:, None] * width + np.arange(cols[i], cols[i + 1])
-        key: tuple[Any, ...] | None = None if ch.aggregator is None else (
-            cast(Any, ch.aggregator).name, ch.buffer_size)  # a builtin aggregator: it has a name
-        if key is not None and pairwise(key[0], int(cols[i + 1] - cols[i])):  # a group of its own
-            key += (i,)
+        key = None
+        if ch.aggregator is not None:
+            name = _builtin_name(ch.aggregator)
+            key = (name, ch.buffer_size, i if pairwise(name, int(cols[i + 1] - cols[i])) else -1)
         blocks.setdefault(key, []).append((i, block))
     parts: list[np.ndarray] = []
     groups: list[ReductionGroup] = []
@@ -381,4 +412,4 @@ def read_plan(channels: list[FixedChannel], cols: np.ndarray, rows: int, phase: 
         groups.append(ReductionGroup(slice(offset, offset + stacked.size), stacked.shape, members, key[0]))
         parts.append(stacked.ravel())
         offset += stacked.size
-    return ReadPlan(np.concatenate(parts).astype(np.intp), groups, plain)
+    return ReadLayout(np.concatenate(parts).astype(np.intp), groups, plain)

@@ -23,30 +23,35 @@ steps later, so callers plan one round ahead (`chunk >= largest delay + substeps
 from __future__ import annotations
 
 import math
-import numbers
-from collections.abc import Sequence
-from typing import Any, NamedTuple, cast
+from collections.abc import Callable, Sequence
+from typing import NamedTuple
 
 import numpy as np
 
 from .. import compiled
+from ..draws import ChoiceSteps, UniformSteps
 from ..noise import streams
 
 __all__ = ["Drawn", "Planner", "Round", "chunk_steps"]
 
 _MIN_CHUNK = 1024  # steps per planning round, at least
-_PLAN = getattr(compiled.MODULE, "plan", None)  # a round's ordering, windows and samples taken, compiled
+# a round's ordering, windows and samples taken, compiled (`_kernel.c`'s `plan`)
+_ROUND_KERNEL: Callable[..., int] | None = getattr(compiled.MODULE, "plan", None)
 
 
-def _largest(value: Any) -> int:
-    return int(value) if isinstance(value, numbers.Integral) else int(value.largest)
+Draw = UniformSteps | ChoiceSteps  # an interval or delay sensorcfg draws (`draws.planned`)
+Setting = int | Draw  # a planned schedule's interval or delay: a constant or a draw
+
+
+def _largest(value: Setting) -> int:
+    return int(value.largest) if isinstance(value, (UniformSteps, ChoiceSteps)) else int(value)
 
 
 class Drawn(NamedTuple):
     """A planned schedule: interval and delay (an int, or a draw with `block` and `largest`), in steps."""
 
-    interval: Any
-    delay: Any
+    interval: Setting
+    delay: Setting
     buffer: int
     substeps: int
     every_sample: bool = False  # stateful noise: every sample of the schedule is taken
@@ -54,7 +59,7 @@ class Drawn(NamedTuple):
     @property
     def stride(self) -> int:
         """Sample j of a constant interval is at step j * stride; 1 when drawn (a sample's index is its step)."""
-        return int(self.interval) if isinstance(self.interval, numbers.Integral) else 1
+        return 1 if isinstance(self.interval, (UniformSteps, ChoiceSteps)) else int(self.interval)
 
     @property
     def span(self) -> int:
@@ -86,7 +91,7 @@ class Round(NamedTuple):
 _SCHEDULE = np.array([0, 1 << 63], np.uint64)  # xor of a sensor key that gives its schedule key
 
 
-def _drawn(setting: Any, keys: np.ndarray, first: np.ndarray, counts: np.ndarray, lane: int) -> np.ndarray:
+def _drawn(setting: Draw, keys: np.ndarray, first: np.ndarray, counts: np.ndarray, lane: int) -> np.ndarray:
     """Draws of `setting` for samples first[s] .. first[s] + counts[s] - 1 of schedule keys `keys` (one per
     run, (len(first), 2)), run after run, from lane `lane`."""
     return np.asarray(setting.of_uniform(streams.uniform_runs(keys, first, counts, lane)), np.int64)
@@ -104,7 +109,7 @@ class Planner:
             raise ValueError("a Planner needs one Drawn per simulation, all with the same substeps")
         self.drawns = drawns
         # simulations by schedule (interval, delay): each schedule's samples drawn in one call
-        schedules: dict[tuple[Any, Any], list[int]] = {}
+        schedules: dict[tuple[Setting, Setting], list[int]] = {}
         for i, d in enumerate(drawns):
             schedules.setdefault((d.interval, d.delay), []).append(i)
         self.schedules = list(schedules)
@@ -150,10 +155,12 @@ class Planner:
         kinds = self.schedule_of[sims]
         for k, (_, delay) in enumerate(self.schedules):
             pos = self.members[k] if sims is self.all else np.flatnonzero(kinds == k)
-            if len(pos) and not isinstance(delay, numbers.Integral):
+            if not len(pos):
+                continue
+            if isinstance(delay, (UniformSteps, ChoiceSteps)):
                 delays[pos] = _drawn(delay, self.keys[sims[pos]], np.zeros(len(pos), np.int64),
                                      np.ones(len(pos), np.int64), 1)
-            elif len(pos):
+            else:
                 delays[pos] = int(delay)
         self.next[sims] = 1
         self.end[sims] = 0
@@ -180,11 +187,11 @@ class Planner:
         g, t, d = (np.concatenate(part) for part in zip(*parts))
         return g, t, d
 
-    def _samples(self, schedule: tuple[Any, Any], sims: np.ndarray, end: np.ndarray
+    def _samples(self, schedule: tuple[Setting, Setting], sims: np.ndarray, end: np.ndarray
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """`_until` for simulations of one schedule (interval, delay)."""
         (interval, delay), first = schedule, self.next[sims]
-        if isinstance(interval, numbers.Integral):
+        if not isinstance(interval, (UniformSteps, ChoiceSteps)):
             counts = np.maximum(end // int(interval) - first + 1, 0)
             g = np.repeat(np.arange(len(sims)), counts)
             j = np.repeat(first - (np.cumsum(counts) - counts), counts) + np.arange(g.size)
@@ -207,7 +214,7 @@ class Planner:
             had = counts > 0
             self.last[sims[had]] = times[had, counts[had] - 1]
         self.next[sims] = first + counts
-        d = (np.full(g.size, int(delay), np.int64) if isinstance(delay, numbers.Integral)
+        d = (np.full(g.size, int(delay), np.int64) if not isinstance(delay, (UniformSteps, ChoiceSteps))
              else _drawn(delay, self.keys[sims], first, counts, 1))  # g: sorted, j from first, counts per sim
         return g, t, d
 
@@ -220,7 +227,7 @@ class Planner:
         g, t, a = self._in_flight(sims, end, g, t, t + d)
         mask = self._mask(sims)
         floor = np.maximum(prev - length, 0)
-        if _PLAN is None:  # numpy: the reference
+        if _ROUND_KERNEL is None:  # numpy: the reference
             windows = self._windows(sims, g, t, a, prev, length)
             sim, steps = _shown(windows, floor, mask) if length else (np.zeros(0, np.intp), np.zeros(0, np.int64))
         else:  # the same steps compiled (`_kernel.plan`)
@@ -262,9 +269,12 @@ class Planner:
         tail = np.ascontiguousarray(self.tail[sims])
         sim, steps = np.empty(windows.size, np.int64), np.empty(windows.size, np.int64)
         g, t, a = (np.ascontiguousarray(x, np.int64) for x in delivered)
-        count = cast(Any, _PLAN)(g, t, a, np.ascontiguousarray(prev, np.int64), tail,
-                                 b"" if mask is None else np.ascontiguousarray(mask, np.uint8), floor.astype(np.int64),
-                                 windows, sim, steps, b, self.substeps, length)
+        kernel = _ROUND_KERNEL
+        if kernel is None:
+            raise RuntimeError("the compiled round is not built (the caller checks _ROUND_KERNEL)")
+        count = kernel(g, t, a, np.ascontiguousarray(prev, np.int64), tail,
+                       b"" if mask is None else np.ascontiguousarray(mask, np.uint8), floor.astype(np.int64),
+                       windows, sim, steps, b, self.substeps, length)
         self.tail[sims] = tail
         return windows, sim[:count], steps[:count]
 

@@ -17,10 +17,10 @@ from typing import Any, NamedTuple, cast
 
 import numpy as np
 
-from .bank import BankMember, ReadPlan, _reader, bank_member, read_plan, rebind_noise, reuse_key
+from .bank import BankMember, _reader, bank_member, read_layout, rebind_noise, reuse_key
 from .bank_noise import BankNoise, Layer, Program, ReadOp, ops_of, program
 from .bank_read import compile_read, cut, finish
-from .channels import DrawnChannel
+from .channels import Channel, DrawnChannel
 from .drawn import Drawn, Planner, Round, chunk_steps
 from .read_kernel import kernel_read, kernel_snapshot
 from .schedule import history_rows
@@ -28,13 +28,13 @@ from .schedule import history_rows
 __all__ = ["DrawnBank", "DrawnMember", "drawn_bank_rows", "joins"]
 
 
-def joins(ch: Any) -> bool:
+def joins(ch: Channel) -> bool:
     """Whether a planned channel can join the bank (`bank.bank_member`)."""
     return bank_member(ch, DrawnChannel)
 
 
 class _Window(NamedTuple):
-    """A stand-in for `read_plan`: window position p of a member reads history row p."""
+    """A stand-in for `read_layout`: window position p of a member reads history row p."""
 
     buffer: int
 
@@ -42,10 +42,12 @@ class _Window(NamedTuple):
         return np.arange(self.buffer)
 
 
-class _Layout(NamedTuple):
+class _Member(NamedTuple):
+    """A member as `read_layout` reads it (`bank.LaidOut`): one window of its last `buffer_size` samples."""
+
     interval: int
     schedule: _Window
-    aggregator: Any
+    aggregator: Callable[[np.ndarray], Any] | None
     buffer_size: int
     buffered_shape: tuple[int, ...]
     shape: tuple[int, ...]
@@ -107,17 +109,18 @@ class DrawnBank:
         self._noise([program(ch.noise) or () for ch in channels])
         self.kernel = kernel_read(self.compiled, self.noise_layers, self.flat)  # the read in one call, where built
         self.run = None if self.kernel is None else self.kernel.run
-        self._read_step, self._outputs = -1, cast(Sequence[np.ndarray], [])
+        self._read_step = -1
+        self._outputs: Sequence[np.ndarray] = []
         self._pad_program: list[ReadOp] | None = None
         self._pad_work = np.zeros(0)
 
     def _compile(self, channels: list[DrawnChannel]) -> None:
         """A read compiled once (`bank_read`): only the rows it gathers change, each gathered value is
         (`entry`: its member's window entry in a round's windows, `column`)."""
-        layout = [_Layout(1, _Window(ch.buffer_size), ch.aggregator, ch.buffer_size, ch.buffered_shape, ch.shape)
-                  for ch in channels]
-        plan: ReadPlan = read_plan(cast(Any, layout), self.cols, max(ch.buffer_size for ch in channels), 0)
-        self.compiled = compile_read(cast(Any, layout), plan, None, None)
+        stand_ins = [_Member(1, _Window(ch.buffer_size), ch.aggregator, ch.buffer_size, ch.buffered_shape, ch.shape)
+                     for ch in channels]
+        layout = read_layout(stand_ins, self.cols, max(ch.buffer_size for ch in channels), 0)
+        self.compiled = compile_read(stand_ins, layout, None, None)
         template = self.compiled.source  # window position * width + column, in the order of the work buffer
         buffers = np.array([ch.buffer_size for ch in channels])
         member = np.searchsorted(self.cols, template % self.width, side="right") - 1
@@ -171,7 +174,7 @@ class DrawnBank:
             self.noise.fill(0, self.walkers)  # (random walks a chunk at a time)
         self.pads.clear()
         self._store(self.planner.start(self.members_, [ch.key for ch in self.channels]), 0, 0)
-        self._plan_round(0, self.chunk)
+        self._draw_round(0, self.chunk)
         if self.pad:
             self.pad_values = self.history[0].copy()
             if self.noise is not None:  # padding repeats the first sample as delivered: with its noise
@@ -180,7 +183,7 @@ class DrawnBank:
             self.pad_values = np.zeros(self.width)
         self.next_round = self.chunk
         self._read_step = -1  # a read at step 0 of this episode is not the last episode's (two resets in a row)
-        self.plan(0)
+        self.draw_ahead(0)
 
     def _pad_noise(self) -> None:
         """The reset sample's noise on `pad_values` (row 0 of the history): a read program of every column,
@@ -193,14 +196,14 @@ class DrawnBank:
         noise.apply(np.arange(self.width), self._pad_program)
         self.pad_values = self._pad_work.copy()
 
-    def plan(self, step: int) -> None:
+    def draw_ahead(self, step: int) -> None:
         """Before the control step after `step`: plan the next round (and draw its noise) once it is
         `ahead` steps away."""
         if step + self.ahead >= self.next_round:
-            self._plan_round(self.next_round, self.length)
+            self._draw_round(self.next_round, self.length)
             self.next_round += self.length
 
-    def _plan_round(self, base: int, length: int) -> None:
+    def _draw_round(self, base: int, length: int) -> None:
         round_ = self.planner.round(self.members_, length)
         self._store(round_, base // self.n + 1, length // self.n)
         self.need[round_.take_step % self.rows] = True
@@ -266,10 +269,10 @@ class DrawnBank:
         if pads is None and self.run is not None:  # the gather, noise and reductions in one call
             self.run(self.gather_rows[slot])
             outputs = cut(self.compiled)
-        elif self.kernel is not None:  # (padding, early in an episode: written between the two calls)
+        elif pads is not None and self.kernel is not None:  # (padding, early in an episode: between the calls)
             index = self.gather_rows[slot]
             self.kernel.noised(index)
-            self._pad(cast(np.ndarray, pads))
+            self._pad(pads)
             self.kernel.reduced(index)
             outputs = cut(self.compiled)
         else:

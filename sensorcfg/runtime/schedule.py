@@ -13,7 +13,7 @@ dm_control's semantics in closed form:
 - the pattern of visible samples repeats every `period = lcm(i, n)` steps;
 - samples wait in a ring of `capacity = b + ceil(d / i) + 1` slots: sample k lives in slot `k % capacity`.
 
-Every consumer calls this module: `FixedChannel`, the feature bank's read plans and sample counts, the
+Every consumer calls this module: `FixedChannel`, the feature bank's read layouts and sample counts, the
 batch's store (what the history keeps), the batch's camera rings and the CLI's timing panels. How many rows a
 step-indexed history has (`history_rows`) is decided here too, for every history and for the memory check
 that bounds them. Functions
