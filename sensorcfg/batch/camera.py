@@ -17,7 +17,8 @@ aggregators and drawn intervals or delays are rejected.
 from __future__ import annotations
 
 import copy
-from typing import Any
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
 import mujoco
 import numpy as np
@@ -27,15 +28,21 @@ from ..noise.level import follow
 from ..physics import Physics
 from ..runtime.channels import FixedChannel
 
+if TYPE_CHECKING:
+    from mujoco.batch import Batch
+
+    from ..observables.base import Observable
+
 __all__ = ["BatchCameras"]
 
 
 class _Camera:
-    def __init__(self, channel: FixedChannel, render: Any, nsim: int, observable: Any = None):
+    def __init__(self, channel: FixedChannel, render: Callable[[], np.ndarray], nsim: int,
+                 observable: Observable | None = None):
         self.ch = channel
         self.render = render
         self.observable = observable  # one with `batch_reader` samples every due simulation in one call
-        self.many: Any = None
+        self.many: Callable[[np.ndarray], np.ndarray] | None = None  # (`batch_reader`: simulations -> samples)
         self.ring = np.zeros((nsim, channel.capacity, *channel.shape), channel.dtype)
         self.noise = [copy.deepcopy(channel.noise) for _ in range(nsim)] if channel.noise is not None else None
         self.needed = channel.schedule.needed_mask()
@@ -49,7 +56,7 @@ def _noisy(camera: _Camera, i: int | np.integer, frame: np.ndarray, step: int) -
 class BatchCameras:
     """The camera observables of a batch (`entries`: (position, observable, channel) each)."""
 
-    def __init__(self, entries: list[tuple[int, Any, FixedChannel]], model: mujoco.MjModel, nsim: int, substeps: int,
+    def __init__(self, entries: list[tuple[int, Observable, FixedChannel]], model: mujoco.MjModel, nsim: int, substeps: int,
                  pad: bool):
         self.data = mujoco.MjData(model)  # each simulation's MjData is copied here to render it
         physics = Physics(model, self.data)
@@ -57,22 +64,24 @@ class BatchCameras:
         self.positions = [position for position, _, _ in entries]
         self.cameras = [_Camera(ch, obs.observation_callable(physics), nsim, obs) for _, obs, ch in entries]
         self.model = model
-        self._batch: Any = None
+        self._batch: Batch | None = None
 
     @property
-    def batch(self) -> Any:
+    def batch(self) -> Batch | None:
         """The persistent mujoco.batch.Batch to render from."""
         return self._batch
 
     @batch.setter
-    def batch(self, batch: Any) -> None:
+    def batch(self, batch: Batch | None) -> None:
         self._batch = batch
         for camera in self.cameras:
             reader = getattr(camera.observable, "batch_reader", None)
             camera.many = None if reader is None or batch is None else reader(self.model, batch)
 
     def _frame(self, i: int | np.integer, camera: _Camera) -> np.ndarray:
-        self.batch.get_data(int(i), self.data)
+        if self._batch is None:
+            raise RuntimeError("a batch camera rendered before its environment set its mujoco.batch.Batch")
+        self._batch.get_data(int(i), self.data)
         frame: np.ndarray = camera.render()
         return frame
 

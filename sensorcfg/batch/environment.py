@@ -57,13 +57,13 @@ from __future__ import annotations
 
 import os
 import warnings
-from collections.abc import Callable
-from typing import TYPE_CHECKING, Any, NamedTuple, cast
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import dm_env
 import mujoco
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ..env.episode import episode_end
 from ..env.environment import (_BAD_STATE, ControlLoop, ModelArg, action_spec, episode_timing, keyframe_index,
@@ -75,7 +75,7 @@ from . import relay
 from .updater import BatchUpdater
 
 if TYPE_CHECKING:
-    from .camera import BatchCameras
+    from mujoco.batch import Batch
 
 __all__ = ["BatchEnvironment", "BatchTimeStep", "sim_seed"]
 
@@ -213,7 +213,7 @@ class BatchEnvironment(ControlLoop):
         self._observation_spec = self._updater.observation_spec()
 
     def _updater_for(self, model: mujoco.MjModel, observables: dict[str, Any], flags: dict[str, bool],
-                     relays: Any = None) -> BatchUpdater:
+                     relays: Mapping[str, Mapping[int, int]] | None = None) -> BatchUpdater:
         physics = Physics(model)
         mujoco.mj_forward(model, physics.data)
         return BatchUpdater(observables, physics, self._nsim, self._n, **flags, relays=relays)
@@ -256,7 +256,7 @@ class BatchEnvironment(ControlLoop):
         return self._nsim
 
     @property
-    def batch(self) -> Any:
+    def batch(self) -> Batch:
         """The `mujoco.batch.Batch` (state fields are writable there; write them before a step)."""
         return self._batch
 
@@ -278,7 +278,7 @@ class BatchEnvironment(ControlLoop):
 
     # -- episodes ---------------------------------------------------------------------------------
 
-    def _ids(self, ids: Any) -> np.ndarray:
+    def _ids(self, ids: ArrayLike | None) -> np.ndarray:
         """Validated simulation ids (sorted, unique) from None, integers or a boolean mask."""
         if ids is None:
             return np.arange(self._nsim)
@@ -318,7 +318,7 @@ class BatchEnvironment(ControlLoop):
         for i in ids:
             self.last_divergence[int(i)] = None
 
-    def reset(self, ids: Any = None) -> BatchTimeStep:
+    def reset(self, ids: ArrayLike | None = None) -> BatchTimeStep:
         """Start new episodes of simulations `ids` (all when None); the others continue."""
         ids = self._ids(ids)
         if ids.size:
@@ -327,7 +327,7 @@ class BatchEnvironment(ControlLoop):
         step_type[ids] = _FIRST
         return BatchTimeStep(step_type, np.zeros(self._nsim), np.ones(self._nsim), self._updater.get_observation())
 
-    def step(self, actions: Any) -> BatchTimeStep:
+    def step(self, actions: ArrayLike) -> BatchTimeStep:
         """One control step of every simulation (auto-resetting those whose episode ended).
 
         An exception raised during it (by `reward_fn` or `termination_fn`) propagates and ends every
@@ -397,8 +397,8 @@ class BatchEnvironment(ControlLoop):
                     messages.setdefault(int(i), f"MuJoCo raised: {self._batch.error(int(i))}")
             for slot, values in bound:
                 np.copyto(slot, values)
-            if last in stops:  # stops are cameras' substeps
-                cast("BatchCameras", cameras).sample(last, updater.t, active)
+            if cameras is not None and last in stops:  # stops are cameras' substeps
+                cameras.sample(last, updater.t, active)
 
     def _bad_counts(self) -> np.ndarray:
         warning = self._batch.warning  # (nsim, mjNWARNING, (lastinfo, number))
@@ -422,7 +422,7 @@ class BatchEnvironment(ControlLoop):
                           RuntimeWarning, stacklevel=4)
         return diverged
 
-    def _check_actions(self, actions: Any) -> np.ndarray:
+    def _check_actions(self, actions: ArrayLike) -> np.ndarray:
         try:
             arr = np.asarray(actions, dtype=np.float64)
         except (TypeError, ValueError):

@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import ctypes
 import math
-from collections.abc import Callable, Sequence
-from typing import Any, NamedTuple, Protocol, TypeGuard, cast
+from collections.abc import Callable, Hashable, Sequence
+from typing import TYPE_CHECKING, Any, NamedTuple, Protocol, TypeGuard, cast
 
 import numpy as np
 
@@ -25,6 +25,9 @@ from .bank_read import PADS, CompiledRead, compile_read, cut, finish
 from .channels import Channel, DrawnChannel, FixedChannel
 from .read_kernel import kernel_read, kernel_snapshot
 from .schedule import Schedule, history_rows
+
+if TYPE_CHECKING:
+    from mujoco import MjData
 
 __all__ = ["FeatureBank", "BankMember", "bank_member", "plain_refusal", "qualifies", "GroupMember", "PlainRead", "ReadLayout", "ReductionGroup", "buffer_view",
            "fields_of", "noise_chunk", "read_layout", "rebind_noise", "reuse_key"]
@@ -40,7 +43,7 @@ def noise_chunk(schedules: Sequence[Schedule], substeps: int) -> int:
     return period * -(-_CHUNK_STEPS // period)
 
 
-def buffer_view(data: Any, fields: list[str]) -> tuple[np.ndarray, dict[str, int]] | None:
+def buffer_view(data: MjData, fields: list[str]) -> tuple[np.ndarray, dict[str, int]] | None:
     """A float64 view spanning the given mjData fields, and each field's offset in it (in values).
 
     All mjData arrays live in one allocation of `nbuffer` bytes starting at `qpos`; returns None when the
@@ -65,7 +68,7 @@ class _FieldReader(Protocol):
     field: str
     index: np.ndarray
 
-    def __call__(self) -> Any: ...
+    def __call__(self) -> np.ndarray: ...
 
 
 class _Windowed(Protocol):
@@ -128,7 +131,7 @@ class ReadLayout(NamedTuple):
     plain: list[PlainRead]
 
 
-def fields_of(channels: list[FixedChannel]) -> list[str]:
+def fields_of(channels: Sequence[Channel]) -> list[str]:
     """The mjData fields that bank members read, sorted."""
     return sorted({_reader(ch).field for ch in channels})
 
@@ -169,7 +172,7 @@ class BankMember:
 class FeatureBank:
     """All plain float64 mjData features of one Updater."""
 
-    def __init__(self, channels: list[FixedChannel], data: Any, substeps: int, pad: bool,
+    def __init__(self, channels: list[FixedChannel], data: MjData, substeps: int, pad: bool,
                  view: tuple[np.ndarray, dict[str, int]]):
         """`view`: `buffer_view(data, fields)` of the members' fields (the caller checked it exists)."""
         self.raw, offsets = view
@@ -208,7 +211,7 @@ class FeatureBank:
         return BankNoise(self.channels, [ops or () for ops in programs], self.cols, self.rows, self.chunk, in_chunk)
 
     @staticmethod
-    def key(channels: list[FixedChannel], data: Any, substeps: int, pad: bool) -> tuple[Any, ...]:
+    def key(channels: list[FixedChannel], data: MjData, substeps: int, pad: bool) -> tuple[Hashable, ...]:
         """What the bank's history and read layouts depend on: equal keys let a reset reuse the bank."""
         return reuse_key(channels, data, substeps, pad, [(ch.interval, ch.delay) for ch in channels])
 
@@ -223,7 +226,7 @@ class FeatureBank:
     def snapshot_steps(self) -> list[int]:
         return [t for t, snap in enumerate(self.snap_rows) if snap]
 
-    def tasks(self, sync: Callable[[], None] | None = None) -> list[tuple[int, list[int], Any]]:
+    def tasks(self, sync: Callable[[], None] | None = None) -> list[tuple[int, list[int], Callable[[int], None]]]:
         """(period, phases, task(step)) for the Updater's sampling table: snapshots (each calling `sync` first when
         given), and noise drawn a chunk ahead."""
         out = [(self.rows, self.snapshot_steps(), self._snapshot_task(sync))]
@@ -309,11 +312,11 @@ class FeatureBank:
                 gathered[early] = self.pad_values.take(index[early] % self.width)
 
 
-def reuse_key(channels: Sequence[Channel], data: Any, substeps: int, pad: bool,
-              schedules: list[Any]) -> tuple[Any, ...]:
+def reuse_key(channels: Sequence[Channel], data: MjData, substeps: int, pad: bool,
+              schedules: Sequence[Hashable]) -> tuple[Hashable, ...]:
     """What a bank's layout depends on (`schedules`: each member's schedule settings): equal keys let a reset
     keep the bank (FeatureBank, planned.DrawnBank), with this episode's channels (`rebind_noise`)."""
-    head: tuple[Any, ...] = (id(data), substeps, pad)
+    head: tuple[Hashable, ...] = (id(data), substeps, pad)
     return head + tuple(
         (_reader(ch).field, _reader(ch).index.shape, _reader(ch).index.tobytes(), schedule, ch.buffer_size,
          getattr(ch.aggregator, "name", None), ch.has_buffer_dim, id(ch.noise))

@@ -18,7 +18,7 @@ import collections
 import dataclasses
 import numbers
 from collections.abc import Callable
-from typing import Any, NamedTuple, cast
+from typing import TYPE_CHECKING, Any, NamedTuple, cast
 
 import numpy as np
 
@@ -28,6 +28,9 @@ from ..errors import SuiteError
 from ..observables.aggregators import builtin
 from .drawn import Drawn, Planner, Round, chunk_steps
 from .schedule import Schedule, history_rows
+
+if TYPE_CHECKING:
+    from ..noise.pipeline import NoisePipeline
 
 __all__ = ["Channel", "ChannelSpec", "DrawnChannel", "FixedChannel", "RandomChannel", "make_channel"]
 
@@ -48,7 +51,7 @@ class ChannelSpec(NamedTuple):
     substeps: int  # physics steps per control step: reads happen every `substeps` steps
     aggregator: Callable[[np.ndarray], Any] | None
     builtin_aggregator: bool
-    noise: Any
+    noise: NoisePipeline | None
 
 
 class Channel:

@@ -12,8 +12,8 @@ built (`runtime/read_kernel.py`), except reads early in an episode, whose window
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from typing import Any, NamedTuple, cast
+from collections.abc import Callable, Hashable, Sequence
+from typing import TYPE_CHECKING, Any, NamedTuple, TypeGuard, cast
 
 import numpy as np
 
@@ -25,10 +25,13 @@ from .drawn import Drawn, Planner, Round, chunk_steps
 from .read_kernel import kernel_read, kernel_snapshot
 from .schedule import history_rows
 
+if TYPE_CHECKING:
+    from mujoco import MjData
+
 __all__ = ["DrawnBank", "DrawnMember", "drawn_bank_rows", "joins"]
 
 
-def joins(ch: Channel) -> bool:
+def joins(ch: Channel) -> TypeGuard[DrawnChannel]:
     """Whether a planned channel can join the bank (`bank.bank_member`)."""
     return bank_member(ch, DrawnChannel)
 
@@ -69,7 +72,7 @@ def drawn_bank_rows(schedules: list[Drawn], substeps: int) -> int:
 class DrawnBank:
     """All planned float64 features of one Updater: a history of `rows` steps (plus a padding row)."""
 
-    def __init__(self, channels: list[DrawnChannel], data: Any, substeps: int, pad: bool,
+    def __init__(self, channels: list[DrawnChannel], data: MjData, substeps: int, pad: bool,
                  view: tuple[np.ndarray, dict[str, int]]):
         self.raw, offsets = view
         self._data = data  # keeps the memory behind `raw` alive
@@ -149,7 +152,7 @@ class DrawnBank:
         self.noise_program = ops_of(self.noise_layers, self.compiled.gathered)
 
     @staticmethod
-    def key(channels: list[DrawnChannel], data: Any, substeps: int, pad: bool) -> tuple[Any, ...]:
+    def key(channels: list[DrawnChannel], data: MjData, substeps: int, pad: bool) -> tuple[Hashable, ...]:
         """What the bank's layout depends on: equal keys let a reset reuse the bank (`rebind`)."""
         return reuse_key(channels, data, substeps, pad, [ch.drawn for ch in channels])
 

@@ -119,7 +119,7 @@ def kernel_read(compiled_read: CompiledRead, layers: Sequence[Layer], history: n
 
 
 def kernel_snapshot(raw: np.ndarray, source: np.ndarray, history: np.ndarray, needed: bytearray | None,
-                    owner: Any) -> Callable[[int], None] | None:
+                    owner: object) -> Callable[[int], None] | None:
     """A bank's snapshot task as one kernel call (`_kernel.snapshot`): at `step`, row step % rows of `history`
     takes raw[source] (numpy's take, mode="clip"), where `needed` marks the row (then cleared; None: at every
     call); or None when the kernel is not built or an array is not contiguous. The task keeps the arrays its

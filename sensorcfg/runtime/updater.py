@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 import numbers
-from collections.abc import Callable, Collection, Mapping, Sequence
+from collections.abc import Callable, Collection, Hashable, Mapping, Sequence
 from typing import Any, NamedTuple, Union, cast
 
 import numpy as np
@@ -99,7 +99,9 @@ class Updater:
         self._pad: bool = bool(pad_with_initial_value)
         self._step: int = 0
         self._layout: list[tuple[type, list[tuple[str, _Reader]]]] | None = None
-        self._drawn_cache: tuple[Any, DrawnBank] | None = None  # the last drawn bank, reused for the same sensors
+        # the last banks, reused for the same sensors (by `FeatureBank.key`, `DrawnBank.key`)
+        self._bank_cache: tuple[tuple[Hashable, ...], FeatureBank] | None = None
+        self._drawn_cache: tuple[tuple[Hashable, ...], DrawnBank] | None = None
 
     @property
     def physics_steps_per_control_step(self) -> int:
@@ -179,11 +181,10 @@ class Updater:
             return None
         data = raw_structs(physics)[1]
         key = FeatureBank.key(members, data, self._substeps, self._pad)
-        cached = getattr(self, "_bank_cache", None)
+        cached = self._bank_cache
         if cached is not None and cached[0] == key:  # same sensors: keep the history and its read layouts
-            kept: FeatureBank = cached[1]
-            kept.rebind(members)
-            return kept
+            cached[1].rebind(members)
+            return cached[1]
         view = buffer_view(data, fields_of(members))
         if view is None:  # fields outside MjData's main buffer: read them one by one
             return None
@@ -199,13 +200,13 @@ class Updater:
         data = raw_structs(physics)[1]
         if any(getattr(ch.sampler, "sync", None) is not None for ch in members):
             return None  # a dm_control physics: per sample
-        channels = cast(list[DrawnChannel], members)
+        channels = members
         key = DrawnBank.key(channels, data, self._substeps, self._pad)
         cached = self._drawn_cache
         if cached is not None and cached[0] == key:  # same sensors: keep the layout and compiled read
             cached[1].rebind(channels)
             return cached[1]
-        view = buffer_view(data, fields_of(members))  # type: ignore[arg-type]
+        view = buffer_view(data, fields_of(members))
         if view is None:  # fields outside MjData's main buffer: per sample
             return None
         bank = DrawnBank(channels, data, self._substeps, self._pad, view)
