@@ -82,8 +82,8 @@ def test_batch_memory_is_bounded_by_the_data_kept():
 
 @pytest.mark.parametrize("noise", [None, [{"type": "gaussian", "std": 0.01}]], ids=["plain", "noisy"])
 def test_each_phase_is_compiled_once(noise, monkeypatch):
-    """Read plans of every phase fit the cache: after one cycle of the history, reads compile nothing (a noisy
-    bank's plans refer to its noise fields, which must not count against the budget once per plan)."""
+    """Read layouts of every phase fit the cache: after one cycle of the history, reads compile nothing (a
+    noisy bank's compiled reads refer to its noise fields, which must not count against the budget once per read)."""
     from sensorcfg.noise import build_noise
     from sensorcfg.runtime.bank import FeatureBank
 

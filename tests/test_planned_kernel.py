@@ -34,7 +34,7 @@ def _schedules(rng: np.random.Generator, count: int, substeps: int) -> list[Draw
                   int(rng.integers(1, 5)), substeps, bool(rng.random() < 0.2)) for _ in range(count)]
 
 
-def _plan(schedules: list[Drawn], seed: int, kernel: bool, monkeypatch: pytest.MonkeyPatch) -> list[object]:
+def _rounds(schedules: list[Drawn], seed: int, kernel: bool, monkeypatch: pytest.MonkeyPatch) -> list[object]:
     """Rounds of random lengths for random subsets of the simulations (restarted at random), and the state
     after each."""
     monkeypatch.setattr(drawn, "_ROUND_KERNEL", drawn._ROUND_KERNEL if kernel else None)
@@ -58,8 +58,8 @@ def _plan(schedules: list[Drawn], seed: int, kernel: bool, monkeypatch: pytest.M
 def test_the_compiled_round_is_the_numpy_round(seed, monkeypatch) -> None:
     rng = np.random.default_rng(100 + seed)
     schedules = _schedules(rng, int(rng.integers(1, 7)), int(rng.integers(1, 6)))
-    with_kernel = _plan(schedules, seed, True, monkeypatch)
-    numpy_only = _plan(schedules, seed, False, monkeypatch)
+    with_kernel = _rounds(schedules, seed, True, monkeypatch)
+    numpy_only = _rounds(schedules, seed, False, monkeypatch)
     for i, (a, b) in enumerate(zip(with_kernel, numpy_only)):
         parts_a, parts_b = (tuple(a), tuple(b)) if isinstance(a, tuple) else ((a,), (b,))
         for x, y in zip(parts_a, parts_b):

@@ -90,7 +90,8 @@ class ReadNoise:
         for c, pipeline in pipelines.items():
             stage = pipeline.additive
             if stage is None or stage.terms is None:  # `added_as_read` chose pipelines with one
-                raise RuntimeError(f"read noise of channel {c}: its pipeline is not a sum added as read (an internal error)")
+                raise RuntimeError(f"read noise of channel {c}: its pipeline is not a sum added as read "
+                                   "(an internal error)")
             schedule, size = channels[c].schedule, int(np.prod(channels[c].shape, dtype=np.int64))
             if pipeline.stride != schedule.interval:  # a fixed schedule's is: sample j's numbers are the j-th
                 raise RuntimeError(f"read noise of channel {c}: its noise stride is not its interval (an internal error)")

@@ -140,12 +140,19 @@ def _reader(ch: Channel) -> _FieldReader:
     return cast(_FieldReader, ch.sampler)  # `plain_refusal` made sure it is one
 
 
+class SharedRead(Protocol):
+    """What a bank member asks of its bank (`FeatureBank`, `planned.DrawnBank`)."""
+
+    def read(self, step: int) -> Sequence[np.ndarray]: ...
+    def samples(self, position: int, step: int) -> int: ...
+
+
 class BankMember:
     """Stands in for a channel in the Updater's layout; reads come from the bank's shared read."""
 
     __slots__ = ("name", "bank", "position", "channel")
 
-    def __init__(self, bank: FeatureBank, position: int, channel: FixedChannel):
+    def __init__(self, bank: SharedRead, position: int, channel: FixedChannel | DrawnChannel):
         self.name = channel.name
         self.bank = bank
         self.position = position
@@ -297,13 +304,13 @@ class FeatureBank:
             compiled.kernel.run(compiled.source)
             return cut(compiled)
         self.flat.take(compiled.source, None, compiled.gathered, "clip")
-        if compiled.noise:  # a noise program: the bank has noise
-            self._apply_noise(step, compiled)
+        if compiled.noise and self.noise is not None:  # a noise program: the bank has noise
+            self._apply_noise(step, compiled, self.noise)
         return finish(compiled)
 
-    def _apply_noise(self, step: int, compiled: CompiledRead) -> None:
+    def _apply_noise(self, step: int, compiled: CompiledRead, noise: BankNoise) -> None:
         gathered, index = compiled.gathered, compiled.source
-        cast(BankNoise, self.noise).apply(index, compiled.noise)
+        noise.apply(index, compiled.noise)
         if step < self.rows:  # early in an episode: windows reach before the reset sample
             early = self._early.get(step)
             if early is None:

@@ -340,8 +340,9 @@ def _window_drops(window: list[tuple[int, int, int]], b: int, flight: list[int])
     return drop
 
 
-def make_channel(label: str, observable: Any, physics: Any, random_state: Any, entropy: list[int] | None,
-                 substeps: int, strip: bool, pad: bool) -> FixedChannel | RandomChannel | DrawnChannel:
+def make_channel(label: str, observable: Any, physics: Any, random_state: np.random.RandomState | None,
+                 entropy: list[int] | None, substeps: int, strip: bool,
+                 pad: bool) -> FixedChannel | RandomChannel | DrawnChannel:
     """Bind `observable` to `physics` and build its channel for an episode: the Updater's and the batch's one
     way to turn an observable into a channel. `entropy` keys the sensor's noise streams (`draws.sensor_key`);
     `random_state` is the episode's, given to the observable and to schedule callables that take it."""

@@ -162,7 +162,7 @@ class DrawnBank:
         rebind_noise(self.noise, channels)
 
     def members(self) -> list[DrawnMember]:
-        return [DrawnMember(cast(Any, self), i, cast(Any, ch)) for i, ch in enumerate(self.channels)]
+        return [DrawnMember(self, i, ch) for i, ch in enumerate(self.channels)]
 
     # -- episodes and rounds ----------------------------------------------------------------------
 

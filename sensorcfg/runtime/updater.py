@@ -109,7 +109,7 @@ class Updater:
 
     # -- reset ------------------------------------------------------------------------------------
 
-    def reset(self, physics: Any, random_state: Any) -> None:
+    def reset(self, physics: Any, random_state: np.random.RandomState | None) -> None:
         """Bind every enabled observable, take the reset samples, and precompute the sampling table."""
         layout = self._bind(physics, random_state)
         self._channels = [ch for _, entries in layout for _, ch in entries]
@@ -146,7 +146,8 @@ class Updater:
                 return bank
         return None
 
-    def _bind(self, physics: Any, random_state: Any) -> list[tuple[type, list[tuple[str, Any]]]]:
+    def _bind(self, physics: Any,
+              random_state: np.random.RandomState | None) -> list[tuple[type, list[tuple[str, Any]]]]:
         """Per observables dict: its type and (name, channel) of each enabled observable, in order. The
         episode entropy keys noise streams and planned schedules (drawn when some sensor has either)."""
         dicts = list(self._observables) if self._nested else [self._observables]
@@ -264,7 +265,7 @@ class Updater:
     def _bank_tasks(bank: FeatureBank) -> list[SamplingTask]:
         """The bank's snapshots and noise draws; on a dirty dm_control physics, mj_forward before a step's
         derived reads (as its bind does): within the snapshot when they happen at the same steps."""
-        syncing = [m.channel for m in bank.members() if getattr(m.channel.sampler, "sync", None)]
+        syncing = [ch for ch in bank.channels if getattr(ch.sampler, "sync", None)]
         sync = cast(Any, syncing[0].sampler).sync if syncing else None
         steps = sorted({t for ch in syncing for p in ch.needed_phases() for t in range(p, bank.rows, ch.period())})
         folded = sync is not None and steps == bank.snapshot_steps()
