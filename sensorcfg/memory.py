@@ -12,7 +12,7 @@ A sensor's samples wait in one of three stores, by the path that runs it; the si
   the plain float64 features of an Updater or a batch, together (`runtime/bank.py`, `batch/layout.py`): its
   rows are its longest member's, its width every member's values, so one long delay lengthens every feature's
   rows, and intervals with a large common multiple lengthen it too;
-- a drawn schedule's plan (`runtime/drawn.py`): `Drawn.span` and two planning rounds of steps, with each
+- a drawn schedule's rounds (`runtime/drawn.py`): `Drawn.span` and two planning rounds of steps, with each
   read's window of sample indices, and the samples taken within them.
 
 A slot or row also costs a numpy view in the single-simulation paths (`ROW_BYTES`). A batch keeps each
@@ -98,19 +98,19 @@ def kept(observable: Any, substeps: int, batch: bool = False) -> Kept | None:
     noisy = 2 if getattr(observable, "noise", None) is not None else 1  # the bank's noise: a second history
     drawn = isinstance(observable.update_interval, DRAWS) or isinstance(observable.delay, DRAWS)
     feature = isinstance(observable, Feature)
-    plan = drawn_of(observable, buffer, n, False)  # (sized by the largest values)
+    planned = drawn_of(observable, buffer, n, False)  # (sized by the largest values)
     schedule = Schedule(longest, latest, buffer, n)
     if feature and batch:  # the batch's layout: a history row per step, of the values alone
-        rows = steps = _history_rows([plan if drawn else schedule], n, batch, noisy > 1)
+        rows = steps = _history_rows([planned if drawn else schedule], n, batch, noisy > 1)
         unit, row = "steps of history", sample
         if drawn:  # each read's window of sample steps, three rounds of control steps held
-            row += -(-3 * chunk_steps([plan], n, ROUND_STEPS) // n * buffer * 8 // rows)
+            row += -(-3 * chunk_steps([planned], n, ROUND_STEPS) // n * buffer * 8 // rows)
     elif drawn and feature:  # `DrawnBank`: the history, and each read's gather of buffer x values
-        rows = steps = _history_rows([plan], n, batch, noisy > 1)
+        rows = steps = _history_rows([planned], n, batch, noisy > 1)
         unit = "steps of history"
         row = noisy * sample + STEP_BYTES + (2 * buffer * sample + READ_BYTES) // n
     elif drawn:  # `DrawnChannel`: `Drawn.span` back and rounds of at least 1,024 steps ahead: the samples
-        steps = plan.span + 5 * chunk_steps([plan], n) + 1  # taken within them, and each read's window
+        steps = planned.span + 5 * chunk_steps([planned], n) + 1  # taken within them, and each read's window
         rows, unit = steps // shortest + 1, "samples"
         row = sample + ROW_BYTES + (steps // n * buffer * 8 + steps * 9) // rows
     else:
@@ -120,7 +120,7 @@ def kept(observable: Any, substeps: int, batch: bool = False) -> Kept | None:
             rows, unit, row = steps, "steps of history", (noisy + 1) * sample + STEP_BYTES
         else:  # `FixedChannel`'s ring, the batch's camera rings
             rows, unit, row = ring, "samples", sample + ROW_BYTES
-    history = (plan if drawn else schedule) if feature else None
+    history = (planned if drawn else schedule) if feature else None
     if latest >= buffer * longest:
         up_to = "up to " if delay[0] != latest else ""
         at = f" at an interval of {shortest:,}" if interval[0] == interval[1] else f" at intervals from {shortest:,}"
