@@ -50,7 +50,7 @@ def measure(label: str, env: sensorcfg.Environment, repeats: int, steps: int) ->
     low, high = np.maximum(spec.minimum, -1), np.minimum(spec.maximum, 1)
     actions = rng.uniform(low, high, (steps, model.nu))
     bare, ours = [], []
-    env_loop(env, actions[:20])  # warm-up: read plans are built on first use
+    env_loop(env, actions[:20])  # warm-up: read layouts are built on first use
     for _ in range(repeats):
         mujoco.mj_resetData(model, data)
         t0 = time.perf_counter()

@@ -21,7 +21,7 @@ from .errors import ArgumentError, Problem, SuiteError, quote
 if TYPE_CHECKING:
     import mujoco
 
-    from .native.plan import Added
+    from .native.additions import Added
     from .observables import Observable
 
 __all__ = ["Suite", "load", "loads"]

@@ -4,7 +4,7 @@ A frame needs the simulation's whole MjData as it was right after its physics st
 cameras is persistent (one MjData per simulation: memory grows with nsim) and a control step is split
 into one `rollout` per substep at which some camera samples. Each sampled frame costs one `get_data` and
 one render of that simulation: a Python loop over the simulations that sample it. Which steps sample is
-the single-simulation channel's periodic plan (`FixedChannel.needed_phases`), so a frame that no read can
+the single-simulation channel's periodic sampling pattern (`FixedChannel.needed_phases`), so a frame that no read can
 see is never rendered; a camera sampling every step with a buffer of 1 renders once per control step.
 
 Frames wait in a per-simulation ring laid out as `FixedChannel`'s, read with one fancy index for all
@@ -17,7 +17,8 @@ aggregators and drawn intervals or delays are rejected.
 from __future__ import annotations
 
 import copy
-from typing import Any
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
 import mujoco
 import numpy as np
@@ -27,15 +28,21 @@ from ..noise.level import follow
 from ..physics import Physics
 from ..runtime.channels import FixedChannel
 
+if TYPE_CHECKING:
+    from mujoco.batch import Batch
+
+    from ..observables.base import Observable
+
 __all__ = ["BatchCameras"]
 
 
 class _Camera:
-    def __init__(self, channel: FixedChannel, render: Any, nsim: int, observable: Any = None):
+    def __init__(self, channel: FixedChannel, render: Callable[[], np.ndarray], nsim: int,
+                 observable: Observable | None = None):
         self.ch = channel
         self.render = render
         self.observable = observable  # one with `batch_reader` samples every due simulation in one call
-        self.many: Any = None
+        self.many: Callable[[np.ndarray], np.ndarray] | None = None  # (`batch_reader`: simulations -> samples)
         self.ring = np.zeros((nsim, channel.capacity, *channel.shape), channel.dtype)
         self.noise = [copy.deepcopy(channel.noise) for _ in range(nsim)] if channel.noise is not None else None
         self.needed = channel.schedule.needed_mask()
@@ -49,7 +56,7 @@ def _noisy(camera: _Camera, i: int | np.integer, frame: np.ndarray, step: int) -
 class BatchCameras:
     """The camera observables of a batch (`entries`: (position, observable, channel) each)."""
 
-    def __init__(self, entries: list[tuple[int, Any, FixedChannel]], model: mujoco.MjModel, nsim: int, substeps: int,
+    def __init__(self, entries: list[tuple[int, Observable, FixedChannel]], model: mujoco.MjModel, nsim: int, substeps: int,
                  pad: bool):
         self.data = mujoco.MjData(model)  # each simulation's MjData is copied here to render it
         physics = Physics(model, self.data)
@@ -57,50 +64,53 @@ class BatchCameras:
         self.positions = [position for position, _, _ in entries]
         self.cameras = [_Camera(ch, obs.observation_callable(physics), nsim, obs) for _, obs, ch in entries]
         self.model = model
-        self._batch: Any = None
+        self._batch: Batch | None = None
 
     @property
-    def batch(self) -> Any:
+    def batch(self) -> Batch | None:
         """The persistent mujoco.batch.Batch to render from."""
         return self._batch
 
     @batch.setter
-    def batch(self, batch: Any) -> None:
+    def batch(self, batch: Batch | None) -> None:
         self._batch = batch
         for camera in self.cameras:
             reader = getattr(camera.observable, "batch_reader", None)
             camera.many = None if reader is None or batch is None else reader(self.model, batch)
 
     def _frame(self, i: int | np.integer, camera: _Camera) -> np.ndarray:
-        self.batch.get_data(int(i), self.data)
-        return camera.render()
+        if self._batch is None:
+            raise RuntimeError("a batch camera rendered before its environment set its mujoco.batch.Batch")
+        self._batch.get_data(int(i), self.data)
+        frame: np.ndarray = camera.render()
+        return frame
 
-    def render_substeps(self, t: np.ndarray, active: np.ndarray) -> list[int]:
+    def render_substeps(self, age: np.ndarray, active: np.ndarray) -> list[int]:
         """The substeps (1..substeps) of this control step after which some camera samples some simulation."""
         out = set()
         for camera in self.cameras:
             period = camera.needed.size
             for k in range(1, self.substeps + 1):
-                if k not in out and (camera.needed[(t + k) % period] & active).any():
+                if k not in out and (camera.needed[(age + k) % period] & active).any():
                     out.add(k)
         return sorted(out)
 
-    def sample(self, k: int, t: np.ndarray, active: np.ndarray) -> None:
-        """Render the frames due after substep k (`t`: steps since reset before this control step)."""
+    def sample(self, k: int, age: np.ndarray, active: np.ndarray) -> None:
+        """Render the frames due after substep k (`age`: each simulation's steps since reset before this control step)."""
         for camera in self.cameras:
             ch = camera.ch
-            due = np.flatnonzero(camera.needed[(t + k) % camera.needed.size] & active)
+            due = np.flatnonzero(camera.needed[(age + k) % camera.needed.size] & active)
             if camera.many is not None and due.size:  # all due simulations at once (height scans)
                 frames = camera.many(due)
                 if camera.noise is None:
-                    camera.ring[due, ch.schedule.slot((t[due] + k) // ch.interval)] = frames
+                    camera.ring[due, ch.schedule.slot((age[due] + k) // ch.interval)] = frames
                     continue
                 for row, i in enumerate(due):
-                    step = int(t[i]) + k
+                    step = int(age[i]) + k
                     camera.ring[i, ch.schedule.slot(step // ch.interval)] = _noisy(camera, i, frames[row], step)
                 continue
             for i in due:  # one get_data and one render per simulation: the documented cost
-                step = int(t[i]) + k
+                step = int(age[i]) + k
                 camera.ring[i, ch.schedule.slot(step // ch.interval)] = _noisy(camera, i, self._frame(i, camera), step)
 
     def reset_noise(self, i: int, entropy: list[int]) -> None:
@@ -119,11 +129,11 @@ class BatchCameras:
                 camera.ring[i] = frame if self.pad else 0
                 camera.ring[i, 0] = frame
 
-    def read(self, t: np.ndarray, out: list[Any]) -> None:
+    def read(self, age: np.ndarray, out: list[Any]) -> None:
         """Each camera's observation of every simulation into `out` at its position."""
         sims = np.arange(self.nsim)[:, None]
         for position, camera in zip(self.positions, self.cameras):
             ch = camera.ch
-            start = ch.schedule.window_start(t)
+            start = ch.schedule.window_start(age)
             window = camera.ring[sims, ch.schedule.slot(start[:, None] + np.arange(ch.buffer_size))]
             out[position] = window if ch.has_buffer_dim else window[:, 0]

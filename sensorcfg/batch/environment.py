@@ -57,12 +57,13 @@ from __future__ import annotations
 
 import os
 import warnings
-from collections.abc import Callable
-from typing import TYPE_CHECKING, Any, NamedTuple, cast
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import dm_env
 import mujoco
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ..env.episode import episode_end
 from ..env.environment import (_BAD_STATE, ControlLoop, ModelArg, action_spec, episode_timing, keyframe_index,
@@ -74,7 +75,7 @@ from . import relay
 from .updater import BatchUpdater
 
 if TYPE_CHECKING:
-    from .camera import BatchCameras
+    from mujoco.batch import Batch
 
 __all__ = ["BatchEnvironment", "BatchTimeStep", "sim_seed"]
 
@@ -82,7 +83,9 @@ BatchRewardFn = Callable[[Any], Any]  # mujoco.batch.Batch -> (nsim,) rewards
 BatchTerminationFn = Callable[[Any], Any]  # mujoco.batch.Batch -> (nsim,) bools
 
 _BAD_INDEX = np.array([int(w) for w in _BAD_STATE])
-_FIRST, _MID, _LAST = (int(t) for t in (dm_env.StepType.FIRST, dm_env.StepType.MID, dm_env.StepType.LAST))
+_FIRST: int = int(dm_env.StepType.FIRST)
+_MID: int = int(dm_env.StepType.MID)
+_LAST: int = int(dm_env.StepType.LAST)
 
 
 def _batch_module() -> Any:
@@ -139,19 +142,23 @@ def sim_seed(seed: int | np.random.SeedSequence | None, i: int) -> np.random.See
 class BatchTimeStep(NamedTuple):
     """A dm_env TimeStep per simulation: arrays with a leading nsim axis."""
 
-    step_type: np.ndarray  # (nsim,) dm_env.StepType values
+    step_type: NDArray[np.uint8]  # (nsim,) dm_env.StepType values
     reward: np.ndarray  # (nsim,) float64
     discount: np.ndarray  # (nsim,) float64
     observation: dict[str, np.ndarray]  # (nsim, ...) each
 
-    def first(self) -> np.ndarray:
-        return self.step_type == _FIRST
+    def _is(self, step_type: int) -> NDArray[np.bool_]:
+        matches: NDArray[np.bool_] = self.step_type == step_type  # (numpy types == as Any)
+        return matches
 
-    def mid(self) -> np.ndarray:
-        return self.step_type == _MID
+    def first(self) -> NDArray[np.bool_]:
+        return self._is(_FIRST)
 
-    def last(self) -> np.ndarray:
-        return self.step_type == _LAST
+    def mid(self) -> NDArray[np.bool_]:
+        return self._is(_MID)
+
+    def last(self) -> NDArray[np.bool_]:
+        return self._is(_LAST)
 
 
 class BatchEnvironment(ControlLoop):
@@ -206,7 +213,7 @@ class BatchEnvironment(ControlLoop):
         self._observation_spec = self._updater.observation_spec()
 
     def _updater_for(self, model: mujoco.MjModel, observables: dict[str, Any], flags: dict[str, bool],
-                     relays: Any = None) -> BatchUpdater:
+                     relays: Mapping[str, Mapping[int, int]] | None = None) -> BatchUpdater:
         physics = Physics(model)
         mujoco.mj_forward(model, physics.data)
         return BatchUpdater(observables, physics, self._nsim, self._n, **flags, relays=relays)
@@ -215,7 +222,7 @@ class BatchEnvironment(ControlLoop):
         """The model compiled again with relays (`batch.relay`) where they pay and copy exactly, and the
         updater reading them; else the model as it is."""
         layout = self._updater.layout
-        chosen = relay.plan(self._model, layout.sources, layout.recorded(), self._n)
+        chosen = relay.choose(self._model, layout.sources, layout.recorded(), self._n)
         if chosen is None:
             return
         try:
@@ -249,7 +256,7 @@ class BatchEnvironment(ControlLoop):
         return self._nsim
 
     @property
-    def batch(self) -> Any:
+    def batch(self) -> Batch:
         """The `mujoco.batch.Batch` (state fields are writable there; write them before a step)."""
         return self._batch
 
@@ -271,7 +278,7 @@ class BatchEnvironment(ControlLoop):
 
     # -- episodes ---------------------------------------------------------------------------------
 
-    def _ids(self, ids: Any) -> np.ndarray:
+    def _ids(self, ids: ArrayLike | None) -> np.ndarray:
         """Validated simulation ids (sorted, unique) from None, integers or a boolean mask."""
         if ids is None:
             return np.arange(self._nsim)
@@ -311,7 +318,7 @@ class BatchEnvironment(ControlLoop):
         for i in ids:
             self.last_divergence[int(i)] = None
 
-    def reset(self, ids: Any = None) -> BatchTimeStep:
+    def reset(self, ids: ArrayLike | None = None) -> BatchTimeStep:
         """Start new episodes of simulations `ids` (all when None); the others continue."""
         ids = self._ids(ids)
         if ids.size:
@@ -320,7 +327,7 @@ class BatchEnvironment(ControlLoop):
         step_type[ids] = _FIRST
         return BatchTimeStep(step_type, np.zeros(self._nsim), np.ones(self._nsim), self._updater.get_observation())
 
-    def step(self, actions: Any) -> BatchTimeStep:
+    def step(self, actions: ArrayLike) -> BatchTimeStep:
         """One control step of every simulation (auto-resetting those whose episode ended).
 
         An exception raised during it (by `reward_fn` or `termination_fn`) propagates and ends every
@@ -390,18 +397,19 @@ class BatchEnvironment(ControlLoop):
                     messages.setdefault(int(i), f"MuJoCo raised: {self._batch.error(int(i))}")
             for slot, values in bound:
                 np.copyto(slot, values)
-            if last in stops:  # stops are cameras' substeps
-                cast("BatchCameras", cameras).sample(last, updater.t, active)
+            if cameras is not None and last in stops:  # stops are cameras' substeps
+                cameras.sample(last, updater.t, active)
 
     def _bad_counts(self) -> np.ndarray:
         warning = self._batch.warning  # (nsim, mjNWARNING, (lastinfo, number))
-        return warning[:, _BAD_INDEX, 1].sum(axis=1, dtype=np.int64)
+        counts: np.ndarray = warning[:, _BAD_INDEX, 1].sum(axis=1, dtype=np.int64)
+        return counts
 
     def _diverged(self, active: np.ndarray, failed: np.ndarray, messages: dict[int, str]) -> np.ndarray:
         bad = self._bad_counts()
         warned = bad != self._bad
         self._bad = bad
-        diverged = active & (failed | warned)
+        diverged: np.ndarray = active & (failed | warned)
         if diverged.any():
             for at in np.flatnonzero(diverged):
                 i = int(at)
@@ -414,7 +422,7 @@ class BatchEnvironment(ControlLoop):
                           RuntimeWarning, stacklevel=4)
         return diverged
 
-    def _check_actions(self, actions: Any) -> np.ndarray:
+    def _check_actions(self, actions: ArrayLike) -> np.ndarray:
         try:
             arr = np.asarray(actions, dtype=np.float64)
         except (TypeError, ValueError):

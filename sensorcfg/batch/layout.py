@@ -4,7 +4,7 @@ One flat float64 store holds the history, then the records of the current contro
 values. The history has one row per global physics step modulo `rows`, then a row of reset samples and a
 row of zeros; a row is (nsim, width), one column per observed value. Global rows make the copy of a
 control step the same for every simulation whatever its episode's age; a read shifts the bank's periodic
-read plan (`runtime.bank.read_plan`) by that age, per simulation.
+read layout (`runtime.bank.read_layout`) by that age, per simulation.
 
 A read takes the noise-free samples of its own control step straight from the records, so the history
 keeps only the samples that a later read needs (and every sample of channels whose noise is applied
@@ -228,7 +228,7 @@ class Layout:
         Cached per `gp` until `clear`.
         """
         key = ("snapshot", gp)
-        cached = self._cache.get(key)
+        cached: tuple[np.ndarray, np.ndarray] | None = self._cache.get(key)
         if cached is None:
             nsim, w, substeps = self.nsim, self.width, self.substeps
             phases = np.unique((t % self.cycle) // substeps)
@@ -284,7 +284,7 @@ class Layout:
     def _uniform_reads(self, gp: int, q: int) -> np.ndarray:
         """`gathers` when every simulation is at phase q: kept across resets (a few per gp at most)."""
         key = (gp, q)
-        reads = self._uniform.get(key)
+        reads: np.ndarray | None = self._uniform.get(key)
         if reads is None:
             reads = self._uniform.put(key, self._positions(gp, slice(q, q + 1)))
         return reads
@@ -292,7 +292,7 @@ class Layout:
     def _read_table(self, gp: int) -> tuple[tuple[np.ndarray, np.ndarray], list[tuple[np.ndarray, ...]]]:
         """Simulation i's read positions at global step gp and phase q are `base[q] + i * stride[q]`
         (plain: (phase, width); groups: (buffer, phase, width)). Kept per gp: resets do not change it."""
-        table = self._tables.get(gp)
+        table: tuple[tuple[np.ndarray, np.ndarray], list[tuple[np.ndarray, ...]]] | None = self._tables.get(gp)
         if table is None:
             nsim, w = self.nsim, self.width
             base = np.where(self.from_record, self.record_read,

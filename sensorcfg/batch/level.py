@@ -9,27 +9,27 @@ lives in its own batched stages, never on the sensor's stages, which other batch
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
-from ..noise import stages as rt
-from ..noise.level import blend
+from ..noise.level import Blend, Keep, blend
 from .batched import Batched
 
 __all__ = ["BatchedKeep", "BatchedBlend"]
 
 
-class BatchedBlend(Batched):
+class BatchedBlend(Batched[Blend]):
     keyed = True
 
-    def __init__(self, template: rt.Stage, nsim: int, stride: int):
+    def __init__(self, template: Blend, nsim: int, stride: int):
         super().__init__(template, nsim, stride)
         self.levels = np.ones(nsim)
         self.active = False  # some simulation's level is not 1
         self.raw: np.ndarray | None = None  # the raw samples of the call under way (kept by `BatchedKeep`)
 
-    def load(self, i: int | np.ndarray, stage: rt.Stage) -> None:
-        self.levels[i] = stage.level  # type: ignore[attr-defined]
+    def load(self, i: int | np.ndarray, stage: Blend) -> None:
+        self.levels[i] = stage.level
         self.active = bool(np.any(self.levels != 1.0))
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
@@ -39,18 +39,18 @@ class BatchedBlend(Batched):
                 np.copyto(dst, src)
             return
         level = self.levels[sims].reshape((len(sims),) + (1,) * (src.ndim - 1))
-        blend(raw, src, level, dst, self.template.bounds)  # type: ignore[attr-defined]
+        blend(raw, src, level, dst, self.template.bounds)
 
 
-class BatchedKeep(Batched):
+class BatchedKeep(Batched[Keep]):
     keyed = True
 
-    def __init__(self, template: rt.Stage, nsim: int, stride: int):
+    def __init__(self, template: Keep, nsim: int, stride: int):
         super().__init__(template, nsim, stride)
         self.blend: BatchedBlend  # the pipeline's batched blend (`link`)
 
-    def link(self, batched: Sequence[Batched]) -> None:
-        blend_stage = self.template.blend  # type: ignore[attr-defined]
+    def link(self, batched: Sequence[Batched[Any]]) -> None:
+        blend_stage = self.template.blend
         self.blend = next(b for b in batched if isinstance(b, BatchedBlend) and b.template is blend_stage)
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:

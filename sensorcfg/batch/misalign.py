@@ -4,20 +4,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..noise import stages as rt
-from ..noise.misalign import turn
+from ..noise.misalign import Misalign, turn
 from .batched import Batched
 
 __all__ = ["BatchedMisalign"]
 
 
-class BatchedMisalign(Batched):
-    def __init__(self, template: rt.Stage, nsim: int, stride: int):
+class BatchedMisalign(Batched[Misalign]):
+    def __init__(self, template: Misalign, nsim: int, stride: int):
         super().__init__(template, nsim, stride)
         self.matrices = np.tile(np.eye(3), (nsim, 1, 1))
 
-    def load(self, i: int | np.ndarray, stage: rt.Stage) -> None:
-        self.matrices[i] = stage.matrix  # type: ignore[attr-defined]
+    def load(self, i: int | np.ndarray, stage: Misalign) -> None:
+        self.matrices[i] = stage.matrix
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
         lead = (len(sims),) + (1,) * (src.ndim - 2)

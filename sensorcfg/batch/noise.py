@@ -20,7 +20,7 @@ import math
 import types
 from collections import deque
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any, cast
+from typing import TYPE_CHECKING, Any, Generic, TypeVar, cast
 
 import numpy as np
 
@@ -37,12 +37,18 @@ from .level import BatchedBlend, BatchedKeep
 from .misalign import BatchedMisalign
 from .redrawn import BatchedRedrawn
 
+if TYPE_CHECKING:
+    from ..noise.pipeline import NoisePipeline
+
 __all__ = ["BatchPipeline", "BATCHED", "prefetch"]
+
+P = TypeVar("P", bound=rt._PerSample)  # a stage with per-sample numbers
+A = TypeVar("A", bound=rt._Additive)  # one that adds them
 
 _BLOCK_BYTES = 8 << 20  # a random walk's stored states per stage, across simulations, at most
 
 
-class _Stateless(Batched):
+class _Stateless(Batched[rt.Stage]):
     """Elementwise stages (quantize, clip): the single-simulation stage broadcasts over the leading axis."""
 
     keyed = True
@@ -51,26 +57,28 @@ class _Stateless(Batched):
         self.template(src, dst, 0)
 
 
-class _Drawn(Batched):
+class _Drawn(Batched[P], Generic[P]):
     """Per-sample numbers: each call draws those of the samples taken, of every simulation at once (the
     counter-based numbers are a function of the simulation's episode key and the sample index only)."""
 
     keyed = True
 
-    def __init__(self, template: Any, nsim: int, stride: int):
+    def __init__(self, template: P, nsim: int, stride: int):
         super().__init__(template, nsim, stride)
         self.keys = np.zeros((nsim, 2), np.uint64)
         self.ready: deque[np.ndarray] = deque()  # rows drawn ahead (`prefetch`), in the order of the calls
 
-    def load(self, i: int | np.ndarray, stage: Any) -> None:
+    def load(self, i: int | np.ndarray, stage: P) -> None:
+        if stage.streams is None:
+            raise RuntimeError("a batched stage loaded from a stage that was not reset with its streams")
         self.keys[i] = stage.streams.key
         self.ready.clear()
 
     def draws(self, sims: np.ndarray, steps: np.ndarray) -> list[Draw]:
-        return cast(list[Draw], self.template.draws(steps // self.stride, self.keys[sims]))
+        return self.template.draws(steps // self.stride, self.keys[sims])
 
     def shape(self, sims: np.ndarray, raw: list[np.ndarray]) -> np.ndarray:
-        return cast(np.ndarray, self.template.shape(raw, sims.size))
+        return self.template.shape(raw, sims.size)
 
     def take(self, sims: np.ndarray, steps: np.ndarray) -> np.ndarray:
         """This sample's rows for `sims` at their `steps`, (m, ...): drawn ahead, or now."""
@@ -79,10 +87,10 @@ class _Drawn(Batched):
         return self.shape(sims, numbers(self.draws(sims, steps)))
 
 
-class _Additive(_Drawn):
+class _Additive(_Drawn[A], Generic[A]):
     """White noise, outliers, and the fused sum of additive stages: one addition per sample."""
 
-    def __init__(self, template: Any, nsim: int, stride: int):
+    def __init__(self, template: A, nsim: int, stride: int):
         super().__init__(template, nsim, stride)
         self.values: list[np.ndarray] = []  # per bias part of a sum: each simulation's draw
         if isinstance(template, rt.Sum):
@@ -93,23 +101,26 @@ class _Additive(_Drawn):
         # per episode joins
         self.terms: list[Affine] | None = None if self.values else template.affine()
 
-    def load(self, i: int | np.ndarray, stage: Any) -> None:
+    def load(self, i: int | np.ndarray, stage: A) -> None:
         super().load(i, stage)
-        if self.values:
+        if self.values and isinstance(stage, rt.Sum):
             drawn = [p.value for p in stage.parts if isinstance(p, rt.EpisodeDraw)]
             for values, value in zip(self.values, drawn):
                 values[i] = value
 
     def shape(self, sims: np.ndarray, raw: list[np.ndarray]) -> np.ndarray:
-        if self.values:
-            return cast(np.ndarray, self.template.shape(raw, sims.size, [v[sims] for v in self.values]))
+        if self.values and isinstance(self.template, rt.Sum):  # (values: a sum's bias parts)
+            return self.template.shape(raw, sims.size, [v[sims] for v in self.values])
         return super().shape(sims, raw)
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
         ar.add(src, self.take(sims, steps), dst)
 
 
-class _RandomWalk(_Additive):
+Fused = _Additive[rt._Additive]  # a pipeline's one additive stage (a fused sum): added as a read or in place
+
+
+class _RandomWalk(_Additive[rt.RandomWalk]):
     """The walk's states over every index, one part of `sub` indices at a time per simulation (walked
     together): part p holds indices [p sub, (p + 1) sub); sub is the block unless that would exceed
     `_BLOCK_BYTES` across simulations."""
@@ -127,7 +138,7 @@ class _RandomWalk(_Additive):
         self.part = np.full(nsim, -1, np.int64)  # the part each simulation holds
         self.rows: np.ndarray | None = None  # (nsim, sub, *shape)
 
-    def load(self, i: int | np.ndarray, stage: Any) -> None:
+    def load(self, i: int | np.ndarray, stage: rt.RandomWalk) -> None:
         super().load(i, stage)
         self.carry[i] = stage.start
         self.part[i] = -1
@@ -136,7 +147,8 @@ class _RandomWalk(_Additive):
         """The walk's states at `steps`, (m, ...): the start at sample 0, else from the held parts (walking
         on to the parts that are due)."""
         if not steps.any():  # reset samples: the walk at sample 0 is its start
-            return self.carry[sims]
+            start: np.ndarray = self.carry[sims]
+            return start
         part, j = np.divmod(steps // self.stride, self.sub)
         stale = part != self.part[sims]
         if stale.any():
@@ -148,7 +160,8 @@ class _RandomWalk(_Additive):
         rows = cast(np.ndarray, self.rows)
         if sims.size == self.nsim and (j == j[0]).all():  # every simulation (sims is sorted), in step: a view
             return rows[:, j[0]]
-        return rows[sims, j]
+        taken: np.ndarray = rows[sims, j]
+        return taken
 
     def draw(self, sims: np.ndarray, parts: np.ndarray) -> np.ndarray:
         """Walk each simulation from its held part to `parts` (every part in between, in order)."""
@@ -178,14 +191,14 @@ class _RandomWalk(_Additive):
             at[moving] += 1
 
 
-class _Episode(Batched):
+class _Episode(Batched[rt.EpisodeDraw]):
     """Bias or scale: each simulation's per-episode draw."""
 
     def __init__(self, template: rt.EpisodeDraw, nsim: int, stride: int):
         super().__init__(template, nsim, stride)
         self.values = np.zeros((nsim, *template.value.shape), template.value.dtype)
 
-    def load(self, i: int | np.ndarray, stage: Any) -> None:
+    def load(self, i: int | np.ndarray, stage: rt.EpisodeDraw) -> None:
         self.values[i] = stage.value
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
@@ -199,7 +212,7 @@ def _by_gap(gaps: np.ndarray) -> list[tuple[int, np.ndarray]]:
     return [(int(g), np.flatnonzero(gaps == g)) for g in np.unique(gaps)]
 
 
-class _Lowpass(Batched):
+class _Lowpass(Batched[rt.Lowpass]):
     keyed = True
 
     def __init__(self, template: rt.Lowpass, nsim: int, stride: int):
@@ -208,7 +221,7 @@ class _Lowpass(Batched):
         self.fresh = np.ones(nsim, bool)
         self.last = np.zeros(nsim, np.int64)
 
-    def load(self, i: int | np.ndarray, stage: Any) -> None:
+    def load(self, i: int | np.ndarray, stage: rt.Lowpass) -> None:
         self.fresh[i] = stage.fresh
         self.state[i] = stage.state
         self.last[i] = stage.last
@@ -231,7 +244,7 @@ class _Lowpass(Batched):
         np.copyto(dst, state)
 
 
-class _Dropout(_Drawn):
+class _Dropout(_Drawn[rt.Dropout]):
     def __init__(self, template: rt.Dropout, nsim: int, stride: int):
         super().__init__(template, nsim, stride)
         self.per_value = template.per_value
@@ -239,7 +252,7 @@ class _Dropout(_Drawn):
         self.held = None if template.held is None else np.zeros((nsim, *template.held.shape), template.held.dtype)
         self.fresh = np.ones(nsim, bool)
 
-    def load(self, i: int | np.ndarray, stage: Any) -> None:
+    def load(self, i: int | np.ndarray, stage: rt.Dropout) -> None:
         super().load(i, stage)
         self.fresh[i] = stage.fresh
         if self.held is not None:
@@ -262,7 +275,7 @@ class _Dropout(_Drawn):
 
 
 # One row per runtime stage type (`sensorcfg.noise.stages`); a stage type missing here cannot be batched.
-BATCHED: Mapping[type, Callable[[Any, int, int], Batched]] = types.MappingProxyType({
+BATCHED: Mapping[type, Callable[[Any, int, int], Batched[Any]]] = types.MappingProxyType({
     rt.Gaussian: _Additive,
     rt.Uniform: _Additive,
     rt.Outlier: _Additive,
@@ -283,7 +296,7 @@ BATCHED: Mapping[type, Callable[[Any, int, int], Batched]] = types.MappingProxyT
 class BatchPipeline:
     """A sensor's noise pipeline for nsim simulations (`stride`: its constant interval, 1 when drawn)."""
 
-    def __init__(self, pipeline: Any, nsim: int, sensor: str):
+    def __init__(self, pipeline: NoisePipeline, nsim: int, sensor: str):
         self.pipeline = pipeline
         self.stride = stride = pipeline.stride  # as the single-simulation Updater reset it
         if np.dtype(pipeline.dtype) != np.float64:
@@ -298,15 +311,16 @@ class BatchPipeline:
                 raise SuiteError(f"sensor {sensor!r}: " + batch_refusal("noise stage", kind=type(stage).__name__.lower(),
                                                                         detail=f" ({what})" if what else ""))
             batched.append(make(stage, nsim, stride))
-        for stage in batched:
-            stage.link(batched)
+        for form in batched:
+            form.link(batched)
         self.stages = stages
         self.batched = batched
         self.shape = tuple(pipeline.shape)
         # a pipeline that only adds numbers x scale (+ offset), but for the noise level's stages (which pass
         # values through while every simulation is at level 1): applied in place by `streams.add_sums`
         core = [b for b in batched if not isinstance(b.template, (Keep, Blend))]
-        self._fusable = core[0] if len(core) == 1 and getattr(core[0], "terms", None) is not None else None
+        only = core[0] if len(core) == 1 else None
+        self._fusable: Fused | None = only if isinstance(only, _Additive) and only.terms is not None else None
         self._blend = next((b for b in batched if isinstance(b, BatchedBlend)), None)
 
     @property
@@ -315,13 +329,13 @@ class BatchPipeline:
         return self._blend
 
     @property
-    def additive(self) -> _Additive | None:
+    def additive(self) -> Fused | None:
         """The fused sum when the pipeline only adds numbers x scale (+ offset), at any noise level (a level
         other than 1 blends after it): a batch may add it as it reads (`batch.read_noise`)."""
-        return cast(_Additive | None, self._fusable)
+        return self._fusable
 
     @property
-    def fused(self) -> _Additive | None:
+    def fused(self) -> Fused | None:
         """`additive` while every simulation is at noise level 1 (in the history the sum is added in place,
         where a blend would need the raw values)."""
         blending = self._blend is not None and self._blend.active
@@ -329,8 +343,10 @@ class BatchPipeline:
 
     def sum(self, table: np.ndarray, lo: int, sims: np.ndarray, steps: np.ndarray) -> Sum:
         """The fused pipeline's noise of `sims` at `steps`, added to table[sims, lo:...] (`streams.add_sums`)."""
-        stage = cast(_Additive, self.fused)
-        return Sum(stage.draws(sims, steps), cast(list[Affine], stage.terms), table, lo, sims)
+        stage = self.fused
+        if stage is None or stage.terms is None:
+            raise RuntimeError("BatchPipeline.sum of a pipeline that is not a fused sum (the caller checks `fused`)")
+        return Sum(stage.draws(sims, steps), stage.terms, table, lo, sims)
 
     def reset(self, i: int, key: np.ndarray) -> None:
         """Start simulation i's episode with its sensor key (as the Updater resets a pipeline)."""
@@ -368,7 +384,7 @@ def prefetch(calls: Sequence[tuple[BatchPipeline, np.ndarray, np.ndarray]]) -> N
     """Draw ahead the per-sample numbers of the pipeline calls (pipeline, sims, steps) that follow, in
     that order, from one Philox call over every sensor, stage and simulation (`streams.numbers`). A
     random walk walks its own parts."""
-    jobs: list[tuple[_Drawn, np.ndarray, int, int]] = []
+    jobs: list[tuple[_Drawn[rt._PerSample], np.ndarray, int, int]] = []
     draws: list[Draw] = []
     for pipeline, sims, steps in calls:
         for stage in pipeline.batched:

@@ -59,10 +59,10 @@ class Timelines:
         for c, planner in enumerate(self.planners):
             first = planner.start(sims, keys[c])
             self.last[c][sims] = self._codes(first.windows[:, 0])
-        self._plan(sims, np.zeros(len(sims), np.int64))
-        self._plan(sims, np.full(len(sims), self.chunk, np.int64))
+        self._draw_round(sims, np.zeros(len(sims), np.int64))
+        self._draw_round(sims, np.full(len(sims), self.chunk, np.int64))
 
-    def _plan(self, sims: np.ndarray, base: np.ndarray) -> None:
+    def _draw_round(self, sims: np.ndarray, base: np.ndarray) -> None:
         """The round (base, base + chunk] of simulations `sims`, into the rings."""
         n = self.substeps
         per_round = self.chunk // n
@@ -80,7 +80,7 @@ class Timelines:
         steps = control_steps[sims] * self.substeps
         due = sims[(steps > 0) & (steps % self.chunk == 0)]
         if due.size:
-            self._plan(due, control_steps[due] * self.substeps + self.chunk)
+            self._draw_round(due, control_steps[due] * self.substeps + self.chunk)
 
     def taken_now(self) -> np.ndarray:
         """Which channels sample at each substep of this control step, (nsim, channels, substeps)."""

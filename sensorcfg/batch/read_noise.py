@@ -18,17 +18,17 @@ A simulation whose episode has a noise level other than 1 blends the result with
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any, NamedTuple, cast
+from typing import NamedTuple, cast
 
 import numpy as np
 
 from ..noise.level import blend
-from ..noise.streams import Affine, Prepared, Rows, add_rows, prepare
+from ..noise.streams import Prepared, Rows, add_rows, prepare
 from ..runtime.channels import FixedChannel
 from ..runtime.schedule import newest_sample
 from .layout import Layout
 from .level import BatchedBlend
-from .noise import BatchPipeline, _Additive
+from .noise import BatchPipeline, Fused
 
 __all__ = ["ReadNoise", "added_as_read"]
 
@@ -52,7 +52,7 @@ def added_as_read(pipeline: BatchPipeline, channel: FixedChannel) -> bool:
 
 
 class _Sensor(NamedTuple):
-    stage: _Additive  # the pipeline's fused sum: its keys and terms
+    stage: Fused  # the pipeline's fused sum: its keys and terms
     size: int  # values per sample
     span: slice  # its (simulation, slot) pairs in the concatenated arrays of `ReadNoise`
     blend: BatchedBlend | None  # the pipeline's batched `Blend` (its per-simulation levels)
@@ -88,13 +88,16 @@ class ReadNoise:
         columns: list[tuple[np.ndarray, ...]] = []
         at = 0
         for c, pipeline in pipelines.items():
-            stage = cast(_Additive, pipeline.additive)
+            stage = pipeline.additive
+            if stage is None or stage.terms is None:  # `added_as_read` chose pipelines with one
+                raise RuntimeError(f"read noise of channel {c}: its pipeline is not a sum added as read "
+                                   "(an internal error)")
             schedule, size = channels[c].schedule, int(np.prod(channels[c].shape, dtype=np.int64))
             if pipeline.stride != schedule.interval:  # a fixed schedule's is: sample j's numbers are the j-th
                 raise RuntimeError(f"read noise of channel {c}: its noise stride is not its interval (an internal error)")
             count = nsim * schedule.buffer
             templates = stage.template.draws(np.zeros(0, np.int64), np.zeros((0, 2), np.uint64))
-            prepared = prepare(templates, cast(list[Affine], stage.terms))
+            prepared = prepare(templates, stage.terms)
             self.sensors.append(_Sensor(stage, size, slice(at, at + count), pipeline.blend, prepared))
             at += count
             # the read at t sees sample `schedule.newest(t) + schedule.offsets()[slot]` in slot `slot`
@@ -114,9 +117,9 @@ class ReadNoise:
         for sensor in self.sensors:
             self.keys[sensor.span] = sensor.stage.keys[self.sims[sensor.span]]
 
-    def apply(self, values: np.ndarray, t: np.ndarray) -> None:
-        """Add each read sample's noise to `values`, one read of every simulation (`t`: steps since reset)."""
-        steps = newest_sample(t[None, :], self.pair_delay, self.pair_interval)  # (pair, simulation)
+    def apply(self, values: np.ndarray, age: np.ndarray) -> None:
+        """Add each read sample's noise to `values`, one read of every simulation (`age`: each one's steps since reset)."""
+        steps = newest_sample(age[None, :], self.pair_delay, self.pair_interval)  # (pair, simulation)
         sample = steps.ravel().take(self.pair_at)
         sample += self.first  # < 0: padding
         padding = bool((sample < 0).any())

@@ -7,23 +7,23 @@ simulation's single `Environment` draws; the cost is a Python call per sample an
 from __future__ import annotations
 
 import copy
-from typing import Any
 
 import numpy as np
 
 from ..noise import stages as rt
+from ..noise.redrawn import Redrawn
 from .batched import Batched
 
 __all__ = ["BatchedRedrawn"]
 
 
-class BatchedRedrawn(Batched):
-    def __init__(self, template: rt.Stage, nsim: int, stride: int):
+class BatchedRedrawn(Batched[Redrawn]):
+    def __init__(self, template: Redrawn, nsim: int, stride: int):
         super().__init__(template, nsim, stride)
-        self.stages: list[Any] = [None] * nsim
+        self.stages: list[rt.Stage] = [template.inner] * nsim  # each simulation's, set by `load`
 
-    def load(self, i: int | np.ndarray, stage: rt.Stage) -> None:
-        self.stages[i] = copy.deepcopy(stage.inner)  # type: ignore[attr-defined]
+    def load(self, i: int | np.ndarray, stage: Redrawn) -> None:
+        self.stages[i] = copy.deepcopy(stage.inner)
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
         for j, (sim, step) in enumerate(zip(sims.tolist(), steps.tolist())):

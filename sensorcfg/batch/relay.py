@@ -27,11 +27,11 @@ from typing import NamedTuple
 import mujoco
 import numpy as np
 
-from ..native.plan import Added
+from ..native.additions import Added
 from ..selection import ADDED_PREFIX
 from ..plan import Source
 
-__all__ = ["RELAYS", "SENSOR_COST", "Plan", "exact", "plan", "positions", "relayed"]
+__all__ = ["RELAYS", "SENSOR_COST", "Relays", "choose", "exact", "positions", "relayed"]
 
 # What MuJoCo spends on one more sensor per step, in recorded values (a sensor's loop step and copy against
 # the copy of one double by `rollout`): benchmarks/batch_floor.py's "native physics" (181 sensors added
@@ -69,7 +69,7 @@ RELAYS: dict[str, _Relay] = {
 _Copies = list[tuple[str, tuple[int, ...]]]  # (sensor name, the field positions it copies, in order)
 
 
-class Plan(NamedTuple):
+class Relays(NamedTuple):
     """The sensors to add, and per relayed field which of its positions each one copies."""
 
     records: list[Added]
@@ -80,7 +80,7 @@ def _name(field: str, element: int, sensor: str) -> str:
     return f"{ADDED_PREFIX}relay:{field}:{element}:{sensor}"
 
 
-def _field_plan(model: mujoco.MjModel, field: str, positions: np.ndarray) -> tuple[list[Added], _Copies] | None:
+def _field_relays(model: mujoco.MjModel, field: str, positions: np.ndarray) -> tuple[list[Added], _Copies] | None:
     """The sensors relaying `positions` of `field`, or None when an element has no name to attach them to."""
     relay = RELAYS[field]
     records: list[Added] = []
@@ -101,7 +101,7 @@ def _size(model: mujoco.MjModel, field: str) -> int:
     return relay.width * int(getattr(model, relay.size))
 
 
-def plan(model: mujoco.MjModel, sources: Sequence[Source], recorded: Mapping[str, int], substeps: int) -> Plan | None:
+def choose(model: mujoco.MjModel, sources: Sequence[Source], recorded: Mapping[str, int], substeps: int) -> Relays | None:
     """The relays worth adding for a batch that records each field of `recorded` after that many substeps
     of a control step of `substeps`, reading `sources`; None when none pays.
 
@@ -117,20 +117,20 @@ def plan(model: mujoco.MjModel, sources: Sequence[Source], recorded: Mapping[str
     after = before
     for field, steps in sorted(recorded.items()):  # (the fields in a fixed order: the same model in every process)
         read = [s.positions.ravel() for s in sources if s.field == field]
-        planned = _field_plan(model, field, np.concatenate(read)) if field in RELAYS and read else None
-        if planned is None:
+        found = _field_relays(model, field, np.concatenate(read)) if field in RELAYS and read else None
+        if found is None:
             continue
-        cost = len(planned[0]) * SENSOR_COST * substeps + sum(len(w) for _, w in planned[1]) * steps
+        cost = len(found[0]) * SENSOR_COST * substeps + sum(len(w) for _, w in found[1]) * steps
         if cost < _size(model, field) * steps:
-            records += planned[0]
-            copies[field] = planned[1]
+            records += found[0]
+            copies[field] = found[1]
             gain += _size(model, field) * steps - cost
             after = max(after, steps)
     gain -= model.nsensordata * (after - before)
-    return Plan(records, copies) if records and gain > 0 else None
+    return Relays(records, copies) if records and gain > 0 else None
 
 
-def positions(model: mujoco.MjModel, relays: Plan) -> dict[str, dict[int, int]]:
+def positions(model: mujoco.MjModel, relays: Relays) -> dict[str, dict[int, int]]:
     """Per relayed field: its position -> the position in `sensordata` that copies it, on the compiled model."""
     out: dict[str, dict[int, int]] = {}
     for field, copies in relays.copies.items():

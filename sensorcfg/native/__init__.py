@@ -2,7 +2,7 @@
 
 from .bind import bind_native, carry_hint
 from .compile import compile_model, native_names, reads_on_demand
-from .plan import native_row, sensor_name
+from .additions import native_row, sensor_name
 from .table import NATIVE
 
 __all__ = ["NATIVE", "bind_native", "carry_hint", "compile_model", "native_names", "native_row", "sensor_name"]

@@ -19,7 +19,7 @@ from ..errors import SuiteError
 from ..observables import Feature
 from ..observables.feature import indexed
 from ..selection import select
-from .plan import Report, plan_sensor
+from .additions import Report, sensor_additions
 
 __all__ = ["bind_native", "carry_hint"]
 
@@ -34,7 +34,7 @@ def bind_native(model: mujoco.MjModel, name: str, cfg: SensorConfig, timing: dic
                 refused: Mapping[str, str], index: Any) -> tuple[Feature, Any, Any] | None:
     """The feature reading the sensors suite sensor `name` added to `model` (problems reported)."""
     here = ("sensors", name)
-    records = plan_sensor(model, name, cfg, report)
+    records = sensor_additions(model, name, cfg, report)
     if records is None:
         return None
     if name in refused:

@@ -3,7 +3,7 @@
 The robot file is not edited: it is read into an `MjSpec`, compiled once as written (to resolve the
 suite's selectors), given one MuJoCo sensor per selected element of each native kind (and a site at a
 body's frame where the type reads a site), and compiled again. What MuJoCo's compiler requires of a
-sensor's objects is checked before (`plan`), so a refusal is rare; one is left out and its message kept
+sensor's objects is checked before (`additions`), so a refusal is rare; one is left out and its message kept
 for the suite's line, at most `MAX_REFUSALS` of them found one compile each, then every sensor not yet
 compiled is left out too (each compile costs as much as the robot's own): the compiles of one model are
 bounded whatever the suite. A sensor whose own options do not resolve is left out (binding reports it).
@@ -27,12 +27,12 @@ from ..errors import SuiteError
 from ..kinds import ON_DEMAND
 from ..observables.feature import computed_by_model
 from ..selection import ADDED_PREFIX, split_selector
-from .plan import Added, native_row, plan_sensor
+from .additions import Added, native_row, sensor_additions
 
 __all__ = ["Compiled", "compile_model", "native_names", "reads_on_demand", "MAX_REFUSALS", "NOT_COMPILED"]
 
 Compiled = tuple[mujoco.MjModel, dict[str, str]]  # the model, and the problem of each suite sensor left out
-_ELEMENT = re.compile(re.escape(ADDED_PREFIX) + r"([A-Za-z_][A-Za-z0-9_\-/]*):\d+\b")  # `plan.sensor_name`
+_ELEMENT = re.compile(re.escape(ADDED_PREFIX) + r"([A-Za-z_][A-Za-z0-9_\-/]*):\d+\b")  # `additions.sensor_name`
 MAX_REFUSALS = 8  # refusals found one compile each; then the sensors not yet compiled are left out
 NOT_COMPILED = ("the {kind} sensor was not compiled: MuJoCo refused {count} other sensors of this suite first "
                 "(each costs a compile of the model); fix those and validate again")
@@ -143,7 +143,7 @@ def compile_model(source: Any, sensors: Mapping[str, SensorConfig], batch: bool 
         return plain, {}
     made: dict[str, list[Any]] = {}
     for name in names:
-        records = plan_sensor(plain, name, sensors[name], lambda path, message: None)
+        records = sensor_additions(plain, name, sensors[name], lambda path, message: None)
         if records:
             made[name] = [element for added in records for element in _add(spec, added, bodies)]
     for added in extra:

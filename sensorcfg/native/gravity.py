@@ -22,7 +22,7 @@ import mujoco
 import numpy as np
 
 if TYPE_CHECKING:
-    from .plan import Added
+    from .additions import Added
 
 __all__ = ["KIND", "along_gravity", "gravity_quat"]
 

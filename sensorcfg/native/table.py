@@ -7,7 +7,7 @@ a site), whether it takes a reference frame (`frame:`, MuJoCo's reftype/refname)
 second object: the other side of a contact, the site of `insidesite`, the other geom of `geomdist`, the
 camera of `camprojection`) and which of the options `data`, `reduce`, `num`, `cutoff` apply. What MuJoCo's
 compiler requires of a selected joint or tendon (its joint type, a limit) is in the row too, so that
-`plan` reports it at the suite's line before compiling, instead of MuJoCo refusing the sensor.
+`additions` reports it at the suite's line before compiling, instead of MuJoCo refusing the sensor.
 
 Where a kind is also an attribute of the element type (an actuator's `force`), the attribute wins: the
 element type decides (`kind: force, element: actuator:knee` reads `actuator_force`; on a site or a body it

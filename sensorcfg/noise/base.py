@@ -8,6 +8,7 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .streams import Streams
 
@@ -31,7 +32,7 @@ class Context:
         # (the batch may walk it in halves); a sample's numbers do not depend on it
         self.block = 1 << (max(1, min(_MAX_BLOCK, _BLOCK_VALUES // max(size, 1))).bit_length() - 1)
 
-    def cast(self, value: Any) -> np.ndarray:
+    def cast(self, value: ArrayLike) -> np.ndarray:
         """A parameter as an array of the work dtype (0-d for a number): ufuncs take arrays faster than
         Python floats, which they convert on every call."""
         return np.array(value, dtype=self.work)

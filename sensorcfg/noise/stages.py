@@ -30,6 +30,7 @@ from collections.abc import Callable
 from typing import Any, cast
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .arithmetic import add, dropout, multiply, walk
 from .base import Context, Stage, _Timed
@@ -54,7 +55,7 @@ class _PerSample(Stage):
         self.streams: Streams | None = None
         self.stride = 1
         self.block_id = -1
-        self.rows: Any = []
+        self.rows: list[np.ndarray] | np.ndarray = []  # the current block's rows (a list of views, or the block)
 
     def sizes(self) -> tuple[int, ...]:
         """Values per sample of each lane."""
@@ -65,7 +66,7 @@ class _PerSample(Stage):
         return [Draw(keys, samples, self.stream, lane, size, normal)
                 for lane, (size, normal) in enumerate(zip(self.sizes(), self.lanes))]
 
-    def shape(self, raw: list[np.ndarray], m: int) -> Any:
+    def shape(self, raw: list[np.ndarray], m: int) -> np.ndarray:
         """The rows (m, *shape) from the drawn numbers of each lane."""
         raise NotImplementedError
 
@@ -94,7 +95,7 @@ class _PerSample(Stage):
         size = self.ctx.block
         return self.numbers(np.arange(block * size, (block + 1) * size))
 
-    def row(self, step: int) -> Any:
+    def row(self, step: int) -> np.ndarray:
         """This sample's row (a view into the current block)."""
         block, j = divmod(step // self.stride, self.ctx.block)
         if block != self.block_id:
@@ -170,12 +171,12 @@ class Sum(_Additive):
         return cast(np.ndarray, total)
 
 
-def _affine(ctx: Context, scale: Any, offset: Any) -> list[Affine] | None:
+def _affine(ctx: Context, scale: ArrayLike, offset: ArrayLike | None) -> list[Affine] | None:
     """One lane's term x scale (+ offset), each parameter flattened to the sample's values (float64 only)."""
     if ctx.work != np.float64:
         return None
 
-    def flat(p: Any) -> np.ndarray:
+    def flat(p: ArrayLike) -> np.ndarray:
         return np.ascontiguousarray(np.broadcast_to(np.asarray(p, np.float64), ctx.shape)).ravel()
 
     return [Affine(flat(scale), None if offset is None else flat(offset))]
@@ -187,7 +188,7 @@ def _fresh(raw: np.ndarray, m: int, ctx: Context) -> np.ndarray:
 
 
 class Gaussian(_Additive):
-    def __init__(self, ctx: Context, mean: Any, std: Any):
+    def __init__(self, ctx: Context, mean: ArrayLike, std: ArrayLike):
         super().__init__(ctx)
         self.mean, self.std = ctx.cast(mean), ctx.cast(std)
         self.centred = not np.any(self.mean)
@@ -206,7 +207,7 @@ class Gaussian(_Additive):
 class Uniform(_Additive):
     lanes = (False,)
 
-    def __init__(self, ctx: Context, low: Any, high: Any):
+    def __init__(self, ctx: Context, low: ArrayLike, high: ArrayLike):
         super().__init__(ctx)
         self.low, self.width = ctx.cast(low), ctx.cast(np.subtract(high, low))
 
@@ -223,7 +224,7 @@ class Uniform(_Additive):
 class Outlier(_Additive):
     lanes = (False, True)  # hits, jumps
 
-    def __init__(self, ctx: Context, p: Any, scale: Any):
+    def __init__(self, ctx: Context, p: ArrayLike, scale: ArrayLike):
         super().__init__(ctx)
         self.p, self.scale = p, ctx.cast(scale)
 
@@ -263,7 +264,7 @@ class RandomWalk(_Additive):
     """b_j = a b_(j-1) + c z_j over every sample index j, a = exp(-dt/tau), c = std sqrt(1 - a^2) with dt the
     stride's time; Brownian: a = 1, c = std sqrt(dt). The state at a sample's index is added to it."""
 
-    def __init__(self, ctx: Context, std: Any, tau: Any):
+    def __init__(self, ctx: Context, std: ArrayLike, tau: ArrayLike | None):
         super().__init__(ctx)
         self.std, self.tau = std, tau
         self.start = np.zeros(ctx.shape, ctx.work)
@@ -272,7 +273,7 @@ class RandomWalk(_Additive):
         self.last = 0  # the newest block whose states `carry` ends
         self.newest = 0
 
-    def _coefficients(self, dt: float) -> tuple[Any, Any]:
+    def _coefficients(self, dt: float) -> tuple[np.ndarray | None, np.ndarray]:
         if self.tau is None:
             return None, self.ctx.cast(np.multiply(self.std, math.sqrt(dt)))
         a = np.exp(-dt / np.asarray(self.tau))
@@ -318,7 +319,7 @@ class RandomWalk(_Additive):
         stacked = blocks[0] if len(blocks) == 1 else np.concatenate(blocks)
         return stacked[indices - first * size]
 
-    def row(self, step: int) -> Any:
+    def row(self, step: int) -> np.ndarray:
         if step < self.newest:
             raise ValueError(f"noise pipeline called at an earlier step ({step - self.newest} steps back); "
                              "call reset() at the start of an episode")
@@ -328,7 +329,7 @@ class RandomWalk(_Additive):
 class Dropout(_PerSample):
     """Lost samples (or values): hold the last delivered one, or give 0 or NaN."""
 
-    def __init__(self, ctx: Context, p: Any, mode: str, per_value: bool):
+    def __init__(self, ctx: Context, p: ArrayLike, mode: str, per_value: bool):
         super().__init__(ctx)
         self.p, self.mode, self.per_value = p, mode, per_value
         self.fill = {"zero": 0.0, "nan": math.nan}.get(mode)

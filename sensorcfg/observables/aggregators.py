@@ -88,7 +88,7 @@ def pairwise(name: str, width: int) -> bool:
     """Whether numpy adds up a buffer of `width`-value samples of the built-in `name` pairwise, not row by row:
     a sum or mean of one-value samples, whose buffer is a 1-D array to numpy (and dm_control), which sums it
     pairwise from 8 values on. Such a buffer is reduced by itself along contiguous memory, never side by side
-    with other columns (there it would be added row by row, off in the last bits): the read plans give it a
+    with other columns (there it would be added row by row, off in the last bits): the read layouts give it a
     group of its own, no family takes it (`family`), and a batch reduces it per simulation (`reduce_stacked`)."""
     return width == 1 and name in ("sum", "mean")
 

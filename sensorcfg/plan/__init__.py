@@ -4,9 +4,9 @@ Records (`plan.records`) hold integers and read-only arrays only; docs/architect
 says what each holds and what an engine must do with it.
 """
 
-from .compile import compile_plan, history_rows
+from .compile import compile_plan
 from .records import (DrawnSteps, DrawnTiming, FixedTiming, NoiseProgram, NoiseStep, PlainOutput, ReadTable,
                       ReducedOutput, ReductionBlock, SensorRecord, Source, SuitePlan)
 
 __all__ = ["DrawnSteps", "DrawnTiming", "FixedTiming", "NoiseProgram", "NoiseStep", "PlainOutput", "ReadTable",
-           "ReducedOutput", "ReductionBlock", "SensorRecord", "Source", "SuitePlan", "compile_plan", "history_rows"]
+           "ReducedOutput", "ReductionBlock", "SensorRecord", "Source", "SuitePlan", "compile_plan"]

@@ -1,7 +1,7 @@
 """Compiling a suite plan (`SuitePlan`) from bound channels: schedules, read tables, masks, noise programs.
 
 One function per part; each reuses the rule's one home (`runtime/schedule.Schedule` for windows and taken
-samples, `runtime/bank.read_plan` for what a read gathers and how it is reduced, `runtime/drawn.Drawn` for
+samples and the history's rows, `runtime/bank.read_layout` for what a read gathers and how it is reduced, `runtime/drawn.Drawn` for
 drawn schedules' spans).
 """
 
@@ -13,21 +13,15 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from ..draws import ChoiceSteps, UniformSteps
-from ..runtime.bank import read_plan
+from ..runtime.bank import read_layout
 from ..runtime.channels import DrawnChannel, FixedChannel
 from ..runtime.drawn import Drawn
+from ..runtime.schedule import history_rows
 from .noise import program
 from .records import (BoolArray, DrawnSteps, DrawnTiming, FixedTiming, PlainOutput, ReadTable, ReducedOutput,
                       ReductionBlock, SensorRecord, Source, SuitePlan, frozen)
 
-__all__ = ["compile_plan", "history_rows"]
-
-
-def history_rows(periods: Sequence[int], span: int) -> int:
-    """Rows of a step-indexed history: a multiple of every period (so a phase's rows repeat) that holds
-    `span` steps (the longest any sample waits to be read, plus what the reader needs besides)."""
-    period = math.lcm(*periods) if periods else 1
-    return period * -(-span // period)
+__all__ = ["compile_plan"]
 
 
 _NO_WEIGHTS = frozen(np.zeros(0))
@@ -71,7 +65,7 @@ def _read_table(fixed: Sequence[FixedChannel], cols: np.ndarray, rows: int, subs
     width = int(cols[len(fixed)])
     offsets = []
     for q in range(nphase):
-        layout = read_plan(list(fixed), cols[:len(fixed) + 1], rows, q * substeps)
+        layout = read_layout(list(fixed), cols[:len(fixed) + 1], rows, q * substeps)
         row, column = np.divmod(layout.gather, width)
         offsets.append((row - q * substeps) % rows)
     offset = np.stack(offsets)
@@ -111,8 +105,7 @@ def compile_plan(fixed: Sequence[FixedChannel], drawn: Sequence[DrawnChannel], s
     widths = [math.prod(ch.shape) for ch in channels]
     cols = np.cumsum([0, *widths]).astype(np.intp)
     period = math.lcm(substeps, *(ch.interval for ch in fixed))
-    span = max([substeps + 1, *(ch.drawn.span for ch in drawn), *(ch.schedule.wait + substeps + 1 for ch in fixed)])
-    rows = history_rows([period], span)
+    rows = history_rows([ch.schedule for ch in fixed], substeps, reach=max([0, *(ch.drawn.span for ch in drawn)]))
     sensors = tuple(_record(ch, source, int(cols[c])) for c, (ch, source) in enumerate(zip(channels, sources)))
     reads = _read_table(fixed, cols, rows, substeps, period)
     taken, later = _masks(fixed, cols, int(cols[-1]), reads.nphase, substeps)

@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import ctypes
 import math
-from collections.abc import Callable, Sequence
-from typing import Any, NamedTuple, Protocol, TypeGuard, cast
+from collections.abc import Callable, Hashable, Sequence
+from typing import TYPE_CHECKING, Any, NamedTuple, Protocol, TypeGuard, cast
 
 import numpy as np
 
@@ -24,15 +24,26 @@ from .bank_noise import BankNoise, Program, program
 from .bank_read import PADS, CompiledRead, compile_read, cut, finish
 from .channels import Channel, DrawnChannel, FixedChannel
 from .read_kernel import kernel_read, kernel_snapshot
+from .schedule import Schedule, history_rows
 
-__all__ = ["FeatureBank", "BankMember", "bank_member", "plain_refusal", "qualifies", "GroupMember", "PlainRead", "ReadPlan", "ReductionGroup", "buffer_view",
-           "fields_of", "read_plan", "rebind_noise", "reuse_key"]
+if TYPE_CHECKING:
+    from mujoco import MjData
 
-_PLANS_BUDGET = 4 << 20  # bytes of read plans kept, at least (4 x the history's size when that is more)
+__all__ = ["FeatureBank", "BankMember", "bank_member", "plain_refusal", "qualifies", "GroupMember", "PlainRead", "ReadLayout", "ReductionGroup", "buffer_view",
+           "fields_of", "noise_chunk", "read_layout", "rebind_noise", "reuse_key"]
+
+_READS_BUDGET = 4 << 20  # bytes of read layouts kept, at least (4 x the history's size when that is more)
 _CHUNK_STEPS = 1024  # physics steps of noise drawn at a time (rounded up to the sampling period): one Philox call each
 
 
-def buffer_view(data: Any, fields: list[str]) -> tuple[np.ndarray, dict[str, int]] | None:
+def noise_chunk(schedules: Sequence[Schedule], substeps: int) -> int:
+    """Steps of noise a bank draws at a time (and holds ahead in its history): `_CHUNK_STEPS` rounded up to
+    every sampling period."""
+    period = math.lcm(substeps, *(s.interval for s in schedules))
+    return period * -(-_CHUNK_STEPS // period)
+
+
+def buffer_view(data: MjData, fields: list[str]) -> tuple[np.ndarray, dict[str, int]] | None:
     """A float64 view spanning the given mjData fields, and each field's offset in it (in values).
 
     All mjData arrays live in one allocation of `nbuffer` bytes starting at `qpos`; returns None when the
@@ -57,7 +68,29 @@ class _FieldReader(Protocol):
     field: str
     index: np.ndarray
 
-    def __call__(self) -> Any: ...
+    def __call__(self) -> np.ndarray: ...
+
+
+class _Windowed(Protocol):
+    def window(self, read_step: int) -> np.ndarray: ...
+
+
+class LaidOut(Protocol):
+    """What `read_layout` reads of a member: a `FixedChannel`, or the drawn bank's stand-in for one
+    (`planned.DrawnBank`: window position p reads history row p)."""
+
+    @property
+    def interval(self) -> int: ...
+    @property
+    def schedule(self) -> _Windowed: ...
+    @property
+    def aggregator(self) -> Callable[[np.ndarray], Any] | None: ...
+    @property
+    def buffer_size(self) -> int: ...
+    @property
+    def buffered_shape(self) -> tuple[int, ...]: ...
+    @property
+    def shape(self) -> tuple[int, ...]: ...
 
 
 class PlainRead(NamedTuple):
@@ -90,7 +123,7 @@ class ReductionGroup(NamedTuple):
         return AGGREGATORS[self.aggregator].reduce
 
 
-class ReadPlan(NamedTuple):
+class ReadLayout(NamedTuple):
     """One `gather` index (row * width + column of the history) and how to cut and reduce what it gathers."""
 
     gather: np.ndarray
@@ -98,7 +131,7 @@ class ReadPlan(NamedTuple):
     plain: list[PlainRead]
 
 
-def fields_of(channels: list[FixedChannel]) -> list[str]:
+def fields_of(channels: Sequence[Channel]) -> list[str]:
     """The mjData fields that bank members read, sorted."""
     return sorted({_reader(ch).field for ch in channels})
 
@@ -107,12 +140,19 @@ def _reader(ch: Channel) -> _FieldReader:
     return cast(_FieldReader, ch.sampler)  # `plain_refusal` made sure it is one
 
 
+class SharedRead(Protocol):
+    """What a bank member asks of its bank (`FeatureBank`, `planned.DrawnBank`)."""
+
+    def read(self, step: int) -> Sequence[np.ndarray]: ...
+    def samples(self, position: int, step: int) -> int: ...
+
+
 class BankMember:
     """Stands in for a channel in the Updater's layout; reads come from the bank's shared read."""
 
     __slots__ = ("name", "bank", "position", "channel")
 
-    def __init__(self, bank: FeatureBank, position: int, channel: FixedChannel):
+    def __init__(self, bank: SharedRead, position: int, channel: FixedChannel | DrawnChannel):
         self.name = channel.name
         self.bank = bank
         self.position = position
@@ -139,7 +179,7 @@ class BankMember:
 class FeatureBank:
     """All plain float64 mjData features of one Updater."""
 
-    def __init__(self, channels: list[FixedChannel], data: Any, substeps: int, pad: bool,
+    def __init__(self, channels: list[FixedChannel], data: MjData, substeps: int, pad: bool,
                  view: tuple[np.ndarray, dict[str, int]]):
         """`view`: `buffer_view(data, fields)` of the members' fields (the caller checked it exists)."""
         self.raw, offsets = view
@@ -152,14 +192,12 @@ class FeatureBank:
         self.width = int(self.cols[-1])
         self.source = np.concatenate(
             [offsets[_reader(ch).field] + _reader(ch).index.ravel() for ch in channels]).astype(np.intp)
-        period = math.lcm(substeps, *(ch.interval for ch in channels))
-        span = max(ch.schedule.wait for ch in channels) + substeps + 1
         programs = [program(ch.noise) for ch in channels]
         noisy = any(programs)
         # Noise is drawn a chunk ahead; the history then also holds a chunk (rows: a multiple of the chunk).
-        self.chunk = period * -(-_CHUNK_STEPS // period) if noisy else 0
-        unit = self.chunk or period
-        self.rows = unit * -(-(span + self.chunk) // unit)  # a multiple of every sampling period
+        schedules = [ch.schedule for ch in channels]
+        self.chunk = noise_chunk(schedules, substeps) if noisy else 0
+        self.rows = history_rows(schedules, substeps, ahead=self.chunk)  # a multiple of every sampling period
         # the history, then the values reductions of different buffers are padded with (`bank_read.PADS`)
         self.flat = np.zeros(self.rows * self.width + len(PADS))
         self.flat[self.rows * self.width:] = PADS
@@ -167,9 +205,9 @@ class FeatureBank:
         self.history_rows = list(self.history)
         self.phases = [(ch.period(), len(phases), phases) for ch in channels for phases in [ch.needed_phases()]]
         self.snap_rows = _snapshot_rows(self.phases, self.rows)
-        # read plans per phase, and early reads' padded positions per step: kept within a byte budget
-        self._gathers = BoundedCache(max(_PLANS_BUDGET, 4 * self.history.nbytes))
-        self._early = BoundedCache(_PLANS_BUDGET // 4)
+        # read layouts per phase, and early reads' padded positions per step: kept within a byte budget
+        self._gathers = BoundedCache(max(_READS_BUDGET, 4 * self.history.nbytes))
+        self._early = BoundedCache(_READS_BUDGET // 4)
         self.noise = self._noise(programs) if noisy else None
         self.pad_values = np.zeros(self.width)
 
@@ -180,8 +218,8 @@ class FeatureBank:
         return BankNoise(self.channels, [ops or () for ops in programs], self.cols, self.rows, self.chunk, in_chunk)
 
     @staticmethod
-    def key(channels: list[FixedChannel], data: Any, substeps: int, pad: bool) -> tuple[Any, ...]:
-        """What the bank's layout and plans depend on: equal keys let a reset reuse the bank."""
+    def key(channels: list[FixedChannel], data: MjData, substeps: int, pad: bool) -> tuple[Hashable, ...]:
+        """What the bank's history and read layouts depend on: equal keys let a reset reuse the bank."""
         return reuse_key(channels, data, substeps, pad, [(ch.interval, ch.delay) for ch in channels])
 
     def rebind(self, channels: list[FixedChannel]) -> None:
@@ -195,8 +233,8 @@ class FeatureBank:
     def snapshot_steps(self) -> list[int]:
         return [t for t, snap in enumerate(self.snap_rows) if snap]
 
-    def tasks(self, sync: Callable[[], None] | None = None) -> list[tuple[int, list[int], Any]]:
-        """(period, phases, task(step)) for the Updater's plan: snapshots (each calling `sync` first when
+    def tasks(self, sync: Callable[[], None] | None = None) -> list[tuple[int, list[int], Callable[[int], None]]]:
+        """(period, phases, task(step)) for the Updater's sampling table: snapshots (each calling `sync` first when
         given), and noise drawn a chunk ahead."""
         out = [(self.rows, self.snapshot_steps(), self._snapshot_task(sync))]
         if self.noise is not None:
@@ -218,8 +256,8 @@ class FeatureBank:
                 self.noise.apply(first, self.noise.read_program(first, self.pad_values))
 
     def _snapshot_task(self, sync: Callable[[], None] | None) -> Callable[[int], None]:
-        """Copy every member's values into the history row of `step`: a closure over what it uses (the plan
-        calls it at every sampled step)."""
+        """Copy every member's values into the history row of `step`: a closure over what it uses (the
+        sampling table calls it at every sampled step)."""
         take, source, rows, count = self.raw.take, self.source, self.history_rows, self.rows
         compiled_snapshot = None if sync else kernel_snapshot(self.raw, source, self.history, None, self._data)
         if compiled_snapshot is not None:
@@ -244,21 +282,21 @@ class FeatureBank:
         return self.channels[position].schedule.samples_taken(self.phases[position][2], step)
 
     def _compile(self, phase: int) -> CompiledRead:
-        plan = read_plan(self.channels, self.cols, self.rows, phase)
+        layout = read_layout(self.channels, self.cols, self.rows, phase)
         if self.noise is None:  # gather the families' blocks straight from the history
-            compiled = compile_read(self.channels, plan, None, self.rows * self.width)
+            compiled = compile_read(self.channels, layout, None, self.rows * self.width)
         else:
             noise = self.noise
-            compiled = compile_read(self.channels, plan, lambda source: noise.read_layers(source % self.width), None)
+            compiled = compile_read(self.channels, layout, lambda source: noise.read_layers(source % self.width), None)
         return compiled._replace(kernel=kernel_read(compiled, compiled.layers, self.flat))
 
-    def read(self, step: int) -> Sequence[Any]:
+    def read(self, step: int) -> Sequence[np.ndarray]:
         """Every member's observation at `step`: fresh arrays (views of this read's own copy)."""
         phase = step % self.rows
         compiled = self._gathers.get(phase)
         if compiled is None:
             compiled = self._compile(phase)
-            # its index, noise positions and work buffer (the noise plan's fields are the bank's own), and the
+            # its index, noise positions and work buffer (the noise program's fields are the bank's own), and the
             # compiled program's
             self._gathers.put(phase, compiled,
                               4 * compiled.source.nbytes + (compiled.kernel.nbytes if compiled.kernel else 0))
@@ -266,13 +304,13 @@ class FeatureBank:
             compiled.kernel.run(compiled.source)
             return cut(compiled)
         self.flat.take(compiled.source, None, compiled.gathered, "clip")
-        if compiled.noise:  # a noise program: the bank has noise
-            self._apply_noise(step, compiled)
+        if compiled.noise and self.noise is not None:  # a noise program: the bank has noise
+            self._apply_noise(step, compiled, self.noise)
         return finish(compiled)
 
-    def _apply_noise(self, step: int, compiled: CompiledRead) -> None:
+    def _apply_noise(self, step: int, compiled: CompiledRead, noise: BankNoise) -> None:
         gathered, index = compiled.gathered, compiled.source
-        cast(BankNoise, self.noise).apply(index, compiled.noise)
+        noise.apply(index, compiled.noise)
         if step < self.rows:  # early in an episode: windows reach before the reset sample
             early = self._early.get(step)
             if early is None:
@@ -281,11 +319,11 @@ class FeatureBank:
                 gathered[early] = self.pad_values.take(index[early] % self.width)
 
 
-def reuse_key(channels: Sequence[Channel], data: Any, substeps: int, pad: bool,
-              schedules: list[Any]) -> tuple[Any, ...]:
+def reuse_key(channels: Sequence[Channel], data: MjData, substeps: int, pad: bool,
+              schedules: Sequence[Hashable]) -> tuple[Hashable, ...]:
     """What a bank's layout depends on (`schedules`: each member's schedule settings): equal keys let a reset
     keep the bank (FeatureBank, planned.DrawnBank), with this episode's channels (`rebind_noise`)."""
-    head: tuple[Any, ...] = (id(data), substeps, pad)
+    head: tuple[Hashable, ...] = (id(data), substeps, pad)
     return head + tuple(
         (_reader(ch).field, _reader(ch).index.shape, _reader(ch).index.tobytes(), schedule, ch.buffer_size,
          getattr(ch.aggregator, "name", None), ch.has_buffer_dim, id(ch.noise))
@@ -338,22 +376,31 @@ def qualifies(ch: Channel) -> TypeGuard[FixedChannel]:
     return bank_member(ch, FixedChannel)
 
 
-def read_plan(channels: list[FixedChannel], cols: np.ndarray, rows: int, phase: int) -> ReadPlan:
+def _builtin_name(aggregator: Callable[[np.ndarray], Any]) -> str:
+    """A bank member's aggregator's name: a built-in, as `plain_refusal` made sure."""
+    found = builtin(aggregator)
+    if found is None:
+        raise ValueError(f"{aggregator!r} is not a built-in aggregator: it cannot reduce a bank's read")
+    return found.name
+
+
+def read_layout(channels: Sequence[LaidOut], cols: np.ndarray, rows: int, phase: int) -> ReadLayout:
     """For reads at steps = phase (mod rows) of a step-indexed history of `rows` rows of `cols[-1]` values,
     channel i in columns cols[i]:cols[i+1]: one flat gather index (row * width + column), and how to cut
-    and reduce it (`ReadPlan`).
+    and reduce it (`ReadLayout`).
 
     Shared by `FeatureBank` and the batched bank of `sensorcfg.batch`.
     """
     width = int(cols[-1])
-    blocks: dict[Any, list[tuple[int, np.ndarray]]] = {}
+    # per group key (aggregator, buffer, the member when it is reduced alone (else -1)); None: not reduced
+    blocks: dict[tuple[str, int, int] | None, list[tuple[int, np.ndarray]]] = {}
     for i, ch in enumerate(channels):
         steps = ch.interval * ch.schedule.window(phase)
         block = (steps % rows)[:, None] * width + np.arange(cols[i], cols[i + 1])
-        key: tuple[Any, ...] | None = None if ch.aggregator is None else (
-            cast(Any, ch.aggregator).name, ch.buffer_size)  # a builtin aggregator: it has a name
-        if key is not None and pairwise(key[0], int(cols[i + 1] - cols[i])):  # a group of its own
-            key += (i,)
+        key = None
+        if ch.aggregator is not None:
+            name = _builtin_name(ch.aggregator)
+            key = (name, ch.buffer_size, i if pairwise(name, int(cols[i + 1] - cols[i])) else -1)
         blocks.setdefault(key, []).append((i, block))
     parts: list[np.ndarray] = []
     groups: list[ReductionGroup] = []
@@ -375,4 +422,4 @@ def read_plan(channels: list[FixedChannel], cols: np.ndarray, rows: int, phase: 
         groups.append(ReductionGroup(slice(offset, offset + stacked.size), stacked.shape, members, key[0]))
         parts.append(stacked.ravel())
         offset += stacked.size
-    return ReadPlan(np.concatenate(parts).astype(np.intp), groups, plain)
+    return ReadLayout(np.concatenate(parts).astype(np.intp), groups, plain)

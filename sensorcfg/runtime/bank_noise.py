@@ -16,14 +16,17 @@ Bit-identity with the per-sample pipeline is the contract (the tests compare bot
 
 from __future__ import annotations
 
-from collections.abc import Callable, Collection
-from typing import Any, NamedTuple, cast
+from collections.abc import Callable, Collection, Sequence
+from typing import TYPE_CHECKING, Any, NamedTuple, Protocol, cast
 
 import numpy as np
 
 from ..noise import arithmetic as ar
 from ..noise import stages as rt
 from ..noise.streams import KERNEL, Affine, Draw, Sum, add_sums, numbers
+
+if TYPE_CHECKING:
+    from ..noise.pipeline import NoisePipeline
 
 __all__ = ["BankNoise", "Layer", "ReadOp", "ops_of", "program"]
 
@@ -45,7 +48,7 @@ _KINDS: dict[type, Callable[[Any], str]] = {
 }
 
 
-def program(pipeline: Any) -> Program | None:
+def program(pipeline: NoisePipeline | None) -> Program | None:
     """The pipeline as (kind, stage) pairs the bank can run, () for no noise, None when it cannot."""
     if pipeline is None:
         return ()
@@ -60,10 +63,19 @@ def program(pipeline: Any) -> Program | None:
     return tuple(ops)
 
 
+class _Sampled(Protocol):
+    """What the bank's noise reads of a member: its value's shape, and its sample steps' stride."""
+
+    @property
+    def shape(self) -> tuple[int, ...]: ...
+    @property
+    def interval(self) -> int: ...
+
+
 class BankNoise:
     """Noise fields and per-group programs for the noisy members of a bank."""
 
-    def __init__(self, channels: list[Any], programs: list[Program], cols: np.ndarray,
+    def __init__(self, channels: Sequence[_Sampled], programs: list[Program], cols: np.ndarray,
                  rows: int, chunk: int, sample_offsets: list[np.ndarray]):
         self.width = int(cols[-1])
         self.rows, self.chunk, self.cols = rows, chunk, cols
@@ -121,7 +133,8 @@ class BankNoise:
         sample steps; the steps of an episode's first chunk (the reset sample first, when it is not among
         them) and their positions."""
         def places(i: int, offsets: np.ndarray) -> np.ndarray:
-            return offsets * self.width + self.cols[i]
+            at: np.ndarray = offsets * self.width + self.cols[i]
+            return at
 
         first = [offsets if len(offsets) and offsets[0] == 0 else np.concatenate(([0], offsets)).astype(np.intp)
                  for offsets in sample_offsets]
@@ -189,7 +202,7 @@ class BankNoise:
         cached = self.affines.get((i, j))
         if cached is None or cached[0] is not stage:
             cached = self.affines[(i, j)] = (stage, stage.affine())
-        return cast("list[Affine] | None", cached[1])
+        return cached[1]
 
     # -- reads ------------------------------------------------------------------------------------
 

@@ -1,7 +1,7 @@
 """A feature bank's read of one phase (of the planned bank: any read, whose gathered rows change), compiled
 onto a work buffer of its own: a fixed number of numpy calls.
 
-`runtime.bank.read_plan` says which history positions each read gathers and how they are cut and reduced.
+`runtime.bank.read_layout` says which history positions each read gathers and how they are cut and reduced.
 Compiled, a read is: one `take` from the history into the work buffer, which also stacks the windows of
 reductions of one family (`observables.aggregators.family`: sums, means and medians of one or two samples;
 maxima; minima) side by side, each padded to the family's longest buffer with a value that changes no
@@ -24,13 +24,16 @@ import functools
 import math
 import operator
 from collections.abc import Callable, Sequence
-from typing import Any, NamedTuple, cast
+from typing import TYPE_CHECKING, NamedTuple, cast
 
 import numpy as np
 
 from ..observables.aggregators import AGGREGATORS, FAMILIES, Family, family
-from .bank_noise import Layer, ops_of
-from .channels import FixedChannel
+from .bank_noise import Layer, ReadOp, ops_of
+
+if TYPE_CHECKING:
+    from .bank import GroupMember, PlainRead, ReadLayout, ReductionGroup
+    from .read_kernel import KernelRead
 
 __all__ = ["PADS", "CompiledRead", "Reduction", "Step", "compile_read", "cut", "finish"]
 
@@ -55,7 +58,7 @@ class Step(NamedTuple):
     out: np.ndarray
     source: np.ndarray
     positions: np.ndarray | None
-    run: Callable[[], Any]
+    run: Callable[[], object]
 
 
 class CompiledRead(NamedTuple):
@@ -63,21 +66,21 @@ class CompiledRead(NamedTuple):
 
     source: np.ndarray  # the history positions gathered, in the order of `gathered`
     gathered: np.ndarray  # the windows' part of the work buffer
-    steps: list[Callable[[], Any]]  # on the work buffer, in order: the families' take, reductions, divisions
+    steps: list[Callable[[], object]]  # on the work buffer, in order: the families' take, reductions, divisions
     records: list[Step]  # the same steps, as records (`read_kernel` compiles them)
     shown: np.ndarray  # the part of the work buffer the observations show, (n,)
-    cut: Callable[[np.ndarray], tuple[Any, ...]]  # a copy of `shown` -> every member's value
+    cut: Callable[[np.ndarray], tuple[np.ndarray, ...]]  # a copy of `shown` -> every member's value
     reshapes: list[tuple[int, tuple[int, ...]]]  # members whose cut needs a reshape: (member, its shape)
-    noise: list[Any]  # the bank noise's read program for `source` ([] without noise)
+    noise: list[ReadOp]  # the bank noise's read program for `source` ([] without noise)
     layers: list[Layer]  # the same program, as records
-    kernel: Any = None  # the whole read as one compiled call, where a bank made one (`read_kernel.KernelRead`)
+    kernel: KernelRead | None = None  # the whole read as one compiled call, where a bank made one
 
 
 class _Group(NamedTuple):
-    """A reduction group of the read plan: its window's positions in the plan's gather, and its family."""
+    """A reduction group of the read layout: its window's positions in the layout's gather, and its family."""
 
     positions: np.ndarray  # (buffer, width)
-    members: list[Any]  # GroupMember
+    members: list[GroupMember]
     reduce: Callable[..., np.ndarray]
     family: tuple[Family, int] | None  # (family, divisor); None: reduced alone
 
@@ -86,9 +89,9 @@ class _Cuts:
     """Per member, the index into an (n,) copy that gives its value in one step where its shape allows
     ((1, k) and (k,) arrays, numpy scalars), else its (k,) span, reshaped (`reshapes`): views of the copy."""
 
-    def __init__(self, channels: Sequence[FixedChannel], plain: list[Any], ordered: list[_Group], starts: np.ndarray):
+    def __init__(self, members: int, plain: list[PlainRead], ordered: list[_Group], starts: np.ndarray):
         """Plain members' windows start at `starts`; reduced values lie first, in the groups' `ordered` order."""
-        self.keys: list[Any] = [None] * len(channels)
+        self.keys: list[int | slice | tuple[None, slice] | None] = [None] * members
         self.reshapes: list[tuple[int, tuple[int, ...]]] = []
         for p, start in zip(plain, starts):
             self.place(p.member, int(start), p.shape, scalar=False)
@@ -109,21 +112,21 @@ class _Cuts:
             if len(shape) != 1:
                 self.reshapes.append((i, shape))
 
-    def getter(self) -> Callable[[np.ndarray], tuple[Any, ...]]:
+    def getter(self) -> Callable[[np.ndarray], tuple[np.ndarray, ...]]:
         if len(self.keys) == 1:
             key = self.keys[0]
             return lambda values: (values[key],)
         return operator.itemgetter(*self.keys)
 
 
-def compile_read(channels: Sequence[FixedChannel], plan: Any, noise_layers: Callable[[np.ndarray], list[Layer]] | None,
+def compile_read(channels: Sequence[object], layout: ReadLayout, noise_layers: Callable[[np.ndarray], list[Layer]] | None,
                  pads_at: int | None) -> CompiledRead:
-    """`plan`: `read_plan(...)` of one phase; `noise_layers(source)`: the bank noise's read layers for the
+    """`channels`: the members, one output each; `layout`: `read_layout(...)` of one phase; `noise_layers(source)`: the bank noise's read layers for the
     values gathered from `source` (None without noise);
     `pads_at`: where the history's source holds the families' pads (`PADS`): the gather fills the families'
     blocks too; or None: noise applies to the gathered windows first, and a second take stacks them."""
-    index, groups, plain = plan
-    families, alone = _families(channels, groups)
+    index, groups, plain = layout
+    families, alone = _families(groups)
     stacked_groups = [g for members in families.values() for g in members]
     ordered = stacked_groups + alone  # as their reduced values lie
     nreduced = sum(g.positions.shape[1] for g in ordered)
@@ -141,7 +144,7 @@ def compile_read(channels: Sequence[FixedChannel], plan: Any, noise_layers: Call
     if pads_at is not None:  # the gather fills the blocks too
         source = np.concatenate([source, *stacked.index])
     records = _steps(work[0], nreduced, stacked, pads_at is None)
-    cuts = _Cuts(channels, plain, ordered, starts)
+    cuts = _Cuts(len(channels), plain, ordered, starts)
     gathered = work[0, nreduced:nreduced + len(source)]
     layers = noise_layers(source) if noise_layers else []
     shown = work[0, :int(starts[len(plain)])]
@@ -149,7 +152,7 @@ def compile_read(channels: Sequence[FixedChannel], plan: Any, noise_layers: Call
                         cuts.reshapes, ops_of(layers, gathered), layers)
 
 
-def finish(read: CompiledRead) -> Sequence[Any]:
+def finish(read: CompiledRead) -> Sequence[np.ndarray]:
     """After the windows are gathered (and their noise applied): stack, reduce, copy and cut every member's
     observation (fresh arrays: views of this read's own copy)."""
     for step in read.steps:
@@ -157,7 +160,7 @@ def finish(read: CompiledRead) -> Sequence[Any]:
     return cut(read)
 
 
-def cut(read: CompiledRead) -> Sequence[Any]:
+def cut(read: CompiledRead) -> Sequence[np.ndarray]:
     """Every member's observation from the work buffer's reduced values and plain windows: fresh arrays
     (views of this read's own copy, reshaped where the cut does not give a member's shape)."""
     values = read.cut(read.shown.copy())
@@ -185,8 +188,8 @@ def _steps(row: np.ndarray, nreduced: int, stacked: _Stacked, stack: bool) -> li
     return steps
 
 
-def _windows(plain: list[Any], groups: list[_Group]) -> list[np.ndarray]:
-    """Read-plan positions of each window, in the order the work row holds them."""
+def _windows(plain: list[PlainRead], groups: list[_Group]) -> list[np.ndarray]:
+    """Read-layout positions of each window, in the order the work row holds them."""
     return [np.arange(p.part.start, p.part.stop) for p in plain] + [g.positions.ravel() for g in groups]
 
 
@@ -201,14 +204,14 @@ def _stacker(row: np.ndarray, index: np.ndarray, order: np.ndarray, end: int, pa
     or from the gathered windows followed by the pads (stored there)."""
     if pads_at is not None:
         return _Stacked(row, end, index, pads_at)
-    where = np.empty(len(index), np.intp)  # a read-plan position -> its place among the gathered values
+    where = np.empty(len(index), np.intp)  # a read-layout position -> its place among the gathered values
     where[order] = np.arange(len(order))
     row[end:end + len(PADS)] = PADS
     return _Stacked(row, end + len(PADS), where, len(order))
 
 
-def _families(channels: Sequence[FixedChannel], groups: list[Any]) -> tuple[dict[str, list[_Group]], list[_Group]]:
-    """The plan's reduction groups by family (`observables.aggregators.family`), and those reduced alone."""
+def _families(groups: list[ReductionGroup]) -> tuple[dict[str, list[_Group]], list[_Group]]:
+    """The read layout's reduction groups by family (`observables.aggregators.family`), and those reduced alone."""
     families: dict[str, list[_Group]] = {}
     alone = []
     for g in groups:
@@ -223,7 +226,7 @@ def _families(channels: Sequence[FixedChannel], groups: list[Any]) -> tuple[dict
 
 class _Stacked:
     """The families' blocks in the work buffer, from `first_block` on: where each block value comes from in
-    the source of the take that fills them (`lookup`: a read-plan position -> its place there; the pads
+    the source of the take that fills them (`lookup`: a read-layout position -> its place there; the pads
     from `pad_at`), and each family's reduction into its reduced values."""
 
     def __init__(self, row: np.ndarray, first_block: int, lookup: np.ndarray, pad_at: int):

@@ -1,8 +1,8 @@
-"""A cache of precomputed plans with a byte budget: memory stays in proportion to what the plans hold.
+"""A cache of precomputed read layouts with a byte budget: memory stays in proportion to what they hold.
 
-Read plans are computed per phase and kept, because a sensor's reads repeat; but a sensor with a long buffer
-and delay has many phases, each plan as large as its window, so keeping them all would take memory in
-proportion to buffer x (delay + buffer). Past the budget, a plan is computed again when needed instead of
+Read layouts are computed per phase and kept, because a sensor's reads repeat; but a sensor with a long buffer
+and delay has many phases, each layout as large as its window, so keeping them all would take memory in
+proportion to buffer x (delay + buffer). Past the budget, a layout is computed again when needed instead of
 kept (its cost is in proportion to the read it serves).
 """
 

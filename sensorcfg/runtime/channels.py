@@ -18,7 +18,7 @@ import collections
 import dataclasses
 import numbers
 from collections.abc import Callable
-from typing import Any, NamedTuple, cast
+from typing import TYPE_CHECKING, Any, NamedTuple, cast
 
 import numpy as np
 
@@ -27,7 +27,10 @@ from ..draws import (DEFAULT_BUFFER_SIZE, DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL
 from ..errors import SuiteError
 from ..observables.aggregators import builtin
 from .drawn import Drawn, Planner, Round, chunk_steps
-from .schedule import Schedule
+from .schedule import Schedule, history_rows
+
+if TYPE_CHECKING:
+    from ..noise.pipeline import NoisePipeline
 
 __all__ = ["Channel", "ChannelSpec", "DrawnChannel", "FixedChannel", "RandomChannel", "make_channel"]
 
@@ -48,7 +51,7 @@ class ChannelSpec(NamedTuple):
     substeps: int  # physics steps per control step: reads happen every `substeps` steps
     aggregator: Callable[[np.ndarray], Any] | None
     builtin_aggregator: bool
-    noise: Any
+    noise: NoisePipeline | None
 
 
 class Channel:
@@ -91,7 +94,7 @@ class Channel:
 
 
 class FixedChannel(Channel):
-    """Constant integer interval and delay: a periodic plan and a ring of samples."""
+    """Constant integer interval and delay: a periodic sampling pattern and a ring of samples."""
 
     def __init__(self, spec: ChannelSpec, *, interval: int, delay: int):
         super().__init__(spec)
@@ -150,12 +153,12 @@ class FixedChannel(Channel):
 
 
 class RandomChannel(Channel):
-    """Interval and/or delay drawn per sample: dm_control's planning and dropping, to the sample.
+    """Interval and/or delay drawn per sample: dm_control's scheduling and dropping, to the sample.
 
-    Planning extends the plan (`planned`) to two control steps ahead, drawing (interval, delay) pairs in
-    dm_control's order; it then drops every scheduled sample that is provably pushed out of the buffer
+    `draw_ahead` extends the drawn schedule (`scheduled`) to two control steps ahead, drawing (interval, delay)
+    pairs in dm_control's order; it then drops every scheduled sample that is provably pushed out of the buffer
     before its first read. Dropping is exactly dm_control's (and so is its side effect: when the last
-    scheduled sample is dropped, the next plan continues from the last one kept), so sample times,
+    scheduled sample is dropped, the next draws continue from the last one kept), so sample times,
     samples taken and every draw agree with dm_control's.
     """
 
@@ -163,7 +166,7 @@ class RandomChannel(Channel):
         super().__init__(spec)
         self.draw_interval = interval
         self.draw_delay = delay
-        self.planned: list[tuple[int, int]] = []  # (timestamp, delay), increasing timestamps
+        self.scheduled: list[tuple[int, int]] = []  # (timestamp, delay), increasing timestamps
         self.pending: list[tuple[int, int, np.ndarray]] = []  # (arrival, timestamp, value), delivery order
         self.arrived: collections.deque[np.ndarray] = collections.deque(maxlen=self.buffer_size)
 
@@ -174,14 +177,14 @@ class RandomChannel(Channel):
         self.arrived.extend(fill for _ in range(self.buffer_size))
         self._insert(step, delay, value)
 
-    def plan(self, step: int) -> None:
-        """Extend the plan two control steps ahead, then drop the samples no read can see."""
-        planned = self.planned
-        last = planned[-1][0] if planned else step
+    def draw_ahead(self, step: int) -> None:
+        """Extend the drawn schedule two control steps ahead, then drop the samples no read can see."""
+        scheduled = self.scheduled
+        last = scheduled[-1][0] if scheduled else step
         horizon = step + 2 * self.substeps
         while last < horizon:
             last += self.draw_interval()  # interval first, then delay, as dm_control draws them
-            planned.append((last, self.draw_delay()))
+            scheduled.append((last, self.draw_delay()))
         self._drop_unobserved()
 
     def _drop_unobserved(self) -> None:
@@ -192,11 +195,11 @@ class RandomChannel(Channel):
         first read at the end of its read window ceil(a / substeps); what is delivered after it by then arrived
         in the same window, later in that order. So: per window, keep the last `buffer_size` samples.
         """
-        if self.every_sample:  # stateful noise: every planned sample is taken
+        if self.every_sample:  # stateful noise: every scheduled sample is taken
             return
         substeps, b = self.substeps, self.buffer_size
-        planned = self.planned
-        order = sorted((-(-(t + d) // substeps), t + d, j) for j, (t, d) in enumerate(planned))
+        scheduled = self.scheduled
+        order = sorted((-(-(t + d) // substeps), t + d, j) for j, (t, d) in enumerate(scheduled))
         in_flight: dict[int, list[int]] = {}
         for a, _, _ in self.pending:
             in_flight.setdefault(-(-a // substeps), []).append(a)
@@ -212,14 +215,14 @@ class RandomChannel(Channel):
             k = m
         if drop:
             dropped = set(drop)
-            self.planned = [entry for j, entry in enumerate(planned) if j not in dropped]
+            self.scheduled = [entry for j, entry in enumerate(scheduled) if j not in dropped]
 
     def due(self, step: int) -> bool:
-        return bool(self.planned) and self.planned[0][0] == step
+        return bool(self.scheduled) and self.scheduled[0][0] == step
 
     def sample(self, step: int) -> None:
         """Take the sample scheduled at `step` (the caller checked `due`)."""
-        _, delay = self.planned.pop(0)
+        _, delay = self.scheduled.pop(0)
         self._insert(step, delay, np.array(self.value(step), dtype=self.dtype))
 
     def maybe_sample(self, step: int) -> None:
@@ -265,7 +268,7 @@ class DrawnChannel(Channel):
         self.key = key
         self.chunk = self.rows = 0  # the per-sample path's round and history lengths, set at `start`
         self.fill: Any = None
-        # the per-sample path's plan and samples, made at `start` (a channel the bank runs needs none)
+        # the per-sample path's rounds and samples, made at `start` (a channel the bank runs needs none)
         self.need = np.zeros(0, bool)
         self.windows = np.zeros((0, self.buffer_size), np.int64)
         self.values: list[Any] = []
@@ -285,7 +288,7 @@ class DrawnChannel(Channel):
     def start(self, step: int) -> None:
         if self.planner is None:  # (a channel the bank runs is never started: it needs none of this)
             self.chunk = chunk_steps([self.drawn], self.substeps)
-            self.rows = self.chunk * -(-(self.drawn.span + 2 * self.chunk + 1) // self.chunk)
+            self.rows = history_rows([], self.substeps, reach=self.drawn.span + self.chunk + 1, ahead=self.chunk)
             self.need = np.zeros(self.rows, bool)
             self.windows = np.full((self.rows // self.substeps, self.buffer_size), -1, np.int64)
             self.values = [None] * self.rows
@@ -297,7 +300,7 @@ class DrawnChannel(Channel):
         self.fill = value if self.pad else np.zeros(self.shape, self.dtype)
         self.values[0] = value
 
-    def plan(self, step: int) -> None:
+    def draw_ahead(self, step: int) -> None:
         """Before the control step after `step`: at a round's start, plan the round after next."""
         if step and step % self.chunk == 0:
             self.store(None, [cast(Planner, self.planner).round(_ZERO, self.chunk)], step + self.chunk)
@@ -337,8 +340,9 @@ def _window_drops(window: list[tuple[int, int, int]], b: int, flight: list[int])
     return drop
 
 
-def make_channel(label: str, observable: Any, physics: Any, random_state: Any, entropy: list[int] | None,
-                 substeps: int, strip: bool, pad: bool) -> FixedChannel | RandomChannel | DrawnChannel:
+def make_channel(label: str, observable: Any, physics: Any, random_state: np.random.RandomState | None,
+                 entropy: list[int] | None, substeps: int, strip: bool,
+                 pad: bool) -> FixedChannel | RandomChannel | DrawnChannel:
     """Bind `observable` to `physics` and build its channel for an episode: the Updater's and the batch's one
     way to turn an observable into a channel. `entropy` keys the sensor's noise streams (`draws.sensor_key`);
     `random_state` is the episode's, given to the observable and to schedule callables that take it."""

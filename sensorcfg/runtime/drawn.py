@@ -23,12 +23,12 @@ steps later, so callers plan one round ahead (`chunk >= largest delay + substeps
 from __future__ import annotations
 
 import math
-import numbers
 from collections.abc import Sequence
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 
+from ..draws import ChoiceSteps, UniformSteps
 from ..noise import streams
 
 __all__ = ["Drawn", "Planner", "Round", "chunk_steps"]
@@ -36,15 +36,19 @@ __all__ = ["Drawn", "Planner", "Round", "chunk_steps"]
 _MIN_CHUNK = 1024  # steps per planning round, at least
 
 
-def _largest(value: Any) -> int:
-    return int(value) if isinstance(value, numbers.Integral) else int(value.largest)
+Draw = UniformSteps | ChoiceSteps  # an interval or delay sensorcfg draws (`draws.planned`)
+Setting = int | Draw  # a planned schedule's interval or delay: a constant or a draw
+
+
+def _largest(value: Setting) -> int:
+    return int(value.largest) if isinstance(value, (UniformSteps, ChoiceSteps)) else int(value)
 
 
 class Drawn(NamedTuple):
     """A planned schedule: interval and delay (an int, or a draw with `block` and `largest`), in steps."""
 
-    interval: Any
-    delay: Any
+    interval: Setting
+    delay: Setting
     buffer: int
     substeps: int
     every_sample: bool = False  # stateful noise: every sample of the schedule is taken
@@ -52,7 +56,7 @@ class Drawn(NamedTuple):
     @property
     def stride(self) -> int:
         """Sample j of a constant interval is at step j * stride; 1 when drawn (a sample's index is its step)."""
-        return int(self.interval) if isinstance(self.interval, numbers.Integral) else 1
+        return 1 if isinstance(self.interval, (UniformSteps, ChoiceSteps)) else int(self.interval)
 
     @property
     def span(self) -> int:
@@ -84,7 +88,7 @@ class Round(NamedTuple):
 _SCHEDULE = np.array([0, 1 << 63], np.uint64)  # xor of a sensor key that gives its schedule key
 
 
-def _drawn(setting: Any, keys: np.ndarray, first: np.ndarray, counts: np.ndarray, lane: int) -> np.ndarray:
+def _drawn(setting: Draw, keys: np.ndarray, first: np.ndarray, counts: np.ndarray, lane: int) -> np.ndarray:
     """Draws of `setting` for samples first[s] .. first[s] + counts[s] - 1 of schedule keys `keys` (one per
     run, (len(first), 2)), run after run, from lane `lane`."""
     return np.asarray(setting.of_uniform(streams.uniform_runs(keys, first, counts, lane)), np.int64)
@@ -102,7 +106,7 @@ class Planner:
             raise ValueError("a Planner needs one Drawn per simulation, all with the same substeps")
         self.drawns = drawns
         # simulations by schedule (interval, delay): each schedule's samples drawn in one call
-        schedules: dict[tuple[Any, Any], list[int]] = {}
+        schedules: dict[tuple[Setting, Setting], list[int]] = {}
         for i, d in enumerate(drawns):
             schedules.setdefault((d.interval, d.delay), []).append(i)
         self.schedules = list(schedules)
@@ -148,10 +152,12 @@ class Planner:
         kinds = self.schedule_of[sims]
         for k, (_, delay) in enumerate(self.schedules):
             pos = self.members[k] if sims is self.all else np.flatnonzero(kinds == k)
-            if len(pos) and not isinstance(delay, numbers.Integral):
+            if not len(pos):
+                continue
+            if isinstance(delay, (UniformSteps, ChoiceSteps)):
                 delays[pos] = _drawn(delay, self.keys[sims[pos]], np.zeros(len(pos), np.int64),
                                      np.ones(len(pos), np.int64), 1)
-            elif len(pos):
+            else:
                 delays[pos] = int(delay)
         self.next[sims] = 1
         self.end[sims] = 0
@@ -178,11 +184,11 @@ class Planner:
         g, t, d = (np.concatenate(part) for part in zip(*parts))
         return g, t, d
 
-    def _samples(self, schedule: tuple[Any, Any], sims: np.ndarray, end: np.ndarray
+    def _samples(self, schedule: tuple[Setting, Setting], sims: np.ndarray, end: np.ndarray
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """`_until` for simulations of one schedule (interval, delay)."""
         (interval, delay), first = schedule, self.next[sims]
-        if isinstance(interval, numbers.Integral):
+        if not isinstance(interval, (UniformSteps, ChoiceSteps)):
             counts = np.maximum(end // int(interval) - first + 1, 0)
             g = np.repeat(np.arange(len(sims)), counts)
             j = np.repeat(first - (np.cumsum(counts) - counts), counts) + np.arange(g.size)
@@ -205,7 +211,7 @@ class Planner:
             had = counts > 0
             self.last[sims[had]] = times[had, counts[had] - 1]
         self.next[sims] = first + counts
-        d = (np.full(g.size, int(delay), np.int64) if isinstance(delay, numbers.Integral)
+        d = (np.full(g.size, int(delay), np.int64) if not isinstance(delay, (UniformSteps, ChoiceSteps))
              else _drawn(delay, self.keys[sims], first, counts, 1))  # g: sorted, j from first, counts per sim
         return g, t, d
 
@@ -244,7 +250,7 @@ class Planner:
         reads = first[:, None] + n * np.arange(max(1, length // n) if length else 1)
         k = (np.searchsorted(g * w1 + rel, (np.arange(m) * w1 - prev)[:, None] + reads, side="right")
              - dstart[:, None])
-        windows = seq[(offset[:, None] + k)[..., None] + np.arange(b)]
+        windows: np.ndarray = seq[(offset[:, None] + k)[..., None] + np.arange(b)]
         self.tail[sims] = seq[offset[:, None] + delivered[:, None] + np.arange(b)]
         return windows
 
@@ -252,7 +258,8 @@ class Planner:
         """Per simulation, the window entries whose samples it takes (None: all): not those before a smaller
         buffer's entries, none with stateful noise (it takes every sample instead)."""
         if self.uneven or self.every[sims].any():
-            return self.reads[sims] & ~self.every[sims][:, None]
+            mask: np.ndarray = self.reads[sims] & ~self.every[sims][:, None]
+            return mask
         return None
 
     def _every(self, sims: np.ndarray, new: tuple[np.ndarray, np.ndarray], sim: np.ndarray, steps: np.ndarray,

@@ -6,16 +6,19 @@ raw structs as `.model.ptr` and `.data.ptr`.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from mujoco import MjData, MjModel
 
 __all__ = ["structs_of"]
 
 
-def _is_raw(obj: Any, name: str) -> bool:
+def _is_raw(obj: object, name: str) -> bool:
     return type(obj).__name__ == name and type(obj).__module__.startswith("mujoco")
 
 
-def structs_of(physics: Any) -> tuple[Any, Any]:
+def structs_of(physics: object) -> tuple[MjModel, MjData]:
     """(MjModel, MjData) of a sensorcfg or dm_control physics handle; TypeError for anything else."""
     model, data = getattr(physics, "model", None), getattr(physics, "data", None)
     if _is_raw(model, "MjModel") and _is_raw(data, "MjData"):

@@ -12,28 +12,32 @@ built (`runtime/read_kernel.py`), except reads early in an episode, whose window
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from typing import Any, NamedTuple, cast
+from collections.abc import Callable, Hashable, Sequence
+from typing import TYPE_CHECKING, Any, NamedTuple, TypeGuard, cast
 
 import numpy as np
 
-from .bank import BankMember, ReadPlan, _reader, bank_member, read_plan, rebind_noise, reuse_key
+from .bank import BankMember, _reader, bank_member, read_layout, rebind_noise, reuse_key
 from .bank_noise import BankNoise, Layer, Program, ReadOp, ops_of, program
 from .bank_read import compile_read, cut, finish
-from .channels import DrawnChannel
-from .drawn import Planner, Round, chunk_steps
+from .channels import Channel, DrawnChannel
+from .drawn import Drawn, Planner, Round, chunk_steps
 from .read_kernel import kernel_read, kernel_snapshot
+from .schedule import history_rows
 
-__all__ = ["DrawnBank", "DrawnMember", "joins"]
+if TYPE_CHECKING:
+    from mujoco import MjData
+
+__all__ = ["DrawnBank", "DrawnMember", "drawn_bank_rows", "joins"]
 
 
-def joins(ch: Any) -> bool:
+def joins(ch: Channel) -> TypeGuard[DrawnChannel]:
     """Whether a planned channel can join the bank (`bank.bank_member`)."""
     return bank_member(ch, DrawnChannel)
 
 
 class _Window(NamedTuple):
-    """A stand-in for `read_plan`: window position p of a member reads history row p."""
+    """A stand-in for `read_layout`: window position p of a member reads history row p."""
 
     buffer: int
 
@@ -41,10 +45,12 @@ class _Window(NamedTuple):
         return np.arange(self.buffer)
 
 
-class _Layout(NamedTuple):
+class _Member(NamedTuple):
+    """A member as `read_layout` reads it (`bank.LaidOut`): one window of its last `buffer_size` samples."""
+
     interval: int
     schedule: _Window
-    aggregator: Any
+    aggregator: Callable[[np.ndarray], Any] | None
     buffer_size: int
     buffered_shape: tuple[int, ...]
     shape: tuple[int, ...]
@@ -56,10 +62,17 @@ class DrawnMember(BankMember):
     __slots__ = ()
 
 
+def drawn_bank_rows(schedules: list[Drawn], substeps: int) -> int:
+    """Rows of a `DrawnBank`'s history: `Drawn.span` steps back and a long round (`_LONG` chunks) planned
+    ahead, plus the chunk the reset plans (`schedule.history_rows`)."""
+    chunk = chunk_steps(schedules, substeps, _RESET_STEPS)
+    return history_rows([], substeps, reach=max(d.span for d in schedules) + _LONG * chunk + 1, ahead=chunk)
+
+
 class DrawnBank:
     """All planned float64 features of one Updater: a history of `rows` steps (plus a padding row)."""
 
-    def __init__(self, channels: list[DrawnChannel], data: Any, substeps: int, pad: bool,
+    def __init__(self, channels: list[DrawnChannel], data: MjData, substeps: int, pad: bool,
                  view: tuple[np.ndarray, dict[str, int]]):
         self.raw, offsets = view
         self._data = data  # keeps the memory behind `raw` alive
@@ -74,7 +87,7 @@ class DrawnBank:
         # steps back.
         self.length = _LONG * self.chunk
         span = max(ch.drawn.span for ch in channels)
-        self.rows = self.chunk * -(-(span + self.chunk + self.length + 1) // self.chunk)
+        self.rows = drawn_bank_rows([ch.drawn for ch in channels], substeps)
         # A round is planned this many steps before it starts: every sample its reads show is then still
         # ahead (a read shows samples at most `span` steps old), and so is every sample of the round before
         # whose first read falls in it (at most delay + substeps - 1 steps old).
@@ -99,17 +112,18 @@ class DrawnBank:
         self._noise([program(ch.noise) or () for ch in channels])
         self.kernel = kernel_read(self.compiled, self.noise_layers, self.flat)  # the read in one call, where built
         self.run = None if self.kernel is None else self.kernel.run
-        self._read_step, self._outputs = -1, cast(Sequence[Any], [])
+        self._read_step = -1
+        self._outputs: Sequence[np.ndarray] = []
         self._pad_program: list[ReadOp] | None = None
         self._pad_work = np.zeros(0)
 
     def _compile(self, channels: list[DrawnChannel]) -> None:
         """A read compiled once (`bank_read`): only the rows it gathers change, each gathered value is
         (`entry`: its member's window entry in a round's windows, `column`)."""
-        layout = [_Layout(1, _Window(ch.buffer_size), ch.aggregator, ch.buffer_size, ch.buffered_shape, ch.shape)
-                  for ch in channels]
-        plan: ReadPlan = read_plan(cast(Any, layout), self.cols, max(ch.buffer_size for ch in channels), 0)
-        self.compiled = compile_read(cast(Any, layout), plan, None, None)
+        stand_ins = [_Member(1, _Window(ch.buffer_size), ch.aggregator, ch.buffer_size, ch.buffered_shape, ch.shape)
+                     for ch in channels]
+        layout = read_layout(stand_ins, self.cols, max(ch.buffer_size for ch in channels), 0)
+        self.compiled = compile_read(stand_ins, layout, None, None)
         template = self.compiled.source  # window position * width + column, in the order of the work buffer
         buffers = np.array([ch.buffer_size for ch in channels])
         member = np.searchsorted(self.cols, template % self.width, side="right") - 1
@@ -138,7 +152,7 @@ class DrawnBank:
         self.noise_program = ops_of(self.noise_layers, self.compiled.gathered)
 
     @staticmethod
-    def key(channels: list[DrawnChannel], data: Any, substeps: int, pad: bool) -> tuple[Any, ...]:
+    def key(channels: list[DrawnChannel], data: MjData, substeps: int, pad: bool) -> tuple[Hashable, ...]:
         """What the bank's layout depends on: equal keys let a reset reuse the bank (`rebind`)."""
         return reuse_key(channels, data, substeps, pad, [ch.drawn for ch in channels])
 
@@ -148,7 +162,7 @@ class DrawnBank:
         rebind_noise(self.noise, channels)
 
     def members(self) -> list[DrawnMember]:
-        return [DrawnMember(cast(Any, self), i, cast(Any, ch)) for i, ch in enumerate(self.channels)]
+        return [DrawnMember(self, i, ch) for i, ch in enumerate(self.channels)]
 
     # -- episodes and rounds ----------------------------------------------------------------------
 
@@ -163,7 +177,7 @@ class DrawnBank:
             self.noise.fill(0, self.walkers)  # (random walks a chunk at a time)
         self.pads.clear()
         self._store(self.planner.start(self.members_, [ch.key for ch in self.channels]), 0, 0)
-        self._plan_round(0, self.chunk)
+        self._draw_round(0, self.chunk)
         if self.pad:
             self.pad_values = self.history[0].copy()
             if self.noise is not None:  # padding repeats the first sample as delivered: with its noise
@@ -172,7 +186,7 @@ class DrawnBank:
             self.pad_values = np.zeros(self.width)
         self.next_round = self.chunk
         self._read_step = -1  # a read at step 0 of this episode is not the last episode's (two resets in a row)
-        self.plan(0)
+        self.draw_ahead(0)
 
     def _pad_noise(self) -> None:
         """The reset sample's noise on `pad_values` (row 0 of the history): a read program of every column,
@@ -185,14 +199,14 @@ class DrawnBank:
         noise.apply(np.arange(self.width), self._pad_program)
         self.pad_values = self._pad_work.copy()
 
-    def plan(self, step: int) -> None:
+    def draw_ahead(self, step: int) -> None:
         """Before the control step after `step`: plan the next round (and draw its noise) once it is
         `ahead` steps away."""
         if step + self.ahead >= self.next_round:
-            self._plan_round(self.next_round, self.length)
+            self._draw_round(self.next_round, self.length)
             self.next_round += self.length
 
-    def _plan_round(self, base: int, length: int) -> None:
+    def _draw_round(self, base: int, length: int) -> None:
         round_ = self.planner.round(self.members_, length)
         self._store(round_, base // self.n + 1, length // self.n)
         self.need[round_.take_step % self.rows] = True
@@ -249,7 +263,7 @@ class DrawnBank:
 
         return snapshot
 
-    def read(self, step: int) -> Sequence[Any]:
+    def read(self, step: int) -> Sequence[np.ndarray]:
         """Every member's observation at `step` (computed once per step)."""
         if step == self._read_step:
             return self._outputs
@@ -263,7 +277,7 @@ class DrawnBank:
         self._read_step, self._outputs = step, outputs
         return outputs
 
-    def _read_numpy(self, index: np.ndarray, pads: np.ndarray | None) -> Sequence[Any]:
+    def _read_numpy(self, index: np.ndarray, pads: np.ndarray | None) -> Sequence[np.ndarray]:
         """`read` in numpy calls (the reference; also reads whose windows show padding, early in an episode)."""
         compiled = self.compiled
         gathered = compiled.gathered
@@ -299,7 +313,8 @@ def _new(steps: np.ndarray, before: np.ndarray) -> np.ndarray:
     if not len(before) or not len(steps):
         return steps
     at = np.searchsorted(before, steps)
-    return steps[before.take(at, mode="clip") != steps]
+    new: np.ndarray = steps[before.take(at, mode="clip") != steps]
+    return new
 
 
 _ZERO = np.zeros(1, np.intp)

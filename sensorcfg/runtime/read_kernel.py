@@ -113,7 +113,7 @@ def kernel_read(compiled_read: CompiledRead, layers: Sequence[Layer], history: n
 
 
 def kernel_snapshot(raw: np.ndarray, source: np.ndarray, history: np.ndarray, needed: bytearray | None,
-                    owner: Any) -> Callable[[int], None] | None:
+                    owner: object) -> Callable[[int], None] | None:
     """A bank's snapshot task as one kernel call (`_kernel.snapshot`): at `step`, row step % rows of `history`
     takes raw[source] (numpy's take, mode="clip"), where `needed` marks the row (then cleared; None: at every
     call); or None when the kernel is not built or an array is not contiguous. The task keeps the arrays its
@@ -122,7 +122,7 @@ def kernel_snapshot(raw: np.ndarray, source: np.ndarray, history: np.ndarray, ne
     arrays = (raw, source, history)
     if (kernel is None or raw.ndim != 1 or history.ndim != 2 or history.shape[1] != len(source)
             or not all(a.flags.c_contiguous for a in arrays)
-            or (raw.dtype, source.dtype, history.dtype) != (np.float64, np.int64, np.float64)):
+            or (raw.dtype.type, source.dtype.type, history.dtype.type) != (np.float64, np.int64, np.float64)):
         return None
     need = None if needed is None else np.frombuffer(needed, np.uint8)
     at = 0 if need is None else need.ctypes.data

@@ -13,22 +13,33 @@ dm_control's semantics in closed form:
 - the pattern of visible samples repeats every `period = lcm(i, n)` steps;
 - samples wait in a ring of `capacity = b + ceil(d / i) + 1` slots: sample k lives in slot `k % capacity`.
 
-Every consumer calls this module: `FixedChannel`, the feature bank's read plans and sample counts, the
-batch's store (what the history keeps), the batch's camera rings and the CLI's timing panels. Functions
+Every consumer calls this module: `FixedChannel`, the feature bank's read layouts and sample counts, the
+batch's store (what the history keeps), the batch's camera rings and the CLI's timing panels. How many rows a
+step-indexed history has (`history_rows`) is decided here too, for every history and for the memory check
+that bounds them. Functions
 that take a sample index or a step accept numpy integer arrays too.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any, NamedTuple
+from collections.abc import Sequence
+from typing import NamedTuple, TypeVar, overload
 
 import numpy as np
+from numpy.typing import NDArray
 
-__all__ = ["Schedule", "newest_sample"]
+__all__ = ["IntArray", "Schedule", "Steps", "history_rows", "newest_sample"]
+
+IntArray = NDArray[np.int64]  # sample indices or steps, many at once
+Steps = TypeVar("Steps", int, IntArray)  # one sample index or step, or an array of them
 
 
-def newest_sample(read_step: Any, delay: Any, interval: Any) -> Any:
+@overload
+def newest_sample(read_step: int, delay: int, interval: int) -> int: ...
+@overload
+def newest_sample(read_step: IntArray, delay: int | IntArray, interval: int | IntArray) -> IntArray: ...
+def newest_sample(read_step: int | IntArray, delay: int | IntArray, interval: int | IntArray) -> int | IntArray:
     """Index of the newest sample delivered by the read at `read_step` of a schedule with `delay` and
     `interval` (negative: none yet). Any of them may be an array (they broadcast), so that the reads of many
     schedules are one expression (`batch.read_noise`)."""
@@ -59,33 +70,37 @@ class Schedule(NamedTuple):
         """Steps from a sample's time to its last read, at most (`delay + buffer * interval`)."""
         return self.delay + self.buffer * self.interval
 
-    def newest(self, read_step: Any) -> Any:
+    def newest(self, read_step: Steps) -> Steps:
         """Index of the newest sample delivered by the read at `read_step` (negative: none yet)."""
         return newest_sample(read_step, self.delay, self.interval)
 
-    def window_start(self, read_step: Any) -> Any:
+    def window_start(self, read_step: Steps) -> Steps:
         """Index of the oldest sample in the window of the read at `read_step` (may be negative: padding)."""
         return self.newest(read_step) - self.buffer + 1
 
-    def window(self, read_step: int) -> np.ndarray:
+    def window(self, read_step: int) -> IntArray:
         """Sample indices the read at `read_step` sees, oldest first (negative ones are padding)."""
         return self.newest(read_step) + self.offsets()
 
-    def offsets(self) -> np.ndarray:
+    def offsets(self) -> IntArray:
         """Each window slot's sample index relative to `newest`, oldest first: -(buffer - 1) .. 0."""
         return np.arange(self.buffer) - self.buffer + 1
 
-    def first_read(self, sample: Any) -> Any:
+    def first_read(self, sample: Steps) -> Steps:
         """The step of the first read at or after sample `sample`'s delivery."""
         n = self.substeps  # reads happen at multiples of n
         return -(-(sample * self.interval + self.delay) // n) * n
 
-    def last_read(self, sample: Any) -> Any:
+    def last_read(self, sample: Steps) -> Steps:
         """The step of the last read whose window holds sample `sample` (reads at multiples of n)."""
         n = self.substeps  # reads happen at multiples of n
         return (sample * self.interval + self.wait - 1) // n * n
 
-    def visible(self, sample: Any) -> Any:
+    @overload
+    def visible(self, sample: int) -> bool: ...
+    @overload
+    def visible(self, sample: IntArray) -> NDArray[np.bool_]: ...
+    def visible(self, sample: Steps) -> bool | NDArray[np.bool_]:
         """Whether some read sees sample `sample`: it is still in the window of its first read."""
         return self.newest(self.first_read(sample)) - sample < self.buffer
 
@@ -96,13 +111,13 @@ class Schedule(NamedTuple):
             samples = samples[self.visible(samples)]
         return [int(k) * self.interval for k in samples]
 
-    def needed_mask(self) -> np.ndarray:
+    def needed_mask(self) -> NDArray[np.bool_]:
         """`needed_phases()` as a boolean mask over [0, period): indexed by `step % period`."""
         mask = np.zeros(self.period, bool)
         mask[self.needed_phases()] = True
         return mask
 
-    def slot(self, sample: Any) -> Any:
+    def slot(self, sample: Steps) -> Steps:
         """The ring slot of sample `sample`."""
         return sample % self.capacity
 
@@ -111,3 +126,18 @@ class Schedule(NamedTuple):
         then every needed phase of every period so far."""
         full, rest = divmod(step, self.period)
         return 1 + full * len(phases) + sum(1 for p in phases if p <= rest) - (1 if 0 in phases else 0)
+
+
+def history_rows(schedules: Sequence[Schedule], substeps: int, reach: int = 0, ahead: int = 0) -> int:
+    """Rows of a step-indexed history (the values of step s in row `s % rows`) that serves the reads of
+    `schedules` (a sample waits `wait` steps at most, then a control step of `substeps` ends with its read),
+    samples `reach` steps old (drawn schedules' `Drawn.span` and what they plan ahead), and `ahead` steps
+    drawn ahead of the current one (noise or a planning round; a multiple of every sampling period).
+
+    Rows are a multiple of every sampling period (of `ahead` when drawing ahead), so that each periodic
+    pattern of samples and reads lands on the same rows every time round: `period * ceil(steps / period)`.
+    The one sizing rule of the feature banks, the batch's layout and the memory check (`sensorcfg.memory`),
+    so that the check bounds what they allocate."""
+    unit = ahead or math.lcm(substeps, *(s.interval for s in schedules))
+    steps = max(reach, substeps + 1, *(s.wait + substeps + 1 for s in schedules)) + ahead
+    return unit * -(-steps // unit)

@@ -1,7 +1,7 @@
-"""The Updater: dm_control's observation Updater API and semantics, with a precomputed sampling plan.
+"""The Updater: dm_control's observation Updater API and semantics, with a precomputed sampling table.
 
 Per physics step, `update()` looks up the channels due at this step's phase of a precomputed periodic
-plan (no per-observable checks, no name look-ups); `get_observation()` reads each channel's window.
+table (no per-observable checks, no name look-ups); `get_observation()` reads each channel's window.
 Observables are duck-typed: dm_control's own observables work unchanged.
 """
 
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 import numbers
-from collections.abc import Callable, Collection, Mapping, Sequence
+from collections.abc import Callable, Collection, Hashable, Mapping, Sequence
 from typing import Any, NamedTuple, Union, cast
 
 import numpy as np
@@ -26,18 +26,18 @@ from .planned import DrawnBank, DrawnMember, joins
 
 __all__ = ["Updater", "observation_spec", "shows_zeros"]
 
-_MAX_PLAN_PERIOD = 1 << 16
+_MAX_TABLE_PERIOD = 1 << 16
 
-_Task = Callable[[int], None]  # one sampling task of the plan, called with the step
+_Task = Callable[[int], None]  # one sampling task of the table, called with the step
 _Reader = Union[FixedChannel, RandomChannel, DrawnChannel, BankMember, DrawnMember]  # what the layout holds per observable
 
-SYNC_ORDER = -2  # `PlanTask.order` of bringing a dirty dm_control physics up to date: before anything
+SYNC_ORDER = -2  # `SamplingTask.order` of bringing a dirty dm_control physics up to date: before anything
 BANK_ORDER = -1  # of the bank's snapshots and noise draws: pure reads of the state, before any sampler
 NOT_BANKED = -1  # bank position of an observable read from its own channel
 
 
-class PlanTask(NamedTuple):
-    """One task of the periodic sampling plan: `run(step)` at the steps whose phase (step mod `period`) is
+class SamplingTask(NamedTuple):
+    """One task of the periodic sampling table: `run(step)` at the steps whose phase (step mod `period`) is
     in `phases`; within a step, tasks run by `order` (the observables' order, dm_control's)."""
 
     period: int
@@ -54,31 +54,31 @@ class Read(NamedTuple):
     reader: _Reader
 
 
-def _table(tasks: list[PlanTask], period: int) -> list[list[tuple[int, _Task]]]:
+def _table(tasks: list[SamplingTask], period: int) -> list[list[tuple[int, _Task]]]:
     """Per step of the period: (order, run) of every task due then, sorted by order."""
-    plan: list[list[tuple[int, _Task]]] = [[] for _ in range(period)]
+    table: list[list[tuple[int, _Task]]] = [[] for _ in range(period)]
     for task in tasks:
         for phase in task.phases:
             for t in range(phase, period, task.period):
-                plan[t].append((task.order, task.run))
-    for entries in plan:
+                table[t].append((task.order, task.run))
+    for entries in table:
         entries.sort(key=lambda entry: entry[0])
-    return plan
+    return table
 
 
 class Updater:
     """Samples, delays, buffers, aggregates and corrupts observables inside the physics loop."""
 
-    # set by `reset` (and `_build_plan`)
+    # set by `reset` (and `_build_phase_tasks`)
     _channels: list[FixedChannel | RandomChannel | DrawnChannel]
     _bank: FeatureBank | None
     _drawn: DrawnBank | None
     _reads: list[tuple[type, list[Read]]]
     _random: list[tuple[int, RandomChannel | DrawnChannel]]
     _period: int
-    _plan: list[tuple[_Task, ...]]
+    _phase_tasks: list[tuple[_Task, ...]]
     _orders: list[tuple[int, ...]]
-    _slow: list[PlanTask]
+    _slow: list[SamplingTask]
     _irregular: bool
 
     def __init__(self, observables: Mapping[str, Any] | Sequence[Mapping[str, Any]],
@@ -99,7 +99,9 @@ class Updater:
         self._pad: bool = bool(pad_with_initial_value)
         self._step: int = 0
         self._layout: list[tuple[type, list[tuple[str, _Reader]]]] | None = None
-        self._drawn_cache: tuple[Any, DrawnBank] | None = None  # the last drawn bank, reused for the same sensors
+        # the last banks, reused for the same sensors (by `FeatureBank.key`, `DrawnBank.key`)
+        self._bank_cache: tuple[tuple[Hashable, ...], FeatureBank] | None = None
+        self._drawn_cache: tuple[tuple[Hashable, ...], DrawnBank] | None = None
 
     @property
     def physics_steps_per_control_step(self) -> int:
@@ -107,8 +109,8 @@ class Updater:
 
     # -- reset ------------------------------------------------------------------------------------
 
-    def reset(self, physics: Any, random_state: Any) -> None:
-        """Bind every enabled observable, take the reset samples, and precompute the sampling plan."""
+    def reset(self, physics: Any, random_state: np.random.RandomState | None) -> None:
+        """Bind every enabled observable, take the reset samples, and precompute the sampling table."""
         layout = self._bind(physics, random_state)
         self._channels = [ch for _, entries in layout for _, ch in entries]
         self._bank = self._make_bank(physics)
@@ -119,8 +121,8 @@ class Updater:
                                for name, m in entries]) for kind, entries in self._layout]
         self._step = 0
         self._start(members)
-        self._build_plan()
-        self._irregular = bool(self._slow or self._random)  # tasks off the periodic plan: merged per step
+        self._build_phase_tasks()
+        self._irregular = bool(self._slow or self._random)  # tasks off the periodic table: merged per step
         self._fast_path()
 
     def _fast_path(self) -> None:
@@ -140,10 +142,12 @@ class Updater:
         """The bank that reads every observation, in order, when one does."""
         for kind in (BankMember, DrawnMember):
             if readers and all(type(r) is kind and r.position == i for i, r in enumerate(readers)):
-                return cast(Any, readers[0]).bank
+                bank: FeatureBank | DrawnBank = readers[0].bank
+                return bank
         return None
 
-    def _bind(self, physics: Any, random_state: Any) -> list[tuple[type, list[tuple[str, Any]]]]:
+    def _bind(self, physics: Any,
+              random_state: np.random.RandomState | None) -> list[tuple[type, list[tuple[str, Any]]]]:
         """Per observables dict: its type and (name, channel) of each enabled observable, in order. The
         episode entropy keys noise streams and planned schedules (drawn when some sensor has either)."""
         dicts = list(self._observables) if self._nested else [self._observables]
@@ -178,8 +182,8 @@ class Updater:
             return None
         data = raw_structs(physics)[1]
         key = FeatureBank.key(members, data, self._substeps, self._pad)
-        cached = getattr(self, "_bank_cache", None)
-        if cached is not None and cached[0] == key:  # same sensors: keep the layout and its read plans
+        cached = self._bank_cache
+        if cached is not None and cached[0] == key:  # same sensors: keep the history and its read layouts
             cached[1].rebind(members)
             return cached[1]
         view = buffer_view(data, fields_of(members))
@@ -197,51 +201,51 @@ class Updater:
         data = raw_structs(physics)[1]
         if any(getattr(ch.sampler, "sync", None) is not None for ch in members):
             return None  # a dm_control physics: per sample
-        channels = cast(list[DrawnChannel], members)
+        channels = members
         key = DrawnBank.key(channels, data, self._substeps, self._pad)
         cached = self._drawn_cache
         if cached is not None and cached[0] == key:  # same sensors: keep the layout and compiled read
             cached[1].rebind(channels)
             return cached[1]
-        view = buffer_view(data, fields_of(members))  # type: ignore[arg-type]
+        view = buffer_view(data, fields_of(members))
         if view is None:  # fields outside MjData's main buffer: per sample
             return None
         bank = DrawnBank(channels, data, self._substeps, self._pad, view)
         self._drawn_cache = (key, bank)
         return bank
 
-    def _build_plan(self) -> None:
+    def _build_phase_tasks(self) -> None:
         """One table over the common period: which sampling tasks run at each step's phase."""
         tasks = [*self._tasks(), *self._before_tasks()]
         drawn = {id(m.channel) for m in self._drawn.members()} if self._drawn else set()
         self._random = [(order, ch) for order, ch in enumerate(self._channels)
                         if isinstance(ch, (RandomChannel, DrawnChannel)) and id(ch) not in drawn]
         period = math.lcm(*(task.period for task in tasks)) if tasks else 1
-        if period > _MAX_PLAN_PERIOD:  # pathological interval mixes: each task checks its own phase
-            self._period, self._plan, self._orders = 1, [()], [()]
+        if period > _MAX_TABLE_PERIOD:  # pathological interval mixes: each task checks its own phase
+            self._period, self._phase_tasks, self._orders = 1, [()], [()]
             self._slow = [task._replace(phases=frozenset(task.phases)) for task in tasks]
             return
         self._slow = []
-        plan = _table(tasks, period)
+        table = _table(tasks, period)
         self._period = period
-        self._plan = [tuple(run for _, run in entries) for entries in plan]
-        self._orders = [tuple(order for order, _ in entries) for entries in plan]
+        self._phase_tasks = [tuple(run for _, run in entries) for entries in table]
+        self._orders = [tuple(order for order, _ in entries) for entries in table]
 
-    def _tasks(self) -> list[PlanTask]:
+    def _tasks(self) -> list[SamplingTask]:
         """Every periodic task. Tasks carry the position of their observable: samplers may have side effects
         (a corruptor drawing from the episode's random_state), so within a step they run in dm_control's
         order, the observables' order. The bank's snapshots and noise are pure reads and go first."""
         bank = self._bank
         banked = {id(m.channel) for m in bank.members()} if bank else set()
-        tasks = [PlanTask(ch.period(), ch.needed_phases(), order, ch.sample) for order, ch in enumerate(self._channels)
+        tasks = [SamplingTask(ch.period(), ch.needed_phases(), order, ch.sample) for order, ch in enumerate(self._channels)
                  if isinstance(ch, FixedChannel) and id(ch) not in banked]
         if bank:
             tasks[:0] = self._bank_tasks(bank)
         if self._drawn:  # its snapshots, at the steps its rounds planned: a pure read of the state, first
-            tasks.insert(0, PlanTask(1, [0], BANK_ORDER, self._drawn.snapshot_task()))
+            tasks.insert(0, SamplingTask(1, [0], BANK_ORDER, self._drawn.snapshot_task()))
         return tasks
 
-    def _before_tasks(self) -> list[PlanTask]:
+    def _before_tasks(self) -> list[SamplingTask]:
         """A field computed on demand from the velocity a step starts from is remembered one step before
         each sample (at every step for a drawn schedule), after every sampler of that step."""
         last = len(self._channels)
@@ -252,22 +256,22 @@ class Updater:
                 continue
             if isinstance(ch, FixedChannel):
                 period = ch.period()
-                tasks.append(PlanTask(period, [(p - 1) % period for p in ch.needed_phases()], last, before))
+                tasks.append(SamplingTask(period, [(p - 1) % period for p in ch.needed_phases()], last, before))
             else:
-                tasks.append(PlanTask(1, [0], last, before))
+                tasks.append(SamplingTask(1, [0], last, before))
         return tasks
 
     @staticmethod
-    def _bank_tasks(bank: FeatureBank) -> list[PlanTask]:
+    def _bank_tasks(bank: FeatureBank) -> list[SamplingTask]:
         """The bank's snapshots and noise draws; on a dirty dm_control physics, mj_forward before a step's
         derived reads (as its bind does): within the snapshot when they happen at the same steps."""
-        syncing = [m.channel for m in bank.members() if getattr(m.channel.sampler, "sync", None)]
+        syncing = [ch for ch in bank.channels if getattr(ch.sampler, "sync", None)]
         sync = cast(Any, syncing[0].sampler).sync if syncing else None
         steps = sorted({t for ch in syncing for p in ch.needed_phases() for t in range(p, bank.rows, ch.period())})
         folded = sync is not None and steps == bank.snapshot_steps()
-        tasks = [PlanTask(p, phases, BANK_ORDER, run) for p, phases, run in bank.tasks(sync if folded else None)]
+        tasks = [SamplingTask(p, phases, BANK_ORDER, run) for p, phases, run in bank.tasks(sync if folded else None)]
         if sync is not None and not folded:
-            tasks.insert(0, PlanTask(bank.rows, steps, SYNC_ORDER, lambda step: sync()))
+            tasks.insert(0, SamplingTask(bank.rows, steps, SYNC_ORDER, lambda step: sync()))
         return tasks
 
     # -- the physics loop -------------------------------------------------------------------------
@@ -276,15 +280,15 @@ class Updater:
         if self._layout is None:
             raise RuntimeError("`reset` must be called before `prepare_for_next_control_step`.")
         for _, ch in self._random:
-            ch.plan(self._step)
+            ch.draw_ahead(self._step)
         if self._drawn is not None:
-            self._drawn.plan(self._step)
+            self._drawn.draw_ahead(self._step)
 
     def update(self) -> None:
         if self._layout is None:
             raise RuntimeError("`reset` must be called before `update`.")
         step = self._step = self._step + 1
-        tasks = self._plan[step % self._period]
+        tasks = self._phase_tasks[step % self._period]
         if self._irregular:
             tasks = self._merge_irregular(step, tasks)
         for sample in tasks:
@@ -295,20 +299,20 @@ class Updater:
         physics_steps_per_control_step times, as an environment's loop does (the same calls, with the
         Updater's per-step work inlined)."""
         self.prepare_for_next_control_step()
-        if self._irregular:  # tasks off the periodic plan: merged per step
+        if self._irregular:  # tasks off the periodic table: merged per step
             for _ in range(self._substeps):
                 physics_step()
                 self.update()
             return
-        plan, period = self._plan, self._period
+        phase_tasks, period = self._phase_tasks, self._period
         for _ in range(self._substeps):
             physics_step()
             step = self._step = self._step + 1
-            for sample in plan[step % period]:
+            for sample in phase_tasks[step % period]:
                 sample(step)
 
     def _merge_irregular(self, step: int, tasks: tuple[_Task, ...]) -> Any:
-        """This step's tasks with the due random channels and off-plan tasks, in observable order."""
+        """This step's tasks with the due random channels and off-table tasks, in observable order."""
         extra = [(task.order, task.run) for task in self._slow if step % task.period in task.phases]
         extra += [(order, ch.sample) for order, ch in self._random if ch.due(step)]
         if not extra:

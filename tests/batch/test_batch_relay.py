@@ -159,7 +159,7 @@ def test_rk4_keeps_recording_the_fields(tmp_path):
     assert not relay_sensors(env._model) and FIELDS <= env.updater.layout.recorded().keys()
     plain = mujoco.MjModel.from_xml_path(path)
     layout = env.updater.layout
-    assert relay.plan(plain, layout.sources, layout.recorded(), 3) is None
+    assert relay.choose(plain, layout.sources, layout.recorded(), 3) is None
 
 
 @needs_batch
@@ -168,9 +168,9 @@ def test_a_field_read_at_an_unnamed_element_is_recorded(tmp_path):
     model = mujoco.MjModel.from_xml_path(model_file(tmp_path))
     assert mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, 3) is None
     sources = [Source("xquat", np.arange(12, 16)), Source("xmat", np.arange(18, 27))]
-    chosen = relay.plan(model, sources, {"xquat": 3, "xmat": 3}, 3)
+    chosen = relay.choose(model, sources, {"xquat": 3, "xmat": 3}, 3)
     assert chosen is not None and set(chosen.copies) == {"xmat"}
-    named = relay.plan(model, [Source("xquat", np.arange(16, 20))], {"xquat": 3}, 3)
+    named = relay.choose(model, [Source("xquat", np.arange(16, 20))], {"xquat": 3}, 3)
     assert named is not None and set(named.copies) == {"xquat"}
 
 
@@ -179,7 +179,7 @@ def test_relays_that_do_not_copy_are_not_used(tmp_path, monkeypatch):
     path = model_file(tmp_path)
     model = mujoco.MjModel.from_xml_path(path)
     sources = [Source("site_xmat", np.arange(27, 36)), Source("xquat", np.arange(4, 8))]
-    chosen = relay.plan(model, sources, {"site_xmat": 3, "xquat": 3}, 3)
+    chosen = relay.choose(model, sources, {"site_xmat": 3, "xquat": 3}, 3)
     assert chosen is not None
     compiled = sensorcfg.native.compile_model(path, {}, False, chosen.records)[0]
     where = relay.positions(compiled, chosen)

@@ -387,9 +387,9 @@ def test_what_mujoco_refuses_of_a_sensors_objects_is_said_before_compiling(monke
 
 def test_refusals_mujoco_alone_finds_cost_a_bounded_number_of_compiles(monkeypatch: pytest.MonkeyPatch) -> None:
     from sensorcfg.native import compile as native_compile
-    from sensorcfg.native import plan
+    from sensorcfg.native import additions
 
-    monkeypatch.setattr(plan, "_refusals", lambda *args: None)  # as if the table did not know: MuJoCo refuses
+    monkeypatch.setattr(additions, "_refusals", lambda *args: None)  # as if the table did not know: MuJoCo refuses
     compiles = _counting_compiles(monkeypatch)
     sensors = "".join(f"  s{i}: {{kind: ballquat, element: joint:hip_f}}\n" for i in range(30))
     problems = sensorcfg.loads(f"sensors:\n{sensors}", file="f.yaml").check(TERRAIN)

@@ -1,7 +1,7 @@
 """Memory in proportion to the data a sensor keeps, whatever its buffer and delay (docs/semantics.md, "Memory").
 
 A 14-value sensor with buffer 1000 and delay 5000 steps keeps 0.67 MB of samples; buffer 20000 keeps
-2.2 MB. The Updater and the batch hold those samples once or twice, plus read plans kept within a budget
+2.2 MB. The Updater and the batch hold those samples once or twice, plus read layouts kept within a budget
 (`runtime.cache`), and stop growing once every phase has been read.
 """
 
@@ -60,7 +60,7 @@ def test_updater_memory_is_bounded_by_the_data_kept(buffer, delay, aggregator):
         tracemalloc.stop()
     early, late = traced(step, 50, 400)
     assert built < 4 * kept + MB, f"{built / MB:.1f} MB at reset for {kept / MB:.2f} MB of samples"
-    # read plans are kept within the cache budgets, whatever the number of phases
+    # read layouts are kept within the cache budgets, whatever the number of phases
     assert late < 4 * kept + 2 * max(DEFAULT_BUDGET, 2 * kept) + MB, f"{late / MB:.1f} MB"
     assert observable.buffer_size == buffer
 
@@ -82,8 +82,8 @@ def test_batch_memory_is_bounded_by_the_data_kept():
 
 @pytest.mark.parametrize("noise", [None, [{"type": "gaussian", "std": 0.01}]], ids=["plain", "noisy"])
 def test_each_phase_is_compiled_once(noise, monkeypatch):
-    """Read plans of every phase fit the cache: after one cycle of the history, reads compile nothing (a noisy
-    bank's plans refer to its noise fields, which must not count against the budget once per plan)."""
+    """Read layouts of every phase fit the cache: after one cycle of the history, reads compile nothing (a
+    noisy bank's compiled reads refer to its noise fields, which must not count against the budget once per read)."""
     from sensorcfg.noise import build_noise
     from sensorcfg.runtime.bank import FeatureBank
 
@@ -173,8 +173,8 @@ def test_what_a_sensor_keeps_is_estimated_above_what_the_updater_allocates(senso
                  "of 230,400 bytes (240x320x3 uint8): 7.5 GiB; a sensor may keep at most 1 GiB between its samples "
                  "and its reads: use a shorter delay or a longer interval, or a smaller value", id="camera-drawn"),
     pytest.param("{kind: qpos, element: 'joint:*', interval: {uniform: [1, 50]}, buffer: 1000}",
-                 "2:77: error: sensors.s.buffer: a buffer of 1,000 at intervals up to 50 steps keeps 55,253 steps of "
-                 "history of 112 bytes (14 float64): 11.6 GiB; a sensor may keep at most 1 GiB between its samples "
+                 "2:77: error: sensors.s.buffer: a buffer of 1,000 at intervals up to 50 steps keeps 52,736 steps of "
+                 "history of 112 bytes (14 float64): 11.0 GiB; a sensor may keep at most 1 GiB between its samples "
                  "and its reads: use a smaller buffer or a longer interval, or a smaller value", id="drawn-bank"),
 ])
 def test_a_sensor_that_would_keep_too_much_is_a_problem_at_the_line_that_sets_it(sensor: str, expected: str) -> None:
@@ -191,9 +191,64 @@ def test_one_long_history_lengthens_every_plain_features_rows() -> None:
                             "  t: {kind: qpos, element: 'joint:shoulder', buffer: 10000, interval: 60}\n", file="f.yaml")
     assert [p.format() for p in suite.check(MODEL)] == [
         "f.yaml:4:54: error: sensors.t.buffer: a buffer of 10,000 at an interval of 60 steps makes the plain features' "
-        "shared history 600,002 steps long, each of 920 bytes (the 3 float64 features' values): 1.3 GiB; a sensor "
+        "shared history 600,060 steps long, each of 920 bytes (the 3 float64 features' values): 1.3 GiB; a sensor "
         "may keep at most 1 GiB between its samples and its reads: use a smaller buffer or a longer interval, or "
         "observe fewer values"]
+
+
+@pytest.mark.parametrize("sensor, substeps", [
+    pytest.param("{kind: qpos, element: 'joint:*', interval: 7, buffer: 100}", 10, id="fixed"),
+    pytest.param("{kind: qpos, element: 'joint:*', interval: 7, buffer: 100, noise: [{type: gaussian, std: 0.1}]}", 3,
+                 id="noisy"),
+    pytest.param("{kind: qpos, element: 'joint:*', interval: 3, delay: {uniform: [3, 50]}, buffer: 100}", 2, id="drawn-delay"),
+    pytest.param("{kind: qpos, element: 'joint:*', interval: {uniform: [1, 50]}, buffer: 100}", 1, id="drawn-interval"),
+])
+def test_the_history_the_check_counts_is_the_one_the_updater_allocates(sensor: str, substeps: int) -> None:
+    """Found by review: a history's rows are its span rounded up to a multiple of the sampling period (or of
+    the chunk drawn ahead), and the check counted the span alone. Both now call `schedule.history_rows`."""
+    from sensorcfg.memory import kept
+
+    suite = sensorcfg.loads(f"options: {{control_interval: {substeps}}}\nsensors:\n  s: {sensor}\n")
+    model = suite.compile(str(assets.path("robot.xml")))
+    observables = suite.build(model)
+    updater = sensorcfg.Updater(observables, substeps)
+    updater.reset(sensorcfg.Physics(model), np.random.RandomState(0))
+    bank = updater._bank or updater._drawn
+    estimate = kept(observables["s"], substeps)
+    assert bank is not None and estimate is not None
+    assert bank.rows % substeps == 0 and estimate.steps == bank.rows
+
+
+def test_plain_features_whose_intervals_repeat_together_rarely_are_a_problem_at_an_interval() -> None:
+    """The shared history's rows are a multiple of every member's period: three short schedules whose intervals
+    have a large common multiple make it long, though each member alone keeps a few hundred steps."""
+    suite = sensorcfg.loads("sensors:\n  a: {kind: xmat, element: 'body:*', interval: 97}\n"
+                            "  b: {kind: cinert, element: 'body:*', interval: 89}\n"
+                            "  t: {kind: qpos, element: 'joint:shoulder', interval: 61}\n", file="f.yaml")
+    assert [p.format() for p in suite.check(MODEL)] == [
+        "f.yaml:2:48: error: sensors.a.interval: the plain features' intervals (61, 89, 97 steps) repeat together "
+        "only every 526,613 steps, which makes their shared history 526,613 steps long, each of 920 bytes (the 3 "
+        "float64 features' values): 1.1 GiB; a sensor may keep at most 1 GiB between its samples and its reads: use "
+        "intervals with a smaller common multiple, or observe fewer values"]
+
+
+@needs_batch
+def test_a_batch_history_is_counted_as_its_layout_allocates_it() -> None:
+    """The batch's history is a multiple of every fixed interval's period (7 x 11 = 77 steps): 231 rows, where
+    the longest member alone needs 217. The check counts the rows the layout allocates."""
+    from sensorcfg.batch import BatchEnvironment
+    from sensorcfg.memory import kept_problems
+
+    suite = sensorcfg.loads("sensors:\n  a: {kind: qpos, element: 'joint:*', interval: 7, buffer: 30}\n"
+                            "  b: {kind: qvel, element: 'joint:*', interval: 11}\n", file="f.yaml")
+    env = BatchEnvironment(MODEL, suite, 2, seed=0)
+    assert env._updater.layout.rows == 231
+    observables = suite.build(MODEL, batch=True)
+    assert [m for _, _, m in kept_problems(observables, MODEL, 1, 23_500, batch=True)] == [
+        "the plain features' intervals (7, 11 steps) repeat together only every 77 steps, which makes their shared "
+        "history 231 steps long, each of 208 bytes (the 2 float64 features' values) in each of 23,500 simulations: "
+        "1.1 GiB in all; a sensor may keep at most 1 GiB between its samples and its reads: use intervals with a "
+        "smaller common multiple, or observe fewer values"]
 
 
 @needs_batch

@@ -44,7 +44,7 @@ def _awkward(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
     return values
 
 
-def _plan(work: np.ndarray, gathered: np.ndarray, records: list[Step]) -> CompiledRead:
+def _compiled_read(work: np.ndarray, gathered: np.ndarray, records: list[Step]) -> CompiledRead:
     return CompiledRead(np.zeros(0, np.intp), gathered, [s.run for s in records], records, work[None, :0],
                         lambda values: (), [], [], [])
 
@@ -77,9 +77,9 @@ def test_each_op_is_its_numpy_reference(seed) -> None:
             records.append(Step(kind, out, window, None, lambda r=reduce, w=window, o=out: r(w, o)))
         out, counts = work[n + 3 * buffer * width:][:width], np.full(width, float(buffer))
         records.append(Step("divide", out, counts, None, lambda: np.true_divide(out, counts, out)))
-        plan = _plan(work, gathered, records)
+        read = _compiled_read(work, gathered, records)
         if use_kernel:
-            kernel = read_kernel.kernel_read(plan, layers, history)
+            kernel = read_kernel.kernel_read(read, layers, history)
             assert kernel is not None
             kernel.run(np.ascontiguousarray(index, np.int64))
         else:
@@ -87,7 +87,7 @@ def test_each_op_is_its_numpy_reference(seed) -> None:
             history.take(index, None, gathered, "clip")
             for op in ops_of(layers, gathered):
                 op(np.clip(index, 0, len(field) - 1))
-            for step in plan.steps:
+            for step in read.steps:
                 step()
             np.seterr(**errors)
         runs.append(work.copy())
@@ -129,7 +129,7 @@ def test_updaters_read_the_same_bits_with_and_without_the_kernel(seed, drawn, mo
     if drawn:
         assert (updater._drawn.kernel is not None) == KERNEL
     else:
-        assert any(plan.kernel is not None for plan in updater._bank._gathers.values()) == KERNEL
+        assert any(read.kernel is not None for read in updater._bank._gathers.values()) == KERNEL
     monkeypatch.setattr(bank, "kernel_read", lambda *args: None)
     monkeypatch.setattr(planned, "kernel_read", lambda *args: None)
     without, _ = _run(seed, drawn, pad=bool(seed % 2))

@@ -1,6 +1,6 @@
 """Which MuJoCo sensors (and sites) a suite's native kinds add to a model: resolved, checked, positioned.
 
-`plan_sensor` resolves one suite sensor against a model (the plain robot, or one that already carries
+`sensor_additions` resolves one suite sensor against a model (the plain robot, or one that already carries
 the suite's sensors: resolution is the same, since only sensors and sites are added) into `Added` records,
 one per selected element, reporting every mistake at the key it is about. `sensorcfg.native.compile`
 writes the records into an `MjSpec`; `sensorcfg.native.bind` reads them back from the compiled model.
@@ -21,7 +21,7 @@ from ..selection import ADDED_PREFIX, MAX_HINTS, Selection, select, split_select
 from . import gravity
 from .table import NATIVE, OBJ, REDUCE, NativeType, available, data_fields
 
-__all__ = ["Added", "native_row", "plan_sensor", "sensor_name"]
+__all__ = ["Added", "native_row", "sensor_additions", "sensor_name"]
 
 Report = Callable[[tuple[Any, ...], str], None]  # (path in the suite, message)
 
@@ -174,7 +174,7 @@ def _refusals(model: mujoco.MjModel, row: NativeType, sel: Selection) -> str | N
     return f"{_a(row.kind)} {row.kind} sensor reads {_a(need)} {need}; {', '.join(bad[:3])}{more}"
 
 
-def plan_sensor(model: mujoco.MjModel, name: str, cfg: SensorConfig, report: Report) -> list[Added] | None:
+def sensor_additions(model: mujoco.MjModel, name: str, cfg: SensorConfig, report: Report) -> list[Added] | None:
     """The sensors suite sensor `name` adds, or None after reporting why it cannot."""
     here: tuple[Any, ...] = ("sensors", name)
     first = cfg.element if isinstance(cfg.element, str) else (cfg.element or ("",))[0]
