@@ -290,6 +290,8 @@ def _walk(step: NoiseStep, size: int, dt: float) -> np.ndarray:
     from ..noise.stages import Context, RandomWalk
 
     std, tau = step.param("std"), step.param("correlation_time")
+    if std is None:
+        raise ValueError("a random walk's std is required (its config says so)")
     walk = RandomWalk(Context((size,), np.dtype(np.float64), np.dtype(np.float64), dt), std, tau)
     a, c = walk._coefficients(dt)
     return np.stack([np.broadcast_to(1.0 if a is None else a, (size,)), np.broadcast_to(c, (size,))])
