@@ -65,7 +65,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..env.episode import episode_end
+from ..env.episode import chosen_ids, episode_end
 from ..env.environment import (_BAD_STATE, ControlLoop, ModelArg, action_spec, episode_timing, keyframe_index,
                                model_and_observables, model_source, random_state_from)
 from ..errors import ArgumentError, SuiteError, UnsupportedError
@@ -280,23 +280,7 @@ class BatchEnvironment(ControlLoop):
 
     def _ids(self, ids: ArrayLike | None) -> np.ndarray:
         """Validated simulation ids (sorted, unique) from None, integers or a boolean mask."""
-        if ids is None:
-            return np.arange(self._nsim)
-        arr = np.asarray(ids)
-        if arr.dtype == bool:
-            if arr.shape != (self._nsim,):
-                raise ArgumentError(f"a boolean mask of simulations must have shape ({self._nsim},), got {arr.shape}")
-            return np.flatnonzero(arr)
-        if arr.ndim == 0:
-            arr = arr.reshape(1)
-        if arr.ndim != 1 or (arr.size and not np.issubdtype(arr.dtype, np.integer)):
-            raise ArgumentError(f"ids must be simulation indices (a 1-D array of integers) or a boolean mask, "
-                                f"got {ids!r}")
-        bad = arr[(arr < 0) | (arr >= self._nsim)]
-        if bad.size:
-            raise ArgumentError(f"simulation id {int(bad[0])} is out of range: the batch has {self._nsim} simulations "
-                                f"(ids 0 to {self._nsim - 1})")
-        return np.unique(arr.astype(np.intp))
+        return chosen_ids(ids, self._nsim)
 
     def _reset_sims(self, ids: np.ndarray) -> None:
         """Physics and updater reset of `ids` (non-empty)."""

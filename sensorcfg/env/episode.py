@@ -9,7 +9,32 @@ from __future__ import annotations
 
 from typing import Any
 
-__all__ = ["episode_end"]
+import numpy as np
+
+from ..errors import ArgumentError
+
+__all__ = ["chosen_ids", "episode_end"]
+
+
+def chosen_ids(ids: Any, count: int, unit: str = "simulation", whole: str = "the batch") -> np.ndarray:
+    """Validated ids of `count` simulations (or worlds: `unit`), sorted and unique, from None (all), integers
+    or a boolean mask; a mistake is an ArgumentError saying what was expected."""
+    if ids is None:
+        return np.arange(count)
+    arr = np.asarray(ids)
+    if arr.dtype == bool:
+        if arr.shape != (count,):
+            raise ArgumentError(f"a boolean mask of {unit}s must have shape ({count},), got {arr.shape}")
+        return np.flatnonzero(arr)
+    if arr.ndim == 0:
+        arr = arr.reshape(1)
+    if arr.ndim != 1 or (arr.size and not np.issubdtype(arr.dtype, np.integer)):
+        raise ArgumentError(f"ids must be {unit} indices (a 1-D array of integers) or a boolean mask, got {ids!r}")
+    bad = arr[(arr < 0) | (arr >= count)]
+    if bad.size:
+        raise ArgumentError(f"{unit} id {int(bad[0])} is out of range: {whole} has {count} {unit}s "
+                            f"(ids 0 to {count - 1})")
+    return np.unique(arr.astype(np.intp))
 
 
 def episode_end(diverged: Any, terminated: Any, control_steps: Any, step_limit: int | None) -> tuple[Any, Any]:

@@ -34,6 +34,7 @@ from dm_env import specs
 
 from ..batch.environment import root_seed, sim_seed
 from ..draws import episode_entropy, sensor_keys
+from ..env.episode import chosen_ids
 from ..env.environment import (ControlLoop, ModelArg, action_spec, episode_timing, keyframe_index,
                                model_and_observables, model_source, random_state_from)
 from ..errors import ArgumentError, Problem, SuiteError
@@ -311,7 +312,7 @@ class WarpEnvironment(ControlLoop):
 
     def reset(self, ids: Any = None) -> WarpTimeStep:
         """Start new episodes of worlds `ids` (all when None: indices, or a boolean mask); the others continue."""
-        chosen = self._ids(ids)
+        chosen = chosen_ids(ids, self._nworld, "world", "this environment")
         self._mask.zero_()
         if chosen.size:
             wp.launch(_mask, dim=chosen.size, inputs=[wp.array(chosen.astype(np.int32), dtype=wp.int32,
@@ -327,22 +328,6 @@ class WarpEnvironment(ControlLoop):
         self._reward.zero_()
         self._discount.fill_(1.0)
         return WarpTimeStep(self._step_type, self._reward, self._discount, self._observe())
-
-    def _ids(self, ids: Any) -> np.ndarray:
-        if ids is None:
-            return np.arange(self._nworld)
-        arr = np.asarray(ids)
-        if arr.dtype == bool:
-            if arr.shape != (self._nworld,):
-                raise ArgumentError(f"a boolean mask of worlds must have shape ({self._nworld},), got {arr.shape}")
-            return np.flatnonzero(arr)
-        arr = arr.reshape(-1)
-        if arr.size and not np.issubdtype(arr.dtype, np.integer):
-            raise ArgumentError(f"ids must be world indices (integers) or a boolean mask, got {ids!r}")
-        bad = arr[(arr < 0) | (arr >= self._nworld)]
-        if bad.size:
-            raise ArgumentError(f"world id {int(bad[0])} is out of range: this environment has {self._nworld} worlds")
-        return np.unique(arr)
 
     def step(self, actions: Any) -> WarpTimeStep:
         """One control step of every world (auto-resetting those whose episode ended). `actions`: (nworld, nu)
