@@ -174,3 +174,11 @@ def test_a_suite_file_is_refused_at_its_lines(tmp_path) -> None:
         WarpEnvironment(ROBOT, str(suite), 2, device="cpu")
     assert str(raised.value).startswith(f"{suite}:7:"), str(raised.value)
     assert "sensors.tip.noise.0.type: a misalign noise stage is not run by the Warp engine" in str(raised.value)
+
+
+def test_bad_ids_and_actions_are_argument_errors() -> None:
+    e = env()
+    with pytest.raises(sensorcfg.ArgumentError, match=r"world id 5 is out of range: this environment has 3 worlds"):
+        e.reset([5])
+    with pytest.raises(sensorcfg.ArgumentError, match=r"actions must be a \(3, \d+\) float32 array"):
+        e.step(np.zeros((2, e._model.nu), np.float32))
