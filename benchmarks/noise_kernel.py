@@ -1,5 +1,6 @@
 """The counter-based noise numbers (`sensorcfg.noise.streams`): nanoseconds per number, numpy's reference
-against the compiled kernel, in this process, on one thread, interleaved per round; medians.
+against the compiled kernel with each Philox the CPU runs (AVX-512 or AVX2 intrinsics, the compiler's
+portable loop), all in this process, on one thread, interleaved per round; medians.
 
 Rows: normals and uniforms of one draw per sample size (`streams.numbers`), and the batch's read noise of the
 humanoid benchmark at 512 simulations (`benchmarks/batch.py --noise`: two gaussian stages summed and added
@@ -60,6 +61,13 @@ def main() -> None:
     args = parser.parse_args()
     if compiled.MODULE is None:
         raise SystemExit("the compiled kernel is not built here (or SENSORCFG_NUMPY_STREAMS is set)")
+    choose = getattr(compiled.MODULE, "simd", lambda name: name)  # a kernel before the intrinsics: "kernel"
+    variants = []
+    for name in ("avx512f", "avx2", "portable") if hasattr(compiled.MODULE, "simd") else ("kernel",):
+        try:
+            variants.append(choose(name))
+        except ValueError:
+            continue
     rng = np.random.default_rng(0)
     cases: list[tuple[str, Callable[[bool], object], int]] = []
     for size in (1, 3, 6, 21, 48):
@@ -72,19 +80,25 @@ def main() -> None:
     cases.append(("read noise, 2 gaussian stages (humanoid, 512 sims)",
                   lambda kernel: streams.add_sums(jobs, compiled=kernel), count))
     split = compiled.SPLIT_VALUES
-    print(f"ns per number, one thread (medians of 5 rounds of {args.repeats} runs, numpy {max(1, args.repeats // 3)})")
-    header = f"{'':52} {'numpy':>8} {'kernel':>9} {'numpy/kernel':>15} {'2 threads':>10}"
+    print(f"ns per number, one thread (medians of 5 rounds of {args.repeats} runs, numpy {max(1, args.repeats // 3)}); "
+          f"kernel Philox variants this CPU runs: {', '.join(variants)}")
+    header = f"{'':52} {'numpy':>8} " + " ".join(f"{v:>9}" for v in variants) + f" {'numpy/' + variants[0]:>15} {'2 threads':>10}"
     print(header)
     for label, fn, n in cases:
         rows: dict[str, list[float]] = {}
         for _ in range(5):
             compiled.SPLIT_VALUES = 1 << 62
             rows.setdefault("numpy", []).append(_time(lambda: fn(False), max(1, args.repeats // 3)))
-            rows.setdefault("kernel", []).append(_time(lambda: fn(True), args.repeats))
+            for v in variants:
+                choose(v)
+                rows.setdefault(v, []).append(_time(lambda: fn(True), args.repeats))
+            choose("fastest")
             compiled.SPLIT_VALUES = split
             rows.setdefault("two", []).append(_time(lambda: fn(True), args.repeats))
         ns = {k: 1e9 * statistics.median(v) / n for k, v in rows.items()}
-        print(f"{label:52} {ns['numpy']:8.1f} {ns['kernel']:9.2f} {ns['numpy'] / ns['kernel']:14.1f}x {ns['two']:10.2f}")
+        print(f"{label:52} {ns['numpy']:8.1f} " + " ".join(f"{ns[v]:9.2f}" for v in variants)
+              + f" {ns['numpy'] / ns[variants[0]]:14.1f}x {ns['two']:10.2f}")
+    choose("fastest")
 
 
 if __name__ == "__main__":

@@ -20,8 +20,9 @@
  * - read(program, index): a feature bank's whole read on its work buffer, one call: `program` (bytes) holds
  *   records of READ_SLOTS int64s, an op code and its operands (raw addresses of float64 / int64 arrays that
  *   runtime/read_kernel.py encodes and keeps alive, counts); `index` (int64): the history positions gathered.
- *   Called by runtime/bank.py (`FeatureBank.read`) and runtime/planned.py (`DrawnBank.read`) through
- *   runtime/read_kernel.py (`kernel_read`); pinned by tests/runtime/test_read_kernel.py (each op on signed zeros,
+ *   Called by runtime/bank.py (`FeatureBank.read`) and runtime/planned.py (`DrawnBank.read`; a read early in an
+ *   episode runs the program in two calls, writing padding between them) through runtime/read_kernel.py
+ *   (`kernel_read`); pinned by tests/runtime/test_read_kernel.py (each op on signed zeros,
  *   infinities and ties; whole Updaters with and without it) and
  *   tests/noise/test_streams.py::test_the_read_kernel_refuses_an_index_of_another_length.
  * - snapshot(program, keep, step): a bank's snapshot at a physics step: `program` (bytes, 7 int64s: addresses
@@ -31,6 +32,13 @@
  *   arrays the addresses point to. Called by runtime/bank.py (`FeatureBank`) and runtime/planned.py
  *   (`DrawnBank`) through runtime/read_kernel.py (`kernel_snapshot`), at every sampled step; pinned by
  *   tests/runtime/test_read_kernel.py::test_the_compiled_snapshot_is_the_numpy_snapshot.
+ * - simd(name): which Philox `add` runs: "fastest" (chosen at import from the CPU: the AVX-512 or AVX2
+ *   intrinsics where GCC on x86-64 built them, else the loop the compiler vectorises), "avx512f", "avx2"
+ *   (ValueError where the CPU lacks it) or "portable"; returns the name of the one in use. Called by
+ *   compiled.py at import (`PHILOX`, which `sensorcfg --version` shows), and by the tests and
+ *   benchmarks/noise_kernel.py to run each; pinned by
+ *   tests/noise/test_streams.py::test_the_compiled_kernel_gives_the_numpy_numbers_bit_for_bit (each Philox
+ *   the CPU runs, against numpy).
  *
  * The noise numbers, bit-identical to the numpy reference in streams.py: Philox4x32-10 on the counters
  * (sample, tag | q, lo32(k1), hi32(k1)) with key (lo32(k0), hi32(k0)); uniforms w 2^-32; normals by
@@ -80,8 +88,9 @@ static int set_tables(PyObject *kn, PyObject *wn, PyObject *fn) {
     return 0;
 }
 
-/* one counter's Philox, inlined into the ziggurat's fallback (philox_block, set up for a block, costs too much
- * for the one counter each rejected word needs); the same rounds as philox_block */
+/* one counter's Philox, inlined into the ziggurat's fallback (philox_block, called through its pointer and
+ * set up for a block, costs too much for the one counter each rejected word needs); the same rounds as
+ * philox_block */
 static inline void philox1(uint32_t x[4], uint32_t k0, uint32_t k1) {
     for (int r = 0; r < ROUNDS; r++) {
         if (r) {
@@ -102,8 +111,8 @@ static inline void philox1(uint32_t x[4], uint32_t k0, uint32_t k1) {
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__)
 __attribute__((target_clones("avx512f", "avx2", "default")))
 #endif
-static void philox_block(int n, uint32_t *restrict x0, uint32_t *restrict x1, uint32_t *restrict x2,
-                        uint32_t *restrict x3, uint32_t *restrict k0, uint32_t *restrict k1, uint32_t *restrict w) {
+static void philox_portable(int n, uint32_t *restrict x0, uint32_t *restrict x1, uint32_t *restrict x2,
+                            uint32_t *restrict x3, uint32_t *restrict k0, uint32_t *restrict k1, uint32_t *restrict w) {
     for (int r = 0; r < ROUNDS; r++) {
         for (int i = 0; i < n; i++) {
             uint64_t p0 = (uint64_t)x0[i] * 0xD2511F53u, p1 = (uint64_t)x2[i] * 0xCD9E8D57u;
@@ -123,6 +132,112 @@ static void philox_block(int n, uint32_t *restrict x0, uint32_t *restrict x1, ui
         w[4 * i + 3] = x3[i];
     }
 }
+
+typedef void (*PhiloxFn)(int, uint32_t *restrict, uint32_t *restrict, uint32_t *restrict, uint32_t *restrict,
+                         uint32_t *restrict, uint32_t *restrict, uint32_t *restrict);
+
+#if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__)
+#include <immintrin.h>
+#define SIMD_PHILOX 1
+/* The same rounds with intrinsics: the compiler widens each 32-bit product to a full 64-bit one (three
+ * multiplies); here one multiply of the even and one of the odd lanes gives both halves, and four vectors of
+ * counters are in flight at once so that a product's latency is hidden.
+ * Lanes past n compute on zeros and are not stored past w[4 * round-up(n, lanes)] (w holds 4 * BLOCK). */
+#define PHILOX_VECTORS(V, SUFFIX, LOAD, MUL, BLEND, XOR3, SET32, SET64, ADD, SRL, SLL)                         \
+    const V M0 = SET64(0xD2511F53u), M1 = SET64(0xCD9E8D57u), W0 = SET32((int)0x9E3779B9u),                   \
+            W1 = SET32((int)0xBB67AE85u);                                                                      \
+    for (int i = 0; i < n; i += 4 * LANES) {                                                                   \
+        V a0[4], a1[4], a2[4], a3[4], c0[4], c1[4];                                                            \
+        for (int v = 0; v < 4; v++) {                                                                          \
+            int at = i + LANES * v, left = n - at;                                                             \
+            a0[v] = LOAD(x0 + at, left), a1[v] = LOAD(x1 + at, left), a2[v] = LOAD(x2 + at, left);             \
+            a3[v] = LOAD(x3 + at, left), c0[v] = LOAD(k0 + at, left), c1[v] = LOAD(k1 + at, left);             \
+        }                                                                                                      \
+        for (int r = 0; r < ROUNDS; r++) {                                                                     \
+            for (int v = 0; v < 4; v++) {                                                                      \
+                V e0 = MUL(a0[v], M0), o0 = MUL(SRL(a0[v], 32), M0);                                           \
+                V e1 = MUL(a2[v], M1), o1 = MUL(SRL(a2[v], 32), M1);                                           \
+                V lo0 = BLEND(e0, SLL(o0, 32)), hi0 = BLEND(SRL(e0, 32), o0);                                  \
+                V lo1 = BLEND(e1, SLL(o1, 32)), hi1 = BLEND(SRL(e1, 32), o1);                                  \
+                a0[v] = XOR3(hi1, a1[v], c0[v]);                                                               \
+                a2[v] = XOR3(hi0, a3[v], c1[v]);                                                               \
+                a1[v] = lo1;                                                                                   \
+                a3[v] = lo0;                                                                                   \
+                c0[v] = ADD(c0[v], W0);                                                                        \
+                c1[v] = ADD(c1[v], W1);                                                                        \
+            }                                                                                                  \
+        }                                                                                                      \
+        for (int v = 0; v < 4 && i + LANES * v < n; v++) interleave##SUFFIX(a0[v], a1[v], a2[v], a3[v], w + 4 * (i + LANES * v)); \
+    }
+
+/* four vectors of words (counters in lanes) stored counter after counter, four words each */
+__attribute__((target("avx512f"))) static inline void interleave512(__m512i a0, __m512i a1, __m512i a2, __m512i a3,
+                                                                    uint32_t *w) {
+    __m512i t0 = _mm512_unpacklo_epi32(a0, a1), t1 = _mm512_unpackhi_epi32(a0, a1);
+    __m512i t2 = _mm512_unpacklo_epi32(a2, a3), t3 = _mm512_unpackhi_epi32(a2, a3);
+    /* per 128-bit lane: u0 counter 0, u1 counter 1, u2 counter 2, u3 counter 3 (of counters 4l .. 4l + 3) */
+    __m512i u0 = _mm512_unpacklo_epi64(t0, t2), u1 = _mm512_unpackhi_epi64(t0, t2);
+    __m512i u2 = _mm512_unpacklo_epi64(t1, t3), u3 = _mm512_unpackhi_epi64(t1, t3);
+    __m512i v0 = _mm512_shuffle_i32x4(u0, u1, 0x44), v1 = _mm512_shuffle_i32x4(u2, u3, 0x44);
+    __m512i v2 = _mm512_shuffle_i32x4(u0, u1, 0xEE), v3 = _mm512_shuffle_i32x4(u2, u3, 0xEE);
+    _mm512_storeu_si512(w, _mm512_shuffle_i32x4(v0, v1, 0x88));
+    _mm512_storeu_si512(w + 16, _mm512_shuffle_i32x4(v0, v1, 0xDD));
+    _mm512_storeu_si512(w + 32, _mm512_shuffle_i32x4(v2, v3, 0x88));
+    _mm512_storeu_si512(w + 48, _mm512_shuffle_i32x4(v2, v3, 0xDD));
+}
+
+__attribute__((target("avx2"))) static inline void interleave256(__m256i a0, __m256i a1, __m256i a2, __m256i a3,
+                                                                 uint32_t *w) {
+    __m256i t0 = _mm256_unpacklo_epi32(a0, a1), t1 = _mm256_unpackhi_epi32(a0, a1);
+    __m256i t2 = _mm256_unpacklo_epi32(a2, a3), t3 = _mm256_unpackhi_epi32(a2, a3);
+    __m256i u0 = _mm256_unpacklo_epi64(t0, t2), u1 = _mm256_unpackhi_epi64(t0, t2);
+    __m256i u2 = _mm256_unpacklo_epi64(t1, t3), u3 = _mm256_unpackhi_epi64(t1, t3);
+    _mm256_storeu_si256((__m256i *)w, _mm256_permute2x128_si256(u0, u1, 0x20));
+    _mm256_storeu_si256((__m256i *)(w + 8), _mm256_permute2x128_si256(u2, u3, 0x20));
+    _mm256_storeu_si256((__m256i *)(w + 16), _mm256_permute2x128_si256(u0, u1, 0x31));
+    _mm256_storeu_si256((__m256i *)(w + 24), _mm256_permute2x128_si256(u2, u3, 0x31));
+}
+
+#define LOAD512(p, left) _mm512_maskz_loadu_epi32((__mmask16)((left) >= 16 ? 0xFFFF : (left) > 0 ? (1u << (left)) - 1 : 0), (p))
+#define BLEND512(a, b) _mm512_mask_blend_epi32((__mmask16)0xAAAA, (a), (b))
+#define XOR512(a, b, c) _mm512_ternarylogic_epi32((a), (b), (c), 0x96)
+__attribute__((target("avx512f"))) static void philox_avx512(int n, uint32_t *restrict x0, uint32_t *restrict x1,
+                                                             uint32_t *restrict x2, uint32_t *restrict x3,
+                                                             uint32_t *restrict k0, uint32_t *restrict k1,
+                                                             uint32_t *restrict w) {
+    enum { LANES = 16 };
+    PHILOX_VECTORS(__m512i, 512, LOAD512, _mm512_mul_epu32, BLEND512, XOR512, _mm512_set1_epi32, _mm512_set1_epi64,
+                   _mm512_add_epi32, _mm512_srli_epi64, _mm512_slli_epi64)
+}
+
+__attribute__((target("avx2"))) static inline __m256i load256(const uint32_t *p, int left) {
+    static const int32_t ones[16] = {-1, -1, -1, -1, -1, -1, -1, -1, 0, 0, 0, 0, 0, 0, 0, 0};
+    int skip = left >= 8 ? 0 : left > 0 ? 8 - left : 8;
+    return _mm256_maskload_epi32((const int *)p, _mm256_loadu_si256((const __m256i *)(ones + skip)));
+}
+#define BLEND256(a, b) _mm256_blend_epi32((a), (b), 0xAA)
+#define XOR256(a, b, c) _mm256_xor_si256(_mm256_xor_si256((a), (b)), (c))
+__attribute__((target("avx2"))) static void philox_avx2(int n, uint32_t *restrict x0, uint32_t *restrict x1,
+                                                        uint32_t *restrict x2, uint32_t *restrict x3,
+                                                        uint32_t *restrict k0, uint32_t *restrict k1,
+                                                        uint32_t *restrict w) {
+    enum { LANES = 8 };
+    PHILOX_VECTORS(__m256i, 256, load256, _mm256_mul_epu32, BLEND256, XOR256, _mm256_set1_epi32, _mm256_set1_epi64x,
+                   _mm256_add_epi32, _mm256_srli_epi64, _mm256_slli_epi64)
+}
+
+/* the fastest the CPU runs (`simd` can switch back to the portable loop, for the tests) */
+static PhiloxFn fastest_philox(void) {
+    __builtin_cpu_init();
+    if (__builtin_cpu_supports("avx512f")) return philox_avx512;
+    if (__builtin_cpu_supports("avx2")) return philox_avx2;
+    return philox_portable;
+}
+#else
+static PhiloxFn fastest_philox(void) { return philox_portable; }
+#endif
+
+static PhiloxFn philox_block = philox_portable; /* set at import (PyInit__kernel) */
 
 static inline uint32_t abs32(int32_t v) { return v < 0 ? 0u - (uint32_t)v : (uint32_t)v; }
 
@@ -542,6 +657,36 @@ static PyObject *snapshot(PyObject *self, PyObject *const *args, Py_ssize_t narg
     Py_RETURN_NONE;
 }
 
+/* simd(name): which Philox runs: "fastest" (what the CPU has, as at import), "avx512f", "avx2" (ValueError where
+ * the CPU lacks it) or "portable" (the compiler's loop); returns the name of the one now in use. The numbers are
+ * the same with each (tests/noise/test_streams.py runs them all). */
+static PyObject *simd(PyObject *self, PyObject *args) {
+    const char *name;
+    if (!PyArg_ParseTuple(args, "s", &name)) return NULL;
+#ifdef SIMD_PHILOX
+    __builtin_cpu_init();
+#endif
+    struct { const char *name; PhiloxFn fn; int runs; } known[] = {
+#ifdef SIMD_PHILOX
+        {"avx512f", philox_avx512, __builtin_cpu_supports("avx512f")}, {"avx2", philox_avx2, __builtin_cpu_supports("avx2")},
+#endif
+        {"portable", philox_portable, 1}};
+    int count = (int)(sizeof(known) / sizeof(known[0]));
+    PhiloxFn fn = strcmp(name, "fastest") == 0 ? fastest_philox() : NULL;
+    for (int i = 0; i < count && !fn; i++) {
+        if (strcmp(name, known[i].name) == 0 && known[i].runs) fn = known[i].fn;
+    }
+    if (!fn) {
+        PyErr_Format(PyExc_ValueError, "simd: %s is not a Philox this CPU runs", name);
+        return NULL;
+    }
+    philox_block = fn; /* a switch for tests and benchmarks: not while other threads run `add` */
+    for (int i = 0; i < count; i++)
+        if (known[i].fn == fn) return PyUnicode_FromString(known[i].name);
+    PyErr_SetString(PyExc_RuntimeError, "simd: unknown Philox");
+    return NULL;
+}
+
 static PyMethodDef methods[] = {
     {"add", add, METH_VARARGS,
      "add(keys, samples, size, lanes, out, width, lo, rows, accumulate): the lanes' numbers, summed, into out's rows."},
@@ -552,9 +697,13 @@ static PyMethodDef methods[] = {
      "read(program, index): a feature bank's compiled read on its work buffer (sensorcfg/runtime/read_kernel.py)."},
     {"snapshot", (PyCFunction)(void (*)(void))snapshot, METH_FASTCALL,
      "snapshot(program, keep, step): a bank's snapshot of the state at `step` (sensorcfg/runtime/read_kernel.py)."},
+    {"simd", simd, METH_VARARGS, "simd(name): which Philox runs (fastest, avx512f, avx2 or portable); the one in use."},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_kernel",
                                     "sensorcfg's optional compiled kernels (see sensorcfg/compiled.py).", -1, methods};
 
-PyMODINIT_FUNC PyInit__kernel(void) { return PyModule_Create(&module); }
+PyMODINIT_FUNC PyInit__kernel(void) {
+    philox_block = fastest_philox();
+    return PyModule_Create(&module);
+}

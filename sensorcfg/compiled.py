@@ -32,6 +32,9 @@ def _load() -> Any:
 
 MODULE: Any = _load()
 KERNEL = "compiled" if MODULE is not None else "numpy"
+# the noise kernel's Philox: AVX-512 or AVX2 intrinsics where the CPU has them (GCC on x86-64), else the
+# portable loop; None without the kernel, or with a kernel built before there was a choice
+PHILOX: str | None = getattr(MODULE, "simd", lambda name: None)("fastest") if MODULE is not None else None
 
 _POOL: Any = None
 _POOL_NAME = "sensorcfg-kernel"

@@ -15,6 +15,7 @@ from collections.abc import Sequence
 
 from .._version import __version__
 from ..errors import MESSAGE_LIMIT, SensorcfgError, SuiteError, printable
+from .. import compiled
 from ..noise import streams
 from . import demo, run, schema, spec, validate
 from .common import EXIT_CODES_HELP, EXIT_INVALID, EXIT_USAGE, HelpFormatter, UsageError, user_code_failure
@@ -47,7 +48,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="sensorcfg", description=DESCRIPTION, epilog=EXAMPLES + "\n\n" + EXIT_CODES_HELP,
                      formatter_class=HelpFormatter)
     parser.add_argument("--version", action="version",
-                        version=f"sensorcfg {__version__} (noise numbers: {streams.KERNEL})")
+                        version=f"sensorcfg {__version__} (noise numbers: {streams.KERNEL}"
+                                + (f", Philox {compiled.PHILOX})" if compiled.PHILOX else ")"))
     sub = parser.add_subparsers(title="commands", metavar="COMMAND", parser_class=_Parser)
     for command in COMMANDS:
         command.add_parser(sub, EXIT_CODES_HELP)

@@ -272,7 +272,13 @@ class DrawnBank:
         if pads is None and self.run is not None:  # the gather, noise and reductions in one call
             self.run(self.gather_rows[slot])
             outputs = cut(self.compiled)
-        else:  # (also reads early in an episode, whose windows show padding)
+        elif self.kernel is not None:  # (padding, early in an episode: written between the two calls)
+            index = self.gather_rows[slot]
+            self.kernel.noised(index)
+            self._pad(cast(np.ndarray, pads))
+            self.kernel.reduced(index)
+            outputs = cut(self.compiled)
+        else:
             outputs = self._read_numpy(self.gather_rows[slot], pads)
         self._read_step, self._outputs = step, outputs
         return outputs

@@ -9,8 +9,8 @@ reference; tests/runtime/test_read_kernel.py compares the two). The encoder keep
 
 A read with a step the kernel does not have (a reduction that runs alone: a median of 3 or more, a one-value
 sum or mean) keeps its numpy steps, and so does every read when the kernel is not built or
-SENSORCFG_NUMPY_STREAMS=1, and a read that writes padding between its noise and its reductions (early in an
-episode).
+SENSORCFG_NUMPY_STREAMS=1. A read that writes padding between its noise and its reductions (early in an
+episode) runs the program in two calls around it (`noised`, `reduced`).
 
 A bank's snapshot (a take of the state into a history row, at every sampled step) is one kernel call too
 (`kernel_snapshot`), where the kernel is built; numpy's take otherwise.
@@ -36,12 +36,15 @@ _CODES = {"gather": 1, "term": 2, "add": 3, "mul": 4, "quantize": 5, "clip": 6, 
 
 
 class KernelRead(NamedTuple):
-    """`run(index)`: the whole read, from the gather of history positions `index` to the divisions;
-    `arrays`: what the program points to (kept alive with it)."""
+    """`run(index)`: the whole read, from the gather of history positions `index` to the divisions; the same
+    in two calls, `noised(index)` (the gather and the noise) then `reduced(index)` (the rest), for a read
+    that writes padding between them; `arrays`: what the program points to (kept alive with it)."""
 
     run: Callable[[np.ndarray], None]
     arrays: tuple[np.ndarray, ...]
     nbytes: int  # of the program and the index arrays it made (the others are the bank's and the read's)
+    noised: Callable[[np.ndarray], None]
+    reduced: Callable[[np.ndarray], None]
 
 
 class _Program:
@@ -106,10 +109,13 @@ def kernel_read(compiled_read: CompiledRead, layers: Sequence[Layer], history: n
     program.add("gather", compiled_read.gathered, history, history.size, 0, len(compiled_read.gathered))  # the kernel checks the index
     for layer in layers:
         program.layer(layer, compiled_read.gathered)
+    noised = len(program.records)
     for step in compiled_read.records:
         program.step(step)
-    code = np.array(program.records, np.int64).reshape(-1, 6).tobytes()  # (an empty program: no records at all)
-    return KernelRead(functools.partial(read, code), tuple(program.arrays), program.made + len(code))
+    records = np.array(program.records, np.int64).reshape(-1, 6)  # (an empty program: no records at all)
+    code, before, after = (part.tobytes() for part in (records, records[:noised], records[noised:]))
+    return KernelRead(functools.partial(read, code), tuple(program.arrays), program.made + len(code),
+                      functools.partial(read, before), functools.partial(read, after))
 
 
 def kernel_snapshot(raw: np.ndarray, source: np.ndarray, history: np.ndarray, needed: bytearray | None,

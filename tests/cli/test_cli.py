@@ -92,9 +92,11 @@ def test_version() -> None:
     proc = cli("--version")
     assert proc.returncode == 0
     # which path computes the noise numbers (the same numbers either way): the compiled kernel or numpy
+    from sensorcfg import compiled
     from sensorcfg.noise import streams
 
-    assert proc.stdout.strip() == f"sensorcfg {sensorcfg.__version__} (noise numbers: {streams.KERNEL})"
+    philox = f", Philox {compiled.PHILOX}" if compiled.PHILOX else ""  # intrinsics or the portable loop
+    assert proc.stdout.strip() == f"sensorcfg {sensorcfg.__version__} (noise numbers: {streams.KERNEL}{philox})"
 
 
 def test_console_script_is_installed() -> None:

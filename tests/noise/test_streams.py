@@ -91,8 +91,21 @@ def test_normals_are_standard_normal_and_uniforms_uniform(compiled):
     assert np.all(np.abs(np.histogram(u, 10, (0, 1))[0] - n / 10) < 5 * math.sqrt(n / 10))
 
 
+def _philox_variants() -> list[str]:
+    """The kernel's Philox implementations this CPU runs (intrinsics where it has AVX-512 or AVX2; the portable
+    loop everywhere)."""
+    found = []
+    for name in ("avx512f", "avx2", "portable"):
+        try:
+            found.append(compiled.MODULE.simd(name))
+        except ValueError:
+            continue
+    assert compiled.MODULE.simd("fastest") == compiled.PHILOX == found[0] and found[-1] == "portable"
+    return found
+
+
 def test_the_compiled_kernel_gives_the_numpy_numbers_bit_for_bit():
-    """Normals and uniforms of one to many counters per sample, and planned draws' runs."""
+    """With each Philox the CPU runs (the intrinsics and the portable loop), as planned draws' runs too."""
     _path(True)
     rng = np.random.default_rng(11)
     draws = []
@@ -106,10 +119,16 @@ def test_the_compiled_kernel_gives_the_numpy_numbers_bit_for_bit():
     first = np.arange(70) * 977
     counts = np.arange(70) % 9 * 11  # runs of 0 to 88 samples: partial vectors and several blocks
     runs = streams.uniform_runs(draws[0].keys[:70], first, counts, 1, compiled=False)
-    for d, a, b in zip(draws, reference, numbers(draws, compiled=True)):
-        assert a.shape == b.shape == (np.size(d.samples), d.size)
-        assert np.array_equal(a.view(np.uint64), b.view(np.uint64)), (d.size, d.normal)
-    assert np.array_equal(streams.uniform_runs(draws[0].keys[:70], first, counts, 1, compiled=True), runs)
+    variants = _philox_variants()
+    try:
+        for variant in variants:
+            compiled.MODULE.simd(variant)
+            for d, a, b in zip(draws, reference, numbers(draws, compiled=True)):
+                assert a.shape == b.shape == (np.size(d.samples), d.size)
+                assert np.array_equal(a.view(np.uint64), b.view(np.uint64)), (variant, d.size, d.normal)
+            assert np.array_equal(streams.uniform_runs(draws[0].keys[:70], first, counts, 1, compiled=True), runs)
+    finally:
+        compiled.MODULE.simd("fastest")
     z = np.concatenate([a.ravel() for d, a in zip(draws, reference) if d.normal])
     # the fallback ran both ways: values beyond the ziggurat's base strip come only from its tail
     assert np.count_nonzero(np.abs(z) > 3.442620) > 0
