@@ -13,8 +13,10 @@ PATH (turned off in B):
   bank       FeatureBank: plain float64 features of fixed schedules read together (else one FixedChannel each)
   drawnbank  DrawnBank: the same for drawn schedules (else one DrawnChannel each)
   read       a bank's read as one call of the compiled kernel (`_kernel.read`; else its numpy steps)
+  snapshot   a bank's snapshot as one call of the compiled kernel (`_kernel.snapshot`; else numpy's take)
   noise      the compiled noise numbers (`_kernel.add`; else numpy's Philox)
-  copies     the batch's compiled take / put (`_kernel.gather`, `scatter`; else numpy's take / put)
+  simd       the noise kernel's Philox in AVX-512 or AVX2 intrinsics (`_kernel.simd`; else the portable loop)
+  copies     the batch's compiled take / put (`_kernel.gather`, `scatter`; else numpy's take / put): batch suites
   none       nothing: A against an identical B, the comparison's own noise
 Suites: humanoid (benchmarks/_humanoid.py), humanoid_noise (its two noise stages per sensor, as
 updater.py --noise), proprioception and sim2real (configs/, on the bundled robot); batch, batch_noise and
@@ -54,7 +56,9 @@ SWITCHES: dict[str, list[tuple[Any, str, Any]]] = {
     "bank": [(updater, "qualifies", lambda ch: False)],
     "drawnbank": [(updater, "joins", lambda ch: False)],
     "read": [(bank, "kernel_read", lambda *args: None), (planned, "kernel_read", lambda *args: None)],
+    "snapshot": [(bank, "kernel_snapshot", lambda *args: None), (planned, "kernel_snapshot", lambda *args: None)],
     "noise": [(streams, "_COMPILED", None)],
+    "simd": [],  # (`off` switches the kernel's Philox)
     "copies": [(compiled, "MODULE", None)],  # (compiled.take / put read it at each call)
     "none": [],
 }
@@ -66,11 +70,15 @@ def off(path: str | None) -> Iterator[None]:
     saved = [(module, name, getattr(module, name)) for module, name, _ in SWITCHES[path]] if path else []
     for module, name, value in SWITCHES[path] if path else []:
         setattr(module, name, value)
+    if path == "simd":
+        compiled.MODULE.simd("portable")
     try:
         yield
     finally:
         for module, name, value in saved:
             setattr(module, name, value)
+        if path == "simd":
+            compiled.MODULE.simd("fastest")
 
 
 def with_noise(observables: dict[str, Any], model: mujoco.MjModel) -> dict[str, Any]:
