@@ -138,7 +138,7 @@ def main() -> None:
             updater = env.updater
             env._rollout(a, np.ones(env.nsim, bool), np.zeros(env.nsim, bool), {})
             if layout.fixed:
-                updater.flat.take(layout.gathers(updater.G % updater.rows, updater.t), mode="clip")
+                updater.flat.take(layout.gathers(updater.global_step % updater.rows, updater.age), mode="clip")
 
         def loop_step(a: np.ndarray, loop: list = loop) -> None:
             for e, ai in zip(loop, a):

@@ -154,7 +154,7 @@ def run(model: mujoco.MjModel, native: mujoco.MjModel, hybrid: mujoco.MjModel, n
     def fields(a: np.ndarray) -> None:
         env._rollout(a, np.ones(nsim, bool), np.zeros(nsim, bool), {})
         if layout.fixed:
-            updater.flat.take(layout.gathers(updater.G % updater.rows, updater.t), mode="clip")
+            updater.flat.take(layout.gathers(updater.global_step % updater.rows, updater.age), mode="clip")
 
     def recorded(batch: Batch, out: dict[str, np.ndarray]) -> Callable[[np.ndarray], None]:
         def step(a: np.ndarray) -> None:

@@ -71,7 +71,7 @@ def main() -> None:
         env.reset()
         for i, a in enumerate(actions):
             env.step(a)
-            index = layout.gathers(updater.G % updater.rows, updater.t)
+            index = layout.gathers(updater.global_step % updater.rows, updater.age)
             reference = updater.flat.take(index, mode="clip")
             for name in names[i % 3:] + names[:i % 3]:
                 env.batch.rollout(5, control=a[:, None, :], record=())  # not recorded: the store is unchanged

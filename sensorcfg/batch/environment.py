@@ -370,7 +370,7 @@ class BatchEnvironment(ControlLoop):
         into the updater's store; cameras render after the substeps at which they sample."""
         updater = self._updater
         cameras = updater.cameras
-        stops = set() if cameras is None else set(cameras.render_substeps(updater.t, active))
+        stops = set() if cameras is None else set(cameras.render_substeps(updater.age, active))
         control = actions[:, None, :]
         for length, last, fields, out, bound in self._segments:
             try:
@@ -382,7 +382,7 @@ class BatchEnvironment(ControlLoop):
             for slot, values in bound:
                 np.copyto(slot, values)
             if cameras is not None and last in stops:  # stops are cameras' substeps
-                cameras.sample(last, updater.t, active)
+                cameras.sample(last, updater.age, active)
 
     def _bad_counts(self) -> np.ndarray:
         warning = self._batch.warning  # (nsim, mjNWARNING, (lastinfo, number))

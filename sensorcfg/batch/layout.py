@@ -221,49 +221,49 @@ class Layout:
         """Forget cached positions (a reset changed which simulation is at which phase)."""
         self._cache.clear()
 
-    def snapshot(self, gp: int, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def snapshot(self, history_row: int, age: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Store positions of the values a control step keeps: in the records, and in the history.
 
-        `gp`: the global step before the control step, mod rows; `t`: each simulation's steps since reset.
-        Cached per `gp` until `clear`.
+        `history_row`: the global step before the control step, mod rows; `age`: each simulation's steps since reset.
+        Cached per `history_row` until `clear`.
         """
-        key = ("snapshot", gp)
+        key = ("snapshot", history_row)
         cached: tuple[np.ndarray, np.ndarray] | None = self._cache.get(key)
         if cached is None:
             nsim, w, substeps = self.nsim, self.width, self.substeps
-            phases = np.unique((t % self.cycle) // substeps)
+            phases = np.unique((age % self.cycle) // substeps)
             sims = np.arange(nsim)[:, None]
             source, target = [], []
             for k in range(1, substeps + 1):
                 cols = np.flatnonzero(self.always | self.later[phases, k - 1].any(axis=0))
                 if cols.size:
                     source.append((self.record_base[k - 1, cols] + sims * self.record_stride[k - 1, cols]).ravel())
-                    target.append(((gp + k - 1) * nsim * w + sims * w + cols).ravel())
+                    target.append(((history_row + k - 1) * nsim * w + sims * w + cols).ravel())
             empty = np.zeros(0, np.intp)
             cached = self._cache.put(key, (np.concatenate(source) if source else empty,
                                            np.concatenate(target) if target else empty))
         return cached
 
-    def gathers(self, gp: int, t: np.ndarray) -> np.ndarray:
+    def gathers(self, history_row: int, age: np.ndarray) -> np.ndarray:
         """Store positions of every fixed-schedule read value, for one `take`: (nsim, plain width), then
         per reduction group (buffer, nsim, group width), raveled (`read_parts` splits the result).
-        `gp`: the global step mod rows. Cached until `clear`."""
-        fresh = bool((t == 0).any())  # a reset read: its phase is not the one gp implies later on
-        cached = None if fresh else self._cache.get(("read", gp))
+        `history_row`: the global step mod rows. Cached until `clear`."""
+        fresh = bool((age == 0).any())  # a reset read: its phase is not the one history_row implies later on
+        cached = None if fresh else self._cache.get(("read", history_row))
         if cached is None:
-            phases = np.where(t == 0, self.nphase, (t % self.cycle) // self.substeps)
+            phases = np.where(age == 0, self.nphase, (age % self.cycle) // self.substeps)
             if (phases == phases[0]).all():  # every simulation at one phase (as after a full reset)
-                cached = self._uniform_reads(gp, int(phases[0]))
+                cached = self._uniform_reads(history_row, int(phases[0]))
             else:
-                cached = self._positions(gp, phases)
+                cached = self._positions(history_row, phases)
             if not fresh:
-                self._cache.put(("read", gp), cached)
+                self._cache.put(("read", history_row), cached)
         return cached
 
-    def _positions(self, gp: int, phases: np.ndarray | slice) -> np.ndarray:
-        """Every read position at global step gp, raveled for one `take`: each simulation's phase from
+    def _positions(self, history_row: int, phases: np.ndarray | slice) -> np.ndarray:
+        """Every read position at global step history_row, raveled for one `take`: each simulation's phase from
         `phases` (one per simulation), or the one phase `slice(q, q + 1)` of them all."""
-        (plain_base, plain_stride), groups = self._read_table(gp)
+        (plain_base, plain_stride), groups = self._read_table(history_row)
         sims = np.arange(self.nsim)
         plain = plain_base[phases] + sims[:, None] * plain_stride[phases]
         windows = [base[:, phases, :] + sims[None, :, None] * stride[:, phases, :] for base, stride in groups]
@@ -281,38 +281,38 @@ class Layout:
             at += size
         return plain, groups
 
-    def _uniform_reads(self, gp: int, q: int) -> np.ndarray:
-        """`gathers` when every simulation is at phase q: kept across resets (a few per gp at most)."""
-        key = (gp, q)
+    def _uniform_reads(self, history_row: int, q: int) -> np.ndarray:
+        """`gathers` when every simulation is at phase q: kept across resets (a few per history_row at most)."""
+        key = (history_row, q)
         reads: np.ndarray | None = self._uniform.get(key)
         if reads is None:
-            reads = self._uniform.put(key, self._positions(gp, slice(q, q + 1)))
+            reads = self._uniform.put(key, self._positions(history_row, slice(q, q + 1)))
         return reads
 
-    def _read_table(self, gp: int) -> tuple[tuple[np.ndarray, np.ndarray], list[tuple[np.ndarray, ...]]]:
-        """Simulation i's read positions at global step gp and phase q are `base[q] + i * stride[q]`
-        (plain: (phase, width); groups: (buffer, phase, width)). Kept per gp: resets do not change it."""
-        table: tuple[tuple[np.ndarray, np.ndarray], list[tuple[np.ndarray, ...]]] | None = self._tables.get(gp)
+    def _read_table(self, history_row: int) -> tuple[tuple[np.ndarray, np.ndarray], list[tuple[np.ndarray, ...]]]:
+        """Simulation i's read positions at global step history_row and phase q are `base[q] + i * stride[q]`
+        (plain: (phase, width); groups: (buffer, phase, width)). Kept per history_row: resets do not change it."""
+        table: tuple[tuple[np.ndarray, np.ndarray], list[tuple[np.ndarray, ...]]] | None = self._tables.get(history_row)
         if table is None:
             nsim, w = self.nsim, self.width
             base = np.where(self.from_record, self.record_read,
-                            ((gp - 1 + self.delta) % self.rows) * (nsim * w) + self.col[None, :])
+                            ((history_row - 1 + self.delta) % self.rows) * (nsim * w) + self.col[None, :])
             stride = np.where(self.from_record, self.record_read_stride, w)
-            table = self._tables.put(gp, (
+            table = self._tables.put(history_row, (
                 (np.ascontiguousarray(base[:, self.plain_cols]), np.ascontiguousarray(stride[:, self.plain_cols])),
                 [tuple(np.ascontiguousarray(a[:, g.part].reshape(-1, *g.block).transpose(1, 0, 2)) for a in (base, stride))
                  for g in self.groups]))
         return table
 
-    def drawn(self, c: int, codes: np.ndarray, t: np.ndarray, G: int) -> np.ndarray:
+    def drawn(self, c: int, codes: np.ndarray, age: np.ndarray, global_step: int) -> np.ndarray:
         """Store positions (nsim, buffer, width) of a random-schedule channel's window, from its codes
         (0: zero fill, s + 1: the sample of step s since reset)."""
         nsim, w, rows = self.nsim, self.width, self.rows
         step = codes - 1
-        if ((codes > 1) & (t[:, None] - step >= rows)).any():
+        if ((codes > 1) & (age[:, None] - step >= rows)).any():
             raise RuntimeError(f"a read of {self.channels[c].name!r} reaches further back than the batch's history "
                                f"of {rows} steps (an internal sizing error)")
-        start = (G - t)[:, None]  # each simulation's reset, in global steps
+        start = (global_step - age)[:, None]  # each simulation's reset, in global steps
         row = np.where(codes == 0, rows + 1, np.where(codes == 1, rows, (start + step - 1) % rows))
         return (row[:, :, None] * (nsim * w) + (np.arange(nsim) * w)[:, None, None]
                 + np.arange(self.cols[c], self.cols[c + 1]))

@@ -10,7 +10,7 @@ reads (`batch.read_noise`) when its reads show each sample about once (`added_as
 samples, as a noise-free sensor's. Other noise runs at each
 sample's own step on the simulations that sample then, in place in the history (`batch.noise`); random intervals and delays are planned per simulation by the single-simulation
 channel itself (`batch.random_schedules`). Scheduling, buffers and noise are the single-simulation Updater's to
-the bit: the per-simulation state is its episode's age (`t`), random state, noise and random plans.
+the bit: the per-simulation state is its episode's age (`age`), random state, noise and random plans.
 
 Differences from the Updater: every observable must be a float64 mjData feature without a corruptor, or
 a camera (rendered per simulation by `batch.camera`); generic callables, corruptors and custom
@@ -92,10 +92,10 @@ class BatchUpdater:
         self.read_noise = ReadNoise(read, self.fixed, layout, self.pad) if read else None
         self.reset_values = layout.reset_values
         self.history, self.flat, self.cols, self.rows = layout.history, layout.flat, layout.cols, layout.rows
-        self.timelines = Timelines([(e.name, cast(DrawnChannel, e.channel).drawn) for e in drawn], self.nsim,
+        self.ageimelines = Timelines([(e.name, cast(DrawnChannel, e.channel).drawn) for e in drawn], self.nsim,
                                    self.substeps, self.pad)
-        self.G = 0  # global physics steps
-        self.t = np.zeros(self.nsim, np.int64)  # physics steps since each simulation's reset
+        self.global_step = 0  # global physics steps
+        self.age = np.zeros(self.nsim, np.int64)  # physics steps since each simulation's reset
         self.control_steps = np.zeros(self.nsim, np.int64)
         self.started = np.zeros(self.nsim, bool)
         # per history row: the noisy samples of a control step starting there (`_noisy_samples`), within a budget
@@ -156,10 +156,10 @@ class BatchUpdater:
             values[:, lo:hi] = pipeline(values[:, lo:hi].reshape(ids.size, *ch.shape), ids, zeros).reshape(ids.size, -1)
         h = self.history
         h[:self.rows, ids] = values[None] if self.pad else 0.0
-        h[(self.G - 1) % self.rows, ids] = values
+        h[(self.global_step - 1) % self.rows, ids] = values
         h[self.rows, ids] = values
         h[self.rows + 1, ids] = 0.0
-        self.t[ids] = 0
+        self.age[ids] = 0
         self.control_steps[ids] = 0
         if self.cameras is not None:
             self.cameras.reset(ids)
@@ -170,7 +170,7 @@ class BatchUpdater:
         """Each simulation's draws at reset, in the Updater's order; returns the noisy channels' keys
         (channel, simulation, 2), in the order of `self.noise`."""
         labels = [self.labels[c] for c in self.noise]
-        planned = [label for label, _ in self.timelines.specs]
+        planned = [label for label, _ in self.ageimelines.specs]
         keys = np.zeros((len(labels) + len(planned), ids.size, 2), np.uint64)  # noise's, then schedules'
         for m, i in enumerate(ids.tolist()):
             entropy = episode_entropy(random_states[i]) if self.noisy or planned else None
@@ -179,61 +179,61 @@ class BatchUpdater:
             if self.cameras is not None:
                 self.cameras.reset_noise(i, entropy or [])
         if planned:
-            self.timelines.start(ids, keys[len(labels):])
+            self.ageimelines.start(ids, keys[len(labels):])
         return keys[:len(labels)]
 
     # -- the physics loop -------------------------------------------------------------------------
 
     def prepare(self, active: np.ndarray) -> None:
         """Before a control step: plan random schedules ahead for the simulations about to step."""
-        if self.timelines.specs:
-            self.timelines.ensure(np.flatnonzero(active), self.control_steps)
+        if self.ageimelines.specs:
+            self.ageimelines.ensure(np.flatnonzero(active), self.control_steps)
 
     def update(self, active: np.ndarray) -> None:
         """After a control step's rollout (into `record_out`): store, sample and corrupt its substeps steps."""
-        substeps, gp = self.substeps, self.G % self.rows
-        source, target = self.layout.snapshot(gp, self.t)
+        substeps, history_row = self.substeps, self.global_step % self.rows
+        source, target = self.layout.snapshot(history_row, self.age)
         compiled.put(self.flat, target, compiled.take(self.flat, source))
         everyone = bool(active.all())
         if self.corrupted:
             sums, calls = [], []
-            for call in self._noise_calls(gp, active, everyone):  # additive-only pipelines: in place, at once
+            for call in self._noise_calls(history_row, active, everyone):  # additive-only pipelines: in place, at once
                 k, c, sims, steps = call
                 if self.corrupted[c].fused is not None:
-                    sums.append(self.corrupted[c].sum(self.history[gp + k - 1], int(self.cols[c]), sims, steps))
+                    sums.append(self.corrupted[c].sum(self.history[history_row + k - 1], int(self.cols[c]), sims, steps))
                 else:
                     calls.append(call)
             add_sums(sums)
             prefetch([(self.corrupted[c], sims, steps) for _, c, sims, steps in calls])
             for k, c, sims, steps in calls:
-                self._corrupt(self.history[gp + k - 1], c, sims, steps)
-        self.G += substeps
+                self._corrupt(self.history[history_row + k - 1], c, sims, steps)
+        self.global_step += substeps
         if everyone:
-            self.t += substeps
+            self.age += substeps
             self.control_steps += 1
         else:
-            self.t[active] += substeps
+            self.age[active] += substeps
             self.control_steps[active] += 1
-        if self.timelines.specs:
-            self.timelines.advance(np.flatnonzero(active))
+        if self.ageimelines.specs:
+            self.ageimelines.advance(np.flatnonzero(active))
 
-    def _noise_calls(self, gp: int, active: np.ndarray, everyone: bool) -> list[tuple[int, int, np.ndarray, np.ndarray]]:
+    def _noise_calls(self, history_row: int, active: np.ndarray, everyone: bool) -> list[tuple[int, int, np.ndarray, np.ndarray]]:
         """(substep k, channel, sims, steps) of this control step's noisy samples, in order."""
-        noisy = self._noisy_samples(gp)
-        taken = self.timelines.taken_now() if self.timelines.specs else None
+        noisy = self._noisy_samples(history_row)
+        taken = self.ageimelines.taken_now() if self.ageimelines.specs else None
         calls = []
         for k in range(1, self.substeps + 1):
             for c, sims in noisy[k - 1]:
                 if not everyone:
                     sims = sims[active[sims]]
                 if sims.size:
-                    calls.append((k, c, sims, self.t[sims] + k))
-            for r in range(len(self.timelines.specs)):
+                    calls.append((k, c, sims, self.age[sims] + k))
+            for r in range(len(self.ageimelines.specs)):
                 c = self.nfixed + r
                 if c in self.corrupted:
                     sims = np.flatnonzero(cast(np.ndarray, taken)[:, r, k - 1] & active)
                     if sims.size:
-                        calls.append((k, c, sims, self.t[sims] + k))
+                        calls.append((k, c, sims, self.age[sims] + k))
         return calls
 
     def _corrupt(self, row: np.ndarray, c: int, sims: np.ndarray, steps: np.ndarray) -> None:
@@ -251,11 +251,11 @@ class BatchUpdater:
             raw = row[sims, lo:hi]
             row[sims, lo:hi] = self.corrupted[c](raw.reshape(sims.size, *shape), sims, steps).reshape(sims.size, -1)
 
-    def _noisy_samples(self, gp: int) -> list[list[tuple[int, np.ndarray]]]:
+    def _noisy_samples(self, history_row: int) -> list[list[tuple[int, np.ndarray]]]:
         """Per substep, the noisy fixed channels and the simulations that sample them (cached per phase)."""
-        noisy: list[list[tuple[int, np.ndarray]]] | None = self._noisy_by_row.get(gp)
+        noisy: list[list[tuple[int, np.ndarray]]] | None = self._noisy_by_row.get(history_row)
         if noisy is None:
-            local = self.t % self.rows
+            local = self.age % self.rows
             noisy = [[] for _ in range(self.substeps)]
             for c in range(self.nfixed):
                 if c not in self.corrupted:
@@ -265,7 +265,7 @@ class BatchUpdater:
                     sims = np.flatnonzero(needed[(local + k) % needed.size])
                     if sims.size:
                         noisy[k - 1].append((c, sims))
-            self._noisy_by_row.put(gp, noisy)
+            self._noisy_by_row.put(history_row, noisy)
         return noisy
 
     # -- reads ------------------------------------------------------------------------------------
@@ -274,13 +274,13 @@ class BatchUpdater:
         """Every observation of every simulation, (nsim, ...) arrays in the observables' order."""
         out: list[Any] = [None] * len(self.output_index)
         if self.cameras is not None:
-            self.cameras.read(self.t, out)
+            self.cameras.read(self.age, out)
         if self.fixed:
             layout = self.layout
             # one take of every value read (positions are valid by construction), then views
-            values = compiled.take(self.flat, layout.gathers(self.G % self.rows, self.t))
+            values = compiled.take(self.flat, layout.gathers(self.global_step % self.rows, self.age))
             if self.read_noise is not None:
-                self.read_noise.apply(values, self.t)
+                self.read_noise.apply(values, self.age)
             gathered, windows = layout.read_parts(values)
             for i, part, shape in layout.plain:
                 out[i] = gathered[:, part].reshape(shape)
@@ -288,15 +288,15 @@ class BatchUpdater:
                 reduced = reduce_stacked(group.aggregator, window)
                 for i, sub, shape in group.members:
                     out[i] = reduced[:, sub].reshape(self.nsim, *shape)
-        if self.timelines.specs:
+        if self.ageimelines.specs:
             self._read_drawn(out)
         return {name: out[self.output_index[name]] for name in self.names}
 
     def _read_drawn(self, out: list[Any]) -> None:
-        for r, codes in enumerate(self.timelines.last):
+        for r, codes in enumerate(self.ageimelines.last):
             c = self.nfixed + r
             ch = self.channels[c]
-            values = self.flat.take(self.layout.drawn(c, codes, self.t, self.G))  # (nsim, buffer, width)
+            values = self.flat.take(self.layout.drawn(c, codes, self.age, self.global_step))  # (nsim, buffer, width)
             if ch.aggregator is not None:
                 reduced = reduce_stacked(cast(Any, ch.aggregator).name, values.transpose(1, 0, 2))
                 out[c] = reduced.reshape(self.nsim, *ch.shape)

@@ -340,7 +340,7 @@ def test_partial_reset_touches_only_its_simulations():
     for k, v in ts.observation.items():
         assert same(v[[0, 2]], before[k][[0, 2]]), k
     np.testing.assert_array_equal(env.batch.bind("qpos")[[0, 2]], qpos[[0, 2]])
-    assert (env.updater.t == [20, 0, 20, 0]).all()
+    assert (env.updater.age == [20, 0, 20, 0]).all()
 
 
 @needs_batch
