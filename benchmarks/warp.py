@@ -15,16 +15,23 @@ Both run on the same worlds in this process, in pairs (alternating which goes fi
 the medians of the pairs, in physics world-steps per second (worlds x physics steps / s), and the
 overhead: (physics rate / suite rate - 1) x 100 %. The device is synchronised before each timer is read.
 On CUDA both loops replay each control step as one CUDA graph (WarpEnvironment records its own; the physics
-loop is recorded here the same way); on Warp's CPU device both run plain launches. Each
-pair also times one `Worlds.forward()` per control step, printed per row as % of the physics' time: what a
-control step in which some world restarts adds (the restart path's forward of every world); the timed loops
-have no restarts.
+loop is recorded here the same way); on Warp's CPU device both run plain launches.
+
+Two settings, each a pair of loops:
+- steady: no world's episode ends (the timed loops have no restarts);
+- restarting: every world's episode ends every `PERIOD` control steps, staggered across worlds, so that
+  1/PERIOD of the worlds restart in every control step, as in training with many worlds. Physics alone then
+  restarts them as mjlab's step does (`ManagerBasedRlEnv.step`: a masked reset, then `sim.forward()` of
+  every world); with the suite, `termination_fn` ends the same episodes and `WarpEnvironment.step` restarts
+  them (masked reset, one `mjw.forward` of every world, the reset samples).
+Each row also prints one `Worlds.forward()` per control step as % of the steady physics' time.
 
     python benchmarks/warp.py --device cuda:0 --worlds 1024,4096,16384 --model-go2 .../scene_mjx.xml
     python benchmarks/warp.py --quick        # CPU device, 2 worlds, a few steps: checks, not speed
 
 `--quick` (CI) also checks every observation against the observation spec (shape, float32) and that all
-values are finite. On Warp's CPU device the figures say nothing about GPU speed.
+values are finite, and that the restarting setting restarts every world once per PERIOD control steps. On
+Warp's CPU device the figures say nothing about GPU speed.
 """
 
 from __future__ import annotations
@@ -48,6 +55,7 @@ ROOT = HERE.parent
 SUITES = HERE / "suites"
 GO2_LIKE = ROOT / "tests" / "models" / "go2_like.xml"
 SUBSTEPS = 4
+PERIOD = 50  # control steps per episode in the restarting setting (2% of the worlds restart per step)
 
 
 @dataclass(frozen=True)
@@ -57,10 +65,33 @@ class Row:
     physics: float  # world-steps/s, median of the pairs
     suite: float
     overhead: float  # %
+    restarting_physics: float  # world-steps/s with 1/PERIOD of the worlds restarting per control step
+    restarting_suite: float
+    restarting_overhead: float  # %
     observations: int  # arrays per read (twins included)
     values: int  # float32 values per world and read
     setup: float  # seconds to build the environment (host-side seeds and key table included)
     forward: float  # one mjw.forward of every world per control step, in % of the physics' time
+
+
+def _ending_kernels() -> tuple[Any, Any]:
+    """The restarting setting's episode ends: world w's after its control steps c with (c + w) % period ==
+    period - 1 (while `restarting[0]` is 1), so 1/period of the worlds end theirs in every control step; and
+    whether any flag is set."""
+    import warp as wp
+
+    @wp.kernel
+    def ending(steps: wp.array[wp.int64], restarting: wp.array[wp.int32], substeps: wp.int64, period: wp.int64,
+               out: wp.array[bool]):
+        w = wp.tid()
+        out[w] = restarting[0] == 1 and (steps[w] // substeps + wp.int64(w)) % period == period - wp.int64(1)
+
+    @wp.kernel
+    def any_set(flags: wp.array[bool], out: wp.array[wp.int32]):
+        if flags[wp.tid()]:
+            out[0] = 1
+
+    return ending, any_set
 
 
 def humanoid_model(path: str | None) -> Any:
@@ -134,8 +165,17 @@ def measure(label: str, model: Any, suite: Path, nworld: int, device: str, steps
 
     budgets = mjw.OverflowType.ITERATIONS | mjw.OverflowType.LS_ITERATIONS
     built = time.perf_counter()
+    ending_kernel, any_kernel = _ending_kernels()
+    restarting = wp.zeros(1, dtype=wp.int32, device=device)  # 1: the restarting setting's episodes end
+    ending = wp.zeros(nworld, dtype=bool, device=device)
+
+    def termination_fn(env: Any) -> Any:  # device work only: recorded in the step's graph
+        wp.launch(ending_kernel, dim=nworld, inputs=[env.worlds.steps, restarting, SUBSTEPS, PERIOD],
+                  outputs=[ending], device=env.device)
+        return ending
+
     env = WarpEnvironment(model, str(suite), nworld, device=device, physics_steps_per_control_step=SUBSTEPS,
-                          seed=0)
+                          seed=0, termination_fn=termination_fn)
     wp.synchronize_device(env.device)
     built = time.perf_counter() - built
     worlds, ctrl = env.worlds, env.worlds.data.ctrl
@@ -152,20 +192,36 @@ def measure(label: str, model: Any, suite: Path, nworld: int, device: str, steps
         wp.copy(ctrl, buffer)
         worlds.step(SUBSTEPS)
 
-    graph = None
-    if env.device.is_cuda:  # captured as WarpEnvironment captures its step (after a first, eager one)
-        control_step()
-        with wp.ScopedCapture(device=env.device) as capture:
-            control_step()
-        graph = capture.graph
+    any_ending = wp.zeros(1, dtype=wp.int32, device=device)
 
-    def physics() -> None:
-        for k in range(steps):
-            wp.copy(buffer, actions[k % len(actions)])
-            if graph is None:
-                control_step()
-            else:
-                wp.capture_launch(graph)
+    def restart() -> None:
+        worlds.reset(ending)
+        worlds.forward()
+
+    def restarting_step() -> None:  # and, when some episode ended, the restarts, as mjlab's step does
+        control_step()
+        termination_fn(env)
+        any_ending.zero_()
+        wp.launch(any_kernel, dim=nworld, inputs=[ending], outputs=[any_ending], device=env.device)
+        wp.capture_if(any_ending, on_true=restart)
+
+    graphs: dict[Callable[[], None], Any] = {}
+    if env.device.is_cuda:  # captured as WarpEnvironment captures its step (after a first, eager one)
+        for step in (control_step, restarting_step):
+            step()
+            with wp.ScopedCapture(device=env.device) as capture:
+                step()
+            graphs[step] = capture.graph
+
+    def physics_loop(step: Callable[[], None]) -> Callable[[], None]:
+        def run() -> None:
+            for k in range(steps):
+                wp.copy(buffer, actions[k % len(actions)])
+                if step in graphs:
+                    wp.capture_launch(graphs[step])
+                else:
+                    step()
+        return run
 
     def forward() -> None:  # what WarpEnvironment.step's restart path adds in a control step with a restart
         for _ in range(steps):
@@ -181,22 +237,36 @@ def measure(label: str, model: Any, suite: Path, nworld: int, device: str, steps
         worlds.step(SUBSTEPS)
         env.step(actions[k])
     wp.synchronize_device(env.device)
-    rates: dict[str, list[float]] = {"physics": [], "suite": [], "forward": []}
-    loops = {"physics": physics, "suite": with_suite, "forward": forward}
+    rates: dict[str, list[float]] = {}
+    settings = {0: {"physics": physics_loop(control_step), "suite": with_suite},
+                1: {"restarting physics": physics_loop(restarting_step), "restarting suite": with_suite}}
     for p in range(pairs):
-        for name in ("physics", "suite", "forward") if p % 2 == 0 else ("suite", "physics", "forward"):
-            rates[name].append(nworld * steps * SUBSTEPS / timed(loops[name], env.device))
+        for setting, loops in settings.items():
+            restarting.fill_(setting)
+            names = list(loops) if p % 2 == 0 else list(loops)[::-1]
+            for name in names:
+                rates.setdefault(name, []).append(nworld * steps * SUBSTEPS / timed(loops[name], env.device))
+        restarting.zero_()
+        rates.setdefault("forward", []).append(nworld * steps * SUBSTEPS / timed(forward, env.device))
     if verify:
         check(env, last, f"{label} x {nworld}")
+        restarting.fill_(1)  # over PERIOD control steps every world's episode ends once, and restarts
+        firsts = sum(int((env.step(actions[0]).step_type.numpy() == 0).sum()) for _ in range(PERIOD + 1))
+        restarting.zero_()
+        if firsts < nworld:
+            raise SystemExit(f"{label} x {nworld}: {firsts} restarts in {PERIOD + 1} control steps of the restarting "
+                             f"setting; every world restarts once in {PERIOD}")
     overflowed = int(((worlds.overflow.numpy().astype(np.int64) & ~int(budgets)) != 0).sum())
     if overflowed:
         print(f"  {label} x {nworld}: {overflowed} world(s) overflowed MuJoCo Warp's contact or constraint sizes "
               "(their physics is wrong; the timing is still of the work done)")
-    physics_rate, suite_rate = statistics.median(rates["physics"]), statistics.median(rates["suite"])
+    median = {name: statistics.median(r) for name, r in rates.items()}
     spec = env.observation_spec()
     values = sum(int(_size(s.shape[1:])) for s in spec.values())
-    return Row(label, nworld, physics_rate, suite_rate, (physics_rate / suite_rate - 1) * 100, len(spec), values,
-               built, physics_rate / statistics.median(rates["forward"]) * 100)
+    return Row(label, nworld, median["physics"], median["suite"], (median["physics"] / median["suite"] - 1) * 100,
+               median["restarting physics"], median["restarting suite"],
+               (median["restarting physics"] / median["restarting suite"] - 1) * 100, len(spec), values,
+               built, median["physics"] / median["forward"] * 100)
 
 
 def _size(shape: tuple[int, ...]) -> int:
@@ -263,9 +333,13 @@ def main(argv: list[str] | None = None) -> None:
             print(f"  {r.model} x {r.worlds}: {r.observations} observations, {r.values} values per world; built in "
                   f"{r.setup:.1f} s; one mjw.forward per control step costs {r.forward:.0f}% of the physics",
                   flush=True)
-    print(f"{'model':<10}{'worlds':>8}{'physics M world-steps/s':>26}{'with suite':>12}{'overhead %':>12}")
+    print(f"M world-steps/s; restarting: {100 // PERIOD}% of the worlds restart in every control step (physics alone "
+          "restarts them as mjlab does: masked reset, then a forward of every world)")
+    print(f"{'model':<10}{'worlds':>8}{'physics':>10}{'with suite':>12}{'overhead %':>12}"
+          f"{'restarting physics':>20}{'with suite':>12}{'overhead %':>12}")
     for r in rows:
-        print(f"{r.model:<10}{r.worlds:>8}{r.physics / 1e6:>26.4g}{r.suite / 1e6:>12.4g}{r.overhead:>12.1f}")
+        print(f"{r.model:<10}{r.worlds:>8}{r.physics / 1e6:>10.4g}{r.suite / 1e6:>12.4g}{r.overhead:>12.1f}"
+              f"{r.restarting_physics / 1e6:>20.4g}{r.restarting_suite / 1e6:>12.4g}{r.restarting_overhead:>12.1f}")
     if args.quick:
         print("quick: every observation matched its spec (shape, float32) and was finite")
     if args.json:
