@@ -119,7 +119,7 @@ def _drawn_at_reset(stage: Any) -> np.ndarray:
     from ..noise.redrawn import Redrawn
     from ..noise.stages import EpisodeDraw
 
-    inner = stage.inner if isinstance(stage, Redrawn) else stage
+    inner: Any = stage.inner if isinstance(stage, Redrawn) else stage
     return np.ravel(inner.value if isinstance(inner, EpisodeDraw) else inner.start)
 
 
@@ -139,7 +139,8 @@ def episode_values(sensors: Sensors, pipelines: Mapping[str, Any], keys: np.ndar
     read off them (the rules' one home stays `noise/`)."""
     values = np.zeros(sensors.drawn.shape[1])
     size = sensors.size
-    wanted = {s[0] for s in sensors.episode_slots} | {s.sensor for s in (*sensors.param_slots, *sensors.turn_slots)}
+    wanted = ({s[0] for s in sensors.episode_slots} | {s.sensor for s in sensors.param_slots}
+              | {s.sensor for s in sensors.turn_slots})
     stages: dict[int, dict[int, Any]] = {}
     for n in sorted(wanted):
         pipeline = pipelines[sensors.noisy_names[n]]
