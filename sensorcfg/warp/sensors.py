@@ -446,7 +446,8 @@ class Sensors:
         self.episode_table = wp.zeros((nsim, key_episodes, max(1, nslot)), dtype=wp.float64)
         self.drawn = wp.zeros((nsim, max(1, nslot)), dtype=wp.float64)
         self._segments = 1 + max([0, *s_turns])  # noise launches per record: misalign stages split them
-        self._episode = [i32(s_turns), i32(st_drawn), wp.zeros((nsim, max(1, len(v_col))), dtype=wp.float64)]
+        work = (nsim, len(v_col) if self._segments > 1 else 1)  # values between segments (float64)
+        self._episode = [i32(s_turns), i32(st_drawn), wp.zeros(work, dtype=wp.float64)]
         self._turns = Turns(self.turn_slots, self.device)
 
     def _outputs(self) -> dict[str, wp.array]:
