@@ -154,8 +154,8 @@ def _noise(steps: wp.array[wp.int64], mask: wp.array[wp.int32], rows: wp.int32, 
                 state[w, k, v] = drawn[w, st_slot[k] + v]
             else:
                 b = state[w, k, v]
-                for i in range(wp.int32(walked[w, k, v]) + 1, wp.int32(j) + 1):
-                    b = b * p0 + value(k0, k1, wp.int64(i), tag, v, True, z) * p1
+                for index in range(wp.int32(walked[w, k, v]) + 1, wp.int32(j) + 1):  # (`i` is this thread's value)
+                    b = b * p0 + value(k0, k1, wp.int64(index), tag, v, True, z) * p1
                 state[w, k, v] = b
             walked[w, k, v] = j
             x = x + state[w, k, v]

@@ -207,6 +207,15 @@ def test_each_stage_with_drawn_parameters_and_each_misalign_on_one_two_and_three
             stages = [MISALIGN[j % 3], DRAWN[j], MISALIGN[(j + 1) % 3], DRAWN[j + 5]]
             obs.noise = build_noise(stages, obs.array_spec.shape, np.float64, physics.timestep)
             out[f"turned{j}"] = obs
+        obs = sensorcfg.Feature("xpos", ["site:hand_site", "site:imu"], update_interval=2)  # a walk, then a turn
+        obs.reader(physics)
+        obs.noise = build_noise([DRAWN[6], MISALIGN[2], DRAWN[7], MISALIGN[0]], (2, 3), np.float64, physics.timestep)
+        out["walked"] = obs
+        obs = sensorcfg.Feature("qpos", ["joint:shoulder", "joint:elbow"])  # a leveled blend kept in bounds after a walk
+        obs.reader(physics)
+        obs.noise = build_noise([DRAWN[7], {"type": "clip", "min": 0.5, "max": 0.6}], (2,), np.float64,
+                                physics.timestep)
+        out["walked_clipped"] = obs
         for obs in out.values():
             obs.enabled = True
         leveled(out)
