@@ -43,6 +43,7 @@ from ..noise.level import leveled, own_bounds, set_level
 from ..physics import Physics
 from ..plan.bind import bind, plan_suite
 from ..runtime.updater import observation_spec
+from .episode import episode_values
 from .philox import MODULE_OPTIONS
 from .sensors import Sensors
 from .support import field_refusal, refusals
@@ -391,26 +392,10 @@ class WarpEnvironment(ControlLoop):
 
 
 def episode_keys(sensors: Sensors, pipelines: Mapping[str, Any], entropy: list[int]) -> tuple[np.ndarray, np.ndarray]:
-    """An episode's keys of the noisy sensors (`draws.sensor_keys`, as the CPU engines key them) and the values
-    their stages draw at its reset (`Sensors.episode_slots`), from the episode's entropy."""
+    """An episode's keys of the noisy sensors (`draws.sensor_keys`, as the CPU engines key them) and what their
+    stages draw at its reset (`episode.episode_values`), from the episode's entropy."""
     keys = sensor_keys(entropy, sensors.noisy_names)
-    values = np.zeros(sensors.drawn.shape[1])
-    for n, stream, slot, count in sensors.episode_slots:
-        values[slot:slot + count] = _drawn_at_reset(pipelines[sensors.noisy_names[n]], keys[n], stream)
-    return keys, values
-
-
-def _drawn_at_reset(pipeline: Any, key: np.ndarray, stream: int) -> np.ndarray:
-    """The values stage `stream` of a sensor's (CPU) pipeline draws at the reset of the episode keyed `key`:
-    a bias's or scale's values, a random walk's start (`noise.stages`, the rule's one home)."""
-    from ..noise.stages import EpisodeDraw, RandomWalk, Sum
-
-    pipeline.reset(key, pipeline.stride)
-    for stage in pipeline.stages:
-        for part in stage.parts if isinstance(stage, Sum) else [stage]:
-            if getattr(part, "stream", None) == stream and isinstance(part, (EpisodeDraw, RandomWalk)):
-                return np.ravel(part.value if isinstance(part, EpisodeDraw) else part.start)
-    raise ValueError(f"no stage {stream} draws values at reset")  # the plan and the pipeline disagree
+    return keys, episode_values(sensors, pipelines, keys)
 
 
 def torch_views(observation: Mapping[str, wp.array]) -> dict[str, Any]:

@@ -14,7 +14,8 @@ per world indexed by the world's own step: the row of step s is `s % rows` (the 
 Values are float32 (MuJoCo Warp's); noise arithmetic runs in float64 on them, with the random numbers of
 `noise/streams.py` (`philox.value`), keyed by (sensor key, sample index, stage, lane, value) as on the CPU.
 The noise stages run here are `support.STAGES` (`STAGES` holds each one's kernel code); `support.refusals`
-refuses the others.
+refuses the others. What an episode draws at its reset (values, drawn parameters, misalign matrices) comes
+from the host's episode table, and misalign stages split a sensor's stages into segments (`warp.episode`).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ import numpy as np
 import warp as wp
 
 from ..plan import FixedTiming, NoiseProgram, NoiseStep, SuitePlan
+from .episode import PARAM_SLOTS, ParamSlot, Turns, TurnSlot, turn
 from .philox import MODULE_OPTIONS, Ziggurat, value, ziggurat
 from .support import STAGES as _RUN
 
@@ -43,6 +45,7 @@ _KERNEL: Mapping[str, tuple[int, tuple[str, ...]]] = {
     "bias": (7, ()),  # the episode's drawn values (`Sensors.episode_slots`)
     "scale": (8, ()),
     "random_walk": (9, ("std", "correlation_time")),  # slots 0, 1: the walk's a and c per sample index
+    "misalign": (10, ()),  # ends a segment of the sensor's stages: `episode.turn` mixes its 3-vectors
 }
 STAGES: Mapping[str, tuple[int, tuple[str, ...]]] = {stage: _KERNEL[stage] for stage in _RUN}  # those it runs
 EPISODE_DRAWS = frozenset({"bias", "scale", "random_walk"})  # stages with values drawn at each reset
@@ -80,13 +83,14 @@ def _noise(steps: wp.array[wp.int64], mask: wp.array[wp.int32], rows: wp.int32, 
            st_mode: wp.array[wp.int32], st_per_value: wp.array[wp.int32], st_slot: wp.array[wp.int32],
            params: wp.array3d[wp.float64], keys: wp.array3d[wp.uint64], level: wp.array[wp.float64],
            drawn: wp.array2d[wp.float64], state: wp.array3d[wp.float64], walked: wp.array3d[wp.int64],
-           z: Ziggurat):
+           z: Ziggurat, segment: wp.int32, s_turns: wp.array[wp.int32], st_drawn: wp.array[wp.int32],
+           work: wp.array2d[wp.float64]):
     w, i = wp.tid()
     if mask[w] == 0:
         return
     s = steps[w]
     sensor = v_sensor[i]
-    if taken[s_taken[sensor] + wp.int32(s % wp.int64(s_period[sensor]))] == 0:
+    if taken[s_taken[sensor] + wp.int32(s % wp.int64(s_period[sensor]))] == 0 or segment > s_turns[sensor]:
         return
     j = s // s_stride[sensor]
     r = wp.int32(s % wp.int64(rows))
@@ -96,21 +100,34 @@ def _noise(steps: wp.array[wp.int64], mask: wp.array[wp.int32], rows: wp.int32, 
     k1 = keys[w, sensor, 1]
     raw = wp.float64(history[w, r, c])
     x = raw
+    if segment > 0:  # the values the previous segment left, turned by its misalign stage
+        x = work[w, i]
+    at = wp.int32(0)  # the segment of stage k
     for k in range(s_first[sensor], s_stop[sensor]):
         code = st_code[k]
         tag = st_tag[k]
+        if code == 10:  # misalign: the segment ends (`episode.turn`)
+            at = at + 1
+            continue
+        if at != segment:
+            continue
+        p0 = params[k, 0, v]
+        p1 = params[k, 1, v]
+        if st_drawn[k] >= 0:  # parameters drawn per episode: this episode's (`episode.ParamSlot`)
+            p0 = drawn[w, st_drawn[k] + v]
+            p1 = drawn[w, st_drawn[k] + params.shape[2] + v]
         if code == 0:  # gaussian: x + (z std + mean)
-            x = x + (value(k0, k1, j, tag, v, True, z) * params[k, 1, v] + params[k, 0, v])
+            x = x + (value(k0, k1, j, tag, v, True, z) * p1 + p0)
         elif code == 1:  # uniform: x + (u (high - low) + low); slot 1 holds high - low
-            x = x + (value(k0, k1, j, tag, v, False, z) * params[k, 1, v] + params[k, 0, v])
+            x = x + (value(k0, k1, j, tag, v, False, z) * p1 + p0)
         elif code == 2:  # clip
-            x = _clip(x, params[k, 0, v], params[k, 1, v])
+            x = _clip(x, p0, p1)
         elif code == 3:  # quantize: rint(x / step) step
-            x = wp.rint(x / params[k, 0, v]) * params[k, 0, v]
+            x = wp.rint(x / p0) * p0
         elif code == 4:  # dropout: lane 0 uniforms, one per value or one per sample
             u = value(k0, k1, j, tag, wp.where(st_per_value[k] == 1, v, 0), False, z)
             mode = st_mode[k]
-            lost = u < params[k, 0, v]
+            lost = u < p0
             if mode == 0:
                 if s == wp.int64(0):
                     lost = bool(False)  # nothing delivered yet: the first sample always is
@@ -120,13 +137,13 @@ def _noise(steps: wp.array[wp.int64], mask: wp.array[wp.int32], rows: wp.int32, 
             elif lost:
                 x = wp.where(mode == 1, wp.float64(0.0), wp.float64(wp.nan))
         elif code == 5:  # outlier: a hit (lane 0 uniform < p) adds a jump (lane 1 normal x scale)
-            if value(k0, k1, j, tag, v, False, z) < params[k, 0, v]:
-                x = x + value(k0, k1, j, tag | wp.uint32(1 << 22), v, True, z) * params[k, 1, v]
+            if value(k0, k1, j, tag, v, False, z) < p0:
+                x = x + value(k0, k1, j, tag | wp.uint32(1 << 22), v, True, z) * p1
         elif code == 6:  # lowpass: settled at the first sample, then state += alpha (x - state)
             if s == wp.int64(0):
                 state[w, k, v] = x
             else:
-                state[w, k, v] = state[w, k, v] + params[k, 0, v] * (x - state[w, k, v])
+                state[w, k, v] = state[w, k, v] + p0 * (x - state[w, k, v])
             x = state[w, k, v]
         elif code == 7:  # bias: the episode's value
             x = x + drawn[w, st_slot[k] + v]
@@ -137,11 +154,14 @@ def _noise(steps: wp.array[wp.int64], mask: wp.array[wp.int32], rows: wp.int32, 
                 state[w, k, v] = drawn[w, st_slot[k] + v]
             else:
                 b = state[w, k, v]
-                for i in range(wp.int32(walked[w, k, v]) + 1, wp.int32(j) + 1):
-                    b = b * params[k, 0, v] + value(k0, k1, wp.int64(i), tag, v, True, z) * params[k, 1, v]
+                for index in range(wp.int32(walked[w, k, v]) + 1, wp.int32(j) + 1):  # (`i` is this thread's value)
+                    b = b * p0 + value(k0, k1, wp.int64(index), tag, v, True, z) * p1
                 state[w, k, v] = b
             walked[w, k, v] = j
             x = x + state[w, k, v]
+    if segment < s_turns[sensor]:
+        work[w, i] = x
+        return
     if s_leveled[sensor] == 1 and level[w] != wp.float64(1.0):
         x = _clip(raw + level[w] * (x - raw), v_low[i], v_high[i])
     history[w, r, c] = wp.float32(x)
@@ -359,8 +379,13 @@ class Sensors:
         params: list[np.ndarray] = []
         slots: list[int] = []
         self.episode_slots: list[tuple[int, int, int, int]] = []  # (noisy sensor, stream, first slot, values)
+        self.param_slots: list[ParamSlot] = []  # stages with parameters drawn per episode
+        self.turn_slots: list[TurnSlot] = []  # misalign stages
+        s_turns: list[int] = []
+        st_drawn: list[int] = []
         nslot = 0
         size = max([1, *(s.columns[1] - s.columns[0] for _, s in noisy)])
+        self.size = size
         for n, (_, sensor) in enumerate(noisy):
             timing, program = sensor.timing, sensor.noise
             assert isinstance(timing, FixedTiming) and isinstance(program, NoiseProgram)
@@ -376,6 +401,7 @@ class Sensors:
             s_period.append(timing.period)
             s_stride.append(program.stride)
             s_first.append(len(codes))
+            turns = 0
             for step in program.steps:
                 codes.append(STAGES[step.stage][0])
                 tags.append(step.stream << 24)
@@ -386,11 +412,21 @@ class Sensors:
                 if step.stage in EPISODE_DRAWS:
                     self.episode_slots.append((n, step.stream, nslot, stop - first))
                     nslot += stop - first
+                st_drawn.append(nslot if step.drawn and STAGES[step.stage][1] else -1)
+                if st_drawn[-1] >= 0:
+                    self.param_slots.append(ParamSlot(n, step.stream, step, stop - first, timing.interval, nslot))
+                    nslot += PARAM_SLOTS * size
+                if step.stage == "misalign":  # its 3-vectors: consecutive values (the shape's last axis)
+                    self.turn_slots.append(TurnSlot(n, step.stream, nslot, turns,
+                                                    tuple(range(len(v_col) - (stop - first), len(v_col), 3))))
+                    nslot += 9
+                    turns += 1
                 block = np.zeros((3, size))
                 block[:, :stop - first] = _stage_params(step, stop - first, timing.interval, plan.timestep)
                 params.append(block)
             s_stop.append(len(codes))
             s_leveled.append(int(program.leveled))
+            s_turns.append(turns)
         i32 = lambda xs: wp.array(np.asarray(xs, np.int32).reshape(-1), dtype=wp.int32)  # noqa: E731
         f64 = lambda xs: wp.array(np.asarray(xs, np.float64).reshape(-1), dtype=wp.float64)  # noqa: E731
         self._values = len(v_col)
@@ -409,6 +445,10 @@ class Sensors:
         self.walked = wp.zeros((nsim, max(1, len(codes)), size), dtype=wp.int64)
         self.episode_table = wp.zeros((nsim, key_episodes, max(1, nslot)), dtype=wp.float64)
         self.drawn = wp.zeros((nsim, max(1, nslot)), dtype=wp.float64)
+        self._segments = 1 + max([0, *s_turns])  # noise launches per record: misalign stages split them
+        work = (nsim, len(v_col) if self._segments > 1 else 1)  # values between segments (float64)
+        self._episode = [i32(s_turns), i32(st_drawn), wp.zeros(work, dtype=wp.float64)]
+        self._turns = Turns(self.turn_slots, self.device)
 
     def _outputs(self) -> dict[str, wp.array]:
         """Each sensor's output: a view of the gather (plain) or of the reduced blocks, (nworld, *output)."""
@@ -445,10 +485,13 @@ class Sensors:
         for field, cols, pos in self._fields:
             wp.launch(_gather, dim=(n, cols.shape[0]), inputs=[fields[field], cols, pos, steps, mask, rows],
                       outputs=[self.history], device=self.device)
-        if self._values:
+        for segment in range(self._segments if self._values else 0):
+            if segment:  # the misalign stages ending the previous segment
+                turn(self._turns, segment - 1, steps, mask, [self._tables[i] for i in (5, 6, 11)], self.drawn,
+                     self._episode[-1])
             wp.launch(_noise, dim=(n, self._values),
-                      inputs=[steps, mask, rows, self.history, *self._tables, self.keys,
-                              self.level, self.drawn, self.state, self.walked, self.z], device=self.device)
+                      inputs=[steps, mask, rows, self.history, *self._tables, self.keys, self.level, self.drawn,
+                              self.state, self.walked, self.z, segment, *self._episode], device=self.device)
 
     def reset(self, mask: wp.array, fields: Mapping[str, wp.array], steps: wp.array) -> None:
         """Start the masked worlds' episodes (their `steps` already 0 and `fields` their reset state)."""

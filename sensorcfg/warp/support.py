@@ -1,6 +1,7 @@
 """What the Warp engine (`WarpEnvironment`) runs: the one home of its refusals, importable without Warp.
 
-- `STAGES`: the noise stage types its kernels run (`warp.sensors` holds each one's kernel code);
+- `STAGES`: the noise stage types its kernels run (`warp.sensors` holds each one's kernel code), with
+  parameters fixed or drawn per episode (drawn on the host, `warp.episode`);
 - `FIELDS`: the mjData fields a sensor may read there: those MuJoCo Warp's `Data` holds as (nworld, ...)
   float32 arrays laid out as mjData's, so a position computed on an MjData addresses the same value;
 - `refusals(observable, field)`: what the engine does not run of one bound sensor, as (key, message) pairs,
@@ -25,7 +26,7 @@ __all__ = ["FIELDS", "STAGES", "Found", "field_refusal", "refusals", "stage_refu
 Found = list[tuple[tuple[str | int, ...], str]]  # (key path inside the sensor, message), as `checks.Found`
 
 STAGES: tuple[str, ...] = ("gaussian", "uniform", "bias", "scale", "random_walk", "quantize", "clip", "dropout",
-                           "outlier", "lowpass")
+                           "outlier", "lowpass", "misalign")
 
 # Generated from MuJoCo Warp 4.0.0's `types.Data` (its dataclass fields' `array(...)` annotations) against
 # MuJoCo 4.0.0's mjData extents (`mujoco.introspect`) by `fields_of_mujoco_warp` in
@@ -65,8 +66,7 @@ def stage_refusals(noise_step: NoiseStep) -> Found:
     if noise_step.stage not in STAGES:
         return [(at + ("type",), f"a {noise_step.stage} noise stage is not run by the Warp engine yet (it runs "
                  f"{', '.join(STAGES)}); use those, or {_CPU}")]
-    return [(at + (name,), f"its {name} is drawn per episode, which the Warp engine does not run yet; give a "
-             f"fixed value, or {_CPU}") for name in noise_step.drawn]
+    return []
 
 
 def _steps(noise: Any) -> list[NoiseStep]:
@@ -79,8 +79,8 @@ def _steps(noise: Any) -> list[NoiseStep]:
 
 def refusals(observable: Any, field: str | None) -> Found:
     """What the Warp engine does not run of an enabled observable that a BatchEnvironment runs: cameras and
-    height scans (sampled per simulation), drawn intervals and delays, noise stages outside `STAGES` or with
-    parameters drawn per episode, and `field` (the mjData field it reads; None for none) outside `FIELDS`."""
+    height scans (sampled per simulation), drawn intervals and delays, noise stages outside `STAGES`, and
+    `field` (the mjData field it reads; None for none) outside `FIELDS`."""
     if per_simulation(observable):
         what = "cameras are rendered" if hasattr(observable, "camera_id") else "height scans are cast"
         return [(("kind",), f"{what} per simulation on the CPU, which the Warp engine does not do yet; remove "

@@ -19,13 +19,14 @@ import sensorcfg
 from conftest import MODELS
 
 # a suite the single-simulation Environment and the CPU batch both run, with one thing of each class the Warp
-# engine does not: a noise stage outside its kernels (misalign), a drawn interval, a camera, a field MuJoCo Warp lacks
+# engine does not (a drawn interval, a camera, a field MuJoCo Warp lacks), and noise it runs (misalign, a
+# parameter drawn per episode)
 WARP_SUITE = """model: arm.xml  # copied next to the suite
 sensors:
   turned:
     kind: xpos
     element: site:tip
-    noise: [{type: misalign, std: 1deg}]
+    noise: [{type: misalign, std: 1deg}, {type: gaussian, std: {uniform: [0.01, 0.02]}}]
   drawn: {kind: qvel, element: joint:elbow, interval: {uniform: [1, 3]}}
   cam:
     kind: rgb
@@ -35,9 +36,6 @@ sensors:
 """
 
 WARP_PROBLEMS = [
-    "s.yaml:6:20: error: sensors.turned.noise.0.type: a misalign noise stage is not run by the Warp engine yet "
-    "(it runs gaussian, uniform, bias, scale, random_walk, quantize, clip, dropout, outlier, lowpass); use those, "
-    "or run this suite on the CPU engines",
     "s.yaml:7:55: error: sensors.drawn.interval: a drawn interval is not run by the Warp engine yet; give a "
     "constant one, or run this suite on the CPU engines",
     "s.yaml:9:11: error: sensors.cam.kind: cameras are rendered per simulation on the CPU, which the Warp engine "
@@ -48,9 +46,10 @@ WARP_PROBLEMS = [
 ]
 if not hasattr(mujoco.MjData, "site_xquat"):  # MuJoCo 3 has no site_xquat: that sensor is MuJoCo 4's case only
     WARP_SUITE = WARP_SUITE.replace("  tip_quat: {kind: xquat, element: site:tip}\n", "")
-    WARP_PROBLEMS = WARP_PROBLEMS[:3]
+    WARP_PROBLEMS = WARP_PROBLEMS[:2]
 
-# what the Warp engine runs: fixed schedules, its noise stages, aggregators, MuJoCo sensor kinds, clean twins
+# what the Warp engine runs: fixed schedules, its noise stages (misalign, parameters drawn per episode),
+# aggregators, MuJoCo sensor kinds, clean twins
 CLEAN_SUITE = """model: arm.xml
 defaults: {twin: "{name}_clean"}
 sensors:
@@ -62,7 +61,8 @@ sensors:
   speed: {kind: qvel, element: joint:elbow, interval: 4ms, buffer: 3, aggregator: mean,
           noise: [{type: uniform, low: -0.1, high: 0.1}, {type: lowpass, cutoff: 20Hz}]}
   hand: {kind: xmat, element: site:tip, noise: [{type: dropout, p: 0.1}, {type: outlier, p: 0.01, scale: 1}]}
-  gyro: {kind: gyro, element: site:imu, noise: [{type: gaussian, std: 0.001}]}
+  gyro: {kind: gyro, element: site:imu, noise: [{type: misalign, std: 0.5deg}, {type: gaussian, std: 0.001}]}
+  accel: {kind: accelerometer, element: site:imu, noise: [{type: gaussian, std: {uniform: [0.01, 0.02]}}]}
   force: {kind: force, element: actuator:shoulder_motor,
           noise: [{type: bias, std: 0.1}, {type: scale, low: 0.9, high: 1.1}, {type: random_walk, std: 0.01}]}
 """
@@ -112,7 +112,7 @@ def test_validate_engine_warp_checks_what_the_batch_refuses_too(tmp_path: Path) 
 def test_validate_engine_warp_says_a_defaults_line_once_and_a_twins_at_its_sources_line(tmp_path: Path) -> None:
     suite = suite_file(tmp_path, """model: arm.xml
 defaults:
-  noise: [{type: gaussian, std: {uniform: [0.01, 0.02]}}]
+  interval: {uniform: [1, 3]}
 sensors:
   a: {kind: qpos, element: joint:elbow}
   b: {kind: qvel, element: joint:elbow}
@@ -120,8 +120,8 @@ sensors:
       noise: []}
 """)
     assert validate(suite, "--engine", "warp").stdout.splitlines() == [
-        "s.yaml:3:33: error: defaults.noise.0.std: its std is drawn per episode, which the Warp engine does not run "
-        "yet; give a fixed value, or run this suite on the CPU engines",
+        "s.yaml:3:13: error: defaults.interval: a drawn interval is not run by the Warp engine yet; give a "
+        "constant one, or run this suite on the CPU engines",
         "s.yaml:7:96: error: sensors.c.interval: its clean twin 'c_clean' runs (enabled; 'twin: false' drops it): "
         "a drawn interval is not run by the Warp engine yet; give a constant one, or run this suite on the CPU "
         "engines",

@@ -1,7 +1,7 @@
 """The Warp engine on a CUDA device against Warp's CPU device (skipped where no CUDA device is present; the
 GPU check benchmarks/warp_gpu.sh runs it): the same keys give the same Philox words and uniforms bit for
 bit, normals to one float64 ulp (the ziggurat fallback's exp and log are each device's), and the sensor
-layer fed the same samples with the same key table reads the same values on both devices."""
+layer fed the same samples with the same key and episode tables reads the same values on both devices."""
 
 from __future__ import annotations
 
@@ -15,11 +15,12 @@ wp = warp_or_skip()
 
 import sensorcfg  # noqa: E402
 from sensorcfg import assets  # noqa: E402
-from sensorcfg.draws import episode_entropy, sensor_keys  # noqa: E402
+from sensorcfg.draws import episode_entropy  # noqa: E402
 from sensorcfg.noise import build_noise  # noqa: E402
 from sensorcfg.physics import Physics  # noqa: E402
 from sensorcfg.plan.bind import bind, plan_suite  # noqa: E402
 from sensorcfg.warp import philox  # noqa: E402
+from sensorcfg.warp.environment import episode_keys  # noqa: E402
 from sensorcfg.warp.sensors import Sensors  # noqa: E402
 
 if not wp.is_cuda_available():
@@ -40,6 +41,9 @@ SENSORS = [
      [{"type": "gaussian", "std": 0.02}, {"type": "dropout", "p": 0.3, "mode": "hold"}]),
     ("xquat", "body:hand", 3, 0, 2, "median",
      [{"type": "dropout", "p": 0.3, "mode": "zero", "per": "value"}, {"type": "gaussian", "std": 0.01}]),
+    ("xpos", ["site:hand_site", "site:imu"], 1, 1, 2, None,  # drawn per episode: parameters, a rotation
+     [{"type": "gaussian", "std": {"uniform": [0.01, 0.05]}}, {"type": "misalign", "std": 0.1},
+      {"type": "random_walk", "std": 0.01, "correlation_time": {"uniform": [0.01, 0.1]}}]),
 ]
 
 
@@ -72,20 +76,24 @@ def _observables() -> dict[str, sensorcfg.Observable]:
     return out
 
 
-def _sensors(device: str, nworld: int, substeps: int) -> Sensors:
+def _sensors(device: str, nworld: int, substeps: int) -> tuple[Sensors, dict]:
+    """The sensor layer on `device`, and the (CPU) noise pipelines that draw its episodes' values."""
     model = mujoco.MjModel.from_xml_path(ROBOT)
     physics = Physics(model)
     mujoco.mj_forward(model, physics.data)
     bound = bind(_observables(), physics, substeps, False, False)
-    return Sensors(plan_suite(bound, physics, bound.sources(), nworld, substeps, False), wp.get_device(device), 2, {})
+    sensors = Sensors(plan_suite(bound, physics, bound.sources(), nworld, substeps, False), wp.get_device(device), 2,
+                      {})
+    return sensors, {e.name: e.channel.noise for e in bound.fixed}
 
 
 def _run(device: str, nworld: int, substeps: int, trajectory: list[dict[str, np.ndarray]],
-         table: np.ndarray) -> list[dict[str, np.ndarray]]:
-    """The sensor layer on `device` with key table `table`, fed `trajectory` (per physics step, each field
-    (nworld, size) float32): the reads at the reset and after each control step."""
-    sensors = _sensors(device, nworld, substeps)
+         table: np.ndarray, values: np.ndarray) -> list[dict[str, np.ndarray]]:
+    """The sensor layer on `device` with key table `table` and episode table `values`, fed `trajectory` (per
+    physics step, each field (nworld, size) float32): the reads at the reset and after each control step."""
+    sensors, _ = _sensors(device, nworld, substeps)
     sensors.key_table.assign(table)
+    sensors.episode_table.assign(values)
 
     def fields(k: int) -> dict[str, wp.array]:
         return {f: wp.array(v, dtype=wp.float32, device=device) for f, v in trajectory[k].items()}
@@ -105,15 +113,16 @@ def test_the_sensor_layer_reads_the_same_values_on_cuda_and_cpu() -> None:
     nworld, substeps, nsteps = 64, 2, 41
     model = mujoco.MjModel.from_xml_path(ROBOT)
     data = mujoco.MjData(model)
-    layout = _sensors("cpu", nworld, substeps)
+    layout, pipelines = _sensors("cpu", nworld, substeps)
     rng = np.random.default_rng(0)
     sizes = {f: np.ravel(getattr(data, f)).size for f, _ in layout.plan.fields}
     trajectory = [{f: rng.uniform(-1, 1, (nworld, n)).astype(np.float32) for f, n in sizes.items()}
                   for _ in range(nsteps)]
     table = np.zeros(layout.key_table.shape, np.uint64)
+    values = np.zeros(layout.episode_table.shape)
     for w in range(nworld):
-        table[w, 0] = sensor_keys(episode_entropy(np.random.RandomState(100 + w)), layout.noisy_names)
-    cpu, cuda = (_run(d, nworld, substeps, trajectory, table) for d in ("cpu", CUDA))
+        table[w, 0], values[w, 0] = episode_keys(layout, pipelines, episode_entropy(np.random.RandomState(100 + w)))
+    cpu, cuda = (_run(d, nworld, substeps, trajectory, table, values) for d in ("cpu", CUDA))
     assert len(cpu) == len(cuda) == 1 + (nsteps - 1) // substeps
     for t, (a, b) in enumerate(zip(cpu, cuda)):
         assert a.keys() == b.keys()

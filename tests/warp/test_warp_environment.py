@@ -145,14 +145,48 @@ def test_keys_are_topped_up_over_many_short_episodes() -> None:
     assert (used >= 12).all() and (e._keyed >= used).all()  # every episode started had its keys drawn
 
 
+needs_site_xquat = pytest.mark.skipif(not hasattr(mujoco.MjData, "site_xquat"), reason="MuJoCo 3 has no site_xquat")
+
+
+@needs_site_xquat
 def test_what_the_engine_does_not_run_is_refused_at_the_sensor() -> None:
     obs = observables()
-    obs["turned"] = sensorcfg.Feature("xpos", "site:hand_site")
-    obs["turned"].noise = build_noise([{"type": "gaussian", "std": 0.1}, {"type": "misalign", "std": 0.01}], (3,),
-                                      np.float64, TIMESTEP)
-    obs["turned"].enabled = True
-    with pytest.raises(SuiteError, match=r"sensors.turned.noise.1.type: a misalign noise stage is not run"):
+    obs["tip_quat"] = sensorcfg.Feature("xquat", "site:hand_site")
+    obs["tip_quat"].enabled = True
+    with pytest.raises(SuiteError, match=r"sensors.tip_quat.kind: kind 'xquat' reads mjData's site_xquat, which "):
         WarpEnvironment(ROBOT, obs, 2, device="cpu")
+
+
+def test_misalign_and_parameters_drawn_per_episode_run_over_many_episodes() -> None:
+    """Every step starts an episode: each reset read of a misaligned sensor with a std drawn per episode is
+    the CPU pipeline's, keyed by the world's episode key, on MuJoCo Warp's reset sample (to float32 rounding),
+    over more episodes than the key table holds."""
+    stages = [{"type": "misalign", "matrix": [[1, 0.02, 0], [0, 1, 0.01], [0.03, 0, 1]], "std": 0.1},
+              {"type": "gaussian", "std": {"uniform": [0.01, 0.1]}}, {"type": "scale", "low": {"uniform": [0.8, 0.9]},
+                                                                       "high": 1.2}]
+    obs = observables()
+    obs["turned"] = sensorcfg.Feature("xpos", "site:hand_site")
+    obs["turned"].noise = build_noise(stages, (3,), np.float64, TIMESTEP)
+    obs["turned"].enabled = True
+    e = WarpEnvironment(ROBOT, obs, 2, device="cpu", physics_steps_per_control_step=1, time_limit=TIMESTEP, seed=4,
+                        key_episodes=4)
+    site = e._model.site("hand_site").id
+    cpu = build_noise(stages, (3,), np.float64, TIMESTEP)
+    seen = set()
+    for t in range(21):
+        step = e.reset() if t == 0 else e.step(np.zeros((2, e._model.nu), np.float32))
+        if t % 2:
+            assert step.step_type.numpy().tolist() == [LAST, LAST]
+            continue
+        assert step.step_type.numpy().tolist() == [FIRST, FIRST]
+        raw = e.data.site_xpos.numpy()[:, site].astype(np.float64)
+        keys = e._sensors.keys.numpy()[:, e._sensors.noisy_names.index("turned")]
+        got = step.observation["turned"].numpy()  # (world, buffer 1, 3)
+        for w in range(2):
+            cpu.reset(keys[w], 1)
+            np.testing.assert_allclose(got[w, 0], cpu(raw[w], 0), rtol=1e-5, atol=1e-6, err_msg=f"world {w} step {t}")
+            seen.add(got[w].tobytes())
+    assert len(seen) == 22 and (e._sensors.episodes.numpy() == 11).all()  # 11 episodes per world, each its own
 
 
 def test_a_noise_level_applies_from_each_worlds_next_episode() -> None:
@@ -166,14 +200,14 @@ def test_a_noise_level_applies_from_each_worlds_next_episode() -> None:
     assert clean["noisy"].numpy()[:, 0].tobytes() == clean["qpos_now"].numpy()[:, 0].tobytes()
 
 
+@needs_site_xquat
 def test_a_suite_file_is_refused_at_its_lines(tmp_path) -> None:
     suite = tmp_path / "s.yaml"
-    suite.write_text("version: 1\nsensors:\n  tip:\n    kind: xpos\n    element: site:hand_site\n"
-                     "    noise:\n      - {type: misalign, std: 0.01}\n")
+    suite.write_text("version: 1\nsensors:\n  tip:\n    element: site:hand_site\n    kind: xquat\n")
     with pytest.raises(SuiteError) as raised:
         WarpEnvironment(ROBOT, str(suite), 2, device="cpu")
-    assert str(raised.value).startswith(f"{suite}:7:"), str(raised.value)
-    assert "sensors.tip.noise.0.type: a misalign noise stage is not run by the Warp engine" in str(raised.value)
+    assert str(raised.value).startswith(f"{suite}:5:"), str(raised.value)
+    assert "sensors.tip.kind: kind 'xquat' reads mjData's site_xquat" in str(raised.value)
 
 
 def test_bad_ids_and_actions_are_argument_errors() -> None:
