@@ -1,0 +1,151 @@
+"""Height scans on the Warp engine (`sensorcfg.warp.rays`, MuJoCo Warp's `rays`) on Warp's CPU device: world w
+reads what the single-simulation Updater reads on the same trajectory (heights to float32 rounding, hits and
+misses exactly), with intervals, delays, buffers, noise and the reset of some worlds; and a WarpEnvironment
+with a height scan end to end."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from conftest import warp_or_skip  # noqa: E402
+
+wp = warp_or_skip()
+
+import sensorcfg  # noqa: E402
+from sensorcfg import assets  # noqa: E402
+from sensorcfg.draws import episode_entropy  # noqa: E402
+from sensorcfg.physics import Physics  # noqa: E402
+from sensorcfg.plan.bind import bind  # noqa: E402
+from sensorcfg.warp import rays  # noqa: E402
+from sensorcfg.warp.environment import WarpEnvironment, episode_keys  # noqa: E402
+from sensorcfg.warp.sensors import Sensors  # noqa: E402
+
+# a floor (x, y in [-2, 2]), a heightfield ramp over x in [2.2, 4.2] (a gap between them where rays miss), a
+# turned box, a sphere, a box in group 3, and a free body drifting and turning above them (no gravity)
+TERRAIN = """<mujoco>
+  <option timestep="0.002" gravity="0 0 0"/>
+  <asset>
+    <hfield name="ramp" nrow="3" ncol="5" size="1 1 0.5 0.1"
+            elevation="0 0.25 0.5 0.75 1  0 0.25 0.5 0.75 1  0 0.25 0.5 0.75 1"/>
+  </asset>
+  <worldbody>
+    <geom name="floor" type="plane" size="2 2 .1"/>
+    <geom name="ramp" type="hfield" hfield="ramp" pos="3.2 0 0"/>
+    <geom name="block" type="box" size=".3 .2 .15" pos=".8 .5 .15" euler="0 0 25"/>
+    <geom name="ball" type="sphere" size=".3" pos="-.7 -.6 0"/>
+    <geom name="hidden" type="box" size=".4 .4 .3" pos="-.6 .7 .3" group="3"/>
+    <body name="base" pos="0 0 1">
+      <freejoint/>
+      <geom type="box" size=".2 .1 .05"/>
+      <site name="imu" pos=".05 .02 .03" euler="10 5 30"/>
+    </body>
+  </worldbody>
+</mujoco>"""
+
+SUITE = """sensors:
+  grid:
+    kind: heightscan
+    element: body:base
+    scan: {size: [1.2, 0.8], resolution: 0.2, max_distance: 3.0, geomgroup: [0, 1, 2]}
+    interval: 4ms
+    delay: 2ms
+    buffer: 2
+    noise: [{type: gaussian, std: 0.01}, {type: bias, std: 0.05}]
+  ring:
+    kind: heightscan
+    element: site:imu
+    scan: {pattern: ring, radii: [0.25, 0.6], count: 7, alignment: full, above: 0.5, miss: -1.0}
+    interval: 6ms
+    noise: [{type: dropout, p: 0.2, mode: hold}]
+  level:
+    kind: heightscan
+    element: body:base
+    scan: {size: [0.6, 0.6], resolution: 0.3, alignment: world}
+  pos: {kind: qpos, element: "joint:*", interval: 4ms}
+"""
+
+
+def _state(model: mujoco.MjModel, rng: np.random.Generator) -> mujoco.MjData:
+    """A pose over the terrain drifting and turning (no gravity: it keeps flying)."""
+    data = mujoco.MjData(model)
+    data.qpos[:3] = rng.uniform([-1.5, -1.2, 0.7], [3.0, 1.2, 1.3])
+    quat = rng.normal(size=4) * [4, 0.3, 0.3, 1]  # mostly upright, any heading
+    data.qpos[3:7] = quat / np.linalg.norm(quat)
+    data.qvel[:] = rng.uniform(-1.5, 1.5, 6)
+    mujoco.mj_forward(model, data)
+    return data
+
+
+def _fields(datas: list[mujoco.MjData], names: list[str]) -> dict[str, wp.array]:
+    return {f: wp.array(np.stack([np.ravel(getattr(d, f)) for d in datas]).astype(np.float32), dtype=wp.float32,
+                        device="cpu") for f in names}
+
+
+def test_world_w_scans_what_the_updater_scans_on_the_same_trajectory() -> None:
+    """Three worlds, 40 physics steps, worlds 0 and 2 restarted at step 14 (from new states, new keys): each
+    read of each world equals its Updater's to float32 rounding, misses included (a miss reads the same)."""
+    model = mujoco.MjModel.from_xml_string(TERRAIN)
+    loaded = sensorcfg.loads(SUITE)
+    make = lambda: {n: o for n, o in loaded.build(model).items() if o.enabled}  # noqa: E731
+    nworld, substeps = 3, 1
+    physics = Physics(model)
+    mujoco.mj_forward(model, physics.data)
+    bound, plan = rays.plan(bind(make(), physics, substeps, False, False), physics, nworld, substeps, False)
+    assert [s.name for s in plan.sensors] == ["pos", "grid", "ring", "level"]
+    device = wp.get_device("cpu")
+    sensors = Sensors(plan, device, 2, {})
+    scans = rays.Scans(model, plan, bound, device)
+    names = sorted({f for f, _ in plan.fields if f not in scans.heights} | set(scans.pose_fields))
+    pipelines = {e.name: e.channel.noise for e in bound.fixed}
+    table = np.zeros(sensors.key_table.shape, np.uint64)
+    values = np.zeros(sensors.episode_table.shape)
+    for w in range(nworld):  # episode 0 seeded 100 + w, episode 1 (the restarted worlds') 200 + w
+        for e, seed in enumerate((100 + w, 200 + w)):
+            table[w, e], values[w, e] = episode_keys(sensors, pipelines, episode_entropy(np.random.RandomState(seed)))
+    sensors.key_table.assign(table)
+    sensors.episode_table.assign(values)
+
+    rng = np.random.default_rng(0)
+    datas = [_state(model, rng) for _ in range(nworld)]
+    updaters = [sensorcfg.Updater(make(), substeps) for _ in range(nworld)]
+    for w, u in enumerate(updaters):
+        u.reset(Physics(model, datas[w]), np.random.RandomState(100 + w))
+    steps = np.zeros(nworld, np.int64)
+    warp_steps = wp.zeros(nworld, dtype=wp.int64, device="cpu")
+    everyone = wp.ones(nworld, dtype=wp.int32, device="cpu")
+    fields = {**_fields(datas, names), **scans.heights}
+    scans.cast(fields, warp_steps, everyone)
+    sensors.reset(everyone, fields, warp_steps)
+    seen = {"hit": 0, "miss": 0}
+    for t in range(41):
+        if t == 14:  # worlds 0 and 2 restart
+            restarted = [0, 2]
+            for w in restarted:
+                datas[w] = _state(model, rng)
+                updaters[w].reset(Physics(model, datas[w]), np.random.RandomState(200 + w))
+                steps[w] = 0
+            warp_steps.assign(steps)
+            fields = {**_fields(datas, names), **scans.heights}
+            mask = wp.array(np.isin(np.arange(nworld), restarted).astype(np.int32), dtype=wp.int32, device="cpu")
+            scans.cast(fields, warp_steps, mask)
+            sensors.reset(mask, fields, warp_steps)
+        elif t:
+            for w, u in enumerate(updaters):
+                u.control_step(lambda w=w: mujoco.mj_step(model, datas[w]))
+            steps += 1
+            warp_steps.assign(steps)
+            fields = {**_fields(datas, names), **scans.heights}
+            scans.cast(fields, warp_steps)
+            sensors.record(fields, warp_steps)
+        got = {name: array.numpy() for name, array in sensors.read(warp_steps).items()}
+        for w, u in enumerate(updaters):
+            for name, value in u.get_observation().items():
+                assert got[name][w].shape == value.shape, name
+                np.testing.assert_allclose(got[name][w], value, rtol=0, atol=2e-5, err_msg=f"world {w} t {t} {name}")
+                if name == "level":
+                    seen["miss"] += int(np.sum(value == 4.0))  # max_distance - above
+                    seen["hit"] += int(np.sum(value != 4.0))
+    assert seen["miss"] > 10 and seen["hit"] > 100  # both hits and misses were compared
+
