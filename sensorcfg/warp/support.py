@@ -100,7 +100,7 @@ def terrain_refusals(scan: Any, model: mujoco.MjModel) -> Found:
                 (groups is not None and group not in groups):
             continue
         kind = mujoco.mjtGeom(int(model.geom_type[g])).name.removeprefix("mjGEOM_").lower()
-        found.append((("kind",), f"its rays would meet geom {model.geom(int(g)).name or f'#{g}'!r}, a {kind} geom, "
+        found.append((("kind",), f"its rays would meet geom {model.geom(int(g)).name or f'#{g}'!r} (type {kind}), "
                       "which MuJoCo Warp's ray caster does not cast (it would read as a miss); leave it out of this "
                       f"scan's geomgroup, or {_CPU}"))
     return found

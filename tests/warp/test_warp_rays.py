@@ -149,3 +149,51 @@ def test_world_w_scans_what_the_updater_scans_on_the_same_trajectory() -> None:
                     seen["hit"] += int(np.sum(value != 4.0))
     assert seen["miss"] > 10 and seen["hit"] > 100  # both hits and misses were compared
 
+
+
+def test_a_warp_environment_scans_each_worlds_own_pose() -> None:
+    """The bundled robot's base scans the floor and the static target sphere: after each control step, world
+    w's scan is the CPU rule (`HeightScan`'s own sampler) applied to world w's float32 pose in MuJoCo Warp's
+    Data, to float32 rounding; the observation spec has the world axis."""
+    path = str(assets.path("robot.xml"))
+    loaded = sensorcfg.loads("sensors:\n  scan: {kind: heightscan, element: body:base, scan: {size: [1.4, 0.6], "
+                             "resolution: 0.1, above: 0.5}}\n")
+    env = WarpEnvironment(path, loaded, 2, device="cpu", physics_steps_per_control_step=2, seed=0)
+    assert env.observation_spec()["scan"].shape == (2, 1, 15, 7)  # (world, buffer, x, y)
+    model = mujoco.MjModel.from_xml_path(path)
+    physics = Physics(model)
+    cpu = loaded.build(model)["scan"].observation_callable(physics)
+    base = model.body("base").id
+    actions = np.random.default_rng(0).uniform(-1, 1, (6, 2, model.nu)).astype(np.float32)
+    step = env.reset()
+    for t in range(7):
+        xpos, xmat = env.data.xpos.numpy(), env.data.xmat.numpy()
+        for w in range(2):
+            physics.data.xpos[base], physics.data.xmat[base] = xpos[w, base], xmat[w, base].ravel()
+            np.testing.assert_allclose(step.observation["scan"].numpy()[w, 0], cpu(), rtol=0, atol=1e-5, err_msg=f"{t} {w}")
+        if t < 6:
+            step = env.step(actions[t])
+    assert np.ptp(step.observation["scan"].numpy()) > 0.01  # the target sphere, off the floor, is seen
+
+
+# TERRAIN with an SDF geom (a mesh's, group 4) on the floor: MuJoCo Warp's ray caster reads an SDF as a miss
+SDF = TERRAIN.replace("<asset>", '<asset>\n    <mesh name="tet" vertex="0 0 0  1 0 0  0 1 0  0 0 1"/>').replace(
+    '<geom name="hidden"', '<geom name="blob" type="sdf" mesh="tet" pos="-1 1 0" group="4"/>\n    <geom name="hidden"')
+SEEING = """sensors:
+  sees: {kind: heightscan, element: body:base}
+  blind: {kind: heightscan, element: body:base, scan: {geomgroup: [0, 1, 2, 3]}}
+"""
+
+
+def test_a_scan_whose_rays_would_meet_a_geom_mujoco_warp_does_not_cast_is_refused_at_its_line() -> None:
+    model = mujoco.MjModel.from_xml_string(SDF)
+    assert model.geom("blob").type[0] == mujoco.mjtGeom.mjGEOM_SDF
+    suite = sensorcfg.loads(SEEING, file="s.yaml")
+    message = ("its rays would meet geom 'blob' (type sdf), which MuJoCo Warp's ray caster does not cast (it would "
+               "read as a miss); leave it out of this scan's geomgroup, or run this suite on the CPU engines")
+    reported = suite.check(model, warp=True)
+    assert [(p.line, p.loc, p.message) for p in reported] == [(2, "sensors.sees.kind", message)]
+    assert suite.check(model, batch=True) == []
+    with pytest.raises(sensorcfg.SuiteError) as refused:
+        WarpEnvironment(model, suite, 1, device="cpu")
+    assert [(p.loc, p.message) for p in refused.value.problems] == [("sensors.sees.kind", message)]
