@@ -23,18 +23,20 @@ from sensorcfg.warp.environment import WarpEnvironment, episode_keys  # noqa: E4
 from sensorcfg.warp.sensors import Sensors  # noqa: E402
 
 # a floor (x, y in [-2, 2]), a heightfield ramp over x in [2.2, 4.2] (a gap between them where rays miss), a
-# turned box, a sphere, a box in group 3, and a free body drifting and turning above them (no gravity)
+# turned box, a sphere, a mesh, a box in group 3, and a free body drifting and turning above them (no gravity)
 TERRAIN = """<mujoco>
   <option timestep="0.002" gravity="0 0 0"/>
   <asset>
     <hfield name="ramp" nrow="3" ncol="5" size="1 1 0.5 0.1"
             elevation="0 0.25 0.5 0.75 1  0 0.25 0.5 0.75 1  0 0.25 0.5 0.75 1"/>
+    <mesh name="tet" vertex="0 0 0  .6 0 0  0 .6 0  0 0 .5"/>
   </asset>
   <worldbody>
     <geom name="floor" type="plane" size="2 2 .1"/>
     <geom name="ramp" type="hfield" hfield="ramp" pos="3.2 0 0"/>
     <geom name="block" type="box" size=".3 .2 .15" pos=".8 .5 .15" euler="0 0 25"/>
     <geom name="ball" type="sphere" size=".3" pos="-.7 -.6 0"/>
+    <geom name="spike" type="mesh" mesh="tet" pos="1.2 -1 0" euler="0 0 20"/>
     <geom name="hidden" type="box" size=".4 .4 .3" pos="-.6 .7 .3" group="3"/>
     <body name="base" pos="0 0 1">
       <freejoint/>
@@ -67,10 +69,14 @@ SUITE = """sensors:
 """
 
 
-def _state(model: mujoco.MjModel, rng: np.random.Generator) -> mujoco.MjData:
-    """A pose over the terrain drifting and turning (no gravity: it keeps flying)."""
+# where each world starts, drifting from there: over the mesh, the ramp, the box; restarted over the ball, the gap
+PLACES = [(1.3, -0.9), (3.2, 0.1), (0.8, 0.4), (-0.7, -0.5), (2.1, 0.0)]
+
+
+def _state(model: mujoco.MjModel, rng: np.random.Generator, place: tuple[float, float]) -> mujoco.MjData:
+    """A pose over `place` drifting and turning (no gravity: it keeps flying)."""
     data = mujoco.MjData(model)
-    data.qpos[:3] = rng.uniform([-1.5, -1.2, 0.7], [3.0, 1.2, 1.3])
+    data.qpos[:3] = [*place, rng.uniform(0.7, 1.3)]
     quat = rng.normal(size=4) * [4, 0.3, 0.3, 1]  # mostly upright, any heading
     data.qpos[3:7] = quat / np.linalg.norm(quat)
     data.qvel[:] = rng.uniform(-1.5, 1.5, 6)
@@ -84,8 +90,9 @@ def _fields(datas: list[mujoco.MjData], names: list[str]) -> dict[str, wp.array]
 
 
 def test_world_w_scans_what_the_updater_scans_on_the_same_trajectory() -> None:
-    """Three worlds, 40 physics steps, worlds 0 and 2 restarted at step 14 (from new states, new keys): each
-    read of each world equals its Updater's to float32 rounding, misses included (a miss reads the same)."""
+    """Three worlds, 39 physics steps, worlds 0 and 2 restarted after the 13th (from new states, with new keys):
+    each read of each world equals its Updater's to float32 rounding, misses included (a miss reads the same),
+    and a scan is cast only at steps some world's schedule takes a sample at."""
     model = mujoco.MjModel.from_xml_string(TERRAIN)
     loaded = sensorcfg.loads(SUITE)
     make = lambda: {n: o for n, o in loaded.build(model).items() if o.enabled}  # noqa: E731
@@ -108,7 +115,7 @@ def test_world_w_scans_what_the_updater_scans_on_the_same_trajectory() -> None:
     sensors.episode_table.assign(values)
 
     rng = np.random.default_rng(0)
-    datas = [_state(model, rng) for _ in range(nworld)]
+    datas = [_state(model, rng, PLACES[w]) for w in range(nworld)]
     updaters = [sensorcfg.Updater(make(), substeps) for _ in range(nworld)]
     for w, u in enumerate(updaters):
         u.reset(Physics(model, datas[w]), np.random.RandomState(100 + w))
@@ -119,11 +126,12 @@ def test_world_w_scans_what_the_updater_scans_on_the_same_trajectory() -> None:
     scans.cast(fields, warp_steps, everyone)
     sensors.reset(everyone, fields, warp_steps)
     seen = {"hit": 0, "miss": 0}
+    cast = {"grid": 0, "ring": 0, "level": 0}
     for t in range(41):
         if t == 14:  # worlds 0 and 2 restart
             restarted = [0, 2]
-            for w in restarted:
-                datas[w] = _state(model, rng)
+            for w, place in zip(restarted, PLACES[3:]):
+                datas[w] = _state(model, rng, place)
                 updaters[w].reset(Physics(model, datas[w]), np.random.RandomState(200 + w))
                 steps[w] = 0
             warp_steps.assign(steps)
@@ -137,7 +145,13 @@ def test_world_w_scans_what_the_updater_scans_on_the_same_trajectory() -> None:
             steps += 1
             warp_steps.assign(steps)
             fields = {**_fields(datas, names), **scans.heights}
+            for heights in scans.heights.values():
+                heights.fill_(np.nan)  # a row no read shows may hold anything: a read of one would fail
             scans.cast(fields, warp_steps)
+            for record in plan.sensors[1:]:  # cast only at steps some world's schedule takes a sample at
+                due = record.timing.taken[steps % record.timing.period].any()
+                assert np.isnan(scans.heights[record.source.field].numpy()).all() == (not due), (t, record.name)
+                cast[record.name] += int(due)
             sensors.record(fields, warp_steps)
         got = {name: array.numpy() for name, array in sensors.read(warp_steps).items()}
         for w, u in enumerate(updaters):
@@ -148,6 +162,9 @@ def test_world_w_scans_what_the_updater_scans_on_the_same_trajectory() -> None:
                     seen["miss"] += int(np.sum(value == 4.0))  # max_distance - above
                     seen["hit"] += int(np.sum(value != 4.0))
     assert seen["miss"] > 10 and seen["hit"] > 100  # both hits and misses were compared
+    # of 39 steps: the first 13 every other, every third, each; then worlds 0 and 2 run 13 steps behind world 1,
+    # so a scan is due where either phase takes a sample
+    assert cast == {"grid": 6 + 26, "ring": 4 + 17, "level": 39}
 
 
 
@@ -177,8 +194,8 @@ def test_a_warp_environment_scans_each_worlds_own_pose() -> None:
 
 
 # TERRAIN with an SDF geom (a mesh's, group 4) on the floor: MuJoCo Warp's ray caster reads an SDF as a miss
-SDF = TERRAIN.replace("<asset>", '<asset>\n    <mesh name="tet" vertex="0 0 0  1 0 0  0 1 0  0 0 1"/>').replace(
-    '<geom name="hidden"', '<geom name="blob" type="sdf" mesh="tet" pos="-1 1 0" group="4"/>\n    <geom name="hidden"')
+SDF = TERRAIN.replace('<geom name="hidden"',
+                      '<geom name="blob" type="sdf" mesh="tet" pos="-1 1 0" group="4"/>\n    <geom name="hidden"')
 SEEING = """sensors:
   sees: {kind: heightscan, element: body:base}
   blind: {kind: heightscan, element: body:base, scan: {geomgroup: [0, 1, 2, 3]}}
