@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from typing import cast
 
 import mujoco
 import mujoco_warp as mjw
@@ -37,6 +38,7 @@ from ..physics import raw_structs
 from ..plan.bind import Bound, Entry
 from ..plan.compile import compile_plan
 from ..plan.records import FixedTiming, SensorRecord, Source, SuitePlan
+from ..runtime.channels import DrawnChannel, FixedChannel
 from .philox import MODULE_OPTIONS
 
 __all__ = ["Scans", "plan", "scan_field"]
@@ -62,13 +64,15 @@ def plan(bound: Bound, physics: object, nsim: int, substeps: int, pad: bool) -> 
     own = [Source(scan_field(e.name), np.arange(math.prod(e.channel.shape))) for e in scans]
     sources = [*sources[:nfixed], *own, *sources[nfixed:]]
     model, data = raw_structs(physics)
-    fields: dict[str, tuple[int, ...]] = {}
+    heights = {source.field: (source.positions.size,) for source in own}
+    fields: dict[str, tuple[int, ...]] = {}  # each field read, in order of first use, with its shape
     for source in sources:
-        fields.setdefault(source.field, (source.positions.size,) if source.field.startswith("heightscan:")
+        fields.setdefault(source.field, heights[source.field] if source.field in heights
                           else tuple(getattr(data, source.field).shape))
     fixed: list[Entry] = [*bound.fixed, *scans]
-    suite_plan = compile_plan([e.channel for e in fixed], [e.channel for e in bound.drawn],  # type: ignore[misc]
-                              sources, fields, nsim, substeps, float(model.opt.timestep), pad)
+    suite_plan = compile_plan([cast(FixedChannel, e.channel) for e in fixed],
+                              [cast(DrawnChannel, e.channel) for e in bound.drawn], sources, fields, nsim, substeps,
+                              float(model.opt.timestep), pad)
     return Bound(bound.entries, others, fixed, bound.drawn), suite_plan
 
 
