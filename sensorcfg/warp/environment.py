@@ -222,8 +222,8 @@ class WarpEnvironment(ControlLoop):
         """What this engine does not run (`support.refusals`), each at its sensor's key (`validate --engine
         warp` says the same at the suite's lines)."""
         fields = {e.name: source.field for e, source in zip((*bound.fixed, *bound.drawn), bound.sources())}
-        problems = [Problem(message, ".".join(map(str, ("sensors", entry.name, *key))))
-                    for entry in bound.entries for key, message in refusals(entry.observable, fields.get(entry.name), model)]
+        problems = [Problem(message, ".".join(map(str, ("sensors", entry.name, *key)))) for entry in bound.entries
+                    for key, message in refusals(entry.observable, fields.get(entry.name), model)]
         if problems:
             raise SuiteError(problems)
 
