@@ -140,7 +140,8 @@ def test_validate_engine_warp_refuses_a_height_scan_whose_rays_would_meet_an_sdf
     one whose geomgroup leaves it out is not."""
     model = (MODELS / "arm.xml").read_text().replace(
         "<worldbody>", '<asset><mesh name="tet" vertex="0 0 0  1 0 0  0 1 0  0 0 1"/></asset>\n  <worldbody>'
-    ).replace('<geom name="floor"', '<geom name="blob" type="sdf" mesh="tet" pos="1 1 0" group="4"/>\n    <geom name="floor"')
+    ).replace('<geom name="floor"',
+              '<geom name="blob" type="sdf" mesh="tet" pos="1 1 0" group="4"/>\n    <geom name="floor"')
     (tmp_path / "arm.xml").write_text(model)
     suite = tmp_path / "s.yaml"
     suite.write_text("model: arm.xml\nsensors:\n  sees: {kind: heightscan, element: body:base}\n"

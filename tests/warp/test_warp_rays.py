@@ -167,11 +167,10 @@ def test_world_w_scans_what_the_updater_scans_on_the_same_trajectory() -> None:
     assert cast == {"grid": 6 + 26, "ring": 4 + 17, "level": 39}
 
 
-
 def test_a_warp_environment_scans_each_worlds_own_pose() -> None:
-    """The bundled robot's base scans the floor and the static target sphere: after each control step, world
-    w's scan is the CPU rule (`HeightScan`'s own sampler) applied to world w's float32 pose in MuJoCo Warp's
-    Data, to float32 rounding; the observation spec has the world axis."""
+    """The bundled robot's base scans the floor and the static target sphere: after each control step and
+    reset (world 1's alone at the fourth), a world's scan is the CPU rule (`HeightScan`'s own sampler) applied
+    to its float32 pose in MuJoCo Warp's Data, to float32 rounding; the observation spec has the world axis."""
     path = str(assets.path("robot.xml"))
     loaded = sensorcfg.loads("sensors:\n  scan: {kind: heightscan, element: body:base, scan: {size: [1.4, 0.6], "
                              "resolution: 0.1, above: 0.5}}\n")
@@ -181,15 +180,18 @@ def test_a_warp_environment_scans_each_worlds_own_pose() -> None:
     physics = Physics(model)
     cpu = loaded.build(model)["scan"].observation_callable(physics)
     base = model.body("base").id
-    actions = np.random.default_rng(0).uniform(-1, 1, (6, 2, model.nu)).astype(np.float32)
+    actions = np.random.default_rng(0).uniform(-1, 1, (8, 2, model.nu)).astype(np.float32)
     step = env.reset()
-    for t in range(7):
-        xpos, xmat = env.data.xpos.numpy(), env.data.xmat.numpy()
-        for w in range(2):
-            physics.data.xpos[base], physics.data.xmat[base] = xpos[w, base], xmat[w, base].ravel()
-            np.testing.assert_allclose(step.observation["scan"].numpy()[w, 0], cpu(), rtol=0, atol=1e-5, err_msg=f"{t} {w}")
-        if t < 6:
+    for t in range(8):
+        if t == 4:  # world 1 restarts (every world's forward runs: world 0's pose is no longer the one it scanned)
+            step = env.reset([1])
+        elif t:
             step = env.step(actions[t])
+        xpos, xmat = env.data.xpos.numpy(), env.data.xmat.numpy()
+        for w in ([1] if t == 4 else [0, 1]):
+            physics.data.xpos[base], physics.data.xmat[base] = xpos[w, base], xmat[w, base].ravel()
+            np.testing.assert_allclose(step.observation["scan"].numpy()[w, 0], cpu(), rtol=0, atol=1e-5,
+                                       err_msg=f"control step {t}, world {w}")
     assert np.ptp(step.observation["scan"].numpy()) > 0.01  # the target sphere, off the floor, is seen
 
 
