@@ -23,7 +23,8 @@ from sensorcfg.warp.environment import WarpEnvironment, episode_keys  # noqa: E4
 from sensorcfg.warp.sensors import Sensors  # noqa: E402
 
 # a floor (x, y in [-2, 2]), a heightfield ramp over x in [2.2, 4.2] (a gap between them where rays miss), a
-# turned box, a sphere, a mesh, a box in group 3, and a free body drifting and turning above them (no gravity)
+# turned box, a sphere, a mesh, a cylinder, an ellipsoid, a capsule, a box in group 3, and a free body drifting
+# and turning above them (no gravity)
 TERRAIN = """<mujoco>
   <option timestep="0.002" gravity="0 0 0"/>
   <asset>
@@ -37,6 +38,9 @@ TERRAIN = """<mujoco>
     <geom name="block" type="box" size=".3 .2 .15" pos=".8 .5 .15" euler="0 0 25"/>
     <geom name="ball" type="sphere" size=".3" pos="-.7 -.6 0"/>
     <geom name="spike" type="mesh" mesh="tet" pos="1.2 -1 0" euler="0 0 20"/>
+    <geom name="drum" type="cylinder" size=".15 .1" pos="1.3 .15 .1"/>
+    <geom name="egg" type="ellipsoid" size=".2 .15 .1" pos=".35 .65 .05" euler="0 0 40"/>
+    <geom name="log" type="capsule" size=".08 .25" pos="-.2 -.5 .08" euler="90 0 0"/>
     <geom name="hidden" type="box" size=".4 .4 .3" pos="-.6 .7 .3" group="3"/>
     <body name="base" pos="0 0 1">
       <freejoint/>
