@@ -311,7 +311,7 @@ class WarpEnvironment(ControlLoop):
     def _restart_masked(self, mask: wp.array) -> None:
         self._worlds.reset(mask)
         self._worlds.forward()  # MuJoCo Warp has no per-world forward: every world's derived fields, again
-        self._scans.cast(self._fields, self._worlds.steps, mask)
+        self._scans.cast(self._fields, self._worlds.steps, every=True)
         self._sensors.reset(mask, self._fields, self._worlds.steps)
 
     def reset(self, ids: Any = None) -> WarpTimeStep:

@@ -183,12 +183,12 @@ class Scans:
         self.heights = {scan.field: scan.heights for scan in self._scans}
         self.pose_fields = sorted({f for scan in self._scans for f in (scan.pos_field, scan.mat_field)})
 
-    def cast(self, fields: Mapping[str, wp.array], steps: wp.array, reset: wp.array | None = None) -> None:
-        """After a physics step, each scan some world's schedule takes a sample of at its step `steps`; at a
-        reset (`reset`: the (nworld,) int32 mask of restarting worlds, whose `steps` are 0), every scan.
-        `fields`: the pose fields as (nworld, values) float32 views."""
+    def cast(self, fields: Mapping[str, wp.array], steps: wp.array, every: bool = False) -> None:
+        """After a physics step, each scan some world's schedule takes a sample of at its step `steps`; with
+        `every` (at a reset: the restarting worlds' reset samples), every scan. `fields`: the pose fields as
+        (nworld, values) float32 views."""
         for scan in self._scans:
-            if reset is not None:
+            if every:
                 self._cast(scan, fields)
                 continue
             scan.due.zero_()

@@ -127,7 +127,7 @@ def test_world_w_scans_what_the_updater_scans_on_the_same_trajectory() -> None:
     warp_steps = wp.zeros(nworld, dtype=wp.int64, device="cpu")
     everyone = wp.ones(nworld, dtype=wp.int32, device="cpu")
     fields = {**_fields(datas, names), **scans.heights}
-    scans.cast(fields, warp_steps, everyone)
+    scans.cast(fields, warp_steps, every=True)
     sensors.reset(everyone, fields, warp_steps)
     seen = {"hit": 0, "miss": 0}
     cast = {"grid": 0, "ring": 0, "level": 0}
@@ -141,7 +141,7 @@ def test_world_w_scans_what_the_updater_scans_on_the_same_trajectory() -> None:
             warp_steps.assign(steps)
             fields = {**_fields(datas, names), **scans.heights}
             mask = wp.array(np.isin(np.arange(nworld), restarted).astype(np.int32), dtype=wp.int32, device="cpu")
-            scans.cast(fields, warp_steps, mask)
+            scans.cast(fields, warp_steps, every=True)
             sensors.reset(mask, fields, warp_steps)
         elif t:
             for w, u in enumerate(updaters):
