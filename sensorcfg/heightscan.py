@@ -175,7 +175,17 @@ class HeightScan(Observable):
     def array_spec(self) -> specs.Array | None:
         return None if self._corruptor is not None else specs.Array(self.shape, np.float64)
 
-    def _frame(self, model: mujoco.MjModel) -> tuple[int, str, str]:
+    @property
+    def scan(self) -> ScanConfig:
+        return self._scan
+
+    @property
+    def miss(self) -> float:
+        """What a ray that meets no terrain within `max_distance` reads."""
+        return self._miss
+
+    def frame(self, model: mujoco.MjModel) -> tuple[int, str, str]:
+        """The frame's id and the mjData fields of its position and rotation matrix."""
         sel = select(model, self._element)
         return (sel.ids[0], "xpos", "xmat") if sel.type == "body" else (sel.ids[0], "site_xpos", "site_xmat")
 
@@ -188,7 +198,7 @@ class HeightScan(Observable):
 
     def _callable(self, physics: Any) -> Callable[[], np.ndarray]:
         model, data = raw_structs(physics)
-        element_id, pos_field, mat_field = self._frame(model)
+        element_id, pos_field, mat_field = self.frame(model)
         pos, mat = getattr(data, pos_field), getattr(data, mat_field)
         terrain = _Terrain(model, self._scan)
         return lambda: self._values(terrain, pos[element_id].copy(), mat[element_id].copy())
@@ -197,7 +207,7 @@ class HeightScan(Observable):
         """For a `mujoco.batch.Batch` of `model`: the scans of simulations `ids`, (len(ids), *shape), from the
         frame poses its last call left in its bound fields (as one simulation's MjData holds them), every
         ray of every simulation cast in one call."""
-        element_id, pos_field, mat_field = self._frame(model)
+        element_id, pos_field, mat_field = self.frame(model)
         pos = batch.bind(pos_field).reshape(batch.nsim, -1, 3)
         mat = batch.bind(mat_field).reshape(batch.nsim, -1, 9)
         terrain = _Terrain(model, self._scan)

@@ -41,10 +41,11 @@ from ..errors import ArgumentError, Problem, SuiteError
 from ..noise.bounds import noisy_bounds
 from ..noise.level import leveled, own_bounds, set_level
 from ..physics import Physics
-from ..plan.bind import bind, plan_suite
+from ..plan.bind import bind
 from ..runtime.updater import observation_spec
 from .episode import episode_values
 from .philox import MODULE_OPTIONS
+from .rays import Scans, plan as scan_plan
 from .sensors import Sensors
 from .support import field_refusal, refusals
 from .worlds import Worlds
@@ -172,12 +173,14 @@ class WarpEnvironment(ControlLoop):
         physics = Physics(self._model)
         mujoco.mj_forward(self._model, physics.data)
         bound = bind(observables, physics, self._n, strip, pad)
-        self._refuse(bound)
-        plan = plan_suite(bound, physics, bound.sources(), self._nworld, self._n, pad)
+        self._refuse(bound, self._model)
+        bound, plan = scan_plan(bound, physics, self._nworld, self._n, pad)  # height scans read their own rays
         self._spec = {e.name: observation_spec(e.name, e.observable, e.channel) for e in bound.entries}
         self.device = wp.get_device(device)
         self._worlds = Worlds(self._model, self._nworld, self.device, self._keyframe, nconmax, njmax)
-        self._fields = self._field_views([f for f, _ in plan.fields])
+        self._scans = Scans(self._model, plan, bound, self.device)
+        self._fields = {**self._field_views([f for f, _ in plan.fields if f not in self._scans.heights]
+                                            + self._scans.pose_fields), **self._scans.heights}
         bounds = {e.name: b for e in bound.fixed if e.channel.noise is not None
                   for b in [noisy_bounds(getattr(e.channel.noise, "_inner", e.channel.noise), own_bounds(e.observable))]
                   if b is not None}
@@ -216,12 +219,12 @@ class WarpEnvironment(ControlLoop):
     # -- construction ---------------------------------------------------------------------------------
 
     @staticmethod
-    def _refuse(bound: Any) -> None:
+    def _refuse(bound: Any, model: mujoco.MjModel) -> None:
         """What this engine does not run (`support.refusals`), each at its sensor's key (`validate --engine
         warp` says the same at the suite's lines)."""
         fields = {e.name: source.field for e, source in zip((*bound.fixed, *bound.drawn), bound.sources())}
-        problems = [Problem(message, ".".join(map(str, ("sensors", entry.name, *key))))
-                    for entry in bound.entries for key, message in refusals(entry.observable, fields.get(entry.name))]
+        problems = [Problem(message, ".".join(map(str, ("sensors", entry.name, *key)))) for entry in bound.entries
+                    for key, message in refusals(entry.observable, fields.get(entry.name), model)]
         if problems:
             raise SuiteError(problems)
 
@@ -309,6 +312,7 @@ class WarpEnvironment(ControlLoop):
     def _restart_masked(self, mask: wp.array) -> None:
         self._worlds.reset(mask)
         self._worlds.forward()  # MuJoCo Warp has no per-world forward: every world's derived fields, again
+        self._scans.cast(self._fields, self._worlds.steps, every=True)
         self._sensors.reset(mask, self._fields, self._worlds.steps)
 
     def reset(self, ids: Any = None) -> WarpTimeStep:
@@ -357,6 +361,7 @@ class WarpEnvironment(ControlLoop):
                       outputs=[self._worlds.data.ctrl], device=device)
         for _ in range(self._n):
             self._worlds.step(1)
+            self._scans.cast(self._fields, self._worlds.steps)
             self._sensors.record(self._fields, self._worlds.steps)
         wp.copy(self._diverged, self._worlds.diverged)
         self._start_episodes(self._restarting)  # the worlds whose previous step ended their episode

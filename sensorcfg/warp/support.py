@@ -4,8 +4,9 @@
   parameters fixed or drawn per episode (drawn on the host, `warp.episode`);
 - `FIELDS`: the mjData fields a sensor may read there: those MuJoCo Warp's `Data` holds as (nworld, ...)
   float32 arrays laid out as mjData's, so a position computed on an MjData addresses the same value;
-- `refusals(observable, field)`: what the engine does not run of one bound sensor, as (key, message) pairs,
-  the key a path inside the sensor's entry of a suite (`kind`, `interval`, `delay`, `noise.<i>.type`, ...).
+- `RAY_GEOMS`: the geom types MuJoCo Warp's ray caster casts height scans' rays at (`warp/rays.py`);
+- `refusals(observable, field, model)`: what the engine does not run of one bound sensor, as (key, message)
+  pairs, the key a path inside the sensor's entry of a suite (`kind`, `interval`, `delay`, `noise.<i>.type`, ...).
 
 `WarpEnvironment` raises them at construction (each a problem at `sensors.<name>.<key>`); `validate
 --engine warp` and `Suite.check(model, warp=True)` report them at the suite's lines. What a BatchEnvironment
@@ -17,11 +18,15 @@ from __future__ import annotations
 
 from typing import Any
 
+import mujoco
+import numpy as np
+
+from ..heightscan import visible_rgba
 from ..plan.bind import per_simulation
 from ..plan.noise import step
 from ..plan.records import NoiseStep
 
-__all__ = ["FIELDS", "STAGES", "Found", "field_refusal", "refusals", "stage_refusals"]
+__all__ = ["FIELDS", "RAY_GEOMS", "STAGES", "Found", "field_refusal", "refusals", "stage_refusals", "terrain_refusals"]
 
 Found = list[tuple[tuple[str | int, ...], str]]  # (key path inside the sensor, message), as `checks.Found`
 
@@ -46,6 +51,13 @@ FIELDS: frozenset[str] = frozenset({
     "subtree_angmom", "subtree_com", "subtree_linvel", "ten_length", "ten_velocity", "time", "userdata", "wrap_xpos",
     "xanchor", "xaxis", "xfrc_applied", "ximat", "xipos", "xmat", "xpos", "xquat",
 })
+
+# MuJoCo Warp 4.0.0's ray caster (`mujoco_warp/_src/ray.py`: `ray_geom`, `ray_mesh`, `ray_hfield`); it reads a
+# geom of any other type (an SDF) as a miss
+RAY_GEOMS: frozenset[int] = frozenset(int(t) for t in (
+    mujoco.mjtGeom.mjGEOM_PLANE, mujoco.mjtGeom.mjGEOM_HFIELD, mujoco.mjtGeom.mjGEOM_SPHERE,
+    mujoco.mjtGeom.mjGEOM_CAPSULE, mujoco.mjtGeom.mjGEOM_ELLIPSOID, mujoco.mjtGeom.mjGEOM_CYLINDER,
+    mujoco.mjtGeom.mjGEOM_BOX, mujoco.mjtGeom.mjGEOM_MESH))
 
 _CPU = "run this suite on the CPU engines"
 # mjData fields MuJoCo Warp lacks -> the kind holding the same value that it has
@@ -77,15 +89,35 @@ def _steps(noise: Any) -> list[NoiseStep]:
     return [step(config, i, shape) for i, config in enumerate(noise.configs)]
 
 
-def refusals(observable: Any, field: str | None) -> Found:
-    """What the Warp engine does not run of an enabled observable that a BatchEnvironment runs: cameras and
-    height scans (sampled per simulation), drawn intervals and delays, noise stages outside `STAGES`, and
-    `field` (the mjData field it reads; None for none) outside `FIELDS`."""
-    if per_simulation(observable):
-        what = "cameras are rendered" if hasattr(observable, "camera_id") else "height scans are cast"
-        return [(("kind",), f"{what} per simulation on the CPU, which the Warp engine does not do yet; remove "
-                 f"this sensor, or {_CPU}")]
+def terrain_refusals(scan: Any, model: mujoco.MjModel) -> Found:
+    """A height scan whose rays would see (`heightscan.terrain_model`'s geoms, visible as mj_ray decides, in
+    its geomgroup) a geom type outside `RAY_GEOMS`: MuJoCo Warp would read it as a miss."""
+    groups = scan.scan.geomgroup
     found: Found = []
+    for g in np.flatnonzero(model.body_weldid[model.geom_bodyid] == 0):
+        group = min(5, max(0, int(model.geom_group[g])))  # mj_ray's clamp
+        if int(model.geom_type[g]) in RAY_GEOMS or visible_rgba(model, int(g))[3] == 0 or \
+                (groups is not None and group not in groups):
+            continue
+        kind = mujoco.mjtGeom(int(model.geom_type[g])).name.removeprefix("mjGEOM_").lower()
+        found.append((("kind",), f"its rays would meet geom {model.geom(int(g)).name or f'#{g}'!r} (type {kind}), "
+                      "which MuJoCo Warp's ray caster does not cast (it would read as a miss); leave it out of this "
+                      f"scan's geomgroup, or {_CPU}"))
+    return found
+
+
+def refusals(observable: Any, field: str | None, model: mujoco.MjModel | None = None) -> Found:
+    """What the Warp engine does not run of an enabled observable that a BatchEnvironment runs: cameras
+    (rendered per simulation), height scans that would see a geom its ray caster does not cast (with
+    `model`, the one it is bound to: `terrain_refusals`), drawn intervals and delays, noise stages outside
+    `STAGES`, and `field` (the mjData field it reads; None for none) outside `FIELDS`."""
+    found: Found = []
+    if per_simulation(observable):
+        if hasattr(observable, "camera_id"):
+            return [(("kind",), "cameras are rendered per simulation on the CPU, which the Warp engine does not do "
+                     f"yet; remove this sensor, or {_CPU}")]
+        if model is not None:
+            found += terrain_refusals(observable, model)
     for key, attr in (("interval", "update_interval"), ("delay", "delay")):
         if callable(getattr(observable, attr, None)):
             found.append(((key,), f"a drawn {key} is not run by the Warp engine yet; give a constant one, or {_CPU}"))

@@ -49,7 +49,7 @@ if not hasattr(mujoco.MjData, "site_xquat"):  # MuJoCo 3 has no site_xquat: that
     WARP_PROBLEMS = WARP_PROBLEMS[:2]
 
 # what the Warp engine runs: fixed schedules, its noise stages (misalign, parameters drawn per episode),
-# aggregators, MuJoCo sensor kinds, clean twins
+# aggregators, MuJoCo sensor kinds, clean twins, height scans
 CLEAN_SUITE = """model: arm.xml
 defaults: {twin: "{name}_clean"}
 sensors:
@@ -63,6 +63,7 @@ sensors:
   hand: {kind: xmat, element: site:tip, noise: [{type: dropout, p: 0.1}, {type: outlier, p: 0.01, scale: 1}]}
   gyro: {kind: gyro, element: site:imu, noise: [{type: misalign, std: 0.5deg}, {type: gaussian, std: 0.001}]}
   accel: {kind: accelerometer, element: site:imu, noise: [{type: gaussian, std: {uniform: [0.01, 0.02]}}]}
+  ground: {kind: heightscan, element: body:base, interval: 4ms, delay: 2ms, noise: [{type: gaussian, std: 0.01}]}
   force: {kind: force, element: actuator:shoulder_motor,
           noise: [{type: bias, std: 0.1}, {type: scale, low: 0.9, high: 1.1}, {type: random_walk, std: 0.01}]}
 """
@@ -131,3 +132,22 @@ sensors:
 def test_a_suite_the_warp_engine_runs_validates_clean(tmp_path: Path) -> None:
     done = validate(suite_file(tmp_path, CLEAN_SUITE), "--engine", "warp")
     assert (done.returncode, done.stdout) == (0, "1 suite valid\n"), done.stdout
+
+
+def test_validate_engine_warp_refuses_a_height_scan_whose_rays_would_meet_an_sdf(tmp_path: Path) -> None:
+    """MuJoCo Warp's ray caster reads an SDF geom as a miss: a scan that would see one is refused at its kind,
+    one whose geomgroup leaves it out is not."""
+    model = (MODELS / "arm.xml").read_text().replace(
+        "<worldbody>", '<asset><mesh name="tet" vertex="0 0 0  1 0 0  0 1 0  0 0 1"/></asset>\n  <worldbody>'
+    ).replace('<geom name="floor"',
+              '<geom name="blob" type="sdf" mesh="tet" pos="1 1 0" group="4"/>\n    <geom name="floor"')
+    (tmp_path / "arm.xml").write_text(model)
+    suite = tmp_path / "s.yaml"
+    suite.write_text("model: arm.xml\nsensors:\n  sees: {kind: heightscan, element: body:base}\n"
+                     "  blind: {kind: heightscan, element: body:base, scan: {geomgroup: [0, 1, 2, 3]}}\n")
+    assert validate(suite, "--engine", "batch").stdout == "1 suite valid\n"
+    assert validate(suite, "--engine", "warp").stdout.splitlines() == [
+        "s.yaml:3:16: error: sensors.sees.kind: its rays would meet geom 'blob' (type sdf), which MuJoCo Warp's ray "
+        "caster does not cast (it would read as a miss); leave it out of this scan's geomgroup, or run this suite "
+        "on the CPU engines",
+        "1 problem in 1 of 1 suite"]

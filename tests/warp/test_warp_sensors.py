@@ -140,8 +140,8 @@ def test_world_i_reads_what_the_updater_reads_on_the_same_trajectory(seed: int, 
 
 @pytest.mark.parametrize("recipe, like", [("quadruped", "go2_like.xml"), ("humanoid", "g1_like.xml")])
 def test_the_recipes_read_the_same_on_both_engines(recipe: str, like: str) -> None:
-    """docs/recipes.md's suites on our stand-ins of Menagerie's Go2 and G1 (their height scan aside: the Warp
-    engine does not run height scans)."""
+    """docs/recipes.md's suites on our stand-ins of Menagerie's Go2 and G1 (their height scans aside: this replay
+    feeds mjData fields; tests/warp/test_warp_rays.py replays height scans)."""
     text = (ROOT / "docs" / "recipes" / f"{recipe}.yaml").read_text()
     line = next(line for line in text.splitlines() if line.startswith("model: "))
     loaded = sensorcfg.loads(text.replace(line, ""), file=f"{recipe}.yaml")
