@@ -79,16 +79,14 @@ def _steps(noise: Any) -> list[NoiseStep]:
 
 def refusals(observable: Any, field: str | None) -> Found:
     """What the Warp engine does not run of an enabled observable that a BatchEnvironment runs: cameras and
-    height scans (sampled per simulation), drawn intervals and delays, noise stages outside `STAGES` or with
-    parameters drawn per episode, and `field` (the mjData field it reads; None for none) outside `FIELDS`."""
+    height scans (sampled per simulation), noise stages outside `STAGES` or with parameters drawn per
+    episode, and `field` (the mjData field it reads; None for none) outside `FIELDS`. (Drawn intervals and
+    delays it runs: `warp.drawn`; those a BatchEnvironment refuses, it refuses by the batch's rules.)"""
     if per_simulation(observable):
         what = "cameras are rendered" if hasattr(observable, "camera_id") else "height scans are cast"
         return [(("kind",), f"{what} per simulation on the CPU, which the Warp engine does not do yet; remove "
                  f"this sensor, or {_CPU}")]
     found: Found = []
-    for key, attr in (("interval", "update_interval"), ("delay", "delay")):
-        if callable(getattr(observable, attr, None)):
-            found.append(((key,), f"a drawn {key} is not run by the Warp engine yet; give a constant one, or {_CPU}"))
     if field is not None and field not in FIELDS:
         found.append((("kind",), field_refusal(field, getattr(observable, "kind", None))))
     for noise_step in _steps(getattr(observable, "noise", None)):
