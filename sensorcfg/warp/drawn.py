@@ -197,8 +197,12 @@ class DrawnSchedules:
         self.names = [s.name for _, s in drawn]
         values: list[int] = []
         cumulative: list[float] = []
-        setting, buffers, rings = [], [], []
-        sensor, entry, column = [], [], []
+        setting: list[list[int]] = []
+        buffers: list[int] = []
+        rings: list[int] = []
+        sensor: list[int] = []
+        entry: list[int] = []
+        column: list[int] = []
         self.views: list[DrawnView] = []
         self.blocks: list[tuple[int, int, int, str, int]] = []  # (first position, buffer, width, aggregator, column)
         at = reduced = 0

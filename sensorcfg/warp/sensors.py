@@ -1,4 +1,4 @@
-"""A suite plan's fixed-schedule sensors run by Warp kernels over `nworld` worlds (no host copy per step).
+"""A suite plan's sensors run by Warp kernels over `nworld` worlds (no host copy per step).
 
 Executes `sensorcfg.plan.SuitePlan` as docs/architecture.md ("The suite plan") describes, with one history
 per world indexed by the world's own step: the row of step s is `s % rows` (the plan's `reset_row` is 0).
@@ -10,6 +10,10 @@ per world indexed by the world's own step: the row of step s is `s % rows` (the 
   the pad value, the episode's keys taken from `keys`, the noise level adopted.
 - `read()`: every read position gathered by the plan's read table for each world's phase, plain outputs
   as views of the gather, blocks reduced by their aggregator.
+
+Drawn intervals and delays (`DrawnTiming`) are `warp.drawn`'s: its kernel runs in `record` before the noise
+(which samples a drawn schedule takes there: `due`) and its windows in `read`; their episode keys follow the
+noisy sensors' in `keys` (`key_names`).
 
 Values are float32 (MuJoCo Warp's); noise arithmetic runs in float64 on them, with the random numbers of
 `noise/streams.py` (`philox.value`), keyed by (sensor key, sample index, stage, lane, value) as on the CPU.
@@ -381,9 +385,12 @@ class Sensors:
             v_low += list(np.broadcast_to(np.asarray(low, np.float64), sensor.shape).ravel())
             v_high += list(np.broadcast_to(np.asarray(high, np.float64), sensor.shape).ravel())
             s_taken.append(len(taken))
-            fixed = isinstance(timing, FixedTiming)  # (a drawn one: `due`, per world and step)
-            taken += timing.taken.astype(np.int32).tolist() if fixed else [1]
-            s_period.append(timing.period if fixed else 1)
+            if isinstance(timing, FixedTiming):
+                taken += timing.taken.astype(np.int32).tolist()
+                s_period.append(timing.period)
+            else:  # a drawn schedule: the steps it samples are `due`'s, per world
+                taken.append(1)
+                s_period.append(1)
             s_stride.append(program.stride)
             s_first.append(len(codes))
             for step in program.steps:
@@ -400,7 +407,7 @@ class Sensors:
                 block[:, :stop - first] = _stage_params(step, stop - first, program.stride, plan.timestep)
                 params.append(block)
                 table = np.zeros((gaps + 1, size))
-                if step.stage == "lowpass" and not fixed:
+                if step.stage == "lowpass" and isinstance(timing, DrawnTiming):
                     for gap in range(gaps + 1):
                         table[gap, :stop - first] = _stage_params(step, stop - first, gap, plan.timestep)[0]
                 alphas.append(table)

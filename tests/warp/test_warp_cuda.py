@@ -15,7 +15,7 @@ wp = warp_or_skip()
 
 import sensorcfg  # noqa: E402
 from sensorcfg import assets  # noqa: E402
-from sensorcfg.draws import episode_entropy, sensor_keys  # noqa: E402
+from sensorcfg.draws import ChoiceSteps, UniformSteps, episode_entropy, sensor_keys  # noqa: E402
 from sensorcfg.noise import build_noise  # noqa: E402
 from sensorcfg.physics import Physics  # noqa: E402
 from sensorcfg.plan.bind import bind, plan_suite  # noqa: E402
@@ -28,7 +28,8 @@ if not wp.is_cuda_available():
 
 CUDA = "cuda:0"
 ROBOT = str(assets.path("robot.xml"))
-# every stage the engine runs, two to a sensor, with delays, buffers and aggregators
+# every stage the engine runs, two to a sensor, with delays (constant and drawn), drawn intervals, buffers and
+# aggregators
 SENSORS = [
     ("qpos", ["joint:shoulder", "joint:elbow"], 1, 2, 1, None,
      [{"type": "gaussian", "std": 0.01}, {"type": "quantize", "step": 0.001}]),
@@ -40,6 +41,10 @@ SENSORS = [
      [{"type": "gaussian", "std": 0.02}, {"type": "dropout", "p": 0.3, "mode": "hold"}]),
     ("xquat", "body:hand", 3, 0, 2, "median",
      [{"type": "dropout", "p": 0.3, "mode": "zero", "per": "value"}, {"type": "gaussian", "std": 0.01}]),
+    ("qpos", "joint:elbow", UniformSteps(1, 3), ChoiceSteps((0, 2, 5)), 2, None,
+     [{"type": "gaussian", "std": 0.01}, {"type": "lowpass", "cutoff": 20.0}]),
+    ("xpos", "site:hand_site", 2, UniformSteps(0, 4), 3, "mean",
+     [{"type": "random_walk", "std": 0.01}, {"type": "dropout", "p": 0.3, "mode": "hold"}]),
 ]
 
 
@@ -112,7 +117,7 @@ def test_the_sensor_layer_reads_the_same_values_on_cuda_and_cpu() -> None:
                   for _ in range(nsteps)]
     table = np.zeros(layout.key_table.shape, np.uint64)
     for w in range(nworld):
-        table[w, 0] = sensor_keys(episode_entropy(np.random.RandomState(100 + w)), layout.noisy_names)
+        table[w, 0] = sensor_keys(episode_entropy(np.random.RandomState(100 + w)), layout.key_names)
     cpu, cuda = (_run(d, nworld, substeps, trajectory, table) for d in ("cpu", CUDA))
     assert len(cpu) == len(cuda) == 1 + (nsteps - 1) // substeps
     for t, (a, b) in enumerate(zip(cpu, cuda)):

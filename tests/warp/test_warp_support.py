@@ -106,8 +106,8 @@ def test_warp_environment_refuses_a_suite_with_the_problems_validate_reports(tmp
     suite = sensorcfg.load(tmp_path / "s.yaml")
     reported = suite.check(warp=True)
     assert [(p.line, p.loc) for p in reported] == [
-        (6, "sensors.turned.noise.0.type"), (6, "sensors.turned.noise.1.std"), (7, "sensors.drawn.interval"),
-        (9, "sensors.cam.kind"), (12, "sensors.tip_quat.kind")]
+        (6, "sensors.turned.noise.0.type"), (6, "sensors.turned.noise.1.std"), (9, "sensors.cam.kind"),
+        (12, "sensors.tip_quat.kind")]  # (line 7's drawn interval it runs)
     assert suite.check(batch=True) == []
     with pytest.raises(SuiteError) as refused:
         WarpEnvironment(None, suite, 2, device="cpu")
