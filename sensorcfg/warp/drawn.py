@@ -209,7 +209,8 @@ class DrawnSchedules:
         for d, (index, record) in enumerate(drawn):
             timing = record.timing
             assert isinstance(timing, DrawnTiming)
-            setting.append([*_setting(timing.interval, values, cumulative), *_setting(timing.delay, values, cumulative)])
+            setting.append([*_setting(timing.interval, values, cumulative),
+                            *_setting(timing.delay, values, cumulative)])
             buffers.append(timing.buffer)
             rings.append(ring_size(timing))
             lo, hi = record.columns

@@ -21,8 +21,11 @@ from sensorcfg.draws import ChoiceSteps, UniformSteps  # noqa: E402
 from sensorcfg.noise import build_noise  # noqa: E402
 from sensorcfg.noise import streams  # noqa: E402
 from sensorcfg.physics import Physics  # noqa: E402
+from sensorcfg.plan import DrawnTiming, SensorRecord, Source, SuitePlan  # noqa: E402
 from sensorcfg.plan.compile import _steps  # noqa: E402
-from sensorcfg.warp.drawn import _setting, draw  # noqa: E402
+from sensorcfg.runtime.drawn import Drawn, Planner  # noqa: E402
+from sensorcfg.runtime.schedule import history_rows  # noqa: E402
+from sensorcfg.warp.drawn import DrawnSchedules, _setting, draw  # noqa: E402
 from sensorcfg.warp.environment import WarpEnvironment  # noqa: E402
 from sensorcfg.warp.philox import MODULE_OPTIONS  # noqa: E402
 from test_warp_sensors import FEATURES, NOISE, ROBOT, replay  # noqa: E402
@@ -63,6 +66,59 @@ def test_a_draw_is_numpys_bit_for_bit(setting: UniformSteps | ChoiceSteps, lane:
               outputs=[out], device="cpu")
     assert out.numpy().tolist() == expected.astype(np.int64).tolist()
     assert len(set(expected.tolist())) > 1 or setting in DEGENERATE
+
+
+def _plan(timings: list[DrawnTiming], nworld: int, substeps: int) -> SuitePlan:
+    """A plan of one-value drawn sensors (only what `DrawnSchedules` reads of it)."""
+    source = Source("qpos", np.zeros(1, np.intp))
+    sensors = tuple(SensorRecord(f"s{i}", (1,), (i, i + 1), (t.buffer, 1), None, t, None, source)
+                    for i, t in enumerate(timings))
+    rows = history_rows([], substeps, reach=max(t.span for t in timings))
+    return SuitePlan(nworld, substeps, 0.002, False, sensors, 0, len(timings), rows,
+                     None, None, None, ())  # type: ignore[arg-type]
+
+
+SCHEDULES = [  # (interval, delay, buffer): delays long against intervals, large buffers, one-step intervals
+    (UniformSteps(1, 3), UniformSteps(0, 20), 5),
+    (ChoiceSteps((1, 9), (0.8, 0.2)), ChoiceSteps((0, 1, 30)), 4),
+    (1, UniformSteps(0, 6), 3),
+    (UniformSteps(2, 5), 7, 2),
+    (ChoiceSteps((3,)), ChoiceSteps((0, 40), (0.9, 0.1)), 6),
+]
+
+
+@pytest.mark.parametrize("substeps", [1, 3])
+def test_windows_are_the_planners_for_every_read(substeps: int) -> None:
+    """Each read's window (the sample steps shown, -1 padding) of 48 worlds of random keys over 400 steps, for
+    each schedule of `SCHEDULES`, against `runtime.drawn.Planner`'s rounds (the CPU engines' rule)."""
+    nworld, length = 48, 400
+    drawns = [Drawn(interval, delay, buffer, substeps) for interval, delay, buffer in SCHEDULES]
+    timings = [DrawnTiming(_steps(d.interval, 1), _steps(d.delay, 0), d.buffer, d.span) for d in drawns]
+    plan = _plan(timings, nworld, substeps)
+    keys = np.random.default_rng(substeps).integers(0, 2**64, (nworld, len(drawns), 2), dtype=np.uint64)
+    schedules = DrawnSchedules(plan, wp.get_device("cpu"), {f"s{i}": i for i in range(len(drawns))}, {})
+    device_keys = wp.array(keys, dtype=wp.uint64, device="cpu")
+    due = wp.zeros((nworld, 1), dtype=wp.int32, device="cpu")
+    history = wp.zeros((nworld, plan.rows, plan.width), dtype=wp.float32, device="cpu")
+    everyone = wp.ones(nworld, dtype=wp.int32, device="cpu")
+    steps = wp.zeros(nworld, dtype=wp.int64, device="cpu")
+    sims = np.arange(nworld)
+    planners = [Planner(d, nworld) for d in drawns]
+    expected = [[p.start(sims, keys[:, i]).windows[:, 0]] for i, p in enumerate(planners)]
+    for i, p in enumerate(planners):
+        expected[i] += list(p.round(sims, length).windows.transpose(1, 0, 2))
+    shown = set()
+    for s in range(length + 1):
+        steps.assign(np.full(nworld, s, np.int64))
+        schedules.record(steps, everyone, device_keys, due)
+        if s % substeps == 0:
+            schedules.read(steps, history)
+            windows = schedules.windows.numpy()
+            for i, d in enumerate(drawns):
+                want = expected[i][s // substeps]
+                assert windows[:, i, :d.buffer].tolist() == want.tolist(), (s, i)
+                shown |= set(want.ravel().tolist())
+    assert -1 in shown and len(shown) > length // 2
 
 
 DRAWS = {
@@ -110,7 +166,7 @@ def test_world_i_reads_what_the_updater_reads_with_drawn_schedules(seed: int, wh
 
 def test_warp_environment_reads_what_the_batch_reads_with_drawn_schedules() -> None:
     """A drawn sensor of the controls (the same values on both engines, whatever the physics): its samples,
-    windows, noise and restarts after a time limit are `BatchEnvironment`'s."""
+    windows, noise and restarts (after a time limit, and by `reset(ids)`) are `BatchEnvironment`'s."""
     def suite() -> dict[str, Any]:
         ctrl = {"ctrl": sensorcfg.Feature("ctrl", "actuator:shoulder_motor", update_interval=UniformSteps(1, 3),
                                           delay=ChoiceSteps((0, 2, 5)), buffer_size=3),
@@ -118,12 +174,13 @@ def test_warp_environment_reads_what_the_batch_reads_with_drawn_schedules() -> N
                                            update_interval=ChoiceSteps((1, 2)), delay=UniformSteps(0, 3),
                                            buffer_size=2, aggregator="max")}
         ctrl["noisy"].noise = build_noise([{"type": "gaussian", "std": 0.5}, {"type": "dropout", "p": 0.3}], (2,),
-                                          np.float64, float(mujoco.MjModel.from_xml_path(ROBOT).opt.timestep))
+                                          np.float64, timestep)
         for obs in ctrl.values():
             obs.enabled = True
         return ctrl
 
-    options = dict(physics_steps_per_control_step=1, seed=4, time_limit=9 * mujoco.MjModel.from_xml_path(ROBOT).opt.timestep)
+    timestep = float(mujoco.MjModel.from_xml_path(ROBOT).opt.timestep)
+    options = dict(physics_steps_per_control_step=1, seed=4, time_limit=9 * timestep)
     warp = WarpEnvironment(ROBOT, suite(), 2, device="cpu", **options)
     batch = BatchEnvironment(ROBOT, suite(), 2, **options)
     ours, theirs = warp.reset(), batch.reset()
@@ -135,4 +192,7 @@ def test_warp_environment_reads_what_the_batch_reads_with_drawn_schedules() -> N
         assert ours.step_type.numpy().tolist() == [int(s) for s in theirs.step_type]
         actions = rng.uniform(-1, 1, (2, warp._model.nu)).astype(np.float32)
         actions[:, 2] = 0.02
-        ours, theirs = warp.step(actions), batch.step(actions.astype(np.float64))
+        if t == 13:  # world 1 restarted by hand, mid-episode
+            ours, theirs = warp.reset([1]), batch.reset([1])
+        else:
+            ours, theirs = warp.step(actions), batch.step(actions.astype(np.float64))
