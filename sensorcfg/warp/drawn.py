@@ -9,7 +9,7 @@ shows the last `buffer` samples delivered by R, in order of (arrival, time), pad
 Per world and drawn sensor the device keeps the next sample's index and time and a ring of the latest
 `ring` samples' (time, arrival); nothing is planned on the host, and every step launches the same kernels:
 
-- `record(steps, mask, keys)`, after each physics step (before the noise): a world whose step is the next
+- `record(steps, mask, keys, due)`, after each physics step (before the noise): a world whose step is the next
   sample's time pushes it and draws the one after; at step 0 (a reset) the schedule restarts at sample 0
   with the episode's key. `due` (world, noisy sensor) tells the noise kernel whether this step is a sample
   (0: not one; else the steps since the previous sample, which a low-pass's coefficient depends on).
