@@ -166,15 +166,16 @@ def test_world_i_reads_what_the_updater_reads_with_drawn_schedules(seed: int, wh
 
 def test_warp_environment_reads_what_the_batch_reads_with_drawn_schedules() -> None:
     """A drawn sensor of the controls (the same values on both engines, whatever the physics): its samples,
-    windows, noise and restarts (after a time limit, and by `reset(ids)`) are `BatchEnvironment`'s."""
+    windows, noise (at a noise level too) and restarts (after a time limit, and by `reset(ids)`) are
+    `BatchEnvironment`'s."""
     def suite() -> dict[str, Any]:
         ctrl = {"ctrl": sensorcfg.Feature("ctrl", "actuator:shoulder_motor", update_interval=UniformSteps(1, 3),
                                           delay=ChoiceSteps((0, 2, 5)), buffer_size=3),
                 "noisy": sensorcfg.Feature("ctrl", ["actuator:shoulder_motor", "actuator:elbow_motor"],
                                            update_interval=ChoiceSteps((1, 2)), delay=UniformSteps(0, 3),
                                            buffer_size=2, aggregator="max")}
-        ctrl["noisy"].noise = build_noise([{"type": "gaussian", "std": 0.5}, {"type": "dropout", "p": 0.3}], (2,),
-                                          np.float64, timestep)
+        ctrl["noisy"].noise = build_noise([{"type": "gaussian", "std": 0.5}, {"type": "dropout", "p": 0.3},
+                                           {"type": "clip", "min": -0.8, "max": 0.8}], (2,), np.float64, timestep)
         for obs in ctrl.values():
             obs.enabled = True
         return ctrl
@@ -192,6 +193,9 @@ def test_warp_environment_reads_what_the_batch_reads_with_drawn_schedules() -> N
         assert ours.step_type.numpy().tolist() == [int(s) for s in theirs.step_type]
         actions = rng.uniform(-1, 1, (2, warp._model.nu)).astype(np.float32)
         actions[:, 2] = 0.02
+        if t == 5:  # from each world's next episode: noise blended with the raw value, clipped to its bounds
+            warp.set_noise_level(0.5)
+            batch.set_noise_level(0.5)
         if t == 13:  # world 1 restarted by hand, mid-episode
             ours, theirs = warp.reset([1]), batch.reset([1])
         else:
