@@ -181,11 +181,11 @@ class WarpEnvironment(ControlLoop):
         self._scans = Scans(self._model, plan, bound, self.device)
         self._fields = {**self._field_views([f for f, _ in plan.fields if f not in self._scans.heights]
                                             + self._scans.pose_fields), **self._scans.heights}
-        bounds = {e.name: b for e in bound.fixed if e.channel.noise is not None
+        bounds = {e.name: b for e in (*bound.fixed, *bound.drawn) if e.channel.noise is not None
                   for b in [noisy_bounds(getattr(e.channel.noise, "_inner", e.channel.noise), own_bounds(e.observable))]
                   if b is not None}
         self._sensors = Sensors(plan, self.device, key_episodes, bounds)
-        self._pipelines = {e.name: e.channel.noise for e in bound.fixed}
+        self._pipelines = {e.name: e.channel.noise for e in (*bound.fixed, *bound.drawn)}
         self._key_episodes = key_episodes
         self.seed(seed)
         with wp.ScopedDevice(self.device):
@@ -251,8 +251,8 @@ class WarpEnvironment(ControlLoop):
 
     def _top_up(self, used: np.ndarray) -> None:
         """Keys of each world's episodes up to `used + key_episodes - 1`, drawn in order from its random state
-        as `BatchEnvironment` draws them (only when some sensor is noisy)."""
-        names = self._sensors.noisy_names
+        as `BatchEnvironment` draws them (only when some sensor is noisy or drawn)."""
+        names = self._sensors.key_names
         if not names:
             return
         table, values, size = self._table, self._values, self._key_episodes
@@ -267,7 +267,7 @@ class WarpEnvironment(ControlLoop):
 
     def _keys_ahead(self) -> None:
         self._steps_since_keys += 1
-        if self._steps_since_keys >= self._key_episodes // 4 and self._sensors.noisy_names:
+        if self._steps_since_keys >= self._key_episodes // 4 and self._sensors.key_names:
             self._steps_since_keys = 0
             self._top_up(self._sensors.episodes.numpy().astype(np.int64))
 
@@ -397,9 +397,10 @@ class WarpEnvironment(ControlLoop):
 
 
 def episode_keys(sensors: Sensors, pipelines: Mapping[str, Any], entropy: list[int]) -> tuple[np.ndarray, np.ndarray]:
-    """An episode's keys of the noisy sensors (`draws.sensor_keys`, as the CPU engines key them) and what their
-    stages draw at its reset (`episode.episode_values`), from the episode's entropy."""
-    keys = sensor_keys(entropy, sensors.noisy_names)
+    """An episode's keys of the noisy and drawn sensors (`Sensors.key_names`; `draws.sensor_keys`, as the CPU
+    engines key them) and what the noisy ones' stages draw at its reset (`episode.episode_values`), from the
+    episode's entropy."""
+    keys = sensor_keys(entropy, sensors.key_names)
     return keys, episode_values(sensors, pipelines, keys)
 
 

@@ -1,4 +1,4 @@
-"""A suite plan's fixed-schedule sensors run by Warp kernels over `nworld` worlds (no host copy per step).
+"""A suite plan's sensors run by Warp kernels over `nworld` worlds (no host copy per step).
 
 Executes `sensorcfg.plan.SuitePlan` as docs/architecture.md ("The suite plan") describes, with one history
 per world indexed by the world's own step: the row of step s is `s % rows` (the plan's `reset_row` is 0).
@@ -10,6 +10,10 @@ per world indexed by the world's own step: the row of step s is `s % rows` (the 
   the pad value, the episode's keys taken from `keys`, the noise level adopted.
 - `read()`: every read position gathered by the plan's read table for each world's phase, plain outputs
   as views of the gather, blocks reduced by their aggregator.
+
+Drawn intervals and delays (`DrawnTiming`) are `warp.drawn`'s: its kernel runs in `record` before the noise
+(which samples a drawn schedule takes there: `due`) and its windows in `read`; their episode keys follow the
+noisy sensors' in `keys` (`key_names`).
 
 Values are float32 (MuJoCo Warp's); noise arithmetic runs in float64 on them, with the random numbers of
 `noise/streams.py` (`philox.value`), keyed by (sensor key, sample index, stage, lane, value) as on the CPU.
@@ -26,7 +30,8 @@ from collections.abc import Mapping
 import numpy as np
 import warp as wp
 
-from ..plan import FixedTiming, NoiseProgram, NoiseStep, SuitePlan
+from ..plan import DrawnTiming, FixedTiming, NoiseProgram, NoiseStep, SuitePlan
+from .drawn import DrawnSchedules, largest_gap
 from .episode import PARAM_SLOTS, ParamSlot, Turns, TurnSlot, turn
 from .philox import MODULE_OPTIONS, Ziggurat, value, ziggurat
 from .support import STAGES as _RUN
@@ -83,14 +88,17 @@ def _noise(steps: wp.array[wp.int64], mask: wp.array[wp.int32], rows: wp.int32, 
            st_mode: wp.array[wp.int32], st_per_value: wp.array[wp.int32], st_slot: wp.array[wp.int32],
            params: wp.array3d[wp.float64], keys: wp.array3d[wp.uint64], level: wp.array[wp.float64],
            drawn: wp.array2d[wp.float64], state: wp.array3d[wp.float64], walked: wp.array3d[wp.int64],
-           z: Ziggurat, segment: wp.int32, s_turns: wp.array[wp.int32], st_drawn: wp.array[wp.int32],
-           work: wp.array2d[wp.float64]):
+           due: wp.array2d[wp.int32], alphas: wp.array3d[wp.float64], z: Ziggurat, segment: wp.int32,
+           s_turns: wp.array[wp.int32], st_drawn: wp.array[wp.int32], work: wp.array2d[wp.float64]):
     w, i = wp.tid()
     if mask[w] == 0:
         return
     s = steps[w]
     sensor = v_sensor[i]
     if taken[s_taken[sensor] + wp.int32(s % wp.int64(s_period[sensor]))] == 0 or segment > s_turns[sensor]:
+        return
+    gap = due[w, sensor]  # a drawn schedule's (`warp.drawn`): 0 no sample, else steps since the last; fixed: -1
+    if gap == 0:
         return
     j = s // s_stride[sensor]
     r = wp.int32(s % wp.int64(rows))
@@ -143,7 +151,10 @@ def _noise(steps: wp.array[wp.int64], mask: wp.array[wp.int32], rows: wp.int32, 
             if s == wp.int64(0):
                 state[w, k, v] = x
             else:
-                state[w, k, v] = state[w, k, v] + p0 * (x - state[w, k, v])
+                alpha = p0  # a drawn schedule's: the coefficient of the gap since the last sample
+                if gap > 0:
+                    alpha = alphas[k, gap, v]
+                state[w, k, v] = state[w, k, v] + alpha * (x - state[w, k, v])
             x = state[w, k, v]
         elif code == 7:  # bias: the episode's value
             x = x + drawn[w, st_slot[k] + v]
@@ -323,8 +334,6 @@ class Sensors:
 
     def __init__(self, plan: SuitePlan, device: wp.Device, key_episodes: int,
                  bounds: Mapping[str, tuple[np.ndarray, np.ndarray]]):
-        if plan.nfixed != len(plan.sensors):
-            raise ValueError("the Warp engine runs fixed schedules only (the caller refuses drawn ones)")
         self.plan, self.device = plan, device
         n, width, rows = plan.nsim, plan.width, plan.rows
         with wp.ScopedDevice(device):
@@ -339,6 +348,8 @@ class Sensors:
             self.reduced = wp.zeros((n, reduced), dtype=wp.float32)
             self.everyone = wp.ones(n, dtype=wp.int32)
             self.z = ziggurat(device)
+            self._drawn = DrawnSchedules(plan, device, self.key_slots, self.noisy_slots) \
+                if plan.nfixed < len(plan.sensors) else None
         self.outputs = self._outputs()
 
     # -- construction --------------------------------------------------------------------------------
@@ -386,9 +397,11 @@ class Sensors:
         nslot = 0
         size = max([1, *(s.columns[1] - s.columns[0] for _, s in noisy)])
         self.size = size
+        gaps = max([0, *(largest_gap(s.timing) for _, s in noisy if isinstance(s.timing, DrawnTiming))])
+        alphas: list[np.ndarray] = []  # per stage, a low-pass's coefficient per gap (drawn schedules)
         for n, (_, sensor) in enumerate(noisy):
             timing, program = sensor.timing, sensor.noise
-            assert isinstance(timing, FixedTiming) and isinstance(program, NoiseProgram)
+            assert isinstance(program, NoiseProgram)
             first, stop = sensor.columns
             low, high = bounds.get(sensor.name, _NO_BOUND)
             v_col += range(first, stop)
@@ -397,8 +410,12 @@ class Sensors:
             v_low += list(np.broadcast_to(np.asarray(low, np.float64), sensor.shape).ravel())
             v_high += list(np.broadcast_to(np.asarray(high, np.float64), sensor.shape).ravel())
             s_taken.append(len(taken))
-            taken += timing.taken.astype(np.int32).tolist()
-            s_period.append(timing.period)
+            if isinstance(timing, FixedTiming):
+                taken += timing.taken.astype(np.int32).tolist()
+                s_period.append(timing.period)
+            else:  # a drawn schedule: the steps it samples are `due`'s, per world
+                taken.append(1)
+                s_period.append(1)
             s_stride.append(program.stride)
             s_first.append(len(codes))
             turns = 0
@@ -414,7 +431,7 @@ class Sensors:
                     nslot += stop - first
                 st_drawn.append(nslot if step.drawn and STAGES[step.stage][1] else -1)
                 if st_drawn[-1] >= 0:
-                    self.param_slots.append(ParamSlot(n, step.stream, step, stop - first, timing.interval, nslot))
+                    self.param_slots.append(ParamSlot(n, step.stream, step, stop - first, program.stride, nslot))
                     nslot += PARAM_SLOTS * size
                 if step.stage == "misalign":  # its 3-vectors: consecutive values (the shape's last axis)
                     self.turn_slots.append(TurnSlot(n, step.stream, nslot, turns,
@@ -422,8 +439,13 @@ class Sensors:
                     nslot += 9
                     turns += 1
                 block = np.zeros((3, size))
-                block[:, :stop - first] = _stage_params(step, stop - first, timing.interval, plan.timestep)
+                block[:, :stop - first] = _stage_params(step, stop - first, program.stride, plan.timestep)
                 params.append(block)
+                table = np.zeros((gaps + 1, size))
+                if step.stage == "lowpass" and isinstance(timing, DrawnTiming):
+                    for gap in range(gaps + 1):
+                        table[gap, :stop - first] = _stage_params(step, stop - first, gap, plan.timestep)[0]
+                alphas.append(table)
             s_stop.append(len(codes))
             s_leveled.append(int(program.leveled))
             s_turns.append(turns)
@@ -435,9 +457,17 @@ class Sensors:
                         i32(s_stop), i32(s_leveled), i32(taken), i32(codes),
                         wp.array(np.asarray(tags, np.uint32), dtype=wp.uint32), i32(modes), i32(per_value),
                         i32(slots), wp.array(np.asarray(params, np.float64).reshape(-1, 3, size), dtype=wp.float64)]
-        nsim, nnoisy = plan.nsim, max(1, len(noisy))
-        self.keys = wp.zeros((nsim, nnoisy, 2), dtype=wp.uint64)
-        self.key_table = wp.zeros((nsim, key_episodes, nnoisy, 2), dtype=wp.uint64)
+        # the episode keys: the noisy sensors', then the clean drawn ones' (their schedules')
+        clean = [s.name for s in plan.sensors if s.noise is None and isinstance(s.timing, DrawnTiming)]
+        self.key_names = self.noisy_names + clean
+        self.key_slots = {name: k for k, name in enumerate(self.key_names)}
+        self.noisy_slots = {name: k for k, name in enumerate(self.noisy_names)}
+        nsim, nnoisy, nkeyed = plan.nsim, max(1, len(noisy)), max(1, len(self.key_names))
+        self.keys = wp.zeros((nsim, nkeyed, 2), dtype=wp.uint64)
+        self.key_table = wp.zeros((nsim, key_episodes, nkeyed, 2), dtype=wp.uint64)
+        self.due = wp.full((nsim, nnoisy), -1, dtype=wp.int32)
+        self._alphas = wp.array(np.asarray(alphas, np.float64).reshape(-1, gaps + 1, size), dtype=wp.float64) \
+            if alphas else wp.zeros((1, 1, 1), dtype=wp.float64)
         self.episodes = wp.zeros(nsim, dtype=wp.int32)
         self.level = wp.ones(nsim, dtype=wp.float64)
         self.next_level = wp.ones(1, dtype=wp.float64)
@@ -465,6 +495,9 @@ class Sensors:
         for plain in plan.reads.plain:
             sensor = plan.sensors[plain.sensor]
             out[sensor.name] = self._view(self.gathered, int(plain.positions[0]), sensor.output)
+        for index, table, first in self._drawn.views if self._drawn is not None else ():
+            sensor = plan.sensors[index]
+            out[sensor.name] = self._view(getattr(self._drawn, table), first, sensor.output)
         return {s.name: out[s.name] for s in plan.sensors}
 
     def _view(self, table: wp.array, first: int, shape: tuple[int, ...]) -> wp.array:
@@ -485,13 +518,16 @@ class Sensors:
         for field, cols, pos in self._fields:
             wp.launch(_gather, dim=(n, cols.shape[0]), inputs=[fields[field], cols, pos, steps, mask, rows],
                       outputs=[self.history], device=self.device)
+        if self._drawn is not None:
+            self._drawn.record(steps, mask, self.keys, self.due)
         for segment in range(self._segments if self._values else 0):
             if segment:  # the misalign stages ending the previous segment
                 turn(self._turns, segment - 1, steps, mask, [self._tables[i] for i in (5, 6, 11)], self.drawn,
                      self._episode[-1])
             wp.launch(_noise, dim=(n, self._values),
                       inputs=[steps, mask, rows, self.history, *self._tables, self.keys, self.level, self.drawn,
-                              self.state, self.walked, self.z, segment, *self._episode], device=self.device)
+                              self.state, self.walked, self.due, self._alphas, self.z, segment, *self._episode],
+                      device=self.device)
 
     def reset(self, mask: wp.array, fields: Mapping[str, wp.array], steps: wp.array) -> None:
         """Start the masked worlds' episodes (their `steps` already 0 and `fields` their reset state)."""
@@ -526,4 +562,10 @@ class Sensors:
         for first, buffer, width, code, at in self._blocks:
             wp.launch(_reduce, dim=(n, width), inputs=[self.gathered, first, buffer, width, code],
                       outputs=[self.reduced, at], device=self.device)
+        if self._drawn is not None:
+            self._drawn.read(steps, self.history)
+            for first, buffer, width, name, at in self._drawn.blocks:
+                wp.launch(_reduce, dim=(n, width), inputs=[self._drawn.gathered, first, buffer, width,
+                                                           _AGGREGATOR_CODES[name]],
+                          outputs=[self._drawn.reduced, at], device=self.device)
         return self.outputs

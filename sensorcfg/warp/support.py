@@ -109,8 +109,10 @@ def terrain_refusals(scan: Any, model: mujoco.MjModel) -> Found:
 def refusals(observable: Any, field: str | None, model: mujoco.MjModel | None = None) -> Found:
     """What the Warp engine does not run of an enabled observable that a BatchEnvironment runs: cameras
     (rendered per simulation), height scans that would see a geom its ray caster does not cast (with
-    `model`, the one it is bound to: `terrain_refusals`), drawn intervals and delays, noise stages outside
-    `STAGES`, and `field` (the mjData field it reads; None for none) outside `FIELDS`."""
+    `model`, the one it is bound to: `terrain_refusals`), noise stages outside `STAGES`, a lowpass whose
+    cutoff is drawn per episode on a drawn interval, and `field` (the mjData field it reads; None for none)
+    outside `FIELDS`. (Drawn intervals and delays it runs: `warp.drawn`; those a BatchEnvironment refuses, it
+    refuses by the batch's rules.)"""
     found: Found = []
     if per_simulation(observable):
         if hasattr(observable, "camera_id"):
@@ -118,11 +120,14 @@ def refusals(observable: Any, field: str | None, model: mujoco.MjModel | None = 
                      f"yet; remove this sensor, or {_CPU}")]
         if model is not None:
             found += terrain_refusals(observable, model)
-    for key, attr in (("interval", "update_interval"), ("delay", "delay")):
-        if callable(getattr(observable, attr, None)):
-            found.append(((key,), f"a drawn {key} is not run by the Warp engine yet; give a constant one, or {_CPU}"))
     if field is not None and field not in FIELDS:
         found.append((("kind",), field_refusal(field, getattr(observable, "kind", None))))
+    drawn_interval = callable(getattr(observable, "update_interval", None))
     for noise_step in _steps(getattr(observable, "noise", None)):
         found += stage_refusals(noise_step)
+        if drawn_interval and noise_step.stage == "lowpass" and "cutoff" in noise_step.drawn:
+            found.append((("noise", noise_step.stream, "cutoff"),
+                          "a lowpass whose cutoff is drawn per episode, on a drawn interval, is not run by the Warp "
+                          "engine (its coefficient per gap between samples is computed for a fixed cutoff); give a "
+                          f"fixed cutoff or a constant interval, or {_CPU}"))
     return found

@@ -14,20 +14,22 @@ import sys
 from pathlib import Path
 
 import mujoco
+import pytest
 
 import sensorcfg
 from conftest import MODELS
 
 # a suite the single-simulation Environment and the CPU batch both run, with one thing of each class the Warp
-# engine does not (a drawn interval, a camera, a field MuJoCo Warp lacks), and noise it runs (misalign, a
-# parameter drawn per episode)
+# engine does not (a lowpass whose cutoff is drawn per episode on a drawn interval, a camera, a field MuJoCo Warp
+# lacks), and what it runs besides (misalign, a parameter drawn per episode, a drawn interval)
 WARP_SUITE = """model: arm.xml  # copied next to the suite
 sensors:
   turned:
     kind: xpos
     element: site:tip
     noise: [{type: misalign, std: 1deg}, {type: gaussian, std: {uniform: [0.01, 0.02]}}]
-  drawn: {kind: qvel, element: joint:elbow, interval: {uniform: [1, 3]}}
+  drawn: {kind: qvel, element: joint:elbow, interval: {uniform: [1, 3]},
+          noise: [{type: lowpass, cutoff: {uniform: [10, 20]}}]}
   cam:
     kind: rgb
     element: camera:hand_cam
@@ -36,11 +38,12 @@ sensors:
 """
 
 WARP_PROBLEMS = [
-    "s.yaml:7:55: error: sensors.drawn.interval: a drawn interval is not run by the Warp engine yet; give a "
-    "constant one, or run this suite on the CPU engines",
-    "s.yaml:9:11: error: sensors.cam.kind: cameras are rendered per simulation on the CPU, which the Warp engine "
+    "s.yaml:8:43: error: sensors.drawn.noise.0.cutoff: a lowpass whose cutoff is drawn per episode, on a drawn "
+    "interval, is not run by the Warp engine (its coefficient per gap between samples is computed for a fixed "
+    "cutoff); give a fixed cutoff or a constant interval, or run this suite on the CPU engines",
+    "s.yaml:10:11: error: sensors.cam.kind: cameras are rendered per simulation on the CPU, which the Warp engine "
     "does not do yet; remove this sensor, or run this suite on the CPU engines",
-    "s.yaml:12:20: error: sensors.tip_quat.kind: kind 'xquat' reads mjData's site_xquat, which MuJoCo Warp's Data "
+    "s.yaml:13:20: error: sensors.tip_quat.kind: kind 'xquat' reads mjData's site_xquat, which MuJoCo Warp's Data "
     "does not hold as float32 values; read 'xmat' instead (the same orientation as a matrix), or run this suite "
     "on the CPU engines",
 ]
@@ -48,8 +51,8 @@ if not hasattr(mujoco.MjData, "site_xquat"):  # MuJoCo 3 has no site_xquat: that
     WARP_SUITE = WARP_SUITE.replace("  tip_quat: {kind: xquat, element: site:tip}\n", "")
     WARP_PROBLEMS = WARP_PROBLEMS[:2]
 
-# what the Warp engine runs: fixed schedules, its noise stages (misalign, parameters drawn per episode),
-# aggregators, MuJoCo sensor kinds, clean twins, height scans
+# what the Warp engine runs: fixed and drawn schedules, its noise stages (misalign, parameters drawn per
+# episode), aggregators, MuJoCo sensor kinds, clean twins, height scans
 CLEAN_SUITE = """model: arm.xml
 defaults: {twin: "{name}_clean"}
 sensors:
@@ -66,6 +69,8 @@ sensors:
   ground: {kind: heightscan, element: body:base, interval: 4ms, delay: 2ms, noise: [{type: gaussian, std: 0.01}]}
   force: {kind: force, element: actuator:shoulder_motor,
           noise: [{type: bias, std: 0.1}, {type: scale, low: 0.9, high: 1.1}, {type: random_walk, std: 0.01}]}
+  drawn: {kind: qvel, element: joint:shoulder, interval: {uniform: [1, 3]}, delay: {choice: [0, 2]}, buffer: 2,
+          noise: [{type: gaussian, std: 0.01}, {type: lowpass, cutoff: 20Hz}]}
 """
 
 
@@ -110,22 +115,25 @@ def test_validate_engine_warp_checks_what_the_batch_refuses_too(tmp_path: Path) 
     assert validate(suite, "--engine", "warp").stdout.splitlines() == expected
 
 
+@pytest.mark.skipif(not hasattr(mujoco.MjData, "site_xquat"), reason="MuJoCo 3 has no site_xquat")
 def test_validate_engine_warp_says_a_defaults_line_once_and_a_twins_at_its_sources_line(tmp_path: Path) -> None:
     suite = suite_file(tmp_path, """model: arm.xml
 defaults:
   interval: {uniform: [1, 3]}
+  noise: [{type: lowpass, cutoff: {uniform: [10, 20]}}]
 sensors:
   a: {kind: qpos, element: joint:elbow}
   b: {kind: qvel, element: joint:elbow}
-  c: {kind: qvel, element: joint:shoulder, twin: c_clean, enabled: false, buffer: 2, interval: {choice: [1, 2]},
+  c: {kind: xquat, element: site:tip, twin: c_clean, enabled: false, buffer: 2, interval: {choice: [1, 2]},
       noise: []}
 """)
     assert validate(suite, "--engine", "warp").stdout.splitlines() == [
-        "s.yaml:3:13: error: defaults.interval: a drawn interval is not run by the Warp engine yet; give a "
-        "constant one, or run this suite on the CPU engines",
-        "s.yaml:7:96: error: sensors.c.interval: its clean twin 'c_clean' runs (enabled; 'twin: false' drops it): "
-        "a drawn interval is not run by the Warp engine yet; give a constant one, or run this suite on the CPU "
-        "engines",
+        "s.yaml:4:35: error: defaults.noise.0.cutoff: a lowpass whose cutoff is drawn per episode, on a drawn "
+        "interval, is not run by the Warp engine (its coefficient per gap between samples is computed for a fixed "
+        "cutoff); give a fixed cutoff or a constant interval, or run this suite on the CPU engines",
+        "s.yaml:8:13: error: sensors.c.kind: its clean twin 'c_clean' runs (enabled; 'twin: false' drops it): "
+        "kind 'xquat' reads mjData's site_xquat, which MuJoCo Warp's Data does not hold as float32 values; read "
+        "'xmat' instead (the same orientation as a matrix), or run this suite on the CPU engines",
         "2 problems in 1 of 1 suite"]
 
 

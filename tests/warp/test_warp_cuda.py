@@ -15,7 +15,7 @@ wp = warp_or_skip()
 
 import sensorcfg  # noqa: E402
 from sensorcfg import assets  # noqa: E402
-from sensorcfg.draws import episode_entropy  # noqa: E402
+from sensorcfg.draws import ChoiceSteps, UniformSteps, episode_entropy  # noqa: E402
 from sensorcfg.noise import build_noise  # noqa: E402
 from sensorcfg.physics import Physics  # noqa: E402
 from sensorcfg.plan.bind import bind, plan_suite  # noqa: E402
@@ -29,7 +29,8 @@ if not wp.is_cuda_available():
 
 CUDA = "cuda:0"
 ROBOT = str(assets.path("robot.xml"))
-# every stage the engine runs, two to a sensor, with delays, buffers and aggregators
+# every stage the engine runs, two to a sensor, with delays (constant and drawn), drawn intervals, buffers and
+# aggregators
 SENSORS = [
     ("qpos", ["joint:shoulder", "joint:elbow"], 1, 2, 1, None,
      [{"type": "gaussian", "std": 0.01}, {"type": "quantize", "step": 0.001}]),
@@ -44,6 +45,10 @@ SENSORS = [
     ("xpos", ["site:hand_site", "site:imu"], 1, 1, 2, None,  # drawn per episode: parameters, a rotation
      [{"type": "gaussian", "std": {"uniform": [0.01, 0.05]}}, {"type": "misalign", "std": 0.1},
       {"type": "random_walk", "std": 0.01, "correlation_time": {"uniform": [0.01, 0.1]}}]),
+    ("qpos", "joint:elbow", UniformSteps(1, 3), ChoiceSteps((0, 2, 5)), 2, None,
+     [{"type": "gaussian", "std": 0.01}, {"type": "lowpass", "cutoff": 20.0}]),
+    ("xpos", "site:hand_site", 2, UniformSteps(0, 4), 3, "mean",
+     [{"type": "random_walk", "std": 0.01}, {"type": "dropout", "p": 0.3, "mode": "hold"}]),
 ]
 
 

@@ -5,7 +5,7 @@ float32 copies of the Updater's (exactly); noisy ones agree to float32 rounding,
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import mujoco
@@ -75,9 +75,10 @@ def fields_of(datas: list[mujoco.MjData], names: list[str]) -> dict[str, wp.arra
 
 
 def replay(make: Callable[[], dict[str, Any]], model: mujoco.MjModel, nworld: int, substeps: int, pad: bool,
-           control_steps: int, seed: int) -> None:
+           control_steps: int, seed: int, resets: Mapping[int, Sequence[int]] | None = None) -> None:
     """World w of the Warp sensor layer against an Updater over `make()`'s observables, both reading world w's
-    CPU trajectory (random actions): plain noise-free reads bit for bit, the rest to float32 rounding."""
+    CPU trajectory (random actions): plain noise-free reads bit for bit, the rest to float32 rounding.
+    `resets`: control step -> the worlds that start a second episode after its physics (one each at most)."""
     physics = Physics(model)
     mujoco.mj_forward(model, physics.data)
     bound = bind(make(), physics, substeps, False, pad)
@@ -89,20 +90,23 @@ def replay(make: Callable[[], dict[str, Any]], model: mujoco.MjModel, nworld: in
     updaters, physicss = [], []
     table = np.zeros(sensors.key_table.shape, np.uint64)
     values = np.zeros(sensors.episode_table.shape)
-    pipelines = {e.name: e.channel.noise for e in bound.fixed}
+    pipelines = {e.name: e.channel.noise for e in (*bound.fixed, *bound.drawn)}
     for w in range(nworld):
         p = Physics(model)
         mujoco.mj_resetData(model, p.data)
         mujoco.mj_forward(model, p.data)
         u = sensorcfg.Updater(make(), substeps, pad_with_initial_value=pad)
         u.reset(p, np.random.RandomState(100 + w))
-        if sensors.noisy_names:
-            table[w, 0], values[w, 0] = episode_keys(sensors, pipelines, episode_entropy(np.random.RandomState(100 + w)))
+        if sensors.key_names:
+            for e in range(2):  # the episodes' keys, as the Updater draws them from their random states
+                table[w, e], values[w, e] = episode_keys(sensors, pipelines,
+                                                         episode_entropy(np.random.RandomState(100 * (e + 1) + w)))
         updaters.append(u)
         physicss.append(p)
     sensors.key_table.assign(table)
     sensors.episode_table.assign(values)
     steps = wp.zeros(nworld, dtype=wp.int64, device="cpu")
+    age = np.zeros(nworld, np.int64)
     everyone = wp.ones(nworld, dtype=wp.int32, device="cpu")
     sensors.reset(everyone, fields_of([p.data for p in physicss], names), steps)
     lo, hi = model.actuator_ctrlrange.T
@@ -120,8 +124,21 @@ def replay(make: Callable[[], dict[str, Any]], model: mujoco.MjModel, nworld: in
                     snapshots[sum(len(s) > w for s in snapshots)].append(copy)
                 u.control_step(step)
             for k in range(substeps):
-                steps.assign(np.full(nworld, (t - 1) * substeps + k + 1, np.int64))
+                steps.assign(age + k + 1)
                 sensors.record(fields_of(snapshots[k], names), steps)
+            age += substeps
+            again = list((resets or {}).get(t, ()))
+            if again:  # a second episode of these worlds, from the model's initial state
+                for w in again:
+                    mujoco.mj_resetData(model, physicss[w].data)
+                    mujoco.mj_forward(model, physicss[w].data)
+                    updaters[w].reset(physicss[w], np.random.RandomState(200 + w))
+                age[again] = 0
+                steps.assign(age)
+                mask = np.zeros(nworld, np.int32)
+                mask[again] = 1
+                sensors.reset(wp.array(mask, dtype=wp.int32, device="cpu"),
+                              fields_of([p.data for p in physicss], names), steps)
         got = {name: array.numpy() for name, array in sensors.read(steps).items()}
         for w, u in enumerate(updaters):
             for name, value in u.get_observation().items():

@@ -84,14 +84,15 @@ def test_fields_hold_mjdatas_values_in_mjdatas_layout(model: str) -> None:
 
 
 # one thing of each class the Warp engine does not run (tests/cli/test_validate_engine.py: validate reports them),
-# and noise it runs: misalign stages and parameters drawn per episode
+# and what it runs besides: misalign stages, parameters drawn per episode, drawn intervals
 SUITE = """model: arm.xml
 sensors:
   turned:
     kind: xpos
     element: site:tip
     noise: [{type: misalign, std: 1deg}, {type: gaussian, std: {uniform: [0.01, 0.02]}}]
-  drawn: {kind: qvel, element: joint:elbow, interval: {uniform: [1, 3]}}
+  drawn: {kind: qvel, element: joint:elbow, interval: {uniform: [1, 3]},
+          noise: [{type: lowpass, cutoff: {uniform: [10, 20]}}]}
   cam:
     kind: rgb
     element: camera:hand_cam
@@ -107,7 +108,7 @@ def test_warp_environment_refuses_a_suite_with_the_problems_validate_reports(tmp
     suite = sensorcfg.load(tmp_path / "s.yaml")
     reported = suite.check(warp=True)
     assert [(p.line, p.loc) for p in reported] == [
-        (7, "sensors.drawn.interval"), (9, "sensors.cam.kind"), (12, "sensors.tip_quat.kind")]
+        (8, "sensors.drawn.noise.0.cutoff"), (10, "sensors.cam.kind"), (13, "sensors.tip_quat.kind")]
     assert suite.check(batch=True) == []
     with pytest.raises(SuiteError) as refused:
         WarpEnvironment(None, suite, 2, device="cpu")
