@@ -200,3 +200,34 @@ def test_warp_environment_reads_what_the_batch_reads_with_drawn_schedules() -> N
             ours, theirs = warp.reset([1]), batch.reset([1])
         else:
             ours, theirs = warp.step(actions), batch.step(actions.astype(np.float64))
+
+
+EPISODE_NOISE = [  # stages drawing values per episode (a rotation, parameters), on drawn schedules
+    [{"type": "misalign", "std": 0.1}, {"type": "gaussian", "std": {"uniform": [0.01, 0.05]}}],
+    [{"type": "random_walk", "std": {"uniform": [0.01, 0.02]}, "correlation_time": 0.05},
+     {"type": "misalign", "std": 0.2}],
+    [{"type": "dropout", "p": {"uniform": [0.1, 0.4]}, "mode": "hold"}, {"type": "bias", "std": 0.1},
+     {"type": "lowpass", "cutoff": 20.0}],
+]
+
+
+@pytest.mark.parametrize("seed, which", [(seed, which) for which in DRAWS for seed in range(2)])
+def test_drawn_schedules_with_misalign_and_parameters_drawn_per_episode(seed: int, which: str) -> None:
+    """Drawn intervals and delays under noise whose values are drawn at each reset (misalign's rotation,
+    parameters drawn per episode, a bias): world i reads what the Updater reads, resets included."""
+    def make() -> dict[str, sensorcfg.Observable]:
+        rng = np.random.default_rng(seed)
+        physics = Physics(mujoco.MjModel.from_xml_path(ROBOT))
+        interval, delay = DRAWS[which]
+        out = {}
+        for j, stages in enumerate(EPISODE_NOISE):
+            obs = sensorcfg.Feature("xpos", "site:hand_site", update_interval=interval(rng), delay=delay(rng),
+                                    buffer_size=int(rng.integers(1, 3)), aggregator=[None, "mean"][j % 2])
+            obs.reader(physics)
+            obs.noise = build_noise(stages, obs.array_spec.shape, obs.array_spec.dtype, physics.timestep)
+            obs.enabled = True
+            out[f"d{j}"] = obs
+        return out
+
+    replay(make, mujoco.MjModel.from_xml_path(ROBOT), 3, 1 + seed % 3, bool(seed % 2), 24, seed,
+           resets={7: [1], 15: [0, 2]})
