@@ -2,8 +2,9 @@
 
 Setting: Unitree Go2 (tests/models/go2_like.xml, or Menagerie's unitree_go2/scene_mjx.xml through
 --model-go2) with benchmarks/suites/go2_sim2real.yaml, and dm_control's humanoid (benchmarks/_humanoid.py,
-or --model-humanoid) with benchmarks/suites/humanoid_sim2real.yaml: 20 sensors each, constant delays,
-buffers, aggregators, two noise stages per sensor, clean twins. A control step is 4 physics steps.
+or --model-humanoid) with benchmarks/suites/humanoid_sim2real.yaml: 20 sensors each, delays (the IMU's
+drawn per sample), buffers, aggregators, two noise stages per sensor (misalign and parameters drawn per
+episode among them), clean twins. A control step is 4 physics steps.
 
 - physics alone: per control step the actions copied into `ctrl`, then `Worlds.step(4)` (4 `mjw.step` of
   every world, each with the worlds' step counts and divergence check);
