@@ -195,7 +195,7 @@ class Suite:
             if isinstance(observable, Feature):  # the field its reader reads, as WarpEnvironment finds it
                 physics = physics or Physics(model)
                 field = observable.reader(physics).field
-            found += [(name, key, message) for key, message in refusals(observable, field)]
+            found += [(name, key, message) for key, message in refusals(observable, field, model)]
         return list(dict.fromkeys(self._at_lines(found)))  # a `defaults` line's problem once, not per sensor
 
     def compile(self, model: ModelLike = None, *, batch: bool = False) -> mujoco.MjModel:

@@ -43,6 +43,7 @@ from ..noise.level import leveled, own_bounds, set_level
 from ..physics import Physics
 from ..plan.bind import bind, plan_suite
 from ..runtime.updater import observation_spec
+from .cameras import Cameras
 from .philox import MODULE_OPTIONS
 from .sensors import Sensors
 from .support import field_refusal, refusals
@@ -171,12 +172,14 @@ class WarpEnvironment(ControlLoop):
         physics = Physics(self._model)
         mujoco.mj_forward(self._model, physics.data)
         bound = bind(observables, physics, self._n, strip, pad)
-        self._refuse(bound)
+        self._refuse(bound, self._model)
         plan = plan_suite(bound, physics, bound.sources(), self._nworld, self._n, pad)
         self._spec = {e.name: observation_spec(e.name, e.observable, e.channel) for e in bound.entries}
         self.device = wp.get_device(device)
         self._worlds = Worlds(self._model, self._nworld, self.device, self._keyframe, nconmax, njmax)
         self._fields = self._field_views([f for f, _ in plan.fields])
+        self._cameras = Cameras([(e.name, e.observable, e.channel) for e in bound.cameras], self._model, self._worlds,
+                                self._n, pad, {e.name: tuple(self._spec[e.name].shape) for e in bound.cameras})
         bounds = {e.name: b for e in bound.fixed if e.channel.noise is not None
                   for b in [noisy_bounds(getattr(e.channel.noise, "_inner", e.channel.noise), own_bounds(e.observable))]
                   if b is not None}
@@ -199,9 +202,11 @@ class WarpEnvironment(ControlLoop):
             self._mask = wp.zeros(n, dtype=wp.int32)
             self._any = wp.zeros(1, dtype=wp.int32)
         self._action_spec = action_spec(self._model, (self._nworld,))
-        self._observation_spec = {name: specs.Array((self._nworld, *spec.shape), np.float32, name=name)
+        dtypes = {name: spec.dtype if name in self._cameras.names else np.dtype(np.float32)  # cameras: the CPU's
+                  for name, spec in self._spec.items()}
+        self._observation_spec = {name: specs.Array((self._nworld, *spec.shape), dtypes[name], name=name)
                                   if not isinstance(spec, specs.BoundedArray) else
-                                  specs.BoundedArray((self._nworld, *spec.shape), np.float32,
+                                  specs.BoundedArray((self._nworld, *spec.shape), dtypes[name],
                                                      np.broadcast_to(spec.minimum, spec.shape),
                                                      np.broadcast_to(spec.maximum, spec.shape), name=name)
                                   for name, spec in self._spec.items()}
@@ -215,12 +220,12 @@ class WarpEnvironment(ControlLoop):
     # -- construction ---------------------------------------------------------------------------------
 
     @staticmethod
-    def _refuse(bound: Any) -> None:
+    def _refuse(bound: Any, model: mujoco.MjModel) -> None:
         """What this engine does not run (`support.refusals`), each at its sensor's key (`validate --engine
         warp` says the same at the suite's lines)."""
         fields = {e.name: source.field for e, source in zip((*bound.fixed, *bound.drawn), bound.sources())}
         problems = [Problem(message, ".".join(map(str, ("sensors", entry.name, *key))))
-                    for entry in bound.entries for key, message in refusals(entry.observable, fields.get(entry.name))]
+                    for entry in bound.entries for key, message in refusals(entry.observable, fields.get(entry.name), model)]
         if problems:
             raise SuiteError(problems)
 
@@ -309,6 +314,7 @@ class WarpEnvironment(ControlLoop):
         self._worlds.reset(mask)
         self._worlds.forward()  # MuJoCo Warp has no per-world forward: every world's derived fields, again
         self._sensors.reset(mask, self._fields, self._worlds.steps)
+        self._cameras.reset(mask)
 
     def reset(self, ids: Any = None) -> WarpTimeStep:
         """Start new episodes of worlds `ids` (all when None: indices, or a boolean mask); the others continue."""
@@ -354,9 +360,10 @@ class WarpEnvironment(ControlLoop):
         if self._model.nu:
             wp.launch(_control, dim=(n, self._model.nu), inputs=[self._actions, self._restarting],
                       outputs=[self._worlds.data.ctrl], device=device)
-        for _ in range(self._n):
+        for substep in range(1, self._n + 1):
             self._worlds.step(1)
             self._sensors.record(self._fields, self._worlds.steps)
+            self._cameras.record(substep)
         wp.copy(self._diverged, self._worlds.diverged)
         self._start_episodes(self._restarting)  # the worlds whose previous step ended their episode
         self._observation = self._observe()
@@ -383,7 +390,7 @@ class WarpEnvironment(ControlLoop):
         wp.copy(self._actions, array)
 
     def _observe(self) -> dict[str, wp.array]:
-        outputs = self._sensors.read(self._worlds.steps)
+        outputs = {**self._sensors.read(self._worlds.steps), **self._cameras.read()}
         return {name: outputs[name] for name in self._names}
 
     def close(self) -> None:

@@ -19,6 +19,7 @@ from typing import Any
 from ..plan.bind import per_simulation
 from ..plan.noise import step
 from ..plan.records import NoiseStep
+from .camera_support import camera_refusals
 
 __all__ = ["FIELDS", "STAGES", "Found", "field_refusal", "refusals", "stage_refusals"]
 
@@ -77,14 +78,17 @@ def _steps(noise: Any) -> list[NoiseStep]:
     return [step(config, i, shape) for i, config in enumerate(noise.configs)]
 
 
-def refusals(observable: Any, field: str | None) -> Found:
-    """What the Warp engine does not run of an enabled observable that a BatchEnvironment runs: cameras and
-    height scans (sampled per simulation), drawn intervals and delays, noise stages outside `STAGES` or with
-    parameters drawn per episode, and `field` (the mjData field it reads; None for none) outside `FIELDS`."""
+def refusals(observable: Any, field: str | None, model: Any = None) -> Found:
+    """What the Warp engine does not run of an enabled observable that a BatchEnvironment runs: height scans
+    (cast per simulation), what MuJoCo Warp's renderer does not cover of a camera and of `model` (the
+    compiled MjModel; None: the camera's own settings only, `camera_support.camera_refusals`), drawn
+    intervals and delays, noise stages outside `STAGES` or with parameters drawn per episode, and `field`
+    (the mjData field it reads; None for none) outside `FIELDS`."""
+    if hasattr(observable, "camera_id"):
+        return camera_refusals(observable, model)
     if per_simulation(observable):
-        what = "cameras are rendered" if hasattr(observable, "camera_id") else "height scans are cast"
-        return [(("kind",), f"{what} per simulation on the CPU, which the Warp engine does not do yet; remove "
-                 f"this sensor, or {_CPU}")]
+        return [(("kind",), f"height scans are cast per simulation on the CPU, which the Warp engine does not do "
+                 f"yet; remove this sensor, or {_CPU}")]
     found: Found = []
     for key, attr in (("interval", "update_interval"), ("delay", "delay")):
         if callable(getattr(observable, attr, None)):
