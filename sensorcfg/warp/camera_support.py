@@ -43,7 +43,7 @@ def model_refusal(model: mujoco.MjModel) -> str | None:
     site = (model.site_group < _VISIBLE_GROUPS) & (_alpha(model.site_rgba, model.site_matid, model.mat_rgba) > 0)
     if site.any():
         names = [model.site(int(i)).name or f"#{int(i)}" for i in np.flatnonzero(site)[:3]]
-        found.append(f"visible sites ({', '.join(names)}{', ...' if site.sum() > 3 else ''}: give them "
+        found.append(f"visible sites ({', '.join(names)}{', ...' if site.sum() > 3 else ''}; give them "
                      "group=\"3\" or higher, or rgba alpha 0)")
     spatial = np.array([any(model.wrap_type[a:a + n] != mujoco.mjtWrap.mjWRAP_JOINT)
                         for a, n in zip(model.tendon_adr, model.tendon_num)], bool)
@@ -61,7 +61,7 @@ def model_refusal(model: mujoco.MjModel) -> str | None:
     clear = (model.geom_group < _VISIBLE_GROUPS) & (alpha > 0) & (alpha < 1)
     if clear.any():
         names = [model.geom(int(i)).name or f"#{int(i)}" for i in np.flatnonzero(clear)[:3]]
-        found.append(f"translucent geoms ({', '.join(names)}: OpenGL blends them with what is behind; make "
+        found.append(f"translucent geoms ({', '.join(names)}; OpenGL blends them with what is behind; make "
                      "them opaque, or invisible with alpha 0)")
     if not found:
         return None
@@ -108,11 +108,14 @@ def _scene_refusals(observable: Any) -> Found:
 def camera_refusals(observable: Any, model: mujoco.MjModel | None) -> Found:
     """What the Warp engine does not run of a camera observable (on `model`, when given)."""
     found: Found = []
-    if observable.noise is not None:
-        found.append((("noise",), f"noise on a camera image is not run by the Warp engine yet; remove it, or {_CPU}"))
-    found += _scene_refusals(observable)
     if model is not None:
+        if observable.camera_id(model) < 0:
+            found.append((("element",), f"the free camera (-1) is not rendered by the Warp engine; select a model "
+                          f"camera, or {_CPU}"))
         problem = model_refusal(model)
         if problem is not None:
             found.append((("element",), problem))
+    found += _scene_refusals(observable)
+    if observable.noise is not None:
+        found.append((("noise",), f"noise on a camera image is not run by the Warp engine yet; remove it, or {_CPU}"))
     return found

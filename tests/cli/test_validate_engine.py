@@ -19,7 +19,8 @@ import sensorcfg
 from conftest import MODELS
 
 # a suite the single-simulation Environment and the CPU batch both run, with one thing of each class the Warp
-# engine does not: a noise stage outside its kernels (misalign), a drawn interval, a camera, a field MuJoCo Warp lacks
+# engine does not: a noise stage outside its kernels (misalign), a drawn interval, a camera on a model
+# with visible sites (which MuJoCo Warp's renderer does not draw), a field MuJoCo Warp lacks
 WARP_SUITE = """model: arm.xml  # copied next to the suite
 sensors:
   turned:
@@ -40,8 +41,9 @@ WARP_PROBLEMS = [
     "or run this suite on the CPU engines",
     "s.yaml:7:55: error: sensors.drawn.interval: a drawn interval is not run by the Warp engine yet; give a "
     "constant one, or run this suite on the CPU engines",
-    "s.yaml:9:11: error: sensors.cam.kind: cameras are rendered per simulation on the CPU, which the Warp engine "
-    "does not do yet; remove this sensor, or run this suite on the CPU engines",
+    "s.yaml:10:14: error: sensors.cam.element: the model has visible sites (imu, elbow_site, tip; give them "
+    "group=\"3\" or higher, or rgba alpha 0), which the CPU camera draws and MuJoCo Warp's renderer does not; "
+    "change the model so, or run this suite on the CPU engines",
     "s.yaml:12:20: error: sensors.tip_quat.kind: kind 'xquat' reads mjData's site_xquat, which MuJoCo Warp's Data "
     "does not hold as float32 values; read 'xmat' instead (the same orientation as a matrix), or run this suite "
     "on the CPU engines",

@@ -107,7 +107,7 @@ def test_warp_environment_refuses_a_suite_with_the_problems_validate_reports(tmp
     reported = suite.check(warp=True)
     assert [(p.line, p.loc) for p in reported] == [
         (6, "sensors.turned.noise.0.type"), (6, "sensors.turned.noise.1.std"), (7, "sensors.drawn.interval"),
-        (9, "sensors.cam.kind"), (12, "sensors.tip_quat.kind")]
+        (10, "sensors.cam.element"), (12, "sensors.tip_quat.kind")]
     assert suite.check(batch=True) == []
     with pytest.raises(SuiteError) as refused:
         WarpEnvironment(None, suite, 2, device="cpu")
