@@ -148,8 +148,8 @@ def _store_segmentation(seg: wp.array2d[wp.vec2i], steps: wp.array[wp.int64], ma
 
 
 @wp.kernel
-def _read(ring: wp.array3d(dtype=Any), steps: wp.array[wp.int64], interval: wp.int64, delay: wp.int64,
-          capacity: wp.int64, out: wp.array3d(dtype=Any)):
+def _read(ring: wp.array3d[Any], steps: wp.array[wp.int64], interval: wp.int64, delay: wp.int64,
+          capacity: wp.int64, out: wp.array3d[Any]):
     """out[w, b]: slot b of the window of world w's read at its step (oldest first; padding below 0)."""
     w, b, i = wp.tid()
     newest = _floor_div(steps[w] - delay, interval)

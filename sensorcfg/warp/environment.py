@@ -58,7 +58,8 @@ _FIRST, _MID, _LAST = (int(t) for t in (dm_env.StepType.FIRST, dm_env.StepType.M
 
 
 class WarpTimeStep(NamedTuple):
-    """A dm_env TimeStep per world: (nworld,) device arrays, observations (nworld, ...) float32."""
+    """A dm_env TimeStep per world: (nworld,) device arrays, observations (nworld, ...) float32
+    (a camera's: its CPU dtype, as vectors of its channels: `warp.cameras`)."""
 
     step_type: wp.array
     reward: wp.array
