@@ -3,8 +3,9 @@
 - `STAGES`: the noise stage types its kernels run (`warp.sensors` holds each one's kernel code);
 - `FIELDS`: the mjData fields a sensor may read there: those MuJoCo Warp's `Data` holds as (nworld, ...)
   float32 arrays laid out as mjData's, so a position computed on an MjData addresses the same value;
-- `refusals(observable, field)`: what the engine does not run of one bound sensor, as (key, message) pairs,
-  the key a path inside the sensor's entry of a suite (`kind`, `interval`, `delay`, `noise.<i>.type`, ...).
+- `refusals(observable, field, model)`: what the engine does not run of one bound sensor, as (key, message)
+  pairs, the key a path inside the sensor's entry of a suite (`kind`, `interval`, `delay`, `noise.<i>.type`,
+  ...); a camera's are `camera_support.camera_refusals` (what MuJoCo Warp's renderer does not cover).
 
 `WarpEnvironment` raises them at construction (each a problem at `sensors.<name>.<key>`); `validate
 --engine warp` and `Suite.check(model, warp=True)` report them at the suite's lines. What a BatchEnvironment

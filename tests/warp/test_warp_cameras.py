@@ -209,3 +209,16 @@ def test_noise_on_a_camera_is_refused_by_the_environment() -> None:
     obs["depth"].noise = build_noise([{"type": "gaussian", "std": 0.01}], (H, W, 1), np.float32, 0.01)
     with pytest.raises(SuiteError, match=r"sensors\.depth\.noise: noise on a camera image"):
         WarpEnvironment(SCENE, obs, NWORLD, device="cpu")
+
+
+def test_a_restarted_world_shows_its_reset_frame_and_the_others_go_on() -> None:
+    obs = {"depth": Camera("eye", height=H, width=W, mode="depth")}
+    obs["depth"].enabled = True
+    env = WarpEnvironment(SCENE, obs, NWORLD, device="cpu", physics_steps_per_control_step=2)
+    seen = frames(env, 6, "depth")
+    again = env.reset([1]).observation["depth"].numpy()
+    np.testing.assert_array_equal(again[1], seen[0][1])  # world 1 from its reset state again
+    np.testing.assert_array_equal(again[0], seen[-1][0])  # world 0's read is unchanged
+    assert (seen[-1][1] != seen[0][1]).any()
+    moved = env.step(actions(0)).observation["depth"].numpy()
+    assert (moved[1] != seen[0][1]).any() and (moved[0] != seen[-1][0]).any()
