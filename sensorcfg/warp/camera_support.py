@@ -4,14 +4,15 @@ and a model, and what they refuse: importable without Warp (`support.refusals` c
 
 MuJoCo Warp 4.0.0's renderer (`mujoco_warp.render`) casts one ray per pixel centre against the model's geoms
 in groups 0-2 (planes, spheres, capsules, ellipsoids, cylinders, boxes, meshes, height fields) and its flexes,
-lit by the model's lights and headlight. The CPU camera draws more by default, through OpenGL: sites and
-spatial tendons in groups 0-2, skins, rangefinder rays, and translucent geoms blended with what is behind
-them. A model with any of these is refused at the camera's `element`, as are scene flags the renderer has no
+lit by the model's lights and headlight; a height field is its surface only. The CPU camera draws more by
+default, through OpenGL: sites and spatial tendons in groups 0-2, skins, rangefinder rays, a height field's
+side walls and base, and translucent geoms blended with what is behind them. A model with any of these is refused at the camera's `element`, as are scene flags the renderer has no
 counterpart for and noise on an image.
 """
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import mujoco
@@ -58,7 +59,13 @@ def model_refusal(model: mujoco.MjModel) -> str | None:
     if (model.sensor_type == mujoco.mjtSensor.mjSENS_RANGEFINDER).any():
         found.append("rangefinder sensors (the CPU camera draws their rays)")
     alpha = _alpha(model.geom_rgba, model.geom_matid, model.mat_rgba)
-    clear = (model.geom_group < _VISIBLE_GROUPS) & (alpha > 0) & (alpha < 1)
+    shown = (model.geom_group < _VISIBLE_GROUPS) & (alpha > 0)
+    terrain = shown & (model.geom_type == mujoco.mjtGeom.mjGEOM_HFIELD)
+    if terrain.any():
+        names = [model.geom(int(i)).name or f"#{int(i)}" for i in np.flatnonzero(terrain)[:3]]
+        found.append(f"height fields ({', '.join(names)}; MuJoCo Warp 4.0.0's renderer draws their surface only, "
+                     "not the side walls and base the CPU camera draws)")
+    clear = shown & (alpha < 1)
     if clear.any():
         names = [model.geom(int(i)).name or f"#{int(i)}" for i in np.flatnonzero(clear)[:3]]
         found.append(f"translucent geoms ({', '.join(names)}; OpenGL blends them with what is behind; make "
@@ -67,6 +74,22 @@ def model_refusal(model: mujoco.MjModel) -> str | None:
         return None
     return (f"the model has {'; '.join(found)}, which the CPU camera draws and MuJoCo Warp's renderer does not; "
             f"change the model so, or {_CPU}")
+
+
+def _projection_refusal(observable: Any, model: mujoco.MjModel) -> str | None:
+    """A camera given by its sensor (`sensorsize`, `focal`) whose image has another aspect than the sensor:
+    MuJoCo Warp 4.0.0 fits such an image to the sensor otherwise than MuJoCo's OpenGL camera does (checked:
+    the same aspect gives the same pixels)."""
+    cam = observable.camera_id(model)
+    if cam < 0 or model.cam_sensorsize[cam][1] <= 0:
+        return None
+    width, height = observable.size(model)
+    sensor_w, sensor_h = (float(v) for v in model.cam_sensorsize[cam])
+    if math.isclose(width * sensor_h, height * sensor_w, rel_tol=1e-6):  # (the model holds float32 sizes)
+        return None
+    return (f"the camera's sensor is {sensor_w:g} x {sensor_h:g} and its image {width} x {height} pixels, another "
+            "aspect, which MuJoCo Warp's renderer fits to the sensor otherwise than the CPU camera; ask for an "
+            f"image of the sensor's aspect (width / height = {sensor_w / sensor_h:g}), or {_CPU}")
 
 
 def settings(observable: Any) -> dict[str, bool]:
@@ -112,6 +135,9 @@ def camera_refusals(observable: Any, model: mujoco.MjModel | None) -> Found:
         if observable.camera_id(model) < 0:
             found.append((("element",), f"the free camera (-1) is not rendered by the Warp engine; select a model "
                           f"camera, or {_CPU}"))
+        problem = _projection_refusal(observable, model)
+        if problem is not None:
+            found.append((("element",), problem))
         problem = model_refusal(model)
         if problem is not None:
             found.append((("element",), problem))
