@@ -112,6 +112,18 @@ def test_depth_and_segmentation_are_opengls_away_from_outlines(run) -> None:
         assert set(np.unique(seg[..., 1])) <= {-1, int(mujoco.mjtObj.mjOBJ_GEOM)}
 
 
+def test_rgb_is_an_image_of_the_same_scene_in_the_geoms_colours(run) -> None:
+    """Not OpenGL's pixels (docs/warp.md): each geom's pixels lean to its own colour."""
+    _, seen, _ = run
+    model = mujoco.MjModel.from_xml_path(SCENE)
+    for w in range(NWORLD):
+        rgb, seg = seen[-1]["rgb"][w, 0].astype(float), seen[-1]["segmentation"][w, 0]
+        for geom in ("block", "ball", "stick"):
+            mine = seg[..., 0] == model.geom(geom).id
+            colour = model.geom(geom).rgba[:3]
+            assert mine.any() and np.argmax(rgb[mine].mean(axis=0)) == np.argmax(colour), geom
+
+
 def test_worlds_in_different_states_give_different_images(run) -> None:
     _, seen, states = run
     assert not np.allclose(states[-1]["qpos"][0], states[-1]["qpos"][1])
