@@ -146,7 +146,7 @@ def test_cameras_in_the_captured_control_step_render_each_steps_state() -> None:
     env.reset()
     frames = []
     for _ in range(12):
-        depth = env.step(actions).observation["depth"].numpy().reshape(nworld, height * width)
+        depth = env.step(actions).observation["depth"].numpy().reshape(nworld, height * width).copy()
         with wp.ScopedDevice(CUDA):
             mjw.refit_bvh(env.worlds.model, env.data, rc)
             mjw.render(env.worlds.model, env.data, rc)
