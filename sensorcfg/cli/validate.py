@@ -70,8 +70,9 @@ def add_parser(sub: Any, epilog: str) -> None:
     p.add_argument("--engine", choices=list(ENGINES), default="single",
                    help="check what this engine runs: single (Environment; the default), batch (BatchEnvironment: "
                    "no noise, aggregators or drawn schedules on cameras; float64 mjData features; no generic or "
-                   "custom callables; ...), warp (WarpEnvironment: what batch refuses, and cameras, height scans "
-                   "meeting SDF geoms, drawn schedules, some noise stages and fields; Warp need not be installed)")
+                   "custom callables; ...), warp (WarpEnvironment: what batch refuses, and what its camera renderer "
+                   "does not cover, height scans meeting SDF geoms, some noise settings and fields; Warp need not "
+                   "be installed)")
     p.add_argument("--batch", action="store_true", help="the same as --engine batch")
     add_common_suite_args(p, every=True)
     p.set_defaults(handler=command)

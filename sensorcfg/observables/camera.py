@@ -226,6 +226,11 @@ class Camera(Observable):
         return self._mode
 
     @property
+    def scene_settings(self) -> tuple[mujoco.MjvOption | None, np.ndarray]:
+        """(visualisation option or None, the scene's render flags) its frames are rendered with."""
+        return self._scene_option, self._render_flags
+
+    @property
     def array_spec(self) -> specs.BoundedArray | None:
         if self._size is None:
             return None

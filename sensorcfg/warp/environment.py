@@ -43,6 +43,7 @@ from ..noise.level import leveled, own_bounds, set_level
 from ..physics import Physics
 from ..plan.bind import bind
 from ..runtime.updater import observation_spec
+from .cameras import Cameras
 from .episode import episode_values
 from .philox import MODULE_OPTIONS
 from .rays import Scans, plan as scan_plan
@@ -59,7 +60,8 @@ _FIRST, _MID, _LAST = (int(t) for t in (dm_env.StepType.FIRST, dm_env.StepType.M
 
 
 class WarpTimeStep(NamedTuple):
-    """A dm_env TimeStep per world: (nworld,) device arrays, observations (nworld, ...) float32."""
+    """A dm_env TimeStep per world: (nworld,) device arrays, observations (nworld, ...) float32
+    (a camera's: its CPU dtype, as vectors of its channels: `warp.cameras`)."""
 
     step_type: wp.array
     reward: wp.array
@@ -181,6 +183,8 @@ class WarpEnvironment(ControlLoop):
         self._scans = Scans(self._model, plan, bound, self.device)
         self._fields = {**self._field_views([f for f, _ in plan.fields if f not in self._scans.heights]
                                             + self._scans.pose_fields), **self._scans.heights}
+        self._cameras = Cameras([(e.name, e.observable, e.channel) for e in bound.cameras], self._model, self._worlds,
+                                self._n, pad, {e.name: tuple(self._spec[e.name].shape) for e in bound.cameras})
         bounds = {e.name: b for e in (*bound.fixed, *bound.drawn) if e.channel.noise is not None
                   for b in [noisy_bounds(getattr(e.channel.noise, "_inner", e.channel.noise), own_bounds(e.observable))]
                   if b is not None}
@@ -203,9 +207,11 @@ class WarpEnvironment(ControlLoop):
             self._mask = wp.zeros(n, dtype=wp.int32)
             self._any = wp.zeros(1, dtype=wp.int32)
         self._action_spec = action_spec(self._model, (self._nworld,))
-        self._observation_spec = {name: specs.Array((self._nworld, *spec.shape), np.float32, name=name)
+        dtypes = {name: spec.dtype if name in self._cameras.names else np.dtype(np.float32)  # cameras: the CPU's
+                  for name, spec in self._spec.items()}
+        self._observation_spec = {name: specs.Array((self._nworld, *spec.shape), dtypes[name], name=name)
                                   if not isinstance(spec, specs.BoundedArray) else
-                                  specs.BoundedArray((self._nworld, *spec.shape), np.float32,
+                                  specs.BoundedArray((self._nworld, *spec.shape), dtypes[name],
                                                      np.broadcast_to(spec.minimum, spec.shape),
                                                      np.broadcast_to(spec.maximum, spec.shape), name=name)
                                   for name, spec in self._spec.items()}
@@ -314,6 +320,7 @@ class WarpEnvironment(ControlLoop):
         self._worlds.forward()  # MuJoCo Warp has no per-world forward: every world's derived fields, again
         self._scans.cast(self._fields, self._worlds.steps, every=True)
         self._sensors.reset(mask, self._fields, self._worlds.steps)
+        self._cameras.reset(mask)
 
     def reset(self, ids: Any = None) -> WarpTimeStep:
         """Start new episodes of worlds `ids` (all when None: indices, or a boolean mask); the others continue."""
@@ -359,10 +366,11 @@ class WarpEnvironment(ControlLoop):
         if self._model.nu:
             wp.launch(_control, dim=(n, self._model.nu), inputs=[self._actions, self._restarting],
                       outputs=[self._worlds.data.ctrl], device=device)
-        for _ in range(self._n):
+        for substep in range(1, self._n + 1):
             self._worlds.step(1)
             self._scans.cast(self._fields, self._worlds.steps)
             self._sensors.record(self._fields, self._worlds.steps)
+            self._cameras.record(substep)
         wp.copy(self._diverged, self._worlds.diverged)
         self._start_episodes(self._restarting)  # the worlds whose previous step ended their episode
         self._observation = self._observe()
@@ -389,7 +397,7 @@ class WarpEnvironment(ControlLoop):
         wp.copy(self._actions, array)
 
     def _observe(self) -> dict[str, wp.array]:
-        outputs = self._sensors.read(self._worlds.steps)
+        outputs = {**self._sensors.read(self._worlds.steps), **self._cameras.read()}
         return {name: outputs[name] for name in self._names}
 
     def close(self) -> None:

@@ -6,7 +6,8 @@
   float32 arrays laid out as mjData's, so a position computed on an MjData addresses the same value;
 - `RAY_GEOMS`: the geom types MuJoCo Warp's ray caster casts height scans' rays at (`warp/rays.py`);
 - `refusals(observable, field, model)`: what the engine does not run of one bound sensor, as (key, message)
-  pairs, the key a path inside the sensor's entry of a suite (`kind`, `interval`, `delay`, `noise.<i>.type`, ...).
+  pairs, the key a path inside the sensor's entry of a suite (`kind`, `interval`, `delay`, `noise.<i>.type`,
+  ...); a camera's are `camera_support.camera_refusals` (what MuJoCo Warp's renderer does not cover).
 
 `WarpEnvironment` raises them at construction (each a problem at `sensors.<name>.<key>`); `validate
 --engine warp` and `Suite.check(model, warp=True)` report them at the suite's lines. What a BatchEnvironment
@@ -25,6 +26,7 @@ from ..heightscan import visible_rgba
 from ..plan.bind import per_simulation
 from ..plan.noise import step
 from ..plan.records import NoiseStep
+from .camera_support import camera_refusals
 
 __all__ = ["FIELDS", "RAY_GEOMS", "STAGES", "Found", "field_refusal", "refusals", "stage_refusals", "terrain_refusals"]
 
@@ -107,19 +109,18 @@ def terrain_refusals(scan: Any, model: mujoco.MjModel) -> Found:
 
 
 def refusals(observable: Any, field: str | None, model: mujoco.MjModel | None = None) -> Found:
-    """What the Warp engine does not run of an enabled observable that a BatchEnvironment runs: cameras
-    (rendered per simulation), height scans that would see a geom its ray caster does not cast (with
-    `model`, the one it is bound to: `terrain_refusals`), noise stages outside `STAGES`, a lowpass whose
+    """What the Warp engine does not run of an enabled observable that a BatchEnvironment runs: what MuJoCo
+    Warp's renderer does not cover of a camera and of `model` (the compiled MjModel it is bound to; None: the
+    camera's own settings only, `camera_support.camera_refusals`), height scans that would see a geom its ray
+    caster does not cast (with `model`: `terrain_refusals`), noise stages outside `STAGES`, a lowpass whose
     cutoff is drawn per episode on a drawn interval, and `field` (the mjData field it reads; None for none)
     outside `FIELDS`. (Drawn intervals and delays it runs: `warp.drawn`; those a BatchEnvironment refuses, it
     refuses by the batch's rules.)"""
+    if hasattr(observable, "camera_id"):
+        return camera_refusals(observable, model)
     found: Found = []
-    if per_simulation(observable):
-        if hasattr(observable, "camera_id"):
-            return [(("kind",), "cameras are rendered per simulation on the CPU, which the Warp engine does not do "
-                     f"yet; remove this sensor, or {_CPU}")]
-        if model is not None:
-            found += terrain_refusals(observable, model)
+    if per_simulation(observable) and model is not None:
+        found += terrain_refusals(observable, model)
     if field is not None and field not in FIELDS:
         found.append((("kind",), field_refusal(field, getattr(observable, "kind", None))))
     drawn_interval = callable(getattr(observable, "update_interval", None))

@@ -20,8 +20,9 @@ import sensorcfg
 from conftest import MODELS
 
 # a suite the single-simulation Environment and the CPU batch both run, with one thing of each class the Warp
-# engine does not (a lowpass whose cutoff is drawn per episode on a drawn interval, a camera, a field MuJoCo Warp
-# lacks), and what it runs besides (misalign, a parameter drawn per episode, a drawn interval)
+# engine does not (a lowpass whose cutoff is drawn per episode on a drawn interval, a camera on a model with
+# visible sites, which MuJoCo Warp's renderer does not draw, a field MuJoCo Warp lacks), and what it runs besides
+# (misalign, a parameter drawn per episode, a drawn interval)
 WARP_SUITE = """model: arm.xml  # copied next to the suite
 sensors:
   turned:
@@ -41,8 +42,9 @@ WARP_PROBLEMS = [
     "s.yaml:8:43: error: sensors.drawn.noise.0.cutoff: a lowpass whose cutoff is drawn per episode, on a drawn "
     "interval, is not run by the Warp engine (its coefficient per gap between samples is computed for a fixed "
     "cutoff); give a fixed cutoff or a constant interval, or run this suite on the CPU engines",
-    "s.yaml:10:11: error: sensors.cam.kind: cameras are rendered per simulation on the CPU, which the Warp engine "
-    "does not do yet; remove this sensor, or run this suite on the CPU engines",
+    "s.yaml:11:14: error: sensors.cam.element: the model has visible sites (imu, elbow_site, tip; give them "
+    "group=\"3\" or higher, or rgba alpha 0), which the CPU camera draws and MuJoCo Warp's renderer does not; "
+    "change the model so, or run this suite on the CPU engines",
     "s.yaml:13:20: error: sensors.tip_quat.kind: kind 'xquat' reads mjData's site_xquat, which MuJoCo Warp's Data "
     "does not hold as float32 values; read 'xmat' instead (the same orientation as a matrix), or run this suite "
     "on the CPU engines",

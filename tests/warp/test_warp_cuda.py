@@ -1,7 +1,8 @@
 """The Warp engine on a CUDA device against Warp's CPU device (skipped where no CUDA device is present; the
 GPU check benchmarks/warp_gpu.sh runs it): the same keys give the same Philox words and uniforms bit for
 bit, normals to one float64 ulp (the ziggurat fallback's exp and log are each device's), and the sensor
-layer fed the same samples with the same key and episode tables reads the same values on both devices."""
+layer fed the same samples with the same key and episode tables reads the same values on both devices;
+cameras recorded in the control step's CUDA graph render each step's state."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from conftest import warp_or_skip  # noqa: E402
+from conftest import MODELS, warp_or_skip  # noqa: E402
 
 wp = warp_or_skip()
 
@@ -135,3 +136,36 @@ def test_the_sensor_layer_reads_the_same_values_on_cuda_and_cpu() -> None:
             # float64 noise arithmetic rounded to float32 on both devices: equal to float32 rounding (a
             # normal's fallback takes each device's exp and log)
             np.testing.assert_allclose(b[name], a[name], rtol=1e-6, atol=1e-7, err_msg=f"read {t} {name}")
+
+
+def test_cameras_in_the_captured_control_step_render_each_steps_state() -> None:
+    """Replayed graphs (from the second step), restarts in the graph's conditional node (a 0.05 s episode):
+    each step's depth frame is a render of the worlds' state after it, as a render context of its own gives."""
+    import mujoco_warp as mjw
+
+    from sensorcfg.observables.camera import Camera
+    from sensorcfg.warp.cameras import background_depth
+    from sensorcfg.warp.environment import WarpEnvironment
+
+    scene, nworld, width, height = str(MODELS / "camera_scene.xml"), 4, 32, 24
+    obs = {"depth": Camera("eye", height=height, width=width, mode="depth")}
+    obs["depth"].enabled = True
+    env = WarpEnvironment(scene, obs, nworld, device=CUDA, physics_steps_per_control_step=1, time_limit=0.05)
+    model = mujoco.MjModel.from_xml_path(scene)
+    with wp.ScopedDevice(CUDA):
+        rc = mjw.create_render_context(model, nworld=nworld, cam_res=[(width, height)], render_rgb=[False],
+                                       render_depth=[True], render_seg=[False], cam_active=[0])
+    far = background_depth(model, 0)
+    actions = wp.array(np.linspace(-1, 1, nworld, dtype=np.float32).reshape(nworld, 1), device=CUDA)
+    env.reset()
+    frames = []
+    for _ in range(12):
+        depth = env.step(actions).observation["depth"].numpy().reshape(nworld, height * width).copy()
+        with wp.ScopedDevice(CUDA):
+            mjw.refit_bvh(env.worlds.model, env.data, rc)
+            mjw.render(env.worlds.model, env.data, rc)
+        own = rc.depth_data.numpy()
+        np.testing.assert_array_equal(depth, np.where(own > 0, own, np.float32(far)))
+        frames.append(depth)
+    assert env._graph is not None  # the steps above replayed the recorded graph
+    assert len({f.tobytes() for f in frames}) >= 5  # steps 1..5 of an episode differ (then they repeat)

@@ -108,7 +108,7 @@ def test_warp_environment_refuses_a_suite_with_the_problems_validate_reports(tmp
     suite = sensorcfg.load(tmp_path / "s.yaml")
     reported = suite.check(warp=True)
     assert [(p.line, p.loc) for p in reported] == [
-        (8, "sensors.drawn.noise.0.cutoff"), (10, "sensors.cam.kind"), (13, "sensors.tip_quat.kind")]
+        (8, "sensors.drawn.noise.0.cutoff"), (11, "sensors.cam.element"), (13, "sensors.tip_quat.kind")]
     assert suite.check(batch=True) == []
     with pytest.raises(SuiteError) as refused:
         WarpEnvironment(None, suite, 2, device="cpu")
