@@ -3,8 +3,8 @@
 # the humanoid (steady and restarting), then the CUDA-against-CPU tests of the Warp engine
 # (tests/warp/test_warp_cuda.py: Philox words, the sensor layer with drawn schedules, misalign and drawn
 # parameters, cameras in a captured control step). At most 9 minutes of device time after the payload's first
-# two calls; every stage has its own
-# timeout, and what it printed is in $OUT (warp.txt, warp.json, cuda_tests.txt) even when one runs out.
+# two calls; every stage has its own timeout, and what it printed is in $OUT (warp.txt, warp.json,
+# cuda_tests.txt) even when one runs out.
 #
 # Here, from the repository root, with a network (once; .device/ is git-excluded by device-payload):
 #   ../shared/tools/device-payload                   # wheels: prints the three device calls
