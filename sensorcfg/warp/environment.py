@@ -44,6 +44,7 @@ from ..physics import Physics
 from ..plan.bind import bind
 from ..runtime.updater import observation_spec
 from .episode import episode_values
+from .generic import Generics, split
 from .philox import MODULE_OPTIONS
 from .rays import Scans, plan as scan_plan
 from .sensors import Sensors
@@ -172,15 +173,20 @@ class WarpEnvironment(ControlLoop):
         strip = bool(options.get("strip_singleton_buffer_dim", False))
         physics = Physics(self._model)
         mujoco.mj_forward(self._model, physics.data)
-        bound = bind(observables, physics, self._n, strip, pad)
+        others, batched = split(observables)  # batched generic callables: called by `warp.generic`
+        bound = bind(others, physics, self._n, strip, pad)
         self._refuse(bound, self._model)
-        bound, plan = scan_plan(bound, physics, self._nworld, self._n, pad)  # height scans read their own rays
-        self._spec = {e.name: observation_spec(e.name, e.observable, e.channel) for e in bound.entries}
         self.device = wp.get_device(device)
         self._worlds = Worlds(self._model, self._nworld, self.device, self._keyframe, nconmax, njmax)
+        self._generics = Generics(batched, self._worlds, self._model)  # each called once: its shape
+        bound = self._generics.bind(bound, list(observables), physics, self._n, strip, pad)
+        bound, plan = scan_plan(bound, physics, self._nworld, self._n, pad,  # height scans read their own rays
+                                self._generics.sizes)
+        self._spec = {e.name: observation_spec(e.name, e.observable, e.channel) for e in bound.entries}
         self._scans = Scans(self._model, plan, bound, self.device)
-        self._fields = {**self._field_views([f for f, _ in plan.fields if f not in self._scans.heights]
-                                            + self._scans.pose_fields), **self._scans.heights}
+        own = {**self._scans.heights, **self._generics.values}
+        self._fields = {**self._field_views([f for f, _ in plan.fields if f not in own] + self._scans.pose_fields),
+                        **own}
         bounds = {e.name: b for e in (*bound.fixed, *bound.drawn) if e.channel.noise is not None
                   for b in [noisy_bounds(getattr(e.channel.noise, "_inner", e.channel.noise), own_bounds(e.observable))]
                   if b is not None}
@@ -313,6 +319,7 @@ class WarpEnvironment(ControlLoop):
         self._worlds.reset(mask)
         self._worlds.forward()  # MuJoCo Warp has no per-world forward: every world's derived fields, again
         self._scans.cast(self._fields, self._worlds.steps, every=True)
+        self._generics.run()
         self._sensors.reset(mask, self._fields, self._worlds.steps)
 
     def reset(self, ids: Any = None) -> WarpTimeStep:
@@ -362,6 +369,7 @@ class WarpEnvironment(ControlLoop):
         for _ in range(self._n):
             self._worlds.step(1)
             self._scans.cast(self._fields, self._worlds.steps)
+            self._generics.run()
             self._sensors.record(self._fields, self._worlds.steps)
         wp.copy(self._diverged, self._worlds.diverged)
         self._start_episodes(self._restarting)  # the worlds whose previous step ended their episode
