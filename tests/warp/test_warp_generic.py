@@ -121,8 +121,28 @@ def test_a_noise_free_read_is_what_the_callable_returned_at_the_step(tmp_path) -
     assert e.observation_spec()["z"].shape == (2, 1)
 
 
-def _line_of(path: str, text: str) -> int:
-    return next(i for i, line in enumerate(open(path).read().splitlines(), 1) if text in line)
+DEVICES = ["cpu", *(["cuda:0"] if wp.is_cuda_available() else [])]
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_in_one_environment_a_callable_reads_what_its_field_reads(tmp_path, device: str) -> None:
+    """On a CUDA device the control step is replayed as a CUDA graph (from the second step): the callables'
+    launches (and a new array each call) are replayed with it, and read what the field they copy reads."""
+    settings = "interval: 2, delay: 1, buffer: 3"
+    path = tmp_path / "s.yaml"
+    path.write_text(f"sensors:\n  h: {{{GENERIC['h']}, {settings}, aggregator: mean}}\n"
+                    f"  h_field: {{{FIELD['h']}, {settings}, aggregator: mean}}\n"
+                    f"  hands: {{{GENERIC['hands']}, {settings}}}\n  hands_field: {{{FIELD['hands']}, {settings}}}\n")
+    e = WarpEnvironment(ROBOT, str(path), NWORLD, device=device, physics_steps_per_control_step=2, seed=1,
+                        time_limit=0.002 * 2 * 4)
+    rng = np.random.default_rng(1)
+    for t in range(10):
+        actions = wp.array(rng.uniform(-1, 1, (NWORLD, e._model.nu)).astype(np.float32), device=device)
+        step = e.reset() if t == 0 else e.reset([2]) if t == 5 else e.step(actions)
+        for name in ("h", "hands"):
+            assert step.observation[name].numpy().tobytes() == step.observation[f"{name}_field"].numpy().tobytes(), \
+                f"{name} at control step {t}"
+    assert e._graph is not None or device == "cpu"
 
 
 @pytest.mark.parametrize(("callable_", "message"), [
