@@ -14,10 +14,11 @@ without aggregator is a copy of MuJoCo Warp's float32 field at the step its wind
 and aggregators run on float32 samples, so they agree with the CPU's to float32 rounding.
 
 Per control step: actions into `ctrl` (worlds about to restart ignore theirs), `substeps` physics steps each
-followed by the sensors' record, the restart of the worlds whose previous step ended their episode, one
-`mjw.forward` of every world (the restarted worlds' reset samples need their derived fields), then the
-reads, rewards, terminations and step types. Episode keys are drawn on the host, a table of `key_episodes`
-episodes per world ahead; the host tops it up every `key_episodes // 4` control steps (one small copy).
+followed by the batched generic callables (`warp.generic`) and the sensors' record, the restart of the worlds
+whose previous step ended their episode, one `mjw.forward` of every world (the restarted worlds' reset samples
+need their derived fields), then the reads, rewards, terminations and step types. Episode keys are drawn on
+the host, a table of `key_episodes` episodes per world ahead; the host tops it up every `key_episodes // 4`
+control steps (one small copy).
 """
 
 from __future__ import annotations
