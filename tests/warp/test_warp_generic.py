@@ -42,6 +42,11 @@ def sites(model, data):
     return data.site_xpos
 
 
+def hand_slice(model, data):
+    """A strided view of the hand's row of `site_xpos`: values (1, 3)."""
+    return data.site_xpos[:, HAND:HAND + 1]
+
+
 def in_float64(model, data):
     return wp.zeros(data.qpos.shape[0], dtype=wp.float64)
 
@@ -127,19 +132,22 @@ DEVICES = ["cpu", *(["cuda:0"] if wp.is_cuda_available() else [])]
 @pytest.mark.parametrize("device", DEVICES)
 def test_in_one_environment_a_callable_reads_what_its_field_reads(tmp_path, device: str) -> None:
     """On a CUDA device the control step is replayed as a CUDA graph (from the second step): the callables'
-    launches (and a new array each call) are replayed with it, and read what the field they copy reads."""
+    launches (and a new array each call) are replayed with it, and read what the field they copy reads; a
+    strided view is copied as its values."""
     settings = "interval: 2, delay: 1, buffer: 3"
     path = tmp_path / "s.yaml"
     path.write_text(f"sensors:\n  h: {{{GENERIC['h']}, {settings}, aggregator: mean}}\n"
                     f"  h_field: {{{FIELD['h']}, {settings}, aggregator: mean}}\n"
-                    f"  hands: {{{GENERIC['hands']}, {settings}}}\n  hands_field: {{{FIELD['hands']}, {settings}}}\n")
+                    f"  hands: {{{GENERIC['hands']}, {settings}}}\n  hands_field: {{{FIELD['hands']}, {settings}}}\n"
+                    f"  hand: {{kind: generic, callable: '{HERE}:hand_slice', batched: true, {settings}}}\n"
+                    f"  hand_field: {{kind: xpos, element: site:hand_site, {settings}}}\n")
     e = WarpEnvironment(ROBOT, str(path), NWORLD, device=device, physics_steps_per_control_step=2, seed=1,
                         time_limit=0.002 * 2 * 4)
     rng = np.random.default_rng(1)
     for t in range(10):
         actions = wp.array(rng.uniform(-1, 1, (NWORLD, e._model.nu)).astype(np.float32), device=device)
         step = e.reset() if t == 0 else e.reset([2]) if t == 5 else e.step(actions)
-        for name in ("h", "hands"):
+        for name in ("h", "hands", "hand"):
             assert step.observation[name].numpy().tobytes() == step.observation[f"{name}_field"].numpy().tobytes(), \
                 f"{name} at control step {t}"
     assert e._graph is not None or device == "cpu"
@@ -200,3 +208,18 @@ def test_python_observables_name_the_sensor() -> None:
     obs["bad"].enabled = True
     with pytest.raises(SuiteError, match=r"sensors.bad.noise.0.type: misalign turns 3-vectors"):
         env(obs, 2)
+
+
+def test_a_callable_whose_value_changes_shape_is_an_error_naming_the_sensor() -> None:
+    calls = []
+
+    def growing(model, data):
+        calls.append(1)
+        return wp.zeros((data.qpos.shape[0], 1 if len(calls) == 1 else 2), dtype=wp.float32)
+
+    obs = {"z": BatchedGeneric(growing)}
+    obs["z"].enabled = True
+    e = env(obs, 2)
+    with pytest.raises(SuiteError, match=r"generic sensor 'z': returned a Warp array of shape \(2, 2\) float32, but "
+                                         r"its first had shape \(2, 1\) float32; a sensor's value keeps one shape"):
+        e.reset()
