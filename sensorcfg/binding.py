@@ -27,12 +27,13 @@ from .config.source import Path_
 from .config.tables import GENERIC_KIND, HEIGHTSCAN_KIND, IMAGE_KINDS
 from .config.units import timestep_problem, to_steps
 from .draws import ChoiceSteps, UniformSteps
-from .checks import batch_problems, constant_problem, kind_problems, sensor_problems
+from .checks import batch_problems, batch_refusal, constant_problem, kind_problems, sensor_problems
 from .errors import Problem, SuiteError, did_you_mean
 from .kinds import kinds_of
 from .native import NATIVE, bind_native, native_row
 from .noise import build_noise
 from .observables import Camera, Feature, Generic, Observable
+from .observables.generic import BatchedGeneric
 from .observables.camera import MAX_SIDE, MODES, SCENE_FLAGS, default_size
 from .observables.feature import feature_index
 from .physics import Physics
@@ -62,6 +63,7 @@ class _Binder:
     import_callables: bool
     call_callables: bool = True  # building (not checking): a generic sensor with noise is called once for its shape
     batch: bool = False  # also check what BatchEnvironment needs
+    warp: bool = False  # for the Warp engine: batched generic callables run (elsewhere they are refused)
     refused: Mapping[str, str] = dataclasses.field(default_factory=dict)  # the problem of each native sensor left out
     problems: list[Problem] = dataclasses.field(default_factory=list)
     seen: set[Problem] = dataclasses.field(default_factory=set)  # `problems` as a set: each reported once
@@ -78,18 +80,27 @@ class _Binder:
         return ("defaults", key)
 
     def report(self, path: Path_, message: str, *, key: bool = False) -> None:
-        if self.twin is not None:
-            # a twin is bound only after its source bound cleanly: what fails is the twin's own (it runs
-            # while its source is disabled), said at the source's line, which wrote it
-            twin, source = self.twin
-            path = ("sensors", source) + path[2:] if path[:2] == ("sensors", twin) else path
-            message = twin_message(twin, message)
-        pos = self.suite.doc.pos(path, key=key)
-        loc = ".".join(map(str, path))
-        problem = pos.problem(message, loc) if pos else Problem(message, loc, self.suite.file)
+        problem = self.problem(path, message, self.twin, key=key)
         if problem not in self.seen:
             self.seen.add(problem)
             self.problems.append(problem)
+
+    def problem(self, path: Path_, message: str, twin: tuple[str, str] | None, *, key: bool = False) -> Problem:
+        """`message` at `path`'s line; of clean twin `twin` (twin, source), at its source's."""
+        if twin is not None:
+            # a twin is bound only after its source bound cleanly: what fails is the twin's own (it runs
+            # while its source is disabled), said at the source's line, which wrote it
+            path = ("sensors", twin[1]) + path[2:] if path[:2] == ("sensors", twin[0]) else path
+            message = twin_message(twin[0], message)
+        pos = self.suite.doc.pos(path, key=key)
+        loc = ".".join(map(str, path))
+        return pos.problem(message, loc) if pos else Problem(message, loc, self.suite.file)
+
+    def locator(self, name: str) -> Callable[[tuple[str | int, ...], str], Problem]:
+        """The problem at a key below sensor `name` (its own, or `defaults`'), for problems found after
+        binding (a batched generic's noise, once the Warp engine knows its value's shape)."""
+        twin = self.twin
+        return lambda key, message: self.problem(self.origin(name, str(key[0])) + tuple(key[1:]), message, twin)
 
     def report_all(self, path: Path_, error: SuiteError) -> None:
         for p in error.problems:
@@ -347,6 +358,8 @@ class _Binder:
         pos = self.suite.doc.pos(path)
         loc = ".".join(path)
         origin = pos.problem("", loc) if pos else Problem("", loc, self.suite.file)
+        if cfg.batched:
+            return self.batched(name, cfg, timing, origin)
         if not self.import_callables:
             return Generic(_not_imported(cfg.callable), origin=origin, **timing), None, None
         fn = self.import_callable(cfg.callable, path)
@@ -364,6 +377,22 @@ class _Binder:
                 return None
             shape, dtype = probe.shape, probe.dtype
         return Generic(fn, origin=origin, **timing), shape, dtype
+
+    def batched(self, name: str, cfg: SensorConfig, timing: dict[str, Any],
+                origin: Problem) -> tuple[Observable, Any, Any] | None:
+        """A generic callable of every world at once: the Warp engine's (it calls it, for its shape, and builds
+        its noise when it is built); the CPU engines refuse it."""
+        assert cfg.callable is not None
+        if not self.warp:
+            self.report(("sensors", name, "batched"), batch_refusal("batched generic"))
+            return None
+        path = ("sensors", name, "callable")
+        fn = self.import_callable(cfg.callable, path) if self.import_callables else _not_imported(cfg.callable)
+        stages = self.at_rate(name, cfg, timing["update_interval"]) if cfg.noise else ()
+        if fn is None or stages is None:
+            return None
+        stages = stages if self.import_callables else tuple(s for s in stages if s.type != "custom")
+        return BatchedGeneric(fn, noise_stages=stages, origin=origin, locate=self.locator(name), **timing), None, None
 
     def import_callable(self, text: str, path: Path_) -> Callable[..., Any] | None:
         module_name, _, attr = text.partition(":")
@@ -407,8 +436,8 @@ def _suite_folder_first(folder: str | None) -> Iterator[None]:
             sys.path.remove(folder)
 
 
-def _not_imported(text: str) -> Callable[[Any], Any]:
-    def never_imported(physics: Any) -> Any:
+def _not_imported(text: str) -> Callable[..., Any]:
+    def never_imported(*args: Any) -> Any:
         raise RuntimeError(f"{text} was not imported: build the suite with import_callables=True to run it")
     return never_imported
 
@@ -432,14 +461,16 @@ def _index(value: Any) -> Any:
 
 
 def bind(suite: LoadedSuite, model: mujoco.MjModel, *, import_callables: bool, call_callables: bool = True,
-         batch: bool = False, refused: Mapping[str, str] | None = None) -> tuple[dict[str, Observable], list[Problem]]:
+         batch: bool = False, refused: Mapping[str, str] | None = None,
+         warp: bool = False) -> tuple[dict[str, Observable], list[Problem]]:
     """Observables for every sensor of `suite` (file order) and every problem found on the way; with
-    `batch`, also what BatchEnvironment cannot run.
+    `batch`, also what BatchEnvironment cannot run; with `warp`, for the Warp engine (which runs batched
+    generic callables: `BatchedGeneric`, refused elsewhere at their `batched` key).
 
     With `call_callables` false (checking), no user callable is called: a generic sensor's noise, which
     needs the shape of its value, is then built (and its shape-dependent mistakes found) only by a build.
     `refused`: the problem of each native sensor left out of the compiled model (`sensorcfg.native`)."""
-    binder = _Binder(suite, model, import_callables, call_callables, batch, dict(refused or {}))
+    binder = _Binder(suite, model, import_callables, call_callables, batch, warp, dict(refused or {}))
     timestep = timestep_problem(float(model.opt.timestep))
     if timestep is not None:  # nothing is timed without it: one problem, at the model's line
         binder.report(("model",), timestep)

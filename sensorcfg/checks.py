@@ -93,7 +93,11 @@ def per_simulation_refusal(camera: bool, what: str) -> str:
 # the batch raises for Python observables (`batch.updater`, `batch.noise`).
 _BATCH_REFUSALS = {
     "generic": "a generic callable runs Python per sample and simulation, which a BatchEnvironment cannot "
-               "vectorise; use the single-simulation Environment for it",
+               "vectorise; use the single-simulation Environment for it, or, on the Warp engine "
+               "(WarpEnvironment), 'batched: true' with a callable that takes every world at once",
+    "batched generic": "a batched generic callable takes MuJoCo Warp's Model and Data of every world and runs on "
+                       "the Warp engine (WarpEnvironment) only; run this suite there, or drop 'batched' for a "
+                       "callable of one simulation's physics",
     "constant": f"a BatchEnvironment reads mjData fields across simulations, not model constants; {_SINGLE}",
     "dtype": "{what} is {dtype}; a BatchEnvironment vectorises float64 features only; " + _SINGLE,
     "noise stage": "a {kind} noise stage{detail} runs Python once per sample and simulation, which a "
@@ -119,7 +123,7 @@ def batch_problems(cfg: SensorConfig, dtype: Any, field: str | None, model: mujo
             if present:
                 found.append(((key,), per_simulation_refusal(cfg.kind in IMAGE_KINDS, _PER_SIMULATION_WHAT[key])))
         return found
-    if cfg.kind == GENERIC_KIND:
+    if cfg.kind == GENERIC_KIND and not cfg.batched:  # (a batched one: binding refuses it off the Warp engine)
         return [(("kind",), batch_refusal("generic"))]
     if cfg.constant and field is not None:  # (`constant` where there is no model field: the binder's problem)
         found.append((("constant",), batch_refusal("constant")))

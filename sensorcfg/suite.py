@@ -171,7 +171,7 @@ class Suite:
         batch = batch or warp  # the Warp engine refuses what a batch refuses, and more
         mjmodel, refused = self._compiled(model, batch)
         observables, problems = bind(self._loaded, mjmodel, import_callables=import_callables,
-                                     call_callables=call_callables, batch=batch, refused=refused)
+                                     call_callables=call_callables, batch=batch, refused=refused, warp=warp)
         problems += self._memory_problems(observables, mjmodel)
         if warp:
             problems += self._warp_problems(observables, mjmodel)

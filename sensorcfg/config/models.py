@@ -397,6 +397,15 @@ class SensorConfig(BaseModel):
         None, pattern=_CALLABLE.pattern.replace(r"\A", "^").replace(r"\Z", "$"),
         description="For kind 'generic': 'module:function', called with the physics handle; imported when the "
         "suite is built, not when it is checked.", examples=["my_pkg.sensors:distance_to_target"])
+    batched: bool | None = Field(
+        None, strict=True, description="For kind 'generic', on the Warp engine (WarpEnvironment) only: the callable "
+        "takes every world at once. It is called as f(model, data) with MuJoCo Warp's Model and Data of all worlds "
+        "after every physics step (and after a restart's forward, for the reset sample) and returns an (nworld, "
+        "...) float32 Warp array on the engine's device (float32 vectors and matrices count as their components; "
+        "the same array each call or a new one); its value shape is found by one call when the engine is built. "
+        "It runs inside the control step's CUDA graph, so it may do device work only: Warp kernels, no copies to "
+        "the host, no Python branching on values. Its values then go through the sensor's schedule, delay, "
+        "buffer, aggregator and noise as a feature's do. The CPU engines refuse it.", examples=[True])
     frame: str | None = Field(
         None, pattern=_SELECTOR.pattern.replace(r"\A", "^").replace(r"\Z", "$"),
         description="For MuJoCo's frame sensors (framepos, framelinvel, ...): the reference frame the value is "

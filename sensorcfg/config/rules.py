@@ -36,6 +36,7 @@ _ONLY_FOR = {
     "index": (_is_feature, "sensors that read an attribute of model elements"),
     "camera": (lambda k: k in IMAGE_KINDS, "image sensors (kind rgb, depth or segmentation)"),
     "callable": (lambda k: k == GENERIC_KIND, "kind 'generic'"),
+    "batched": (lambda k: k == GENERIC_KIND, "kind 'generic'"),
     "frame": (_is_native, _NATIVE_ONLY),
     "with_": (_is_native, _NATIVE_ONLY),
     "data": (_is_native, _NATIVE_ONLY),

@@ -14,12 +14,12 @@ if TYPE_CHECKING:  # for type checkers and editors; at run time each module load
     from .base import Observable
     from .camera import Camera
     from .feature import Feature
-    from .generic import Generic
+    from .generic import BatchedGeneric, Generic
 
-__all__ = ["AGGREGATORS", "Camera", "Feature", "Generic", "Observable"]
+__all__ = ["AGGREGATORS", "BatchedGeneric", "Camera", "Feature", "Generic", "Observable"]
 
 _HOMES = {"AGGREGATORS": "aggregators", "Observable": "base", "Camera": "camera", "Feature": "feature",
-          "Generic": "generic"}
+          "Generic": "generic", "BatchedGeneric": "generic"}
 
 
 def __getattr__(name: str) -> Any:

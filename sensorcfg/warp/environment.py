@@ -14,10 +14,11 @@ without aggregator is a copy of MuJoCo Warp's float32 field at the step its wind
 and aggregators run on float32 samples, so they agree with the CPU's to float32 rounding.
 
 Per control step: actions into `ctrl` (worlds about to restart ignore theirs), `substeps` physics steps each
-followed by the sensors' record, the restart of the worlds whose previous step ended their episode, one
-`mjw.forward` of every world (the restarted worlds' reset samples need their derived fields), then the
-reads, rewards, terminations and step types. Episode keys are drawn on the host, a table of `key_episodes`
-episodes per world ahead; the host tops it up every `key_episodes // 4` control steps (one small copy).
+followed by the batched generic callables (`warp.generic`) and the sensors' record, the restart of the worlds
+whose previous step ended their episode, one `mjw.forward` of every world (the restarted worlds' reset samples
+need their derived fields), then the reads, rewards, terminations and step types. Episode keys are drawn on
+the host, a table of `key_episodes` episodes per world ahead; the host tops it up every `key_episodes // 4`
+control steps (one small copy).
 """
 
 from __future__ import annotations
@@ -45,6 +46,7 @@ from ..plan.bind import bind
 from ..runtime.updater import observation_spec
 from .cameras import Cameras
 from .episode import episode_values
+from .generic import Generics, split
 from .philox import MODULE_OPTIONS
 from .rays import Scans, plan as scan_plan
 from .sensors import Sensors
@@ -174,15 +176,20 @@ class WarpEnvironment(ControlLoop):
         strip = bool(options.get("strip_singleton_buffer_dim", False))
         physics = Physics(self._model)
         mujoco.mj_forward(self._model, physics.data)
-        bound = bind(observables, physics, self._n, strip, pad)
+        others, batched = split(observables)  # batched generic callables: called by `warp.generic`
+        bound = bind(others, physics, self._n, strip, pad)
         self._refuse(bound, self._model)
-        bound, plan = scan_plan(bound, physics, self._nworld, self._n, pad)  # height scans read their own rays
-        self._spec = {e.name: observation_spec(e.name, e.observable, e.channel) for e in bound.entries}
         self.device = wp.get_device(device)
         self._worlds = Worlds(self._model, self._nworld, self.device, self._keyframe, nconmax, njmax)
+        self._generics = Generics(batched, self._worlds, self._model)  # each called once: its shape
+        bound = self._generics.bind(bound, list(observables), physics, self._n, strip, pad)
+        bound, plan = scan_plan(bound, physics, self._nworld, self._n, pad,  # height scans read their own rays
+                                self._generics.sizes)
+        self._spec = {e.name: observation_spec(e.name, e.observable, e.channel) for e in bound.entries}
         self._scans = Scans(self._model, plan, bound, self.device)
-        self._fields = {**self._field_views([f for f, _ in plan.fields if f not in self._scans.heights]
-                                            + self._scans.pose_fields), **self._scans.heights}
+        own = {**self._scans.heights, **self._generics.values}
+        self._fields = {**self._field_views([f for f, _ in plan.fields if f not in own] + self._scans.pose_fields),
+                        **own}
         self._cameras = Cameras([(e.name, e.observable, e.channel) for e in bound.cameras], self._model, self._worlds,
                                 self._n, pad, {e.name: tuple(self._spec[e.name].shape) for e in bound.cameras})
         bounds = {e.name: b for e in (*bound.fixed, *bound.drawn) if e.channel.noise is not None
@@ -319,6 +326,7 @@ class WarpEnvironment(ControlLoop):
         self._worlds.reset(mask)
         self._worlds.forward()  # MuJoCo Warp has no per-world forward: every world's derived fields, again
         self._scans.cast(self._fields, self._worlds.steps, every=True)
+        self._generics.run()
         self._sensors.reset(mask, self._fields, self._worlds.steps)
         self._cameras.reset(mask)
 
@@ -369,6 +377,7 @@ class WarpEnvironment(ControlLoop):
         for substep in range(1, self._n + 1):
             self._worlds.step(1)
             self._scans.cast(self._fields, self._worlds.steps)
+            self._generics.run()
             self._sensors.record(self._fields, self._worlds.steps)
             self._cameras.record(substep)
         wp.copy(self._diverged, self._worlds.diverged)

@@ -54,9 +54,12 @@ def scan_field(name: str) -> str:
     return f"heightscan:{name}"
 
 
-def plan(bound: Bound, physics: object, nsim: int, substeps: int, pad: bool) -> tuple[Bound, SuitePlan]:
+def plan(bound: Bound, physics: object, nsim: int, substeps: int, pad: bool,
+         values: Mapping[str, int] | None = None) -> tuple[Bound, SuitePlan]:
     """`bound` with its height scans moved from the per-simulation sensors to the fixed-schedule ones (after
-    the features), and the suite plan of that: each scan reading its own heights (`scan_field`)."""
+    the features), and the suite plan of that: each scan reading its own heights (`scan_field`). `values`:
+    the size per world of each other source of values of their own that `bound`'s features read (batched
+    generic sensors', `warp.generic`)."""
     scans = [e for e in bound.cameras if isinstance(e.observable, HeightScan)]
     others = [e for e in bound.cameras if not isinstance(e.observable, HeightScan)]
     sources = bound.sources()
@@ -64,7 +67,7 @@ def plan(bound: Bound, physics: object, nsim: int, substeps: int, pad: bool) -> 
     own = [Source(scan_field(e.name), np.arange(math.prod(e.channel.shape))) for e in scans]
     sources = [*sources[:nfixed], *own, *sources[nfixed:]]
     model, data = raw_structs(physics)
-    heights = {source.field: (source.positions.size,) for source in own}
+    heights = {source.field: (source.positions.size,) for source in own} | {f: (n,) for f, n in (values or {}).items()}
     fields: dict[str, tuple[int, ...]] = {}  # each field read, in order of first use, with its shape
     for source in sources:
         fields.setdefault(source.field, heights[source.field] if source.field in heights

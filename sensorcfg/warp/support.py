@@ -12,7 +12,8 @@
 `WarpEnvironment` raises them at construction (each a problem at `sensors.<name>.<key>`); `validate
 --engine warp` and `Suite.check(model, warp=True)` report them at the suite's lines. What a BatchEnvironment
 refuses the Warp engine refuses too, by the batch's rules (`plan.bind.bind`, `checks.batch_problems`): these
-are only what it refuses besides.
+are only what it refuses besides. (The one exception: a generic callable with `batched: true`, which only the
+Warp engine runs, `warp.generic`.)
 """
 
 from __future__ import annotations

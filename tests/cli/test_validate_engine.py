@@ -161,3 +161,45 @@ def test_validate_engine_warp_refuses_a_height_scan_whose_rays_would_meet_an_sdf
         "caster does not cast (it would read as a miss); leave it out of this scan's geomgroup, or run this suite "
         "on the CPU engines",
         "1 problem in 1 of 1 suite"]
+
+
+BATCHED_SUITE = """model: arm.xml
+sensors:
+  reach:
+    kind: generic
+    callable: reach_sensors:reach
+    batched: true
+    noise: [{type: gaussian, std: 0.01}]
+"""
+
+
+def test_a_batched_generic_is_refused_at_its_line_by_the_cpu_engines_and_checked_for_warp(tmp_path: Path) -> None:
+    """`batched: true` (a callable of every world's MuJoCo Warp Model and Data) runs on the Warp engine only:
+    `validate` and `--engine batch` refuse it at its `batched` line, `--engine warp` accepts it, and with
+    `--import` checks that its callable imports."""
+    suite = suite_file(tmp_path, BATCHED_SUITE)
+    refusal = ("s.yaml:6:14: error: sensors.reach.batched: a batched generic callable takes MuJoCo Warp's Model and "
+               "Data of every world and runs on the Warp engine (WarpEnvironment) only; run this suite there, or "
+               "drop 'batched' for a callable of one simulation's physics")
+    for args in [(), ("--engine", "batch")]:
+        done = validate(suite, *args)
+        assert done.returncode == 1 and done.stdout.splitlines() == [refusal, "1 problem in 1 of 1 suite"], args
+    assert validate(suite, "--engine", "warp").stdout == "1 suite valid\n"
+    done = validate(suite, "--engine", "warp", "--import")
+    assert done.returncode == 1 and "s.yaml:5:15: error: sensors.reach.callable: cannot import module " \
+        "'reach_sensors'" in done.stdout, done.stdout
+    (tmp_path / "reach_sensors.py").write_text("def reach(model, data):\n    return data.site_xpos\n")
+    assert validate(suite, "--engine", "warp", "--import").stdout == "1 suite valid\n"
+    suite.write_text(BATCHED_SUITE.replace("reach_sensors:reach", "reach_sensors:teach"))
+    assert "sensors.reach.callable: module 'reach_sensors' has no 'teach' (did you mean 'reach'?)" in \
+        validate(suite, "--engine", "warp", "--import").stdout
+
+
+def test_a_per_simulation_generic_on_the_warp_engine_is_told_of_batched(tmp_path: Path) -> None:
+    suite = suite_file(tmp_path, BATCHED_SUITE.replace("    batched: true\n", ""))
+    assert validate(suite).stdout == "1 suite valid\n"
+    assert validate(suite, "--engine", "warp").stdout.splitlines() == [
+        "s.yaml:4:11: error: sensors.reach.kind: a generic callable runs Python per sample and simulation, which a "
+        "BatchEnvironment cannot vectorise; use the single-simulation Environment for it, or, on the Warp engine "
+        "(WarpEnvironment), 'batched: true' with a callable that takes every world at once",
+        "1 problem in 1 of 1 suite"]

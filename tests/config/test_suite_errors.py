@@ -90,7 +90,7 @@ LOAD_MISTAKES = [
         '    kind: qpos\n'
         '    element: joint:elbow\n'
         '    intreval: 2\n',
-        "5:5: error: sensors.s.intreval: unknown key 'intreval' (did you mean 'interval'?); allowed keys: kind, element, within, index, constant, camera, callable, frame, with, data, reduce, num, cutoff, scan, interval, delay, buffer, aggregator, enabled, noise, twin",
+        "5:5: error: sensors.s.intreval: unknown key 'intreval' (did you mean 'interval'?); allowed keys: kind, element, within, index, constant, camera, callable, batched, frame, with, data, reduce, num, cutoff, scan, interval, delay, buffer, aggregator, enabled, noise, twin",
         id='sensor_unknown_key'),
     pytest.param(
         'sensors:\n'
