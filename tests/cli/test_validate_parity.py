@@ -89,7 +89,8 @@ def test_validate_batch_reports_every_batch_problem_at_its_line(tmp_path: Path) 
         "s.yaml:9:52: error: sensors.mass.constant: a BatchEnvironment reads mjData fields across simulations, not "
         "model constants; remove it, or use the single-simulation Environment",
         "s.yaml:10:15: error: sensors.gen.kind: a generic callable runs Python per sample and simulation, which a "
-        "BatchEnvironment cannot vectorise; use the single-simulation Environment for it",
+        "BatchEnvironment cannot vectorise; use the single-simulation Environment for it, or, on the Warp engine "
+        "(WarpEnvironment), 'batched: true' with a callable that takes every world at once",
         "s.yaml:11:54: error: sensors.custom.noise.0: a custom noise stage runs Python once per sample and "
         "simulation, which a BatchEnvironment cannot vectorise; express it with built-in stages, or use the "
         "single-simulation Environment",
