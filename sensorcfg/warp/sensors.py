@@ -151,9 +151,9 @@ def _noise(steps: wp.array[wp.int64], mask: wp.array[wp.int32], rows: wp.int32, 
             if s == wp.int64(0):
                 state[w, k, v] = x
             else:
-                alpha = p0  # a drawn schedule's: the coefficient of the gap since the last sample
-                if gap > 0:
-                    alpha = alphas[k, gap, v]
+                alpha = p0  # a cutoff drawn per episode: the episode's, for the constant interval (`support`
+                if gap > 0 and st_drawn[k] < 0:  # refuses it on a drawn one); a drawn schedule's fixed cutoff:
+                    alpha = alphas[k, gap, v]  # the coefficient of the gap since the last sample
                 state[w, k, v] = state[w, k, v] + alpha * (x - state[w, k, v])
             x = state[w, k, v]
         elif code == 7:  # bias: the episode's value
