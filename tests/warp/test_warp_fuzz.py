@@ -112,9 +112,13 @@ def _stage(rng: np.random.Generator, drawn_schedule: bool) -> dict[str, Any]:
 
 def _steps(rng: np.random.Generator, low: int, high: int) -> Any:
     """A constant number of physics steps in [low, high], or one drawn per sample."""
+    if rng.random() < 0.15:  # long ones now and then
+        high = 3 * high
     r = rng.random()
-    if r < 0.6:
+    if r < 0.45:
         return int(rng.integers(low, high + 1))
+    if r < 0.6:  # a duration: the robot's timestep is 2 ms
+        return f"{2 * int(rng.integers(low, high + 1))}ms"
     if r < 0.8:
         a = int(rng.integers(low, high + 1))
         return {"uniform": [a, int(rng.integers(a, high + 2))]}
@@ -139,7 +143,7 @@ def fuzz_suite(seed: int, kinds: list[tuple[str, Any, dict[str, Any], bool]] = K
         kind, element, extra, vector = kinds[int(rng.integers(len(kinds)))]
         entry: dict[str, Any] = {"kind": kind, "element": element, **extra,
                                  "interval": _steps(rng, 1, 4), "delay": _steps(rng, 0, 5)}
-        buffer = int(rng.integers(1, 5))
+        buffer = int(rng.integers(1, 5 if rng.random() < 0.85 else 9))
         if buffer > 1 or rng.random() < 0.2:
             entry["buffer"] = buffer
         aggregator = AGGREGATORS[int(rng.integers(len(AGGREGATORS)))]
@@ -165,7 +169,8 @@ def fuzz_suite(seed: int, kinds: list[tuple[str, Any, dict[str, Any], bool]] = K
     nworld = 3
     control_steps = 24
     restarts = {t: [w for w in range(nworld) if rng.random() < 0.2] for t in range(1, control_steps + 1)}
-    levels = {int(t): round(float(rng.uniform(0.0, 1.0)), 2) for t in rng.integers(1, control_steps, 2)}
+    levels = {int(t): float(rng.choice([0.0, 1.0, round(float(rng.uniform(0.0, 1.0)), 2)]))
+              for t in rng.integers(1, control_steps, 2)}
     run = {"substeps": substeps, "nworld": nworld, "control_steps": control_steps, "seed": seed,
            "restarts": {t: ws for t, ws in restarts.items() if ws}, "levels": levels}
     return json.dumps(suite, indent=1), run
@@ -375,3 +380,73 @@ def run_environments(seed: int, nworld: int = 3, control_steps: int = 16) -> Non
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_the_warp_environment_reads_what_the_batch_reads_on_a_fuzzed_suite_of_the_controls(seed: int) -> None:
     run_environments(seed)
+
+
+def run_environment_physics(seed: int, nworld: int = 2, control_steps: int = 14) -> None:
+    """`WarpEnvironment` end to end on a fuzzed suite of every kind, one physics step per control step: after
+    each step each world's Updater reads MuJoCo Warp's own state (the suite's fields copied into an MjData),
+    resetting where the step says FIRST, with the world's own seed; every read of every world is compared, as
+    `replay` compares them. Every world restarts at once (the time limit, `reset()`): a restart runs MuJoCo
+    Warp's forward of every world after the step's samples were taken, so the fields a continuing world shows
+    then are no longer those its sensors sampled (`test_the_warp_environment_reads_what_the_batch_reads_on_a_
+    fuzzed_suite_of_the_controls` restarts some worlds alone)."""
+    text, run = fuzz_suite(seed)
+    document = json.loads(text)
+    document["options"]["control_interval"] = "2ms"
+    suite = sensorcfg.loads(json.dumps(document), file=f"fuzz{seed}.yaml")
+    rng = np.random.default_rng(seed)
+    env = WarpEnvironment(ROBOT, suite, nworld, device="cpu", key_episodes=4, seed=seed,
+                          time_limit=int(rng.integers(3, 8)) * float(MODEL.opt.timestep))
+    model = env._model
+    names = [f for f, _ in env._sensors.plan.fields]
+    plain = {s.name for s in env._sensors.plan.sensors if s.noise is None and s.aggregator is None}
+    options = suite.updater_kwargs(model)
+
+    def make() -> dict[str, Any]:
+        built = {name: obs for name, obs in suite.build(model, batch=True).items() if obs.enabled}
+        leveled(built)
+        return built
+
+    from sensorcfg.batch.environment import root_seed, sim_seed
+    from sensorcfg.env.environment import random_state_from
+
+    worlds = [(sensorcfg.Updater(obs, **options), Physics(model),
+               random_state_from(sim_seed(root_seed(seed), w)), obs) for w, obs in enumerate(make() for _ in range(nworld))]
+
+    def copy_state() -> None:
+        for f in names:
+            values = getattr(env.data, f).numpy().reshape(nworld, -1)
+            for w, (_, p, _, _) in enumerate(worlds):
+                getattr(p.data, f).flat[:] = values[w]
+
+    lo, hi = model.actuator_ctrlrange.T
+    step = env.reset()
+    for t in range(control_steps + 1):
+        copy_state()
+        for w, (u, p, rs, _) in enumerate(worlds):
+            if int(step.step_type.numpy()[w]) == 0:
+                u.reset(p, rs)
+            else:
+                u.control_step(lambda: None)  # (MuJoCo Warp's step, copied in)
+        for w, (u, *_) in enumerate(worlds):
+            for name, value in u.get_observation().items():
+                got = step.observation[name].numpy()[w]
+                assert got.shape == value.shape, name
+                if name in plain:
+                    assert got.tobytes() == value.astype(np.float32).tobytes(), (w, t, name, got, value)
+                else:
+                    np.testing.assert_allclose(got, value, rtol=1e-5, atol=1e-6,
+                                               err_msg=f"world {w} control step {t} {name}")
+        if t in run["levels"]:
+            env.set_noise_level(run["levels"][t])
+            for *_, obs in worlds:
+                set_level(obs, run["levels"][t])
+        if run["restarts"].get(t + 1) and t % 4 == 0:
+            step = env.reset()
+        else:
+            step = env.step(rng.uniform(lo, hi, (nworld, model.nu)).astype(np.float32))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_warp_environment_reads_its_own_physics_as_the_updater_reads_it(seed: int) -> None:
+    run_environment_physics(seed)
