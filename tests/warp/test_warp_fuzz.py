@@ -62,6 +62,13 @@ KINDS: list[tuple[str, Any, dict[str, Any], bool]] = [
     ("jointpos", "joint:elbow", {}, False),
     ("gravity", "site:imu", {}, True),
     ("subtreecom", "body:upper_arm", {}, True),
+    ("xpos", "body:hand", {"index": 2}, False),
+    ("xpos", ["site:hand_site", "site:imu", "site:fingertip"], {"index": "0:2"}, True),
+    ("qvel", "joint:*", {"within": "body:upper_arm", "index": [0, 2]}, False),
+    ("velocimeter", "site:imu", {}, True),
+    ("accelerometer", "site:hand_site", {}, True),
+    ("framequat", "body:hand", {}, False),
+    ("subtreelinvel", "body:upper_arm", {}, True),
 ]
 AGGREGATORS = [None, None, None, "min", "max", "sum", "mean", "median"]
 
@@ -110,15 +117,16 @@ def _stage(rng: np.random.Generator, drawn_schedule: bool) -> dict[str, Any]:
     return {"type": kind, **out}
 
 
-def _steps(rng: np.random.Generator, low: int, high: int) -> Any:
+def _steps(rng: np.random.Generator, low: int, high: int, rate: bool = False) -> Any:
     """A constant number of physics steps in [low, high], or one drawn per sample."""
     if rng.random() < 0.15:  # long ones now and then
         high = 3 * high
     r = rng.random()
     if r < 0.45:
         return int(rng.integers(low, high + 1))
-    if r < 0.6:  # a duration: the robot's timestep is 2 ms
-        return f"{2 * int(rng.integers(low, high + 1))}ms"
+    if r < 0.6:  # a duration or a rate: the robot's timestep is 2 ms
+        steps = int(rng.integers(low, high + 1))
+        return f"{500 // steps}Hz" if rate and 500 % steps == 0 and rng.random() < 0.3 else f"{2 * steps}ms"
     if r < 0.8:
         a = int(rng.integers(low, high + 1))
         return {"uniform": [a, int(rng.integers(a, high + 2))]}
@@ -142,7 +150,7 @@ def fuzz_suite(seed: int, kinds: list[tuple[str, Any, dict[str, Any], bool]] = K
     for j in range(int(rng.integers(2, 7))):
         kind, element, extra, vector = kinds[int(rng.integers(len(kinds)))]
         entry: dict[str, Any] = {"kind": kind, "element": element, **extra,
-                                 "interval": _steps(rng, 1, 4), "delay": _steps(rng, 0, 5)}
+                                 "interval": _steps(rng, 1, 4, True), "delay": _steps(rng, 0, 5)}
         buffer = int(rng.integers(1, 5 if rng.random() < 0.85 else 9))
         if buffer > 1 or rng.random() < 0.2:
             entry["buffer"] = buffer
