@@ -140,9 +140,10 @@ def _steps(rng: np.random.Generator, low: int, high: int, rate: bool = False) ->
     return out
 
 
-def fuzz_suite(seed: int, kinds: list[tuple[str, Any, dict[str, Any], bool]] = KINDS) -> tuple[str, dict[str, Any]]:
-    """A random suite's YAML text (JSON, which YAML reads) of sensors of `kinds`, and the run's settings:
-    substeps, restarts, levels."""
+def fuzz_suite(seed: int, kinds: list[tuple[str, Any, dict[str, Any], bool]] = KINDS,
+               scans: bool = False) -> tuple[str, dict[str, Any]]:
+    """A random suite's YAML text (JSON, which YAML reads) of sensors of `kinds` (and, with `scans`, a height
+    scan now and then), and the run's settings: substeps, restarts, levels."""
     rng = np.random.default_rng(seed)
     substeps = int(rng.integers(1, 5))
     strip = bool(rng.random() < 0.3)
@@ -179,6 +180,13 @@ def fuzz_suite(seed: int, kinds: list[tuple[str, Any, dict[str, Any], bool]] = K
     restarts = {t: [w for w in range(nworld) if rng.random() < 0.2] for t in range(1, control_steps + 1)}
     levels = {int(t): float(rng.choice([0.0, 1.0, round(float(rng.uniform(0.0, 1.0)), 2)]))
               for t in rng.integers(1, control_steps, 2)}
+    if scans and rng.random() < 0.6:  # a constant schedule and no aggregator: the Warp engine's scans
+        scan = {"size": [0.4, 0.2], "resolution": 0.2, "alignment": str(rng.choice(["yaw", "full", "world"]))}
+        entry = {"kind": "heightscan", "element": "site:hand_site", "scan": scan,
+                 "interval": int(rng.integers(1, 5)), "delay": int(rng.integers(0, 6)), "buffer": int(rng.integers(1, 4))}
+        if rng.random() < 0.7:
+            entry["noise"] = [_stage(rng, False) for _ in range(int(rng.integers(1, 4)))]
+        sensors["scan"] = entry
     run = {"substeps": substeps, "nworld": nworld, "control_steps": control_steps, "seed": seed,
            "restarts": {t: ws for t, ws in restarts.items() if ws}, "levels": levels}
     return json.dumps(suite, indent=1), run
@@ -342,14 +350,15 @@ CONTROLS: list[tuple[str, Any, dict[str, Any], bool]] = [
 ]
 
 
-def run_environments(seed: int, nworld: int = 3, control_steps: int = 16) -> None:
+def run_environments(seed: int, nworld: int = 3, control_steps: int = 30) -> None:
     """`WarpEnvironment` against `BatchEnvironment` on a fuzzed suite of the controls: specs, every read of every
     world, step types, rewards and discounts, through time limits, `reset(ids)` and noise levels."""
     text, run = fuzz_suite(seed, CONTROLS)
     rng = np.random.default_rng(seed)
     substeps = run["substeps"]
     options = dict(seed=seed, time_limit=int(rng.integers(3, 8)) * substeps * float(MODEL.opt.timestep))
-    warp = WarpEnvironment(ROBOT, sensorcfg.loads(text), nworld, device="cpu", key_episodes=4, **options)
+    warp = WarpEnvironment(ROBOT, sensorcfg.loads(text), nworld, device="cpu", key_episodes=4 + 4 * (seed % 3),
+                           **options)  # its key table topped up every control step, every second, every third
     batch = BatchEnvironment(ROBOT, sensorcfg.loads(text), nworld, **options)
     ours_spec, their_spec = warp.observation_spec(), batch.observation_spec()
     assert list(ours_spec) == list(their_spec)
@@ -391,14 +400,14 @@ def test_the_warp_environment_reads_what_the_batch_reads_on_a_fuzzed_suite_of_th
 
 
 def run_environment_physics(seed: int, nworld: int = 2, control_steps: int = 14) -> None:
-    """`WarpEnvironment` end to end on a fuzzed suite of every kind, one physics step per control step: after
-    each step each world's Updater reads MuJoCo Warp's own state (the suite's fields copied into an MjData),
-    resetting where the step says FIRST, with the world's own seed; every read of every world is compared, as
-    `replay` compares them. Every world restarts at once (the time limit, `reset()`): a restart runs MuJoCo
+    """`WarpEnvironment` end to end on a fuzzed suite of every kind (height scans too), one physics step per
+    control step: after each step each world's Updater reads MuJoCo Warp's own state (the suite's fields and
+    the scans' frames copied into an MjData), resetting where the step says FIRST, with the world's own seed;
+    every read of every world is compared, as `replay` compares them. Every world restarts at once (the time limit, `reset()`): a restart runs MuJoCo
     Warp's forward of every world after the step's samples were taken, so the fields a continuing world shows
     then are no longer those its sensors sampled (`test_the_warp_environment_reads_what_the_batch_reads_on_a_
     fuzzed_suite_of_the_controls` restarts some worlds alone)."""
-    text, run = fuzz_suite(seed)
+    text, run = fuzz_suite(seed, scans=True)
     document = json.loads(text)
     document["options"]["control_interval"] = "2ms"
     suite = sensorcfg.loads(json.dumps(document), file=f"fuzz{seed}.yaml")
@@ -406,8 +415,9 @@ def run_environment_physics(seed: int, nworld: int = 2, control_steps: int = 14)
     env = WarpEnvironment(ROBOT, suite, nworld, device="cpu", key_episodes=4, seed=seed,
                           time_limit=int(rng.integers(3, 8)) * float(MODEL.opt.timestep))
     model = env._model
-    names = [f for f, _ in env._sensors.plan.fields]
-    plain = {s.name for s in env._sensors.plan.sensors if s.noise is None and s.aggregator is None}
+    names = [f for f, _ in env._sensors.plan.fields if f not in env._scans.heights] + env._scans.pose_fields
+    plain = {s.name for s in env._sensors.plan.sensors  # (heights: MuJoCo Warp's float32 casts, to float32 rounding)
+             if s.noise is None and s.aggregator is None and s.source.field not in env._scans.heights}
     options = suite.updater_kwargs(model)
 
     def make() -> dict[str, Any]:
