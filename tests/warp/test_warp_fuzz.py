@@ -175,7 +175,7 @@ def fuzz_suite(seed: int, kinds: list[tuple[str, Any, dict[str, Any], bool]] = K
     suite = {"version": 1, "options": options, "sensors": sensors}
     if rng.random() < 0.2:  # every sensor delivered clean too (a sensor's own `twin` wins)
         suite["defaults"] = {"twin": "{name}_twin"}
-    nworld = 3
+    nworld = int(rng.integers(2, 6))
     control_steps = 24
     restarts = {t: [w for w in range(nworld) if rng.random() < 0.2] for t in range(1, control_steps + 1)}
     levels = {int(t): float(rng.choice([0.0, 1.0, round(float(rng.uniform(0.0, 1.0)), 2)]))
@@ -350,12 +350,12 @@ CONTROLS: list[tuple[str, Any, dict[str, Any], bool]] = [
 ]
 
 
-def run_environments(seed: int, nworld: int = 3, control_steps: int = 30) -> None:
+def run_environments(seed: int, control_steps: int = 30) -> None:
     """`WarpEnvironment` against `BatchEnvironment` on a fuzzed suite of the controls: specs, every read of every
     world, step types, rewards and discounts, through time limits, `reset(ids)` and noise levels."""
     text, run = fuzz_suite(seed, CONTROLS)
     rng = np.random.default_rng(seed)
-    substeps = run["substeps"]
+    substeps, nworld = run["substeps"], run["nworld"]
     options = dict(seed=seed, time_limit=int(rng.integers(3, 8)) * substeps * float(MODEL.opt.timestep))
     warp = WarpEnvironment(ROBOT, sensorcfg.loads(text), nworld, device="cpu", key_episodes=4 + 4 * (seed % 3),
                            **options)  # its key table topped up every control step, every second, every third
