@@ -165,7 +165,8 @@ def test_a_scalar_sensor_with_bounded_noise_blends_at_a_level() -> None:
     below 1 is clipped in place, a 0-d array (numpy's arithmetic on 0-d arrays gives a scalar)."""
     suite = """\
 sensors:
-  one: {kind: qpos, element: joint:hip_f, index: 0, noise: [{type: gaussian, std: 0.5}, {type: clip, min: -0.1, max: 0.1}]}
+  one: {kind: qpos, element: joint:hip_f, index: 0,
+        noise: [{type: gaussian, std: 0.5}, {type: clip, min: -0.1, max: 0.1}]}
   clean: {kind: qpos, element: joint:hip_f, index: 0}
 """
     env = sensorcfg.Environment(TERRAIN, sensorcfg.loads(suite), seed=0)

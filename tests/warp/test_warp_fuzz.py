@@ -1,16 +1,22 @@
-"""A differential fuzz of the Warp engine's sensor layer (`sensorcfg.warp.sensors`) against the CPU Updater.
+"""A differential fuzz of the Warp engine (`sensorcfg.warp`) against the CPU engines.
 
 Each seed writes a random suite as YAML text (`sensorcfg.loads`: the user's path, config validation and clean
 twins included) on the bundled robot: several sensors of random kinds (mjData fields, MuJoCo sensor kinds the
-suite compiles into the model), fixed or drawn (`{uniform}`, `{choice}`) intervals and delays, buffers,
-aggregators, chains of 1-4 noise stages with random parameters (some drawn per episode, misalign on
-3-vectors), twins, padding on or off, 1-4 physics steps per control step. World w of the sensor layer on
-Warp's CPU device and one Updater per world read world w's CPU trajectory (random actions); random worlds
-restart at random control steps, noise levels change mid-run, and more episodes run than the key table holds
-(its top-up is `WarpEnvironment._top_up`). Every read of every world is compared: plain noise-free reads bit
-for bit as float32 copies, the rest to float32 rounding.
+suite compiles into the model, `index`, `within`), fixed or drawn (`{uniform}`, `{choice}`) intervals and
+delays (steps, durations, rates), buffers, aggregators, chains of 1-4 noise stages with random parameters (some
+drawn per episode, misalign on 3-vectors), twins, padding and strip on or off, 1-4 physics steps per control
+step, 2-5 worlds.
 
-`FUZZ_SEEDS=a:b` runs seeds a..b-1 instead of the CI-sized set (for long local runs).
+- the sensor layer (`warp.sensors`, Warp's CPU device) against one Updater per world on world w's CPU
+  trajectory: random worlds restart at random control steps, noise levels change mid-run, and more episodes
+  run than the key table holds (its top-up is `WarpEnvironment._top_up`). The suite's fields are rounded to
+  float32 on that trajectory, so both engines sample the same values and only their arithmetic differs;
+- `WarpEnvironment` against `BatchEnvironment` on suites of the controls (the same values whatever the
+  physics): specs, reads, step types, rewards, discounts, time limits, `reset(ids)`, noise levels;
+- `WarpEnvironment` end to end (height scans too) against an Updater per world reading MuJoCo Warp's own state.
+
+Every read of every world is compared: plain noise-free reads bit for bit as float32 copies, the rest to
+float32 rounding. `FUZZ_SEEDS=a:b` runs sensor-layer seeds a..b-1 instead of the CI-sized set (long local runs).
 """
 
 from __future__ import annotations
@@ -31,7 +37,8 @@ wp = warp_or_skip()
 
 import sensorcfg  # noqa: E402
 from sensorcfg import assets  # noqa: E402
-from sensorcfg.batch.environment import BatchEnvironment  # noqa: E402
+from sensorcfg.batch.environment import BatchEnvironment, root_seed, sim_seed  # noqa: E402
+from sensorcfg.env.environment import random_state_from  # noqa: E402
 from sensorcfg.noise.bounds import noisy_bounds  # noqa: E402
 from sensorcfg.noise.level import leveled, own_bounds, set_level  # noqa: E402
 from sensorcfg.physics import Physics  # noqa: E402
@@ -183,7 +190,8 @@ def fuzz_suite(seed: int, kinds: list[tuple[str, Any, dict[str, Any], bool]] = K
     if scans and rng.random() < 0.6:  # a constant schedule and no aggregator: the Warp engine's scans
         scan = {"size": [0.4, 0.2], "resolution": 0.2, "alignment": str(rng.choice(["yaw", "full", "world"]))}
         entry = {"kind": "heightscan", "element": "site:hand_site", "scan": scan,
-                 "interval": int(rng.integers(1, 5)), "delay": int(rng.integers(0, 6)), "buffer": int(rng.integers(1, 4))}
+                 "interval": int(rng.integers(1, 5)), "delay": int(rng.integers(0, 6)),
+                 "buffer": int(rng.integers(1, 4))}
         if rng.random() < 0.7:
             entry["noise"] = [_stage(rng, False) for _ in range(int(rng.integers(1, 4)))]
         sensors["scan"] = entry
@@ -209,8 +217,9 @@ def replay(make: Callable[[], dict[str, Any]], model: mujoco.MjModel, options: d
            control_steps: int, seed: int, restarts: dict[int, list[int]], levels: dict[int, float],
            key_episodes: int = 4) -> int:
     """World w of the sensor layer against an Updater over `make()`'s (leveled) observables, both reading world
-    w's CPU trajectory (random actions). At control step t the worlds `restarts[t]` start a new episode instead of
-    stepping, and from `levels[t]` on new episodes have that noise level; `options`: the Updater's keywords; the key table holds `key_episodes`
+    w's CPU trajectory (random actions; the fields the suite reads rounded to float32 at each step). At control
+    step t the worlds `restarts[t]` start a new episode instead of stepping, and from `levels[t]` on new
+    episodes have that noise level; `options`: the Updater's keywords; the key table holds `key_episodes`
     episodes ahead, topped up after each control step by `WarpEnvironment._top_up`. Plain noise-free reads are
     compared bit for bit, the rest to float32 rounding. Returns the most episodes a world started."""
     substeps, strip = options["physics_steps_per_control_step"], options["strip_singleton_buffer_dim"]
@@ -334,7 +343,7 @@ def _seeds() -> list[int]:
     if chosen:
         first, stop = (int(x) for x in chosen.split(":"))
         return list(range(first, stop))
-    return list(range(16))
+    return list(range(20))
 
 
 @pytest.mark.parametrize("seed", _seeds())
@@ -401,12 +410,12 @@ def test_the_warp_environment_reads_what_the_batch_reads_on_a_fuzzed_suite_of_th
 
 def run_environment_physics(seed: int, nworld: int = 2, control_steps: int = 14) -> None:
     """`WarpEnvironment` end to end on a fuzzed suite of every kind (height scans too), one physics step per
-    control step: after each step each world's Updater reads MuJoCo Warp's own state (the suite's fields and
-    the scans' frames copied into an MjData), resetting where the step says FIRST, with the world's own seed;
-    every read of every world is compared, as `replay` compares them. Every world restarts at once (the time limit, `reset()`): a restart runs MuJoCo
-    Warp's forward of every world after the step's samples were taken, so the fields a continuing world shows
-    then are no longer those its sensors sampled (`test_the_warp_environment_reads_what_the_batch_reads_on_a_
-    fuzzed_suite_of_the_controls` restarts some worlds alone)."""
+    control step: after each step each world's Updater reads MuJoCo Warp's own state (the suite's fields and the
+    scans' frames copied into an MjData), resetting where the step says FIRST, with the world's own seed; every
+    read of every world is compared, as `replay` compares them. Every world restarts at once (the time limit,
+    `reset()`): a restart runs MuJoCo Warp's forward of every world after the step's samples were taken, so the
+    fields a continuing world shows then are no longer those its sensors sampled (the test against
+    `BatchEnvironment` restarts some worlds alone)."""
     text, run = fuzz_suite(seed, scans=True)
     document = json.loads(text)
     document["options"]["control_interval"] = "2ms"
@@ -425,11 +434,9 @@ def run_environment_physics(seed: int, nworld: int = 2, control_steps: int = 14)
         leveled(built)
         return built
 
-    from sensorcfg.batch.environment import root_seed, sim_seed
-    from sensorcfg.env.environment import random_state_from
-
     worlds = [(sensorcfg.Updater(obs, **options), Physics(model),
-               random_state_from(sim_seed(root_seed(seed), w)), obs) for w, obs in enumerate(make() for _ in range(nworld))]
+               random_state_from(sim_seed(root_seed(seed), w)), obs)
+              for w, obs in enumerate(make() for _ in range(nworld))]
 
     def copy_state() -> None:
         for f in names:
