@@ -361,7 +361,7 @@ CONTROLS: list[tuple[str, Any, dict[str, Any], bool]] = [
 
 def run_environments(seed: int, control_steps: int = 30) -> None:
     """`WarpEnvironment` against `BatchEnvironment` on a fuzzed suite of the controls: specs, every read of every
-    world, step types, rewards and discounts, through time limits, `reset(ids)` and noise levels."""
+    world, step types, rewards and discounts, through time limits, `reset(ids)`, noise levels and a reseed."""
     text, run = fuzz_suite(seed, CONTROLS)
     rng = np.random.default_rng(seed)
     substeps, nworld = run["substeps"], run["nworld"]
@@ -396,6 +396,9 @@ def run_environments(seed: int, control_steps: int = 30) -> None:
             warp.set_noise_level(run["levels"][t])
             batch.set_noise_level(run["levels"][t])
         chosen = run["restarts"].get(t + 1, [])
+        if t == control_steps // 2:  # reseeded: every world restarts at the next step, with new keys
+            warp.seed(seed + 1000)
+            batch.seed(seed + 1000)
         if chosen and t % 3 == 0:  # by hand, mid-episode
             ours, theirs = warp.reset(chosen), batch.reset(chosen)
         else:
