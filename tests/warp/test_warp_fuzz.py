@@ -481,3 +481,37 @@ def run_environment_physics(seed: int, nworld: int = 2, control_steps: int = 14)
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_the_warp_environment_reads_its_own_physics_as_the_updater_reads_it(seed: int) -> None:
     run_environment_physics(seed)
+
+
+# fields MuJoCo fills in a step only as its sensors need them, and the derived fields of a step
+DERIVED = {"cacc": "body:hand", "cfrc_int": "body:forearm", "subtree_linvel": "body:upper_arm",
+           "subtree_angmom": "body:upper_arm", "subtree_com": "body:upper_arm", "qfrc_bias": "joint:*",
+           "qfrc_passive": "joint:*", "qfrc_actuator": "joint:*", "qacc": "joint:*", "force": "actuator:*",
+           "cvel": "body:hand", "xipos": "body:hand", "cinert": "body:hand", "xanchor": "joint:elbow",
+           "framelinacc": "site:hand_site", "frameangacc": "site:hand_site", "accelerometer": "site:imu"}
+
+
+def test_what_the_warp_environment_reads_is_mujocos_forward_of_the_state_it_stepped_from() -> None:
+    """Every field a sensor reads is filled by MuJoCo Warp's step as MuJoCo fills it (no field left at zero or
+    stale): the values read after a step of one physics step are MuJoCo's `mj_forward` of the state the step
+    started from (a step computes them before it integrates), to float32 physics."""
+    sensors = {name: {"kind": name, "element": element} for name, element in DERIVED.items()}
+    env = WarpEnvironment(ROBOT, sensorcfg.loads(json.dumps({"sensors": sensors})), 1, device="cpu", seed=0,
+                          physics_steps_per_control_step=1)
+    model = env._model
+    data = mujoco.MjData(model)
+    sources = {s.name: s.source for s in env._sensors.plan.sensors}
+    rng = np.random.default_rng(0)
+    env.reset()
+    for _ in range(10):
+        for f in ("qpos", "qvel", "act", "qacc_warmstart", "time"):
+            setattr(data, f, getattr(env.data, f).numpy()[0])
+        actions = rng.uniform(*model.actuator_ctrlrange.T).astype(np.float32)
+        data.ctrl[:] = actions
+        mujoco.mj_forward(model, data)
+        step = env.step(actions[None])
+        for name, source in sources.items():
+            want = np.ravel(getattr(data, source.field))[source.positions.ravel()]
+            got = step.observation[name].numpy().ravel()
+            scale = max(1.0, float(np.abs(want).max()))
+            assert np.abs(got - want).max() <= 1e-3 * scale, (name, got, want)  # (accelerations: float32 solves)
