@@ -168,7 +168,7 @@ def fuzz_suite(seed: int, kinds: list[tuple[str, Any, dict[str, Any], bool]] = K
         if rng.random() < 0.75:
             drawn_interval = isinstance(entry["interval"], dict)
             stages = [_stage(rng, drawn_interval) for _ in range(int(rng.integers(1, 5)))]
-            if vector and rng.random() < 0.5:
+            for _ in range(int(rng.integers(1, 3)) if vector and rng.random() < 0.5 else 0):
                 turn: dict[str, Any] = {"type": "misalign", "std": round(float(rng.uniform(0.01, 0.2)), 3)}
                 if rng.random() < 0.3:
                     turn = {"type": "misalign", "matrix": (np.eye(3) + rng.normal(0, 0.02, (3, 3))).round(3).tolist()}
