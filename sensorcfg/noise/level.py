@@ -33,7 +33,7 @@ def blend(raw: np.ndarray, noisy: np.ndarray, level: Any, dst: np.ndarray, bound
     if np.ndim(level) == 0 and level == 1.0:
         np.copyto(dst, noisy, casting="unsafe")
         return
-    mixed = raw + level * (noisy - raw)
+    mixed = np.asarray(raw + level * (noisy - raw))  # (a 0-d sample's arithmetic gives a scalar: clipped in place)
     if bounds is not None:
         np.clip(mixed, bounds[0], bounds[1], out=mixed)
     if np.ndim(level):  # per simulation: those at level 1 read their noisy values exactly

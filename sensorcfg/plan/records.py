@@ -56,7 +56,8 @@ class FixedTiming(NamedTuple):
     """A constant schedule, in physics steps (dm_control's semantics, `runtime/schedule.Schedule`):
     sample k is taken at step `k * interval` and delivered at `k * interval + delay`; a read shows the
     newest `buffer` delivered samples. `taken[step % period]`: a sample is taken at that step (samples no
-    read can show are skipped, unless `every_sample`: stateful noise sees every nominal sample)."""
+    read can show are skipped, unless `every_sample`: stateful noise sees every nominal sample); the reset
+    sample (step 0) is taken whatever `taken[0]` says, since a padded read shows it."""
 
     interval: int
     delay: int

@@ -27,7 +27,7 @@ from .philox import MODULE_OPTIONS
 if TYPE_CHECKING:
     from .sensors import Sensors
 
-__all__ = ["ParamSlot", "TurnSlot", "episode_values", "turn"]
+__all__ = ["ParamSlot", "TurnSlot", "episode_values", "taken_at", "turn"]
 
 wp.set_module_options(MODULE_OPTIONS)  # numpy's roundings (no fused multiply-adds)
 
@@ -57,6 +57,15 @@ class TurnSlot(NamedTuple):
     first: tuple[int, ...]
 
 
+@wp.func
+def taken_at(taken: wp.array[wp.int32], s_taken: wp.array[wp.int32], s_period: wp.array[wp.int32],
+             sensor: wp.int32, s: wp.int64) -> bool:
+    """Whether noisy sensor `sensor`'s schedule takes a sample at step `s`: the reset sample (step 0) always,
+    whether or not a read's window shows it (a padded read shows it: `Schedule.samples_taken`), then the
+    steps of its plan's `taken` mask (a drawn schedule's: every step, `due` says which)."""
+    return s == wp.int64(0) or taken[s_taken[sensor] + wp.int32(s % wp.int64(s_period[sensor]))] == 1
+
+
 @wp.kernel
 def _turn(steps: wp.array[wp.int64], mask: wp.array[wp.int32], segment: wp.int32, g_sensor: wp.array[wp.int32],
           g_first: wp.array[wp.int32], g_slot: wp.array[wp.int32], g_segment: wp.array[wp.int32],
@@ -66,7 +75,7 @@ def _turn(steps: wp.array[wp.int64], mask: wp.array[wp.int32], segment: wp.int32
     if mask[w] == 0 or g_segment[g] != segment:
         return
     sensor = g_sensor[g]
-    if taken[s_taken[sensor] + wp.int32(steps[w] % wp.int64(s_period[sensor]))] == 0:
+    if not taken_at(taken, s_taken, s_period, sensor, steps[w]):
         return
     i = g_first[g]
     m = g_slot[g]

@@ -32,7 +32,7 @@ import warp as wp
 
 from ..plan import DrawnTiming, FixedTiming, NoiseProgram, NoiseStep, SuitePlan
 from .drawn import DrawnSchedules, largest_gap
-from .episode import PARAM_SLOTS, ParamSlot, Turns, TurnSlot, turn
+from .episode import PARAM_SLOTS, ParamSlot, Turns, TurnSlot, taken_at, turn
 from .philox import MODULE_OPTIONS, Ziggurat, value, ziggurat
 from .support import STAGES as _RUN
 
@@ -95,7 +95,7 @@ def _noise(steps: wp.array[wp.int64], mask: wp.array[wp.int32], rows: wp.int32, 
         return
     s = steps[w]
     sensor = v_sensor[i]
-    if taken[s_taken[sensor] + wp.int32(s % wp.int64(s_period[sensor]))] == 0 or segment > s_turns[sensor]:
+    if not taken_at(taken, s_taken, s_period, sensor, s) or segment > s_turns[sensor]:
         return
     gap = due[w, sensor]  # a drawn schedule's (`warp.drawn`): 0 no sample, else steps since the last; fixed: -1
     if gap == 0:
@@ -151,9 +151,9 @@ def _noise(steps: wp.array[wp.int64], mask: wp.array[wp.int32], rows: wp.int32, 
             if s == wp.int64(0):
                 state[w, k, v] = x
             else:
-                alpha = p0  # a drawn schedule's: the coefficient of the gap since the last sample
-                if gap > 0:
-                    alpha = alphas[k, gap, v]
+                alpha = p0  # a cutoff drawn per episode: the episode's, for the constant interval (`support`
+                if gap > 0 and st_drawn[k] < 0:  # refuses it on a drawn one); a drawn schedule's fixed cutoff:
+                    alpha = alphas[k, gap, v]  # the coefficient of the gap since the last sample
                 state[w, k, v] = state[w, k, v] + alpha * (x - state[w, k, v])
             x = state[w, k, v]
         elif code == 7:  # bias: the episode's value

@@ -158,3 +158,21 @@ def test_values_stay_within_the_spec_bounds_at_any_level(level: float) -> None:
     for obs in [batch.reset().observation] + [batch.step(np.full((2, 2), 0.5)).observation for _ in range(30)]:
         for name, value in obs.items():
             batch_spec[name].validate(value)
+
+
+def test_a_scalar_sensor_with_bounded_noise_blends_at_a_level() -> None:
+    """A sensor of one value (`index: 0`: shape ()) whose noise keeps bounds (a clip): its blend at a level
+    below 1 is clipped in place, a 0-d array (numpy's arithmetic on 0-d arrays gives a scalar)."""
+    suite = """\
+sensors:
+  one: {kind: qpos, element: joint:hip_f, index: 0,
+        noise: [{type: gaussian, std: 0.5}, {type: clip, min: -0.1, max: 0.1}]}
+  clean: {kind: qpos, element: joint:hip_f, index: 0}
+"""
+    env = sensorcfg.Environment(TERRAIN, sensorcfg.loads(suite), seed=0)
+    env.reset()
+    env.set_noise_level(0.5)
+    env.reset()
+    for _ in range(5):
+        obs = env.step(np.zeros(2)).observation
+        assert -0.1 <= float(obs["one"][0]) <= 0.1

@@ -231,3 +231,20 @@ def test_drawn_schedules_with_misalign_and_parameters_drawn_per_episode(seed: in
 
     replay(make, mujoco.MjModel.from_xml_path(ROBOT), 3, 1 + seed % 3, bool(seed % 2), 24, seed,
            resets={7: [1], 15: [0, 2]})
+
+
+def test_a_lowpass_whose_cutoff_is_drawn_per_episode_on_a_drawn_delay() -> None:
+    """A constant interval with a drawn delay is a drawn schedule, whose low-pass coefficients per gap are
+    computed for a fixed cutoff: a cutoff drawn per episode filters with the episode's (the gap is always the
+    interval), as on the CPU, over several episodes."""
+    def make() -> dict[str, sensorcfg.Observable]:
+        physics = Physics(mujoco.MjModel.from_xml_path(ROBOT))
+        obs = sensorcfg.Feature("qpos", ["joint:shoulder", "joint:elbow"], update_interval=3,
+                                delay=ChoiceSteps((1, 4)))
+        obs.reader(physics)
+        obs.noise = build_noise([{"type": "lowpass", "cutoff": {"uniform": [5.0, 40.0]}}], (2,), np.float64,
+                                physics.timestep)
+        obs.enabled = True
+        return {"filtered": obs}
+
+    replay(make, mujoco.MjModel.from_xml_path(ROBOT), 2, 3, False, 8, 0, resets={4: [1]})

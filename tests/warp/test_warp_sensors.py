@@ -170,3 +170,23 @@ def test_the_recipes_read_the_same_on_both_engines(recipe: str, like: str) -> No
 
     substeps = loaded.updater_kwargs(model).get("physics_steps_per_control_step") or 4
     replay(make, model, 2, int(substeps), False, 12, 0)
+
+
+def test_a_padded_read_shows_the_reset_sample_noised_though_no_window_shows_it() -> None:
+    """Interval 2, delay 1, 3 physics steps per control step: no read's window shows sample 0 (the read at 3
+    shows sample 1), so the plan's `taken` mask leaves step 0 out; but the reset sample is always taken, and a
+    padded read shows it (at step 0): noised as on the CPU, misalign's turn included."""
+    physics = Physics(mujoco.MjModel.from_xml_path(ROBOT))
+
+    def make() -> dict[str, sensorcfg.Observable]:
+        out = {"joints": sensorcfg.Feature("qpos", ["joint:shoulder", "joint:elbow"], update_interval=2, delay=1),
+               "hand": sensorcfg.Feature("xpos", "site:hand_site", update_interval=2, delay=1)}
+        stages = {"joints": [{"type": "gaussian", "std": 0.1}],
+                  "hand": [{"type": "gaussian", "std": 0.1}, {"type": "misalign", "std": 0.2}]}
+        for name, obs in out.items():
+            obs.reader(physics)
+            obs.noise = build_noise(stages[name], obs.array_spec.shape, obs.array_spec.dtype, physics.timestep)
+            obs.enabled = True
+        return out
+
+    replay(make, mujoco.MjModel.from_xml_path(ROBOT), 2, 3, True, 2, 0)

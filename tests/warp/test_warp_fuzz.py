@@ -1,0 +1,517 @@
+"""A differential fuzz of the Warp engine (`sensorcfg.warp`) against the CPU engines.
+
+Each seed writes a random suite as YAML text (`sensorcfg.loads`: the user's path, config validation and clean
+twins included) on the bundled robot: several sensors of random kinds (mjData fields, MuJoCo sensor kinds the
+suite compiles into the model, `index`, `within`), fixed or drawn (`{uniform}`, `{choice}`) intervals and
+delays (steps, durations, rates), buffers, aggregators, chains of 1-4 noise stages with random parameters (some
+drawn per episode, misalign on 3-vectors), twins, padding and strip on or off, 1-4 physics steps per control
+step, 2-5 worlds.
+
+- the sensor layer (`warp.sensors`, Warp's CPU device) against one Updater per world on world w's CPU
+  trajectory: random worlds restart at random control steps, noise levels change mid-run, and more episodes
+  run than the key table holds (its top-up is `WarpEnvironment._top_up`). The suite's fields are rounded to
+  float32 on that trajectory, so both engines sample the same values and only their arithmetic differs;
+- `WarpEnvironment` against `BatchEnvironment` on suites of the controls (the same values whatever the
+  physics): specs, reads, step types, rewards, discounts, time limits, `reset(ids)`, noise levels;
+- `WarpEnvironment` end to end (height scans too) against an Updater per world reading MuJoCo Warp's own state.
+
+Every read of every world is compared: plain noise-free reads bit for bit as float32 copies, the rest to
+float32 rounding. `FUZZ_SEEDS=a:b` runs sensor-layer seeds a..b-1 instead of the CI-sized set (long local runs).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Callable
+from types import SimpleNamespace
+from typing import Any
+
+import mujoco
+import numpy as np
+import pytest
+
+from conftest import warp_or_skip  # noqa: E402
+
+wp = warp_or_skip()
+
+import sensorcfg  # noqa: E402
+from sensorcfg import assets  # noqa: E402
+from sensorcfg.batch.environment import BatchEnvironment, root_seed, sim_seed  # noqa: E402
+from sensorcfg.env.environment import random_state_from  # noqa: E402
+from sensorcfg.noise.bounds import noisy_bounds  # noqa: E402
+from sensorcfg.noise.level import leveled, own_bounds, set_level  # noqa: E402
+from sensorcfg.physics import Physics  # noqa: E402
+from sensorcfg.plan.bind import bind, plan_suite  # noqa: E402
+from sensorcfg.warp.environment import WarpEnvironment  # noqa: E402
+from sensorcfg.warp.sensors import Sensors  # noqa: E402
+
+ROBOT = str(assets.path("robot.xml"))
+MODEL = mujoco.MjModel.from_xml_path(ROBOT)
+
+# (kind, element, extra keys, whether its values are 3-vectors: misalign turns them)
+KINDS: list[tuple[str, Any, dict[str, Any], bool]] = [
+    ("qpos", ["joint:shoulder", "joint:elbow"], {}, False),
+    ("qpos", "joint:wrist", {}, False),
+    ("qvel", "joint:elbow", {}, False),
+    ("qvel", "joint:wrist", {}, True),
+    ("qacc", ["joint:shoulder", "joint:finger_slide"], {}, False),
+    ("xpos", "site:hand_site", {}, True),
+    ("xpos", ["site:hand_site", "site:imu"], {}, True),
+    ("xpos", "body:hand", {}, True),
+    ("xquat", "body:hand", {}, False),
+    ("xmat", "body:forearm", {}, False),  # (9,): no 3-vector axis
+    ("sensordata", "sensor:imu_accel", {}, True),
+    ("force", "actuator:*", {}, True),
+    ("ctrl", ["actuator:shoulder_motor", "actuator:elbow_motor"], {}, False),
+    ("gyro", "site:imu", {}, True),
+    ("framepos", "site:fingertip", {"frame": "body:base"}, True),
+    ("jointpos", "joint:elbow", {}, False),
+    ("gravity", "site:imu", {}, True),
+    ("subtreecom", "body:upper_arm", {}, True),
+    ("xpos", "body:hand", {"index": 2}, False),
+    ("xpos", ["site:hand_site", "site:imu", "site:fingertip"], {"index": "0:2"}, True),
+    ("qvel", "joint:*", {"within": "body:upper_arm", "index": [0, 2]}, False),
+    ("velocimeter", "site:imu", {}, True),
+    ("accelerometer", "site:hand_site", {}, True),
+    ("framequat", "body:hand", {}, False),
+    ("subtreelinvel", "body:upper_arm", {}, True),
+]
+AGGREGATORS = [None, None, None, "min", "max", "sum", "mean", "median"]
+
+
+def _number(rng: np.random.Generator, low: float, high: float, drawn: float = 0.3) -> Any:
+    """A parameter in [low, high], drawn per episode (`{uniform: [a, b]}`) with probability `drawn`."""
+    if rng.random() < drawn:
+        a, b = sorted(rng.uniform(low, high, 2).round(4).tolist())
+        return {"uniform": [a, b]}
+    return round(float(rng.uniform(low, high)), 4)
+
+
+def _stage(rng: np.random.Generator, drawn_schedule: bool) -> dict[str, Any]:
+    kind = str(rng.choice(["gaussian", "uniform", "bias", "scale", "random_walk", "quantize", "clip", "dropout",
+                           "outlier", "lowpass"]))
+    n = lambda low, high: _number(rng, low, high)  # noqa: E731
+    if kind == "gaussian":
+        out = {"std": n(0.001, 0.05)}
+        if rng.random() < 0.3:
+            out["mean"] = n(-0.01, 0.01)
+    elif kind == "uniform":
+        out = {"low": n(-0.05, -0.01), "high": n(0.01, 0.05)}
+    elif kind == "bias":
+        out = {"std": n(0.01, 0.2)} if rng.random() < 0.6 else {"low": n(-0.2, -0.1), "high": n(0.1, 0.2)}
+    elif kind == "scale":
+        out = {"low": n(0.8, 0.95), "high": n(1.05, 1.2)} if rng.random() < 0.5 else \
+            {"mean": n(0.95, 1.05), "std": n(0.0, 0.05)}
+    elif kind == "random_walk":
+        out = {"std": n(0.001, 0.05)}
+        if rng.random() < 0.6:
+            out["correlation_time"] = n(0.005, 0.2)
+    elif kind == "quantize":
+        out = {"step": n(0.0005, 0.01)}
+    elif kind == "clip":
+        out = {"min": n(-1.0, -0.2), "max": n(0.2, 1.0)}
+        if rng.random() < 0.3:
+            out.pop(str(rng.choice(["min", "max"])))
+    elif kind == "dropout":
+        out = {"p": n(0.05, 0.6), "mode": str(rng.choice(["hold", "zero", "nan"]))}
+        if rng.random() < 0.4:
+            out["per"] = "value"
+    elif kind == "outlier":
+        out = {"p": n(0.02, 0.3), "scale": n(0.1, 2.0)}
+    else:  # a cutoff drawn per episode on a drawn interval is refused (`support`): fixed there
+        out = {"cutoff": _number(rng, 2.0, 80.0, 0.0 if drawn_schedule else 0.3)}
+    return {"type": kind, **out}
+
+
+def _steps(rng: np.random.Generator, low: int, high: int, rate: bool = False) -> Any:
+    """A constant number of physics steps in [low, high], or one drawn per sample."""
+    if rng.random() < 0.15:  # long ones now and then
+        high = 3 * high
+    r = rng.random()
+    if r < 0.45:
+        return int(rng.integers(low, high + 1))
+    if r < 0.6:  # a duration or a rate: the robot's timestep is 2 ms
+        steps = int(rng.integers(low, high + 1))
+        return f"{500 // steps}Hz" if rate and 500 % steps == 0 and rng.random() < 0.3 else f"{2 * steps}ms"
+    if r < 0.8:
+        a = int(rng.integers(low, high + 1))
+        return {"uniform": [a, int(rng.integers(a, high + 2))]}
+    values = sorted({int(v) for v in rng.integers(low, high + 3, int(rng.integers(1, 4)))})
+    out: dict[str, Any] = {"choice": values}
+    if len(values) > 1 and rng.random() < 0.5:
+        p = rng.dirichlet(np.ones(len(values))).round(3)
+        p[-1] = round(1.0 - float(p[:-1].sum()), 3)
+        if (p > 0).all():
+            out["p"] = p.tolist()
+    return out
+
+
+def fuzz_suite(seed: int, kinds: list[tuple[str, Any, dict[str, Any], bool]] = KINDS,
+               scans: bool = False) -> tuple[str, dict[str, Any]]:
+    """A random suite's YAML text (JSON, which YAML reads) of sensors of `kinds` (and, with `scans`, a height
+    scan now and then), and the run's settings: substeps, restarts, levels."""
+    rng = np.random.default_rng(seed)
+    substeps = int(rng.integers(1, 5))
+    strip = bool(rng.random() < 0.3)
+    sensors: dict[str, Any] = {}
+    for j in range(int(rng.integers(2, 7))):
+        kind, element, extra, vector = kinds[int(rng.integers(len(kinds)))]
+        entry: dict[str, Any] = {"kind": kind, "element": element, **extra,
+                                 "interval": _steps(rng, 1, 4, True), "delay": _steps(rng, 0, 5)}
+        buffer = int(rng.integers(1, 5 if rng.random() < 0.85 else 9))
+        if buffer > 1 or rng.random() < 0.2:
+            entry["buffer"] = buffer
+        aggregator = AGGREGATORS[int(rng.integers(len(AGGREGATORS)))]
+        if aggregator and not (strip and buffer == 1):  # (no buffer axis to reduce: refused)
+            entry["aggregator"] = aggregator
+        if rng.random() < 0.75:
+            drawn_interval = isinstance(entry["interval"], dict)
+            stages = [_stage(rng, drawn_interval) for _ in range(int(rng.integers(1, 5)))]
+            for _ in range(int(rng.integers(1, 3)) if vector and rng.random() < 0.5 else 0):
+                turn: dict[str, Any] = {"type": "misalign", "std": round(float(rng.uniform(0.01, 0.2)), 3)}
+                if rng.random() < 0.3:
+                    turn = {"type": "misalign", "matrix": (np.eye(3) + rng.normal(0, 0.02, (3, 3))).round(3).tolist()}
+                stages.insert(int(rng.integers(len(stages) + 1)), turn)
+            entry["noise"] = stages
+            if rng.random() < 0.4:
+                entry["twin"] = f"s{j}_clean"
+        sensors[f"s{j}"] = entry
+    options = {"pad_with_initial_value": bool(rng.random() < 0.5), "control_interval": f"{2 * substeps}ms",
+               "strip_singleton_buffer_dim": strip}
+    suite = {"version": 1, "options": options, "sensors": sensors}
+    if rng.random() < 0.2:  # every sensor delivered clean too (a sensor's own `twin` wins)
+        suite["defaults"] = {"twin": "{name}_twin"}
+    nworld = int(rng.integers(2, 6))
+    control_steps = 24
+    restarts = {t: [w for w in range(nworld) if rng.random() < 0.2] for t in range(1, control_steps + 1)}
+    levels = {int(t): float(rng.choice([0.0, 1.0, round(float(rng.uniform(0.0, 1.0)), 2)]))
+              for t in rng.integers(1, control_steps, 2)}
+    if scans and rng.random() < 0.6:  # a constant schedule and no aggregator: the Warp engine's scans
+        scan = {"size": [0.4, 0.2], "resolution": 0.2, "alignment": str(rng.choice(["yaw", "full", "world"]))}
+        entry = {"kind": "heightscan", "element": "site:hand_site", "scan": scan,
+                 "interval": int(rng.integers(1, 5)), "delay": int(rng.integers(0, 6)),
+                 "buffer": int(rng.integers(1, 4))}
+        if rng.random() < 0.7:
+            entry["noise"] = [_stage(rng, False) for _ in range(int(rng.integers(1, 4)))]
+        sensors["scan"] = entry
+    run = {"substeps": substeps, "nworld": nworld, "control_steps": control_steps, "seed": seed,
+           "restarts": {t: ws for t, ws in restarts.items() if ws}, "levels": levels}
+    return json.dumps(suite, indent=1), run
+
+
+def fields_of(datas: list[mujoco.MjData], names: list[str]) -> dict[str, wp.array]:
+    return {f: wp.array(np.stack([np.ravel(getattr(d, f)) for d in datas]).astype(np.float32), dtype=wp.float32,
+                        device="cpu") for f in names}
+
+
+def _round(data: mujoco.MjData, names: list[str]) -> None:
+    """The fields the suite reads rounded to float32 in place: both engines then see the same values (the
+    trajectory goes on from them), so what differs is the engines' arithmetic alone."""
+    for name in names:
+        array = getattr(data, name)
+        array[...] = array.astype(np.float32)
+
+
+def replay(make: Callable[[], dict[str, Any]], model: mujoco.MjModel, options: dict[str, Any], nworld: int,
+           control_steps: int, seed: int, restarts: dict[int, list[int]], levels: dict[int, float],
+           key_episodes: int = 4) -> int:
+    """World w of the sensor layer against an Updater over `make()`'s (leveled) observables, both reading world
+    w's CPU trajectory (random actions; the fields the suite reads rounded to float32 at each step). At control
+    step t the worlds `restarts[t]` start a new episode instead of stepping, and from `levels[t]` on new
+    episodes have that noise level; `options`: the Updater's keywords; the key table holds `key_episodes`
+    episodes ahead, topped up every `key_episodes // 4` control steps by `WarpEnvironment._top_up`. Plain
+    noise-free reads are compared bit for bit, the rest to float32 rounding. Returns the most episodes a world
+    started."""
+    substeps, strip = options["physics_steps_per_control_step"], options["strip_singleton_buffer_dim"]
+    pad = options["pad_with_initial_value"]
+    physics = Physics(model)
+    mujoco.mj_forward(model, physics.data)
+    observables = make()
+    bound = bind(observables, physics, substeps, strip, pad)
+    WarpEnvironment._refuse(bound, model)
+    plan = plan_suite(bound, physics, bound.sources(), nworld, substeps, pad)
+    entries = (*bound.fixed, *bound.drawn)
+    bounds = {e.name: b for e in entries if e.channel.noise is not None
+              for b in [noisy_bounds(getattr(e.channel.noise, "_inner", e.channel.noise), own_bounds(e.observable))]
+              if b is not None}
+    sensors = Sensors(plan, wp.get_device("cpu"), key_episodes, bounds)
+    names = [f for f, _ in plan.fields]
+    plain = {s.name for s in plan.sensors if s.noise is None and s.aggregator is None}
+    host = SimpleNamespace(_sensors=sensors, _key_episodes=key_episodes, _keyed=np.zeros(nworld, np.int64),
+                           _table=np.zeros(sensors.key_table.shape, np.uint64),
+                           _values=np.zeros(sensors.episode_table.shape),
+                           _pipelines={e.name: e.channel.noise for e in entries},
+                           _random_states=[np.random.RandomState(100 + w) for w in range(nworld)])
+
+    def top_up() -> None:
+        WarpEnvironment._top_up(host, sensors.episodes.numpy().astype(np.int64))  # type: ignore[arg-type]
+
+    worlds = [(sensorcfg.Updater(obs, **options), Physics(model), np.random.RandomState(100 + w), obs)
+              for w, obs in enumerate([make() for _ in range(nworld)])]
+    steps = np.zeros(nworld, np.int64)
+    device_steps = wp.zeros(nworld, dtype=wp.int64, device="cpu")
+    lo, hi = model.actuator_ctrlrange.T
+    actions = np.random.default_rng(seed).uniform(lo, hi, (control_steps, nworld, model.nu)).astype(np.float32)
+
+    def restart(chosen: list[int]) -> None:
+        for w in chosen:
+            u, p, rs, _ = worlds[w]
+            mujoco.mj_resetData(model, p.data)
+            mujoco.mj_forward(model, p.data)
+            _round(p.data, names)
+            u.reset(p, rs)
+            steps[w] = 0
+        device_steps.assign(steps)
+        mask = np.zeros(nworld, np.int32)
+        mask[chosen] = 1
+        sensors.reset(wp.array(mask, dtype=wp.int32, device="cpu"), fields_of([p.data for _, p, _, _ in worlds], names),
+                      device_steps)
+
+    top_up()
+    restart(list(range(nworld)))
+    for t in range(control_steps + 1):
+        if t:
+            if t in levels:
+                for *_, obs in worlds:
+                    set_level(obs, levels[t])
+                sensors.next_level.fill_(levels[t])
+            chosen = restarts.get(t, [])
+            running = [w for w in range(nworld) if w not in chosen]
+            snapshots: list[list[mujoco.MjData]] = [[] for _ in range(substeps)]
+            for w in running:
+                u, p, _, _ = worlds[w]
+                p.data.ctrl[:] = actions[t - 1, w]
+                done: list[mujoco.MjData] = []
+
+                def step(p: Physics = p, done: list = done) -> None:
+                    mujoco.mj_step(model, p.data)
+                    _round(p.data, names)
+                    copy = mujoco.MjData(model)
+                    mujoco.mj_copyData(copy, model, p.data)
+                    done.append(copy)
+                u.control_step(step)
+                for k in range(substeps):
+                    snapshots[k].append(done[k])
+            mask = np.zeros(nworld, np.int32)
+            mask[running] = 1
+            for k in range(substeps):
+                steps[running] += 1
+                device_steps.assign(steps)
+                datas = [worlds[w][1].data for w in range(nworld)]
+                for w, d in zip(running, snapshots[k]):
+                    datas[w] = d
+                sensors.record(fields_of(datas, names), device_steps, wp.array(mask, dtype=wp.int32, device="cpu"))
+            if chosen:
+                restart(chosen)
+            if t % (key_episodes // 4) == 0:  # as `WarpEnvironment._keys_ahead` tops it up
+                top_up()
+        got = {name: array.numpy() for name, array in sensors.read(device_steps).items()}
+        for w, (u, *_) in enumerate(worlds):
+            for name, value in u.get_observation().items():
+                assert got[name][w].shape == value.shape, name
+                if name in plain:  # a noise-free plain read is a copy of the float32 field
+                    assert got[name][w].tobytes() == value.astype(np.float32).tobytes(), (w, t, name)
+                else:
+                    np.testing.assert_allclose(got[name][w], value, rtol=1e-5, atol=1e-6,
+                                               err_msg=f"world {w} control step {t} {name}")
+    assert not sensors.key_names or (host._keyed >= sensors.episodes.numpy()).all()
+    return int(sensors.episodes.numpy().max())
+
+
+def run_seed(seed: int) -> int:
+    text, run = fuzz_suite(seed)
+    return run_text(text, run, f"fuzz{seed}.yaml")
+
+
+def run_text(text: str, run: dict[str, Any], file: str = "<string>") -> int:
+    """`replay` of the suite `text` with the settings `run` (`fuzz_suite`'s)."""
+    seed = run["seed"]
+    suite = sensorcfg.loads(text, file=file)
+    model = suite.compile(ROBOT, batch=True)
+    options = suite.updater_kwargs(model)
+    assert options["physics_steps_per_control_step"] == run["substeps"]
+
+    def make() -> dict[str, Any]:
+        built = {name: obs for name, obs in suite.build(model, batch=True).items() if obs.enabled}
+        leveled(built)
+        return built
+
+    return replay(make, model, options, run["nworld"], run["control_steps"], seed, run["restarts"], run["levels"],
+                  4 + seed % 9)
+
+
+def _seeds() -> list[int]:
+    chosen = os.environ.get("FUZZ_SEEDS")
+    if chosen:
+        first, stop = (int(x) for x in chosen.split(":"))
+        return list(range(first, stop))
+    return list(range(20))
+
+
+@pytest.mark.parametrize("seed", _seeds())
+def test_world_i_reads_what_the_updater_reads_on_a_fuzzed_suite(seed: int) -> None:
+    run_seed(seed)
+
+
+# sensors of the controls: the same values on both engines whatever their physics (float32 actions)
+CONTROLS: list[tuple[str, Any, dict[str, Any], bool]] = [
+    ("ctrl", ["actuator:shoulder_motor", "actuator:elbow_motor"], {}, False),
+    ("ctrl", "actuator:*", {}, True),
+    ("ctrl", "actuator:finger_servo", {}, False),
+]
+
+
+def run_environments(seed: int, control_steps: int = 30) -> None:
+    """`WarpEnvironment` against `BatchEnvironment` on a fuzzed suite of the controls: specs, every read of every
+    world, step types, rewards and discounts, through time limits, `reset(ids)`, noise levels and a reseed."""
+    text, run = fuzz_suite(seed, CONTROLS)
+    rng = np.random.default_rng(seed)
+    substeps, nworld = run["substeps"], run["nworld"]
+    options = dict(seed=seed, time_limit=int(rng.integers(3, 8)) * substeps * float(MODEL.opt.timestep))
+    warp = WarpEnvironment(ROBOT, sensorcfg.loads(text), nworld, device="cpu", key_episodes=4 + 4 * (seed % 3),
+                           **options)  # its key table topped up every control step, every second, every third
+    batch = BatchEnvironment(ROBOT, sensorcfg.loads(text), nworld, **options)
+    ours_spec, their_spec = warp.observation_spec(), batch.observation_spec()
+    assert list(ours_spec) == list(their_spec)
+    for name, spec in ours_spec.items():
+        assert spec.shape == their_spec[name].shape, name
+        for bound in ("minimum", "maximum"):
+            if hasattr(their_spec[name], bound):
+                np.testing.assert_array_equal(  # (float32 bounds: the Warp engine's values are float32)
+                    np.broadcast_to(getattr(spec, bound), spec.shape),
+                    np.broadcast_to(getattr(their_spec[name], bound), spec.shape).astype(np.float32))
+    plain = {s.name for s in warp._sensors.plan.sensors if s.noise is None and s.aggregator is None}
+    lo, hi = warp._model.actuator_ctrlrange.T
+    ours, theirs = warp.reset(), batch.reset()
+    for t in range(control_steps + 1):
+        assert ours.step_type.numpy().tolist() == [int(s) for s in theirs.step_type], t
+        np.testing.assert_array_equal(ours.reward.numpy(), np.asarray(theirs.reward, np.float32))
+        np.testing.assert_array_equal(ours.discount.numpy(), np.asarray(theirs.discount, np.float32))
+        for name, value in theirs.observation.items():
+            got = ours.observation[name].numpy()
+            assert got.shape == value.shape, name
+            if name in plain:
+                assert got.tobytes() == np.asarray(value, np.float32).tobytes(), (t, name)
+            else:
+                np.testing.assert_allclose(got, value, rtol=1e-5, atol=1e-6, err_msg=f"control step {t} {name}")
+        if t in run["levels"]:
+            warp.set_noise_level(run["levels"][t])
+            batch.set_noise_level(run["levels"][t])
+        chosen = run["restarts"].get(t + 1, [])
+        if t == control_steps // 2:  # reseeded: every world restarts at the next step, with new keys
+            warp.seed(seed + 1000)
+            batch.seed(seed + 1000)
+        if chosen and t % 3 == 0:  # by hand, mid-episode
+            ours, theirs = warp.reset(chosen), batch.reset(chosen)
+        else:
+            actions = rng.uniform(lo, hi, (nworld, warp._model.nu)).astype(np.float32)
+            ours, theirs = warp.step(actions), batch.step(actions.astype(np.float64))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_warp_environment_reads_what_the_batch_reads_on_a_fuzzed_suite_of_the_controls(seed: int) -> None:
+    run_environments(seed)
+
+
+def run_environment_physics(seed: int, nworld: int = 2, control_steps: int = 14) -> None:
+    """`WarpEnvironment` end to end on a fuzzed suite of every kind (height scans too), one physics step per
+    control step: after each step each world's Updater reads MuJoCo Warp's own state (the suite's fields and the
+    scans' frames copied into an MjData), resetting where the step says FIRST, with the world's own seed; every
+    read of every world is compared, as `replay` compares them. Every world restarts at once (the time limit,
+    `reset()`): a restart runs MuJoCo Warp's forward of every world after the step's samples were taken, so the
+    fields a continuing world shows then are no longer those its sensors sampled (the test against
+    `BatchEnvironment` restarts some worlds alone)."""
+    text, run = fuzz_suite(seed, scans=True)
+    document = json.loads(text)
+    document["options"]["control_interval"] = "2ms"
+    suite = sensorcfg.loads(json.dumps(document), file=f"fuzz{seed}.yaml")
+    rng = np.random.default_rng(seed)
+    env = WarpEnvironment(ROBOT, suite, nworld, device="cpu", key_episodes=4, seed=seed,
+                          time_limit=int(rng.integers(3, 8)) * float(MODEL.opt.timestep))
+    model = env._model
+    names = [f for f, _ in env._sensors.plan.fields if f not in env._scans.heights] + env._scans.pose_fields
+    plain = {s.name for s in env._sensors.plan.sensors  # (heights: MuJoCo Warp's float32 casts, to float32 rounding)
+             if s.noise is None and s.aggregator is None and s.source.field not in env._scans.heights}
+    options = suite.updater_kwargs(model)
+
+    def make() -> dict[str, Any]:
+        built = {name: obs for name, obs in suite.build(model, batch=True).items() if obs.enabled}
+        leveled(built)
+        return built
+
+    worlds = [(sensorcfg.Updater(obs, **options), Physics(model),
+               random_state_from(sim_seed(root_seed(seed), w)), obs)
+              for w, obs in enumerate(make() for _ in range(nworld))]
+
+    def copy_state() -> None:
+        for f in names:
+            values = getattr(env.data, f).numpy().reshape(nworld, -1)
+            for w, (_, p, _, _) in enumerate(worlds):
+                getattr(p.data, f).flat[:] = values[w]
+
+    lo, hi = model.actuator_ctrlrange.T
+    step = env.reset()
+    for t in range(control_steps + 1):
+        copy_state()
+        for w, (u, p, rs, _) in enumerate(worlds):
+            if int(step.step_type.numpy()[w]) == 0:
+                u.reset(p, rs)
+            else:
+                u.control_step(lambda: None)  # (MuJoCo Warp's step, copied in)
+        for w, (u, *_) in enumerate(worlds):
+            for name, value in u.get_observation().items():
+                got = step.observation[name].numpy()[w]
+                assert got.shape == value.shape, name
+                if name in plain:
+                    assert got.tobytes() == value.astype(np.float32).tobytes(), (w, t, name, got, value)
+                else:
+                    np.testing.assert_allclose(got, value, rtol=1e-5, atol=1e-6,
+                                               err_msg=f"world {w} control step {t} {name}")
+        if t in run["levels"]:
+            env.set_noise_level(run["levels"][t])
+            for *_, obs in worlds:
+                set_level(obs, run["levels"][t])
+        if run["restarts"].get(t + 1) and t % 4 == 0:
+            step = env.reset()
+        else:
+            step = env.step(rng.uniform(lo, hi, (nworld, model.nu)).astype(np.float32))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_warp_environment_reads_its_own_physics_as_the_updater_reads_it(seed: int) -> None:
+    run_environment_physics(seed)
+
+
+# fields MuJoCo fills in a step only as its sensors need them, and the derived fields of a step
+DERIVED = {"cacc": "body:hand", "cfrc_int": "body:forearm", "subtree_linvel": "body:upper_arm",
+           "subtree_angmom": "body:upper_arm", "subtree_com": "body:upper_arm", "qfrc_bias": "joint:*",
+           "qfrc_passive": "joint:*", "qfrc_actuator": "joint:*", "qacc": "joint:*", "force": "actuator:*",
+           "cvel": "body:hand", "xipos": "body:hand", "cinert": "body:hand", "xanchor": "joint:elbow",
+           "framelinacc": "site:hand_site", "frameangacc": "site:hand_site", "accelerometer": "site:imu"}
+
+
+def test_what_the_warp_environment_reads_is_mujocos_forward_of_the_state_it_stepped_from() -> None:
+    """Every field a sensor reads is filled by MuJoCo Warp's step as MuJoCo fills it (no field left at zero or
+    stale): the values read after a step of one physics step are MuJoCo's `mj_forward` of the state the step
+    started from (a step computes them before it integrates), to float32 physics."""
+    sensors = {name: {"kind": name, "element": element} for name, element in DERIVED.items()}
+    env = WarpEnvironment(ROBOT, sensorcfg.loads(json.dumps({"sensors": sensors})), 1, device="cpu", seed=0,
+                          physics_steps_per_control_step=1)
+    model = env._model
+    data = mujoco.MjData(model)
+    sources = {s.name: s.source for s in env._sensors.plan.sensors}
+    rng = np.random.default_rng(0)
+    env.reset()
+    for _ in range(10):
+        for f in ("qpos", "qvel", "act", "qacc_warmstart", "time"):
+            setattr(data, f, getattr(env.data, f).numpy()[0])
+        actions = rng.uniform(*model.actuator_ctrlrange.T).astype(np.float32)
+        data.ctrl[:] = actions
+        mujoco.mj_forward(model, data)
+        step = env.step(actions[None])
+        for name, source in sources.items():
+            want = np.ravel(getattr(data, source.field))[source.positions.ravel()]
+            got = step.observation[name].numpy().ravel()
+            scale = max(1.0, float(np.abs(want).max()))
+            assert np.abs(got - want).max() <= 1e-3 * scale, (name, got, want)  # (accelerations: float32 solves)
