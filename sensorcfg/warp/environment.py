@@ -144,8 +144,8 @@ class WarpEnvironment(ControlLoop):
     `model`: an MjModel, an MjSpec, a path or None for the suite's `model:`; `device`: a Warp device ("cuda:0",
     "cpu"; None: Warp's default); `world_offset`: this process's first global world (under torchrun: rank x
     nworld); `reward_fn(env)` / `termination_fn(env)` return (nworld,) float32 / bool device arrays from
-    `env.data` after the step (on a GPU they are recorded into the step's CUDA graph: device work only, no host
-    reads); `nconmax` / `njmax`: MuJoCo Warp's contact and constraint sizes per world; `capture`: replay each
+    `env.data` as the step's physics left it, before any restart (on a GPU they are recorded into the step's
+    CUDA graph: device work only, no host reads); `nconmax` / `njmax`: MuJoCo Warp's contact and constraint sizes per world; `capture`: replay each
     control step as one CUDA graph (default: on CUDA devices; ignored on the CPU)."""
 
     def __init__(self, model: ModelArg, suite: Any, nworld: int, *, device: str | None = None,
@@ -381,10 +381,12 @@ class WarpEnvironment(ControlLoop):
             self._sensors.record(self._fields, self._worlds.steps)
             self._cameras.record(substep)
         wp.copy(self._diverged, self._worlds.diverged)
-        self._start_episodes(self._restarting)  # the worlds whose previous step ended their episode
-        self._observation = self._observe()
+        # rewards and terminations from the Data the physics steps left, before a restart's forward recomputes
+        # every world's derived fields (a restarting world's are ignored: its step is FIRST)
         reward = self._reward_fn(self) if self._reward_fn is not None else self._no_reward
         terminated = self._termination_fn(self) if self._termination_fn is not None else self._no_termination
+        self._start_episodes(self._restarting)  # the worlds whose previous step ended their episode
+        self._observation = self._observe()
         wp.launch(_end, dim=n, inputs=[self._restarting, self._diverged, terminated, self._control_steps, self._limit,
                                        reward],
                   outputs=[self._needs_reset, self._step_type, self._reward, self._discount], device=device)
