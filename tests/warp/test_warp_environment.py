@@ -121,6 +121,50 @@ def test_rewards_and_terminations_come_from_device_functions() -> None:
     assert step.step_type.numpy().tolist() == [MID, MID, LAST] and step.discount.numpy().tolist() == [1, 1, 0]
 
 
+@wp.kernel
+def _hand_height(xpos: wp.array2d[wp.vec3], body: int, out: wp.array[wp.float32]):
+    out[wp.tid()] = xpos[wp.tid(), body][2]
+
+
+@wp.kernel
+def _end_world_one(steps: wp.array[wp.int64], at: wp.int64, out: wp.array[bool]):
+    w = wp.tid()
+    out[w] = w == 1 and steps[w] == at
+
+
+def test_rewards_see_the_data_the_physics_left_whether_or_not_another_world_restarts() -> None:
+    """World 0's reward reads a derived field (a body's height, `xpos`) as the physics left it: the same in the
+    control step in which world 1 restarts (whose forward recomputes every world's derived fields) as in an
+    environment where no world restarts."""
+    body = mujoco.MjModel.from_xml_path(ROBOT).body("hand").id
+    rewards: list[list[float]] = []
+    for ending in (True, False):
+        out = wp.zeros(2, dtype=wp.float32, device="cpu")
+        ends = wp.zeros(2, dtype=bool, device="cpu")
+
+        def reward(env: WarpEnvironment, out: wp.array = out) -> wp.array:
+            wp.launch(_hand_height, dim=2, inputs=[env.data.xpos, body], outputs=[out], device=env.device)
+            return out
+
+        def terminate(env: WarpEnvironment, ends: wp.array = ends, ending: bool = ending) -> wp.array:
+            wp.launch(_end_world_one, dim=2, inputs=[env.steps, 4 if ending else -1], outputs=[ends],
+                      device=env.device)
+            return ends
+
+        e = env(2, reward_fn=reward, termination_fn=terminate)
+        e.reset()
+        actions = np.tile(e.action_spec().maximum, (2, 1)).astype(np.float32)  # world 0 swings its arm
+        got = []
+        for _ in range(5):
+            step = e.step(actions)
+            got.append((float(step.reward.numpy()[0]), int(step.step_type.numpy()[1])))
+        rewards.append(got)
+    ended, steady = rewards
+    assert [t for _, t in ended] == [MID, LAST, FIRST, MID, LAST]  # world 1 restarts in the third step
+    assert [r for r, _ in ended] == [r for r, _ in steady]
+    assert len({r for r, _ in steady}) == 5  # the hand moves: a stale and a fresh height would differ
+
+
 def test_processes_with_world_offsets_make_the_worlds_of_one_batch() -> None:
     whole = env(4, noise=True, seed=5)
     parts = [env(2, noise=True, seed=5, world_offset=o) for o in (0, 2)]
