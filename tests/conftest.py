@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import importlib
 import os
+import sys
 import types
 from pathlib import Path
 
@@ -21,6 +22,10 @@ import sensorcfg  # noqa: F401  first: it picks the GL backend (EGL when headles
 TESTS = Path(__file__).resolve().parent
 MODELS = TESTS / "models"
 ROOT = TESTS.parent
+# a test may import another layer's test module by name (`from test_batch import NOISE`): every layer's folder
+# is importable, whichever file pytest collects first (or alone)
+sys.path[len(sys.path):] = [str(p) for p in sorted(TESTS.iterdir()) if p.is_dir() and p.name.isidentifier()
+                            and str(p) not in sys.path]
 
 _ORACLE_MODULES = {
     "mjcf": "dm_control.mjcf",
