@@ -22,6 +22,8 @@ import mujoco_warp as mjw
 import numpy as np
 import warp as wp
 
+from ..errors import UnsupportedError
+
 __all__ = ["Worlds", "default_sizes"]
 
 wp.set_module_options({"enable_backward": False})
@@ -103,6 +105,10 @@ def _count(qpos: wp.array2d[float], qvel: wp.array2d[float], qacc: wp.array2d[fl
     diverged[w] = bad
 
 
+def _version() -> str:
+    return str(getattr(mjw, "__version__", "")) or "(version unknown)"
+
+
 class Worlds:
     """nworld worlds of `mjm` on `device`, all reset to `keyframe` (an index of mjm's keyframes; None: qpos0).
 
@@ -123,7 +129,11 @@ class Worlds:
         self.nconmax = sizes[0] if nconmax is None else nconmax
         self.njmax = sizes[1] if njmax is None else njmax
         with wp.ScopedDevice(self.device):
-            self.model = mjw.put_model(mjm)
+            try:
+                self.model = mjw.put_model(mjm)
+            except NotImplementedError as e:  # a model feature MuJoCo Warp does not run: say so, not where
+                raise UnsupportedError(f"MuJoCo Warp {_version()} cannot run this model: {e} Run it on the CPU "
+                                       "engines (Environment, BatchEnvironment), or change the model") from None
             self.data = mjw.make_data(mjm, nworld=nworld, nconmax=self.nconmax, njmax=self.njmax)
             self.steps = wp.zeros(nworld, dtype=wp.int64)
             self.diverged = wp.zeros(nworld, dtype=bool)

@@ -12,6 +12,7 @@ from conftest import MODELS, warp_or_skip  # noqa: E402
 
 wp = warp_or_skip()
 
+from sensorcfg.errors import UnsupportedError  # noqa: E402
 from sensorcfg.warp.worlds import Worlds  # noqa: E402
 
 DEVICE = "cpu"
@@ -130,3 +131,12 @@ def test_step_and_reset_allocate_nothing_of_their_own(mjm: mujoco.MjModel, monke
         mjw.step(worlds.model, worlds.data)
         mjw.step(worlds.model, worlds.data)
     assert ours == sizes
+
+
+def test_a_model_mujoco_warp_does_not_run_is_an_error_that_says_so() -> None:
+    """MuJoCo Warp refuses some model features (here the PGS solver): an UnsupportedError naming it and what
+    to do, not MuJoCo Warp's NotImplementedError from inside its model transfer."""
+    pgs = mujoco.MjModel.from_xml_string('<mujoco><option solver="PGS"/><worldbody><body><freejoint/>'
+                                         '<geom size=".1"/></body></worldbody></mujoco>')
+    with pytest.raises(UnsupportedError, match=r"MuJoCo Warp .* cannot run this model: .*PGS.* CPU engines"):
+        Worlds(pgs, 2, "cpu")
