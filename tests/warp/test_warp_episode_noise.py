@@ -6,7 +6,6 @@ mid-run, noise levels, more episodes than the key table holds: its top-up)."""
 from __future__ import annotations
 
 from collections.abc import Callable
-from types import SimpleNamespace
 from typing import Any
 
 import mujoco
@@ -20,12 +19,9 @@ wp = warp_or_skip()
 import sensorcfg  # noqa: E402
 from sensorcfg import assets  # noqa: E402
 from sensorcfg.noise import build_noise  # noqa: E402
-from sensorcfg.noise.bounds import noisy_bounds  # noqa: E402
-from sensorcfg.noise.level import leveled, own_bounds, set_level  # noqa: E402
+from sensorcfg.noise.level import leveled  # noqa: E402
 from sensorcfg.physics import Physics  # noqa: E402
-from sensorcfg.plan.bind import bind, plan_suite  # noqa: E402
-from sensorcfg.warp.environment import WarpEnvironment  # noqa: E402
-from sensorcfg.warp.sensors import Sensors  # noqa: E402
+from test_warp_fuzz import replay  # noqa: E402
 
 ROBOT = str(assets.path("robot.xml"))
 U = lambda low, high: {"uniform": [low, high]}  # noqa: E731  a parameter drawn per episode
@@ -82,104 +78,17 @@ def suite(seed: int) -> dict[str, sensorcfg.Observable]:
     return out
 
 
-def fields_of(datas: list[mujoco.MjData], names: list[str]) -> dict[str, wp.array]:
-    return {f: wp.array(np.stack([np.ravel(getattr(d, f)) for d in datas]).astype(np.float32), dtype=wp.float32,
-                        device="cpu") for f in names}
-
-
 def replay_episodes(make: Callable[[], dict[str, Any]], nworld: int, substeps: int, control_steps: int, seed: int,
                     restarts: dict[int, list[int]], levels: dict[int, float], key_episodes: int = 4) -> int:
-    """World w of the Warp sensor layer against an Updater over `make()`'s observables, both reading world w's
-    CPU trajectory (random actions), to float32 rounding. At control step t the worlds `restarts[t]` start a
-    new episode (the others step), and from `levels[t]` on new episodes have that noise level. Episode keys
-    come from `WarpEnvironment`'s own key table and top-up (`key_episodes` episodes ahead, topped up after
-    every control step as `key_episodes // 4 == 1` makes it). Returns the most episodes a world started."""
-    model = mujoco.MjModel.from_xml_path(ROBOT)
-    physics = Physics(model)
-    mujoco.mj_forward(model, physics.data)
-    observables = make()
-    bound = bind(observables, physics, substeps, False, False)
-    plan = plan_suite(bound, physics, bound.sources(), nworld, substeps, False)
-    bounds = {e.name: b for e in bound.fixed if e.channel.noise is not None
-              for b in [noisy_bounds(getattr(e.channel.noise, "_inner", e.channel.noise), own_bounds(e.observable))]
-              if b is not None}
-    sensors = Sensors(plan, wp.get_device("cpu"), key_episodes, bounds)
-    assert sensors.noisy_names
-    names = [f for f, _ in plan.fields]
-    # the host's key table, topped up by WarpEnvironment's own code
-    host = SimpleNamespace(_sensors=sensors, _key_episodes=key_episodes, _keyed=np.zeros(nworld, np.int64),
-                           _table=np.zeros(sensors.key_table.shape, np.uint64),
-                           _values=np.zeros(sensors.episode_table.shape),
-                           _pipelines={e.name: e.channel.noise for e in bound.fixed},
-                           _random_states=[np.random.RandomState(100 + w) for w in range(nworld)])
-
-    def top_up() -> None:
-        WarpEnvironment._top_up(host, sensors.episodes.numpy().astype(np.int64))  # type: ignore[arg-type]
-
-    # the CPU side: one Updater, MjData and random state per world
-    worlds = [(sensorcfg.Updater(obs, substeps), Physics(model), np.random.RandomState(100 + w), obs)
-              for w, obs in enumerate([make() for _ in range(nworld)])]
-    steps = np.zeros(nworld, np.int64)
-    device_steps = wp.zeros(nworld, dtype=wp.int64, device="cpu")
-    lo, hi = model.actuator_ctrlrange.T
-    actions = np.random.default_rng(seed).uniform(lo, hi, (control_steps, nworld, model.nu))
-
-    def restart(chosen: list[int]) -> None:
-        for w in chosen:
-            u, p, rs, _ = worlds[w]
-            mujoco.mj_resetData(model, p.data)
-            mujoco.mj_forward(model, p.data)
-            u.reset(p, rs)
-            steps[w] = 0
-        device_steps.assign(steps)
-        mask = np.zeros(nworld, np.int32)
-        mask[chosen] = 1
-        sensors.reset(wp.array(mask, dtype=wp.int32, device="cpu"), fields_of([p.data for _, p, _, _ in worlds], names),
-                      device_steps)
-
-    top_up()
-    restart(list(range(nworld)))
-    for t in range(control_steps + 1):
-        if t:
-            if t in levels:
-                for *_, obs in worlds:
-                    set_level(obs, levels[t])
-                sensors.next_level.fill_(levels[t])
-            chosen = restarts.get(t, [])
-            running = [w for w in range(nworld) if w not in chosen]
-            snapshots: list[list[mujoco.MjData]] = [[] for _ in range(substeps)]
-            for w in running:
-                u, p, _, _ = worlds[w]
-                p.data.ctrl[:] = actions[t - 1, w]
-                done: list[mujoco.MjData] = []
-
-                def step(p: Physics = p, done: list = done) -> None:
-                    mujoco.mj_step(model, p.data)
-                    copy = mujoco.MjData(model)
-                    mujoco.mj_copyData(copy, model, p.data)
-                    done.append(copy)
-                u.control_step(step)
-                for k in range(substeps):
-                    snapshots[k].append(done[k])
-            mask = np.zeros(nworld, np.int32)
-            mask[running] = 1
-            for k in range(substeps):
-                steps[running] += 1
-                device_steps.assign(steps)
-                datas = [worlds[w][1].data for w in range(nworld)]
-                for w, d in zip(running, snapshots[k]):
-                    datas[w] = d
-                sensors.record(fields_of(datas, names), device_steps, wp.array(mask, dtype=wp.int32, device="cpu"))
-            if chosen:
-                restart(chosen)
-            top_up()
-        got = {name: array.numpy() for name, array in sensors.read(device_steps).items()}
-        for w, (u, *_) in enumerate(worlds):
-            for name, value in u.get_observation().items():
-                np.testing.assert_allclose(got[name][w], value, rtol=1e-5, atol=1e-6,
-                                           err_msg=f"world {w} control step {t} {name}")
-    assert (host._keyed >= sensors.episodes.numpy()).all()
-    return int(sensors.episodes.numpy().max())
+    """World w of the Warp sensor layer against an Updater over `make()`'s observables on the bundled robot,
+    both reading world w's CPU trajectory (`test_warp_fuzz.replay`: worlds `restarts[t]` start a new episode at
+    control step t, new episodes from `levels[t]` on have that noise level, the key table holds
+    `key_episodes` episodes ahead and is topped up by `WarpEnvironment._top_up`). Returns the most episodes a
+    world started."""
+    options = {"physics_steps_per_control_step": substeps, "strip_singleton_buffer_dim": False,
+               "pad_with_initial_value": False}
+    return replay(make, mujoco.MjModel.from_xml_path(ROBOT), options, nworld, control_steps, seed, restarts, levels,
+                  key_episodes)
 
 
 @pytest.mark.parametrize("seed", range(4))
