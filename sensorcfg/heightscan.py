@@ -27,6 +27,7 @@ import numpy as np
 from dm_env import specs
 
 from .config.models import ScanConfig
+from .errors import UnsupportedError
 from .observables.base import Observable
 from .physics import raw_structs
 from .selection import select
@@ -110,13 +111,17 @@ def terrain_model(model: mujoco.MjModel) -> mujoco.MjModel:
         mujoco.mju_mat2Quat(quat, data.geom_xmat[g])
         geom.quat = quat
         asset = int(model.geom_dataid[g])
+        if geom.type == mujoco.mjtGeom.mjGEOM_SDF and int(model.geom_plugin[g]) >= 0:
+            raise UnsupportedError(f"geom {model.geom(int(g)).name or f'#{g}'!r} is an SDF computed by a plugin, "
+                                   "which a height scan's terrain cannot copy; make it a mesh, or remove the "
+                                   "height scans from this suite")
         if geom.type == mujoco.mjtGeom.mjGEOM_HFIELD:
             rows, cols, adr = model.hfield_nrow[asset], model.hfield_ncol[asset], model.hfield_adr[asset]
             spec.add_hfield(name=f"h{g}", size=model.hfield_size[asset], nrow=rows, ncol=cols,
                             userdata=model.hfield_data[adr:adr + rows * cols])
             geom.hfieldname = f"h{g}"
-        elif geom.type == mujoco.mjtGeom.mjGEOM_MESH:
-            vadr, nv = model.mesh_vertadr[asset], model.mesh_vertnum[asset]
+        elif geom.type in (mujoco.mjtGeom.mjGEOM_MESH, mujoco.mjtGeom.mjGEOM_SDF):  # an SDF of a mesh: mj_ray
+            vadr, nv = model.mesh_vertadr[asset], model.mesh_vertnum[asset]  # casts at the mesh, as here
             fadr, nf = model.mesh_faceadr[asset], model.mesh_facenum[asset]
             spec.add_mesh(name=f"m{g}", uservert=model.mesh_vert[vadr:vadr + nv].ravel(),
                           userface=model.mesh_face[fadr:fadr + nf].ravel())

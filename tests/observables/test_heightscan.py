@@ -179,3 +179,36 @@ def test_a_scan_sees_what_mj_ray_sees_through_materials(batched: bool) -> None:
     heights = {round(float(v), 9) for v in expected.ravel()}
     assert heights == {2.0, 2.0 - 0.4, 2.0 - 0.3}  # the floor, 'painted' and 'plain'; 'glass' and 'hidden' unseen
     np.testing.assert_allclose(values, expected, rtol=0, atol=1e-9)
+
+
+_SDF = """<mujoco><extension><plugin plugin="mujoco.sdf.torus"><instance name="torus">
+<config key="radius1" value="0.35"/><config key="radius2" value="0.15"/></instance></plugin></extension>
+<asset><mesh name="tet" vertex="0 0 0  1 0 0  0 1 0  0 0 1" scale=".5 .5 .5"/>
+<mesh name="torus"><plugin instance="torus"/></mesh></asset>
+<worldbody><geom type="plane" size="5 5 .1"/>
+<geom name="blob" type="sdf" mesh="tet" pos="0 0 .1"/>{ring}
+<body name="base" pos=".2 .2 2"><freejoint/><geom size=".1"/></body></worldbody></mujoco>"""
+_RING = '\n<geom name="ring" type="sdf" mesh="torus" pos="2 2 .2"><plugin instance="torus"/></geom>'
+_SCAN = "sensors:\n  h: {kind: heightscan, element: body:base, scan: {size: [1.0, 1.0], resolution: 0.1}}\n"
+
+
+def test_a_scan_sees_an_sdf_of_a_mesh_as_mj_ray_does_and_refuses_one_a_plugin_computes() -> None:
+    """An SDF geom of a mesh on the terrain is seen as mj_ray on the whole model sees it (the terrain model
+    copies its mesh); one a plugin computes cannot be copied, which is said, not a MuJoCo compile error."""
+    model = mujoco.MjModel.from_xml_string(_SDF.format(ring=""))
+    env = sensorcfg.Environment(model, sensorcfg.loads(_SCAN))
+    values = env.reset().observation["h"]
+    physics = env.physics
+    origin = physics.data.xpos[model.body("base").id]
+    offsets = pattern(ScanConfig(size=(1.0, 1.0), resolution=0.1))
+    expected = np.empty(offsets.shape[:-1])
+    for index in np.ndindex(expected.shape):
+        start = np.array([origin[0] + offsets[index][0], origin[1] + offsets[index][1], origin[2] + 0.5])
+        dist = mujoco.mj_ray(model, physics.data, start, np.array([0.0, 0.0, -1.0]), None, 1, model.body("base").id,
+                             None)
+        expected[index] = origin[2] - (start[2] - dist)
+    assert np.ptp(expected) > 0.1  # the blob is seen above the floor
+    # mj_ray marches an SDF to its own tolerance from where the ray starts in each model's frame: 1e-6
+    np.testing.assert_allclose(values.reshape(expected.shape), expected, rtol=0, atol=1e-6)
+    with pytest.raises(sensorcfg.UnsupportedError, match="geom 'ring' is an SDF computed by a plugin"):
+        sensorcfg.Environment(mujoco.MjModel.from_xml_string(_SDF.format(ring=_RING)), sensorcfg.loads(_SCAN))
