@@ -147,6 +147,20 @@ _MATERIALS = """<mujoco><asset><material name="clear" rgba="1 1 1 0"/><material 
 <body name="base" pos=".5 .5 2"><freejoint/><geom size=".1"/></body></worldbody></mujoco>"""
 
 
+def _mj_ray_heights(model: mujoco.MjModel, data: mujoco.MjData, size: tuple[float, float]) -> np.ndarray:
+    """The heights of body 'base' above what `mj_ray` on the whole model meets, straight down from 0.5 above
+    it on a grid of `size` at 0.1 (axes as the world's: the base upright, heading along x), the base excluded."""
+    base = model.body("base").id
+    origin = data.xpos[base]
+    offsets = pattern(ScanConfig(size=size, resolution=0.1))
+    expected = np.empty(offsets.shape[:-1])
+    for index in np.ndindex(expected.shape):
+        start = np.array([origin[0] + offsets[index][0], origin[1] + offsets[index][1], origin[2] + 0.5])
+        dist = mujoco.mj_ray(model, data, start, np.array([0.0, 0.0, -1.0]), None, 1, base, None)
+        expected[index] = origin[2] - (start[2] - dist)
+    return expected
+
+
 @pytest.mark.parametrize("batched", [pytest.param(False, id="single"),
                                      pytest.param(True, id="batch", marks=pytest.mark.skipif(
                                          not MUJOCO4, reason="mujoco.batch needs MuJoCo 4"))])
@@ -168,14 +182,7 @@ def test_a_scan_sees_what_mj_ray_sees_through_materials(batched: bool) -> None:
         values = reader(np.array([0]))[0]
     else:
         values = observable.observation_callable(physics)()
-    origin = physics.data.xpos[model.body("base").id]
-    offsets = pattern(ScanConfig(size=(2.0, 2.0), resolution=0.1))
-    expected = np.empty(offsets.shape[:-1])
-    for index in np.ndindex(expected.shape):
-        start = np.array([origin[0] + offsets[index][0], origin[1] + offsets[index][1], origin[2] + 0.5])
-        dist = mujoco.mj_ray(model, physics.data, start, np.array([0.0, 0.0, -1.0]), None, 1, model.body("base").id,
-                             None)
-        expected[index] = origin[2] - (start[2] - dist)
+    expected = _mj_ray_heights(model, physics.data, (2.0, 2.0))
     heights = {round(float(v), 9) for v in expected.ravel()}
     assert heights == {2.0, 2.0 - 0.4, 2.0 - 0.3}  # the floor, 'painted' and 'plain'; 'glass' and 'hidden' unseen
     np.testing.assert_allclose(values, expected, rtol=0, atol=1e-9)
@@ -199,14 +206,7 @@ def test_a_scan_sees_an_sdf_of_a_mesh_as_mj_ray_does_and_refuses_one_a_plugin_co
     env = sensorcfg.Environment(model, sensorcfg.loads(_SCAN))
     values = env.reset().observation["h"]
     physics = env.physics
-    origin = physics.data.xpos[model.body("base").id]
-    offsets = pattern(ScanConfig(size=(1.0, 1.0), resolution=0.1))
-    expected = np.empty(offsets.shape[:-1])
-    for index in np.ndindex(expected.shape):
-        start = np.array([origin[0] + offsets[index][0], origin[1] + offsets[index][1], origin[2] + 0.5])
-        dist = mujoco.mj_ray(model, physics.data, start, np.array([0.0, 0.0, -1.0]), None, 1, model.body("base").id,
-                             None)
-        expected[index] = origin[2] - (start[2] - dist)
+    expected = _mj_ray_heights(model, physics.data, (1.0, 1.0))
     assert np.ptp(expected) > 0.1  # the blob is seen above the floor
     # mj_ray marches an SDF to its own tolerance from where the ray starts in each model's frame: 1e-6
     np.testing.assert_allclose(values.reshape(expected.shape), expected, rtol=0, atol=1e-6)
