@@ -29,7 +29,7 @@ from .config.units import timestep_problem, to_steps
 from .draws import ChoiceSteps, UniformSteps
 from .checks import batch_problems, batch_refusal, constant_problem, kind_problems, sensor_problems
 from .errors import Problem, SuiteError, did_you_mean
-from .kinds import kinds_of
+from .kinds import kinds_of, read_type
 from .native import NATIVE, bind_native, native_row
 from .noise import build_noise
 from .observables import Camera, Feature, Generic, Observable
@@ -197,7 +197,7 @@ class _Binder:
         if cfg.kind in IMAGE_KINDS or cfg.kind == GENERIC_KIND or cfg.element is None:
             return None
         first = cfg.element if isinstance(cfg.element, str) else cfg.element[0]
-        spec = kinds_of(split_selector(first)[0]).get(cfg.kind)  # None: a MuJoCo sensor or a height scan
+        spec = kinds_of(read_type(split_selector(first)[0], cfg.kind)).get(cfg.kind)  # None: a MuJoCo sensor or a height scan
         return spec.field if spec is not None else None
 
     def within(self, name: str, cfg: SensorConfig) -> bool:
@@ -222,7 +222,7 @@ class _Binder:
 
     def selection(self, name: str, cfg: SensorConfig) -> bool:
         """Whether `element` (and `within`) resolve; problems point at the list entry at fault."""
-        resolved = resolve(self.model, cast("str | tuple[str, ...]", cfg.element), cfg.within)
+        resolved = resolve(self.model, cast("str | tuple[str, ...]", cfg.element), cfg.within, kind=cfg.kind)
         self.report_at(name, resolved.problems)
         return resolved.selection is not None
 
@@ -247,6 +247,7 @@ class _Binder:
         if type_name is None:
             self.within(name, cfg)  # (still a mistake of its own)
             return None
+        type_name = read_type(type_name, cfg.kind)  # actuators on a joint attribute: the joints they drive
         if native_row(cfg.kind, type_name) is not None:
             if cfg.constant:
                 self.report(("sensors", name, "constant"), constant_problem(

@@ -19,7 +19,7 @@ import mujoco
 from mujoco.introspect import structs as _introspect
 
 __all__ = ["ELEMENT_TYPES", "ElementType", "FieldSpec", "kinds_of", "element_type", "offered_kinds", "state_twin",
-           "ON_DEMAND", "OnDemand"]
+           "read_type", "ON_DEMAND", "OnDemand"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -209,6 +209,17 @@ def kinds_of(type_name: str) -> dict[str, FieldSpec]:
                 kind = strip.sub("", field)
                 table[kind] = FieldSpec(kind, struct, field, size, doc)
     return table
+
+
+def read_type(type_name: str, kind: str) -> str:
+    """The element type whose attribute `kind` a selector of `type_name` reads: its own, except that an
+    actuator selector on an attribute joints have and actuators lack (`qpos`, `qvel`, `qfrc_actuator`, ...)
+    reads the joint each actuator's transmission drives, in actuator order (`selection.resolve` maps the ids),
+    so that a policy's joint observations line up with its actions whatever order the model lists joints in.
+    An attribute both have (`force`, `armature`, ...) is the actuator's: the element type decides."""
+    if type_name == "actuator" and kind not in kinds_of("actuator") and kind in kinds_of("joint"):
+        return "joint"
+    return type_name
 
 
 def element_type(name: str) -> ElementType:

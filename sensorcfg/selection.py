@@ -29,7 +29,7 @@ from typing import NamedTuple
 import mujoco
 
 from .errors import Problem, SuiteError, did_you_mean
-from .kinds import ELEMENT_TYPES
+from .kinds import ELEMENT_TYPES, read_type
 
 __all__ = ["Selection", "Resolved", "select", "resolve", "split_selector", "element_labels", "keyframe_id",
            "element_id", "ascii_id", "within_problems", "added_by_sensorcfg", "ID_PREFIX", "ADDED_PREFIX"]
@@ -196,6 +196,7 @@ def _body_of(model: mujoco.MjModel, type_name: str, i: int) -> int | None:
         trn = int(model.actuator_trntype[i])
         target = int(model.actuator_trnid[i, 0])
         objtype = {int(mujoco.mjtTrn.mjTRN_JOINT): mujoco.mjtObj.mjOBJ_JOINT,
+                   int(mujoco.mjtTrn.mjTRN_JOINTINPARENT): mujoco.mjtObj.mjOBJ_JOINT,
                    int(mujoco.mjtTrn.mjTRN_SITE): mujoco.mjtObj.mjOBJ_SITE,
                    int(mujoco.mjtTrn.mjTRN_BODY): mujoco.mjtObj.mjOBJ_BODY}.get(trn)
         return None if objtype is None else _object_body(model, int(objtype), target)
@@ -210,6 +211,28 @@ def _object_body(model: mujoco.MjModel, objtype: int, objid: int) -> int | None:
         return None
     column = columns[objtype]
     return objid if column is None else int(getattr(model, column)[objid])
+
+
+_JOINT_TRANSMISSIONS = frozenset({int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_JOINTINPARENT)})
+
+
+def _driven_joints(r: _Resolver, actuators: list[int], kind: str) -> list[int]:
+    """The joint each actuator's transmission drives, in the actuators' order (`kinds.read_type`); an
+    actuator that drives something else (a tendon, a site, a body) is a mistake naming what it drives."""
+    model = r.model
+    joints, others = [], []
+    for i in actuators:
+        if int(model.actuator_trntype[i]) in _JOINT_TRANSMISSIONS:
+            joints.append(int(model.actuator_trnid[i, 0]))
+        else:
+            trn = mujoco.mjtTrn(int(model.actuator_trntype[i])).name.removeprefix("mjTRN_").lower()
+            others.append(f"{r.label('actuator', i)!r} drives a {trn}")
+    if others:
+        raise SuiteError(Problem(
+            f"kind {kind!r} on actuators reads the joint each actuator drives, but {', '.join(others[:6])}"
+            f"{' ...' if len(others) > 6 else ''}, not a joint: select joints ('joint:<name>') for this kind, "
+            "or read the actuators' own attributes (ctrl, force, length, velocity)"))
+    return joints
 
 
 def _in_subtree(model: mujoco.MjModel, body: int | None, roots: frozenset[int]) -> bool:
@@ -250,11 +273,12 @@ def within_problems(model: mujoco.MjModel, within: str | Sequence[str] | None) -
 
 
 def resolve(model: mujoco.MjModel, element: str | Sequence[str],
-            within: str | Sequence[str] | None = None, *, added: bool = False) -> Resolved:
+            within: str | Sequence[str] | None = None, *, added: bool = False, kind: str | None = None) -> Resolved:
     """Resolve a selector (or a list of them) to element ids, with every mistake at the entry it is about
     (`("element", i)`, `("within", i)`; `("element",)` for one selector or the whole list). A mistake in
     `within` is reported alone (its elements are not looked at). With `added`, names sensorcfg adds may be
-    named exactly (its own features)."""
+    named exactly (its own features). With the `kind` read, actuators selected for a joint attribute are
+    the joints they drive (`kinds.read_type`): the selection's type is then `joint`, in actuator order."""
     r = _Resolver(model, added)
     roots, problems = _roots(r, within)
     if problems:
@@ -271,7 +295,7 @@ def resolve(model: mujoco.MjModel, element: str | Sequence[str],
     for text, where in entries:
         try:
             type_name, pattern = split_selector(text)
-            types.add(type_name)
+            types.add(type_name if kind is None else read_type(type_name, kind))
             if _GLOB_CHARS & set(pattern):
                 batched = True
                 matched = r.glob(type_name, pattern)
@@ -287,8 +311,11 @@ def resolve(model: mujoco.MjModel, element: str | Sequence[str],
                 if roots is not None and not _in_subtree(model, _body_of(model, type_name, matched[0]), roots):
                     shown = within if isinstance(within, str) else list(within or ())
                     raise SuiteError(Problem(f"{text!r} is not in the subtree of {shown!r}"))
+            read = type_name if kind is None else read_type(type_name, kind)
+            if read != type_name:
+                matched = _driven_joints(r, matched, kind or "")
             ids += matched
-            labels += [r.label(type_name, i) for i in matched]
+            labels += [r.label(read, i) for i in matched]
         except SuiteError as e:
             problems += [(where, p) for p in e.problems]
     if len(types) > 1:
@@ -300,9 +327,9 @@ def resolve(model: mujoco.MjModel, element: str | Sequence[str],
 
 
 def select(model: mujoco.MjModel, element: str | Sequence[str],
-           within: str | Sequence[str] | None = None, *, added: bool = False) -> Selection:
+           within: str | Sequence[str] | None = None, *, added: bool = False, kind: str | None = None) -> Selection:
     """Resolve a selector (or a list of them) to element ids; raises SuiteError listing every mistake."""
-    resolved = resolve(model, element, within, added=added)
+    resolved = resolve(model, element, within, added=added, kind=kind)
     if resolved.selection is None:
         raise SuiteError([p for _, p in resolved.problems])
     return resolved.selection

@@ -101,7 +101,7 @@ def describe(suite: Any, observables: dict[str, Any], spec: dict[str, Any], mode
         elif cfg.element is None:
             elements = 0
         else:
-            elements = len(select(model, cfg.element, cfg.within).ids)
+            elements = len(select(model, cfg.element, cfg.within, kind=cfg.kind).ids)
         interval, hz, interval_steps = describe_schedule(obs.update_interval, 1, timestep, rate=True)
         delay, ms, delay_steps = describe_schedule(obs.delay, 0, timestep, rate=False)
         buffer = obs.buffer_size or 1

@@ -100,7 +100,7 @@ def _runs(model: mujoco.MjModel, cfg: Any, width: int) -> list[_Run] | None:
 
     if cfg.kind == "generic" or cfg.element is None or cfg.index is not None:
         return None
-    selection = select(model, cfg.element, cfg.within)
+    selection = select(model, cfg.element, cfg.within, kind=cfg.kind)
     type_name, ids = selection.type, list(selection.ids)
     names = element_labels(model, type_name)
     if cfg.kind == "sensordata" and type_name == "sensor":

@@ -135,7 +135,7 @@ def _unnamed(spec: Spec) -> dict[str, list[str]]:
     for name, cfg in spec.suite.sensors.items():
         if name not in enabled or cfg.element is None or cfg.kind == "generic":
             continue
-        sel = select(spec.model, cfg.element, cfg.within)
+        sel = select(spec.model, cfg.element, cfg.within, kind=cfg.kind)
         for label in sel.names:
             if label.startswith(ID_PREFIX):
                 out.setdefault(f"{sel.type}:{label}", []).append(name)

@@ -378,8 +378,9 @@ class SensorConfig(BaseModel):
     element: Element | None = Field(
         None, description="Which elements: 'type:name' or 'type:#id' (one element, unbatched shape), a glob "
         "('joint:*': every joint, unnamed ones included; 'site:finger_*') or a list of selectors (batched shape, "
-        "list order, then model order within a glob). Unnamed elements are labelled '#<id>'.",
-        examples=["joint:*", ["sensor:imu_gyro", "sensor:imu_accel"], "camera:wrist"])
+        "list order, then model order within a glob). Unnamed elements are labelled '#<id>'. Actuators on a joint "
+        "attribute ('actuator:*' with kind qpos, qvel, ...) are the joints they drive, in actuator order.",
+        examples=["joint:*", "actuator:*", ["sensor:imu_gyro", "sensor:imu_accel"], "camera:wrist"])
     within: Within | None = Field(
         None, description="Keep only elements in the subtree of this body (or of any of a list of bodies).",
         examples=["body:forearm", ["body:FL_calf", "body:FR_calf"]])

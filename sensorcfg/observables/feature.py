@@ -16,7 +16,8 @@ import numpy as np
 from dm_env import specs
 
 from ..errors import SuiteError, did_you_mean
-from ..kinds import CONSTANT, ON_DEMAND, SOFT_RAGGED, STATE, OnDemand, forwards_when_dirty, kinds_of, offered_kinds, ragged_slices
+from ..kinds import (CONSTANT, ON_DEMAND, SOFT_RAGGED, STATE, OnDemand, forwards_when_dirty, kinds_of, offered_kinds,
+                     ragged_slices, read_type)
 from ..physics import raw_structs
 from ..selection import select, split_selector
 from .base import Observable
@@ -186,7 +187,7 @@ def feature_index(model: mujoco.MjModel, kind: str, element: str | Sequence[str]
                   within: str | Sequence[str] | None = None, index: Any = None,
                   data: mujoco.MjData | None = None) -> tuple[str, str, np.ndarray, np.dtype]:
     """(struct, field, flat positions shaped like the value, dtype) for a feature on `model`."""
-    sel = select(model, element, within, added=True)  # a suite's own selectors were resolved at binding
+    sel = select(model, element, within, added=True, kind=kind)  # a suite's own selectors were resolved at binding
     spec = kinds_of(sel.type)[kind]
     if spec.struct == "data" and data is None:
         data = mujoco.MjData(model)
@@ -280,7 +281,7 @@ class Feature(Observable):
         selectors = [self._element] if isinstance(self._element, str) else list(self._element)
         if not selectors:
             raise SuiteError(f"{self!r}: an empty element list selects nothing")
-        type_name, _ = split_selector(selectors[0])
+        type_name = read_type(split_selector(selectors[0])[0], self._kind)
         kinds = kinds_of(type_name)
         if self._kind not in kinds:
             hint = did_you_mean(self._kind, offered_kinds(type_name, STATE)) or did_you_mean(

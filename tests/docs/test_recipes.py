@@ -173,6 +173,51 @@ def test_projected_gravity_is_minus_z_upright_and_turns_with_the_base(recipe: st
         np.testing.assert_allclose(step[clean], data.site(site).xmat.reshape(3, 3).T @ [0, 0, -1], atol=1e-12)
 
 
+# The recipes' observations of the joints, each to line up with the actions (actuator i's joint at i).
+PAIRED = {"quadruped": ("joint_pos", "joint_vel"), "humanoid": ("joint_pos", "joint_vel")}
+
+
+def _pairs(model: mujoco.MjModel) -> list[tuple[str, str]]:
+    """(actuator, the joint its transmission drives), in actuator order."""
+    return [(model.actuator(i).name, model.joint(int(model.actuator_trnid[i, 0])).name) for i in range(model.nu)]
+
+
+@pytest.mark.parametrize("recipe, model", _robots(), ids=lambda v: Path(v).name)
+def test_recipe_joint_observations_line_up_with_the_actions(recipe: str, model: str) -> None:
+    """Found by trying it: the Go2 recipe listed the legs FR, FL, RR, RL as "Go2's actuator order", which
+    Menagerie's Go2 stopped being in February 2025, so `joint_pos[0:3]` was the FR leg while `last_action[0:3]`
+    drove FL. Each value i of a joint observation is the joint actuator i drives (MuJoCo's `actuator_trnid`)."""
+    text = (ROOT / "docs" / "recipes" / f"{recipe}.yaml").read_text()
+    text = "\n".join(line for line in text.splitlines() if not line.startswith(("model: ", "    noise: ")))
+    suite = sensorcfg.loads(text, file=f"{recipe}.yaml")
+    compiled = suite.compile(model)
+    key = next(i for i in range(compiled.nkey) if compiled.key(i).name == suite.options.keyframe)
+    compiled.key_qpos[key, 7:] = np.linspace(-0.5, 0.5, compiled.nq - 7)  # every joint its own value
+    compiled.key_qvel[key, 6:] = np.linspace(1.0, 2.0, compiled.nv - 6)
+    obs = sensorcfg.Environment(compiled, suite, seed=0).reset().observation
+    joints = compiled.actuator_trnid[:, 0]
+    assert set(compiled.actuator_trntype.tolist()) == {int(mujoco.mjtTrn.mjTRN_JOINT)}
+    expected = {"qpos": compiled.key_qpos[key][compiled.jnt_qposadr[joints]],
+                "qvel": compiled.key_qvel[key][compiled.jnt_dofadr[joints]]}
+    for name in PAIRED[recipe]:
+        np.testing.assert_array_equal(obs[name], expected[suite.sensors[name].kind], err_msg=name)
+    if "last_action" in suite.sensors:
+        assert suite.sensors["last_action"].element == "actuator:*"
+
+
+def test_stand_ins_drive_the_joints_the_robots_actuators_drive() -> None:
+    """The stand-ins' actuators are today's Menagerie's (Go2 since its 2025-02-16 change: actuators in joint
+    order, FL FR RL RR; G1: its joints' order); where MENAGERIE_ROOT has the robots, checked against them."""
+    for recipe, (url, like) in RECIPES.items():
+        stand_in = mujoco.MjModel.from_xml_path(str(MODELS / like))
+        hinges = [stand_in.joint(j).name for j in range(stand_in.njnt) if stand_in.jnt_type[j] != 0]
+        assert [joint for _, joint in _pairs(stand_in)] == hinges, like
+        assert all(actuator == joint.removesuffix("_joint") or actuator == joint for actuator, joint in _pairs(stand_in))
+        robot = Path(os.environ.get("MENAGERIE_ROOT", "/nonexistent")) / url.removeprefix("menagerie://")
+        if robot.is_file():
+            assert _pairs(stand_in) == _pairs(mujoco.MjModel.from_xml_path(str(robot))), like
+
+
 def test_recipes_page_shows_the_files() -> None:
     page = (ROOT / "docs" / "recipes.md").read_text()
     for recipe in RECIPES:

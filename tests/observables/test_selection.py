@@ -209,3 +209,68 @@ def test_a_list_costs_look_ups_in_proportion_to_its_length(monkeypatch: pytest.M
 
     (small, small_hints), (large, large_hints) = cost(200), cost(400)
     assert large < 2.5 * small and large_hints <= 2 * 20
+
+
+# Joints listed one order, actuators another (as Menagerie's Go2 before 2025-02), a free joint no actuator
+# drives, an actuator through `jointinparent`, and one driving a tendon.
+DRIVEN = """
+<mujoco>
+  <worldbody>
+    <body name="base"><freejoint/><geom size="0.1"/>
+      <body name="a" pos="0.2 0 0"><joint name="ja" axis="0 1 0"/><geom size="0.05"/></body>
+      <body name="b" pos="-0.2 0 0"><joint name="jb" axis="0 1 0"/><geom size="0.05"/></body>
+      <body name="c" pos="0 0.2 0"><joint name="jc" type="slide"/><geom size="0.05"/></body>
+    </body>
+  </worldbody>
+  <tendon><fixed name="t"><joint joint="ja" coef="1"/></fixed></tendon>
+  <actuator>
+    <motor name="mc" joint="jc"/>
+    <motor name="ma" joint="ja"/>
+    <general name="mb" jointinparent="jb"/>
+    %s
+  </actuator>
+</mujoco>
+"""
+
+
+def _driven(tendon: bool = False) -> mujoco.MjModel:
+    return mujoco.MjModel.from_xml_string(DRIVEN % ('<motor name="mt" tendon="t"/>' if tendon else ""))
+
+
+@pytest.mark.parametrize("kind, address", [("qpos", "jnt_qposadr"), ("qvel", "jnt_dofadr"), ("qfrc_actuator", "jnt_dofadr")])
+def test_actuators_on_a_joint_attribute_read_the_joints_they_drive_in_actuator_order(kind: str, address: str) -> None:
+    model = _driven()
+    sel = select(model, "actuator:*", kind=kind)
+    assert sel.type == "joint" and sel.names == ("jc", "ja", "jb") and sel.batched
+    assert sel.ids == tuple(int(j) for j in model.actuator_trnid[:, 0])
+    assert select(model, "actuator:ma", kind=kind).ids == (model.joint("ja").id,)
+    assert select(model, "actuator:*", kind="ctrl").type == "actuator"  # the actuator's own attribute
+    suite = sensorcfg.loads(f"sensors:\n  q: {{kind: {kind}, element: 'actuator:*'}}\n"
+                            f"  one: {{kind: {kind}, element: 'actuator:mb'}}\n")
+    env = sensorcfg.Environment(model, suite, seed=0)
+    env.reset()
+    data = env.physics.data
+    data.qpos[7:] = [0.1, 0.2, 0.3]
+    data.qvel[6:] = [1.0, 2.0, 3.0]
+    obs = env.step(np.array([0.5, -0.25, 0.75])).observation
+    rows = getattr(model, address)[model.actuator_trnid[:, 0]]
+    field = getattr(env.physics.data, kind)
+    np.testing.assert_array_equal(obs["q"][0], field[rows])
+    np.testing.assert_array_equal(obs["one"][0], field[rows[2:]])
+
+
+def test_an_actuator_that_drives_no_joint_is_a_mistake_at_its_entry(tmp_path: Path) -> None:
+    (tmp_path / "m.xml").write_text(DRIVEN % '<motor name="mt" tendon="t"/>')
+    suite = sensorcfg.loads("sensors:\n  q: {kind: qpos, element: ['actuator:ma', 'actuator:m*']}\n", file="s.yaml")
+    assert [p.format() for p in suite.check(str(tmp_path / "m.xml"))] == [
+        "s.yaml:2:44: error: sensors.q.element.1: kind 'qpos' on actuators reads the joint each actuator drives, "
+        "but 'mt' drives a tendon, not a joint: select joints ('joint:<name>') for this kind, or read the "
+        "actuators' own attributes (ctrl, force, length, velocity)"]
+
+
+def test_spec_labels_the_joints_actuators_drive(tmp_path: Path) -> None:
+    from sensorcfg.cli.quantities import value_groups
+
+    suite = sensorcfg.loads("sensors:\n  q: {kind: qpos, element: 'actuator:*'}\n")
+    groups = value_groups(_driven(), suite.sensors["q"], 3)
+    assert [label for g in groups for label in g.labels] == ["jc", "ja", "jb"]
