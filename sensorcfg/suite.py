@@ -63,6 +63,11 @@ class Suite:
         """Each sensor's config with `defaults` filled in, in file order (read-only)."""
         return types.MappingProxyType(self._loaded.sensors)
 
+    @property
+    def groups(self) -> Mapping[str, tuple[str, ...]]:
+        """Each observation group's members in column order (`groups:`, globs expanded; read-only)."""
+        return types.MappingProxyType(self._loaded.groups)
+
     # -- against a model ------------------------------------------------------------------------
 
     def _mjmodel(self, model: ModelLike) -> mujoco.MjModel:

@@ -12,6 +12,7 @@ from collections.abc import Callable
 from typing import Any, cast
 
 from ..errors import printable
+from ..groups import layout
 from .common import (EXIT_OK, HelpFormatter, add_suite_args, importable_cwd, load_suite, model_path,
                      suite_model)
 from .describe import SensorRow, describe
@@ -39,12 +40,14 @@ class Spec:
         self.disabled, self.control_steps = disabled, control_steps
         self.timestep = float(model.opt.timestep)
         self.notes = suite.notes(model)  # advice at the suite's lines (costly default rendering)
+        self.groups = layout(suite.groups, {r.name: tuple(r.shape) for r in rows})
 
     def as_dict(self) -> dict[str, Any]:
         return {"suite": printable(self.suite.file), "model": printable(self.model_file),
                 "physics_timestep": self.timestep,
                 "physics_steps_per_control_step": self.control_steps,
                 "sensors": [r.as_dict() for r in self.rows], "disabled": self.disabled,
+                "groups": {name: {"width": g.width, "columns": g.describe()} for name, g in self.groups.items()},
                 "notes": [{"severity": "note", **p.as_dict()} for p in self.notes]}
 
 
@@ -119,6 +122,9 @@ def format_spec(spec: Spec) -> str:
     out += f"\n\n{count} enabled observation{'s' if count != 1 else ''}"
     if spec.disabled:
         out += f"; disabled: {', '.join(spec.disabled)}"
+    for name, group in spec.groups.items():
+        out += f"\ngroup {printable(name)} ({group.width} values): " + ", ".join(
+            f"{c.name} [{c.start}:{c.stop}]" for c in group.columns)
     unnamed = _unnamed(spec)
     if unnamed:
         out += "\nunnamed elements, labelled by id: " + "; ".join(

@@ -22,6 +22,7 @@ from pydantic_core import ErrorDetails
 from ..errors import ArgumentError, Problem, SuiteError, quote
 from .extends import with_parents
 from .files import PACKAGE_SCHEME, Unreadable, display, read_text, resolve, resolve_model_path
+from .groups import resolve_groups
 from .locate import describe, problem_at, problems_from
 from .models import SensorConfig, SuiteConfig
 from .overrides import apply_override
@@ -43,6 +44,7 @@ class LoadedSuite:
     file: str
     model: str | None  # resolved default model path
     twins: dict[str, str] = dataclasses.field(default_factory=dict)  # twin name -> the sensor it mirrors
+    groups: dict[str, tuple[str, ...]] = dataclasses.field(default_factory=dict)  # group -> its observations, in order
 
 
 @dataclasses.dataclass(frozen=True)
@@ -169,6 +171,8 @@ def _complete(config: SuiteConfig, doc: Doc, file: str, dirs: dict[str, Path], r
         sensors[name], found = effective(name, sensor, config, doc)
         problems.extend(found)
     sensors, twins = with_twins(sensors, doc, problems)
+    written = doc.value.get("sensors") if isinstance(doc.value, dict) else None  # a sensor left out has its own problem
+    groups = resolve_groups(config.groups, sensors, doc, problems, set(written) if isinstance(written, dict) else set())
     model = None
     if config.model is not None:
         pos = doc.pos(("model",))
@@ -177,7 +181,7 @@ def _complete(config: SuiteConfig, doc: Doc, file: str, dirs: dict[str, Path], r
             model = resolve_model_path(config.model, base, root)
         except ValueError as e:
             problems.append(problem_at(doc, ("model",), str(e)))
-    return LoadedSuite(config, sensors, doc, file, model, twins), problems
+    return LoadedSuite(config, sensors, doc, file, model, twins, groups), problems
 
 
 def _partial(value: dict[str, Any], error: ValidationError, doc: Doc, file: str, dirs: dict[str, Path],

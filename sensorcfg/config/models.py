@@ -489,6 +489,13 @@ class SuiteConfig(BaseModel):
         "spec, run and both environments), by name: read them as 'camera:<name>'. A name the model already "
         "has is an error.", examples=[{"wrist_cam": {"element": "body:hand", "pos": [0.0, 0.0, 0.05],
                                                         "quat": [0.0, 1.0, 0.0, 0.0], "fovy": 58.0}}])
+    groups: dict[SensorName, tuple[Annotated[str, StringConstraints(min_length=1, max_length=200)], ...]] = Field(
+        default_factory=dict, description="Observation groups (a policy's, a critic's), by name: each a list of the "
+        "suite's observations (sensor or clean twin names, or globs of them) concatenated into one vector per "
+        "simulation. Columns follow the list; a glob adds its matches in the order the suite returns them, "
+        "leaving out those already in the group, disabled sensors and camera images. Each observation is "
+        "flattened in C order (buffer axis first); `sensorcfg spec` prints which columns each one fills.",
+        examples=[{"policy": ["base_ang_vel", "projected_gravity", "joint_*"], "critic": ["*_clean", "joint_*"]}])
     sensors: dict[SensorName, SensorConfig] = Field(
         max_length=MAX_SENSORS, description="The observations, by name, in the order they are returned.",
         examples=[{"joint_pos": {"kind": "qpos", "element": "joint:*"}}])
