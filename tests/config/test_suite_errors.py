@@ -73,7 +73,7 @@ LOAD_MISTAKES = [
         'sensor:\n'
         '  s: {kind: qpos, element: joint:elbow}\n',
         ["1:1: error: sensors: missing required key 'sensors': a suite lists its sensors as 'name: {kind: ..., element: ...}' under 'sensors:'",
-         "1:1: error: sensor: unknown key 'sensor' (did you mean 'sensors'?); allowed keys: version, model, extends, options, defaults, cameras, sensors"],
+         "1:1: error: sensor: unknown key 'sensor' (did you mean 'sensors'?); allowed keys: version, model, extends, options, defaults, cameras, groups, sensors"],
         id='top_unknown'),
     pytest.param(
         'version: 1\n',
