@@ -5,9 +5,12 @@ and a model, and what they refuse: importable without Warp (`support.refusals` c
 MuJoCo Warp 4.0.0's renderer (`mujoco_warp.render`) casts one ray per pixel centre against the model's geoms
 in groups 0-2 (planes, spheres, capsules, ellipsoids, cylinders, boxes, meshes, height fields) and its flexes,
 lit by the model's lights and headlight; a height field is its surface only. The CPU camera draws more by
-default, through OpenGL: sites and spatial tendons in groups 0-2, skins, rangefinder rays, a height field's
-side walls and base, and translucent geoms blended with what is behind them. A model with any of these is refused at the camera's `element`, as are scene flags the renderer has no
-counterpart for and noise on an image.
+default, through OpenGL: sites and spatial tendons in groups 0-2, skins, the rays of rangefinder and
+geomfromto sensors (`observables.camera.DRAWN_SENSORS`), a height field's side walls and base, and
+translucent geoms blended with what is behind them. A model with any of these is refused at the camera's
+`element`, as are scene flags the renderer has no counterpart for and noise on an image. What sensorcfg adds
+to a model is none of these: its sites are invisible, and its sensors' rays are left out of the CPU camera's
+frames.
 """
 
 from __future__ import annotations
@@ -17,6 +20,8 @@ from typing import Any
 
 import mujoco
 import numpy as np
+
+from ..observables.camera import DRAWN_SENSORS, added_drawn_sensors
 
 __all__ = ["HONOURED", "IGNORED", "Found", "camera_refusals", "model_refusal", "settings"]
 
@@ -38,8 +43,17 @@ def _alpha(rgba: np.ndarray, matid: np.ndarray, mat_rgba: np.ndarray) -> np.ndar
     return out
 
 
+def _drawn_sensors(model: mujoco.MjModel) -> list[int]:
+    """The model's own sensors whose readings the CPU camera draws by default (a rangefinder's ray); those
+    sensorcfg adds are left out of its frames (`observables.camera`)."""
+    added, shown = added_drawn_sensors(model), mujoco.MjvOption().flags
+    return [i for i in range(model.nsensor) if i not in added
+            and (flag := DRAWN_SENSORS.get(int(model.sensor_type[i]))) is not None and shown[flag]]
+
+
 def model_refusal(model: mujoco.MjModel) -> str | None:
-    """What of `model` the CPU camera draws and MuJoCo Warp's renderer does not (None: nothing)."""
+    """What of `model` the CPU camera draws and MuJoCo Warp's renderer does not (None: nothing); never what
+    sensorcfg added (see the module's docstring)."""
     found = []
     site = (model.site_group < _VISIBLE_GROUPS) & (_alpha(model.site_rgba, model.site_matid, model.mat_rgba) > 0)
     if site.any():
@@ -56,8 +70,10 @@ def model_refusal(model: mujoco.MjModel) -> str | None:
         found.append("skins")
     if model.nflex:
         found.append("flexes (not checked against the CPU camera yet)")
-    if (model.sensor_type == mujoco.mjtSensor.mjSENS_RANGEFINDER).any():
-        found.append("rangefinder sensors (the CPU camera draws their rays)")
+    drawn = sorted({mujoco.mjtSensor(int(model.sensor_type[i])).name.removeprefix("mjSENS_").lower()
+                    for i in _drawn_sensors(model)})
+    if drawn:
+        found.append(f"{' and '.join(drawn)} sensors (the CPU camera draws their rays)")
     alpha = _alpha(model.geom_rgba, model.geom_matid, model.mat_rgba)
     shown = (model.geom_group < _VISIBLE_GROUPS) & (alpha > 0)
     terrain = shown & (model.geom_type == mujoco.mjtGeom.mjGEOM_HFIELD)
