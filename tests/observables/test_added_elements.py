@@ -22,7 +22,7 @@ from sensorcfg.kinds import ELEMENT_TYPES, ON_DEMAND
 from sensorcfg.native import NATIVE
 from sensorcfg.observables import Camera
 from sensorcfg.physics import Physics
-from sensorcfg.selection import added_by_sensorcfg
+from sensorcfg.selection import added_by_sensorcfg, select
 from sensorcfg.warp.camera_support import model_refusal
 
 SCENE = str(MODELS / "imu_scene.xml")
@@ -71,6 +71,17 @@ def test_the_warp_cameras_check_sees_nothing_sensorcfg_added() -> None:
     assert [p.loc for p in problems] == ["sensors.rgb.element"]
     assert "the model has rangefinder sensors (the CPU camera draws their rays)" in problems[0].message
     assert "sensorcfg:" not in problems[0].message
+
+
+def test_the_warp_cameras_check_names_an_unnamed_site_as_a_selector_does() -> None:
+    """The file's only site, unnamed, is `site:#0`, though the sites the suite adds come first in the compiled
+    model."""
+    spec = mujoco.MjSpec.from_file(SCENE)
+    spec.body("probe").add_site(pos=[0, 0, -0.1], size=[0.02, 0, 0])
+    model = _suite(CAMERAS.splitlines(keepends=True)[0] + ADDING.split("  range:")[0]).compile(spec)
+    assert [model.site(i).name for i in range(model.nsite)] == ["sensorcfg:gravity:0", "sensorcfg:gyro:0", ""]
+    assert "the model has visible sites (#0; give them" in (model_refusal(model) or "")
+    assert select(model, "site:#0").ids == (2,)
 
 
 # --- every element sensorcfg adds, whatever adds it --------------------------------------------------------
