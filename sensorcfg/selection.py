@@ -109,9 +109,12 @@ def _elements(model: mujoco.MjModel, type_name: str) -> _Elements:
     return _Elements(tuple(i for i, _ in own), tuple(n for _, n in own))
 
 
-def element_labels(model: mujoco.MjModel, type_name: str) -> list[str]:
-    """Every element's label, by id (sensorcfg's own left out): its name, or `#<id>` when it has none."""
-    return _elements(model, type_name).labels
+def element_labels(model: mujoco.MjModel, type_name: str) -> dict[int, str]:
+    """The label of each of the model's own elements (sensorcfg's left out), keyed by its id in `model`: its
+    name, or `#<k>` for the k-th of the model's own when it has none (as a selector names it). Keyed, not
+    listed: where sensorcfg added elements, a compiled id is not a position in the model's own list."""
+    elements = _elements(model, type_name)
+    return dict(zip(elements.ids, elements.labels))
 
 
 _NOUNS = {"key": "keyframe"}  # element types whose suite name is not the word a message uses

@@ -50,6 +50,7 @@ SENSOR_QUANTITIES: dict[str, tuple[str, str]] = {
     "frameangacc": ("angular acceleration", "rad/s²"), "subtreecom": _POSITION, "subtreelinvel": _LINVEL,
     "subtreeangmom": ("angular momentum", "kg·m²/s"), "geomdist": ("distance", "m"), "geomnormal": _AXIS,
     "geomfromto": _POSITION, "clock": ("time", "s"), "e_potential": ("energy", "J"), "e_kinetic": ("energy", "J"),
+    "gravity": _AXIS,  # (a suite kind, MuJoCo's framezaxis of a site along gravity: `native.gravity`)
 }
 
 # attribute kind -> (quantity, unit), for kinds whose unit does not depend on the element (qpos and qvel do)
@@ -96,28 +97,30 @@ def _sensor_type(model: mujoco.MjModel, i: int) -> str:
 
 def _runs(model: mujoco.MjModel, cfg: Any, width: int) -> list[_Run] | None:
     """The values' runs of one quantity, in order; None when the layout is not known."""
-    from ..selection import element_labels, select
+    from ..selection import select
 
     if cfg.kind == "generic" or cfg.element is None or cfg.index is not None:
         return None
     selection = select(model, cfg.element, cfg.within, kind=cfg.kind)
     type_name, ids = selection.type, list(selection.ids)
-    names = element_labels(model, type_name)
+    # each selected element's label, as the selection gives it: `ids` index the compiled model, whose lists
+    # hold the sites and sensors the suite added among the file's own
+    names = selection.names
     if cfg.kind == "sensordata" and type_name == "sensor":
         return [_Run(SENSOR_QUANTITIES.get(_sensor_type(model, i), ("value", UNKNOWN_UNIT)),
-                     _components(names[i], int(model.sensor_dim[i]))) for i in ids]
+                     _components(name, int(model.sensor_dim[i]))) for i, name in zip(ids, names)]
     if cfg.kind in _JOINT_RUNS and type_name == "joint":
         runs = []
-        for i in ids:
+        for i, name in zip(ids, names):
             parts = _JOINT_RUNS[cfg.kind][_JOINT(int(model.jnt_type[i]))]
             for k, (quantity, n) in enumerate(parts):
                 suffix = "" if len(parts) == 1 else (".pos", ".quat", ".lin", ".ang")[k + 2 * (cfg.kind == "qvel")]
-                runs.append(_Run(quantity, _components(names[i] + suffix, n)))
+                runs.append(_Run(quantity, _components(name + suffix, n)))
         return runs
     found = _BY_TYPE.get((type_name, cfg.kind)) or SENSOR_QUANTITIES.get(cfg.kind) or KIND_QUANTITIES.get(cfg.kind)
     if found is None or not ids or width % len(ids):
         return None
-    return [_Run(found, _components(names[i], width // len(ids))) for i in ids]
+    return [_Run(found, _components(name, width // len(ids))) for name in names]
 
 
 def value_groups(model: mujoco.MjModel, cfg: Any, width: int) -> tuple[ValueGroup, ...]:

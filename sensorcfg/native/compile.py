@@ -10,7 +10,11 @@ bounded whatever the suite. A sensor whose own options do not resolve is left ou
 Every element added is named with `selection.ADDED_PREFIX` (invisible to a suite's selectors), and added
 in a fixed order (a batch's enablers by flag, the suite's sensors in its order, then `extra` as given), so
 the compiled model is the same in every process.
-Sensors and sites change no dynamics: the compiled model steps exactly as the file's own.
+Sensors and sites change no dynamics: the compiled model steps exactly as the file's own. Nor do they
+change what a camera sees: every site is added by `_hidden_site`, in `HIDDEN_GROUP` with alpha 0 (MuJoCo's
+scene skips a site whose alpha is 0 whichever groups a viewer shows; MuJoCo Warp's renderer draws no
+sites), and the lines MuJoCo's scene draws for some sensors (a rangefinder's ray) are left out of
+sensorcfg's CPU cameras for the sensors added here (`observables.camera`).
 """
 
 from __future__ import annotations
@@ -29,11 +33,13 @@ from ..observables.feature import computed_by_model
 from ..selection import ADDED_PREFIX, split_selector
 from .additions import Added, native_row, sensor_additions
 
-__all__ = ["Compiled", "compile_model", "native_names", "reads_on_demand", "MAX_REFUSALS", "NOT_COMPILED"]
+__all__ = ["Compiled", "HIDDEN_GROUP", "compile_model", "native_names", "reads_on_demand", "MAX_REFUSALS",
+           "NOT_COMPILED"]
 
 Compiled = tuple[mujoco.MjModel, dict[str, str]]  # the model, and the problem of each suite sensor left out
 _ELEMENT = re.compile(re.escape(ADDED_PREFIX) + r"([A-Za-z_][A-Za-z0-9_\-/]*):\d+\b")  # `additions.sensor_name`
 MAX_REFUSALS = 8  # refusals found one compile each; then the sensors not yet compiled are left out
+HIDDEN_GROUP = 5  # the group of the sites sensorcfg adds: MuJoCo's last, which no viewer shows by default
 NOT_COMPILED = ("the {kind} sensor was not compiled: MuJoCo refused {count} other sensors of this suite first "
                 "(each costs a compile of the model); fix those and validate again")
 
@@ -71,14 +77,20 @@ def _bodies(spec: mujoco.MjSpec) -> dict[int, Any]:
     return {int(body.id): body for body in spec.bodies}
 
 
+def _hidden_site(body: Any, name: str, quat: Sequence[float] | None = None) -> Any:
+    """A site at `body`'s frame (turned by `quat`) that nothing draws: in `HIDDEN_GROUP`, with alpha 0.
+    Every site sensorcfg adds to a model is made here."""
+    site = body.add_site(name=name, group=HIDDEN_GROUP, rgba=[0.0, 0.0, 0.0, 0.0])
+    if quat is not None:
+        site.quat = list(quat)
+    return site
+
+
 def _add(spec: mujoco.MjSpec, added: Added, bodies: dict[int, Any]) -> list[Any]:
     """Write one record into the spec; the elements created (to delete them if MuJoCo refuses)."""
     made = []
     if added.site_body is not None:
-        site = bodies[added.site_body].add_site(name=added.name)
-        if added.site_quat is not None:
-            site.quat = list(added.site_quat)
-        made.append(site)
+        made.append(_hidden_site(bodies[added.site_body], added.name, added.site_quat))
     sensor = spec.add_sensor()
     sensor.name = added.name
     sensor.type = _enum(mujoco.mjtSensor, "mjSENS_", added.sensor)
@@ -115,7 +127,7 @@ def _enable_on_demand(spec: mujoco.MjSpec, plain: mujoco.MjModel, sensors: Mappi
         name = f"{ADDED_PREFIX}on-demand:{flag}"
         objname = "world"
         if objtype == "SITE":
-            objname = spec.worldbody.add_site(name=name).name
+            objname = _hidden_site(spec.worldbody, name).name
         spec.add_sensor(name=name, type=_enum(mujoco.mjtSensor, "mjSENS_", sensor_type),
                         objtype=_enum(mujoco.mjtObj, "mjOBJ_", objtype), objname=objname)
         added = True

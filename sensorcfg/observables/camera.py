@@ -2,6 +2,10 @@
 
 Renderers are expensive (an OpenGL context and framebuffers each), so cameras share one
 `mujoco.Renderer` per (model, width, height) instead of holding one per observable.
+
+A camera sees the model as its file has it: the sites sensorcfg adds are invisible (`native.compile`), and
+what MuJoCo's scene draws for the sensors it adds (`DRAWN_SENSORS`: a rangefinder kind's ray) is left out
+of every frame, so adding a sensor to a suite changes no pixel.
 """
 
 from __future__ import annotations
@@ -22,10 +26,10 @@ from dm_env import specs
 from .. import _gl
 from ..errors import SuiteError, UnsupportedError, did_you_mean
 from ..physics import raw_structs
-from ..selection import element_id
+from ..selection import added_by_sensorcfg, element_id
 from .base import Observable
 
-__all__ = ["Camera", "MODES", "SCENE_FLAGS", "close_renderers"]
+__all__ = ["Camera", "DRAWN_SENSORS", "MODES", "SCENE_FLAGS", "added_drawn_sensors", "close_renderers"]
 
 # mode -> (channels, dtype, minimum, maximum)
 MODES: dict[str, tuple[int, type, float, float]] = {
@@ -45,6 +49,14 @@ SCENE_FLAGS: dict[str, tuple[str, int]] = {
        if name.startswith("mjVIS_")},
 }
 _DEFAULT_RENDER_FLAGS = np.array(mujoco.MjvScene().flags, dtype=np.uint8)  # shadow, reflection, skybox... on
+# MuJoCo's sensor types whose readings its scene draws (mjvGeoms of objtype mjOBJ_SENSOR) -> the
+# visualisation flag that draws them: a rangefinder's ray and a geomfromto's segment (mjVIS_RANGEFINDER, on
+# by default), a tactile sensor's triangles (mjVIS_CONTACTPOINT, off)
+DRAWN_SENSORS: dict[int, int] = {
+    int(getattr(mujoco.mjtSensor, f"mjSENS_{name}")): int(getattr(mujoco.mjtVisFlag, f"mjVIS_{flag}"))
+    for name, flag in (("RANGEFINDER", "RANGEFINDER"), ("GEOMFROMTO", "RANGEFINDER"), ("TACTILE", "CONTACTPOINT"))
+    if hasattr(mujoco.mjtSensor, f"mjSENS_{name}")}
+_SENSOR = int(mujoco.mjtObj.mjOBJ_SENSOR)
 DEFAULT_SIZE = (320, 240)  # width, height when neither the suite nor the camera's MJCF `resolution` says
 MAX_SIDE = 16384  # pixels a side: what Mesa's software renderer and most GPUs' framebuffers allow
 
@@ -165,6 +177,22 @@ def _close(renderers: list[mujoco.Renderer]) -> None:
             continue
 
 
+def added_drawn_sensors(model: mujoco.MjModel) -> frozenset[int]:
+    """The ids of the sensors sensorcfg added to `model` whose readings MuJoCo's scene draws."""
+    return frozenset(i for i in range(model.nsensor) if int(model.sensor_type[i]) in DRAWN_SENSORS
+                     and added_by_sensorcfg(model.sensor(i).name))
+
+
+def _leave_out(scene: mujoco.MjvScene, sensors: frozenset[int]) -> None:
+    """Make the scene's geoms that draw `sensors` draw nothing: no shape, and no segmentation id (which the
+    segmentation and depth passes skip)."""
+    for k in range(scene.ngeom):
+        geom = scene.geoms[k]
+        if geom.objtype == _SENSOR and geom.objid in sensors:
+            geom.type = mujoco.mjtGeom.mjGEOM_NONE
+            geom.segid = -1
+
+
 def scene_settings(value: mujoco.MjvOption | Mapping[str, bool] | None) -> tuple[mujoco.MjvOption | None, np.ndarray]:
     """(visualisation option or None, the scene's render flags) for a camera's `scene`."""
     render = _DEFAULT_RENDER_FLAGS.copy()
@@ -258,6 +286,7 @@ class Camera(Observable):
         _renderer(model, width, height)  # fail at binding, not at the first frame
         depth, segmentation = self._mode == "depth", self._mode == "segmentation"
         option, flags = self._scene_option, self._render_flags
+        added = added_drawn_sensors(model)
 
         def render() -> np.ndarray:
             renderer = _renderer(model, width, height)  # the calling thread's
@@ -270,6 +299,8 @@ class Camera(Observable):
                 renderer.disable_segmentation_rendering()
             renderer.update_scene(data, camera=cam, scene_option=option)
             renderer.scene.flags[:] = flags  # the renderer is shared: every frame sets all of them
+            if added:
+                _leave_out(renderer.scene, added)
             with _gl.current_restored(type(renderer._gl_context)):
                 pixels = renderer.render()
             return pixels[..., None] if depth else pixels

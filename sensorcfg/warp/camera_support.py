@@ -5,9 +5,12 @@ and a model, and what they refuse: importable without Warp (`support.refusals` c
 MuJoCo Warp 4.0.0's renderer (`mujoco_warp.render`) casts one ray per pixel centre against the model's geoms
 in groups 0-2 (planes, spheres, capsules, ellipsoids, cylinders, boxes, meshes, height fields) and its flexes,
 lit by the model's lights and headlight; a height field is its surface only. The CPU camera draws more by
-default, through OpenGL: sites and spatial tendons in groups 0-2, skins, rangefinder rays, a height field's
-side walls and base, and translucent geoms blended with what is behind them. A model with any of these is refused at the camera's `element`, as are scene flags the renderer has no
-counterpart for and noise on an image.
+default, through OpenGL: sites and spatial tendons in groups 0-2, skins, the rays of rangefinder and
+geomfromto sensors (`observables.camera.DRAWN_SENSORS`), a height field's side walls and base, and
+translucent geoms blended with what is behind them. A model with any of these is refused at the camera's
+`element`, as are scene flags the renderer has no counterpart for and noise on an image. What sensorcfg adds
+to a model is none of these: its sites are invisible, and its sensors' rays are left out of the CPU camera's
+frames.
 """
 
 from __future__ import annotations
@@ -17,6 +20,9 @@ from typing import Any
 
 import mujoco
 import numpy as np
+
+from ..observables.camera import DRAWN_SENSORS, added_drawn_sensors
+from ..selection import element_labels
 
 __all__ = ["HONOURED", "IGNORED", "Found", "camera_refusals", "model_refusal", "settings"]
 
@@ -38,14 +44,31 @@ def _alpha(rgba: np.ndarray, matid: np.ndarray, mat_rgba: np.ndarray) -> np.ndar
     return out
 
 
+def _drawn_sensors(model: mujoco.MjModel) -> list[int]:
+    """The model's own sensors whose readings the CPU camera draws by default (a rangefinder's ray); those
+    sensorcfg adds are left out of its frames (`observables.camera`)."""
+    added, shown = added_drawn_sensors(model), mujoco.MjvOption().flags
+    return [i for i in range(model.nsensor) if i not in added
+            and (flag := DRAWN_SENSORS.get(int(model.sensor_type[i]))) is not None and shown[flag]]
+
+
+def _listed(model: mujoco.MjModel, type_name: str, mask: np.ndarray) -> str:
+    """The labels of the first three elements in `mask` (as a selector names them: `#<k>` for the k-th of
+    the model's own when unnamed), and ', ...' when there are more."""
+    labels = element_labels(model, type_name)
+    ids = np.flatnonzero(mask)
+    shown = [labels.get(int(i)) or getattr(model, type_name)(int(i)).name for i in ids[:3]]  # (or one added)
+    return ", ".join(shown) + (", ..." if len(ids) > 3 else "")
+
+
 def model_refusal(model: mujoco.MjModel) -> str | None:
-    """What of `model` the CPU camera draws and MuJoCo Warp's renderer does not (None: nothing)."""
+    """What of `model` the CPU camera draws and MuJoCo Warp's renderer does not (None: nothing); never what
+    sensorcfg added (see the module's docstring)."""
     found = []
     site = (model.site_group < _VISIBLE_GROUPS) & (_alpha(model.site_rgba, model.site_matid, model.mat_rgba) > 0)
     if site.any():
-        names = [model.site(int(i)).name or f"#{int(i)}" for i in np.flatnonzero(site)[:3]]
-        found.append(f"visible sites ({', '.join(names)}{', ...' if site.sum() > 3 else ''}; give them "
-                     "group=\"3\" or higher, or rgba alpha 0)")
+        found.append(f"visible sites ({_listed(model, 'site', site)}; give them group=\"3\" or higher, or rgba "
+                     "alpha 0)")
     spatial = np.array([any(model.wrap_type[a:a + n] != mujoco.mjtWrap.mjWRAP_JOINT)
                         for a, n in zip(model.tendon_adr, model.tendon_num)], bool)
     tendon = spatial & (model.tendon_group < _VISIBLE_GROUPS) & (model.tendon_width > 0) & (
@@ -56,20 +79,20 @@ def model_refusal(model: mujoco.MjModel) -> str | None:
         found.append("skins")
     if model.nflex:
         found.append("flexes (not checked against the CPU camera yet)")
-    if (model.sensor_type == mujoco.mjtSensor.mjSENS_RANGEFINDER).any():
-        found.append("rangefinder sensors (the CPU camera draws their rays)")
+    drawn = sorted({mujoco.mjtSensor(int(model.sensor_type[i])).name.removeprefix("mjSENS_").lower()
+                    for i in _drawn_sensors(model)})
+    if drawn:
+        found.append(f"{' and '.join(drawn)} sensors (the CPU camera draws their rays)")
     alpha = _alpha(model.geom_rgba, model.geom_matid, model.mat_rgba)
     shown = (model.geom_group < _VISIBLE_GROUPS) & (alpha > 0)
     terrain = shown & (model.geom_type == mujoco.mjtGeom.mjGEOM_HFIELD)
     if terrain.any():
-        names = [model.geom(int(i)).name or f"#{int(i)}" for i in np.flatnonzero(terrain)[:3]]
-        found.append(f"height fields ({', '.join(names)}; MuJoCo Warp 4.0.0's renderer draws their surface only, "
-                     "not the side walls and base the CPU camera draws)")
+        found.append(f"height fields ({_listed(model, 'geom', terrain)}; MuJoCo Warp 4.0.0's renderer draws their "
+                     "surface only, not the side walls and base the CPU camera draws)")
     clear = shown & (alpha < 1)
     if clear.any():
-        names = [model.geom(int(i)).name or f"#{int(i)}" for i in np.flatnonzero(clear)[:3]]
-        found.append(f"translucent geoms ({', '.join(names)}; OpenGL blends them with what is behind; make "
-                     "them opaque, or invisible with alpha 0)")
+        found.append(f"translucent geoms ({_listed(model, 'geom', clear)}; OpenGL blends them with what is behind; "
+                     "make them opaque, or invisible with alpha 0)")
     if not found:
         return None
     return (f"the model has {'; '.join(found)}, which the CPU camera draws and MuJoCo Warp's renderer does not; "

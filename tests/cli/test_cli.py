@@ -553,6 +553,41 @@ def test_values_are_grouped_by_quantity_and_unit_with_labels() -> None:
         ("value", "unit not known", ("[0]", "[1]", "[2]"))]
 
 
+# The recipes' frame sensors on the Menagerie stand-ins. `gravity` adds a site to the world body, whose sites
+# come first in the compiled model: a label looked up by compiled id in the file's own list named the next site
+# (the G1 pelvis gyro was labelled left_foot.x/y/z), or none (an IndexError on Go2).
+@pytest.mark.parametrize("recipe, elements", [
+    pytest.param("humanoid", {"imu_ang_vel": ("imu_in_pelvis",), "projected_gravity": ("imu_in_pelvis",),
+                              "base_lin_vel_clean": ("imu_in_pelvis",), "feet_pos": ("left_foot", "right_foot"),
+                              "torso_up": ("torso_link",)}, id="g1"),
+    pytest.param("quadruped", {"base_lin_vel": ("base",), "base_ang_vel": ("imu",), "projected_gravity": ("imu",)},
+                 id="go2"),
+])
+def test_plot_labels_name_the_elements_the_values_are_of(recipe: str, elements: dict[str, tuple[str, ...]]) -> None:
+    from conftest import MODELS
+    from test_recipes import RECIPES, _recipe
+
+    from sensorcfg.cli.quantities import value_groups
+
+    suite = _recipe(recipe)[1]
+    model = suite.compile(str(MODELS / RECIPES[recipe][1]))
+    assert any(model.site(i).name.startswith("sensorcfg:") for i in range(model.nsite))  # added sites come first
+    for name, named in elements.items():
+        labels = [label for group in value_groups(model, suite.sensors[name], 3 * len(named)) for label in group.labels]
+        assert labels == [f"{element}.{axis}" for element in named for axis in "xyz"], name
+
+
+def test_run_plot_of_the_go2_recipe_on_its_stand_in(tmp_path: Path) -> None:
+    pytest.importorskip("matplotlib")
+    from conftest import MODELS
+
+    text = (ROOT / "docs" / "recipes" / "quadruped.yaml").read_text()
+    write(tmp_path / "go2.yaml", "\n".join(line for line in text.splitlines() if not line.startswith("model: ")))
+    proc = cli("run", "go2.yaml", "--model", str(MODELS / "go2_like.xml"), "--steps", "3", "--plot", "go2.png",
+               cwd=tmp_path)
+    assert proc.returncode == 0 and "wrote go2.png" in proc.stdout, proc.stderr
+
+
 def test_the_plot_has_an_axis_per_unit_with_a_legend_and_explains_its_ticks() -> None:
     pytest.importorskip("matplotlib")
     from matplotlib.figure import Figure

@@ -250,3 +250,20 @@ def test_a_camera_given_by_its_sensor_needs_an_image_of_the_sensors_aspect(tmp_p
     (tmp_path / "scene.xml").write_text(sensor.replace('sensorsize=".006 .004"', 'sensorsize=".008 .006"'))
     assert [p.loc for p in sensorcfg.load(tmp_path / "s.yaml").check(warp=True)] == [
         "sensors.eye.camera.scene.fog", "sensors.eye.noise"]
+
+
+def test_the_sites_a_suite_adds_are_no_refusal_and_change_no_frame() -> None:
+    """A body's gyro and `gravity` add sites (in the camera's view) that neither renderer draws: the engine
+    takes the camera, and its frames are those without them."""
+    model = str(MODELS / "imu_scene.xml")
+    cams = "".join(f"  {m}: {{kind: {m}, element: camera:eye, camera: {{width: {W}, height: {H}}}}}\n"
+                   for m in ("rgb", "depth", "segmentation"))
+    imu = "  gyro: {kind: gyro, element: body:base}\n  gravity: {kind: gravity, element: body:base}\n"
+    seen = []
+    for sensors in (cams, cams + imu):
+        env = WarpEnvironment(model, sensorcfg.loads(f"sensors:\n{sensors}"), NWORLD, device="cpu")
+        seen.append([{k: v.numpy().copy() for k, v in env.reset().observation.items()}])
+        seen[-1] += [{k: v.numpy().copy() for k, v in env.step(np.zeros((NWORLD, 0), np.float32)).observation.items()}]
+    for plain, added in zip(*seen):
+        for mode in ("rgb", "depth", "segmentation"):
+            np.testing.assert_array_equal(added[mode], plain[mode], err_msg=mode)
