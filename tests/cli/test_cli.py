@@ -475,6 +475,34 @@ def test_demo_without_matplotlib_skips_only_the_plot(tmp_path: Path, no_matplotl
     assert sorted(p.name for p in tmp_path.iterdir()) == ["sensorcfg-demo.json", "sensorcfg-demo.npz"]
 
 
+def _ignored(name: str) -> bool:
+    """Whether the repository's .gitignore ignores a file `name` at its top (last matching pattern wins)."""
+    import fnmatch
+
+    ignored = False
+    for pattern in (ROOT / ".gitignore").read_text().splitlines():
+        negated = pattern.startswith("!")
+        if pattern and not pattern.startswith("#") and fnmatch.fnmatch(name, pattern.removeprefix("!").strip("/")):
+            ignored = not negated
+    return ignored
+
+
+def test_demo_says_its_notes_and_suite_once_and_git_ignores_what_it_writes(tmp_path: Path) -> None:
+    """Run from the folder above the bundled suite, the demo names it as the spec does (relative), prints the
+    suite's note once, and writes only files a clone's git ignores."""
+    assets = Path(sensorcfg.assets.path("demo.yaml")).parent
+    proc = cli("demo", "--steps", "2", "--prefix", str(tmp_path / "sensorcfg-demo"), cwd=assets.parent)
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert lines[2] == f"assets/demo.yaml on {assets / 'robot.xml'}"
+    assert lines[-1] == f"next: open {tmp_path / 'sensorcfg-demo.png'}; the suite it ran is assets/demo.yaml"
+    notes = [line for line in lines if ": note: " in line]
+    assert len(notes) == 1 and notes[0].startswith("assets/demo.yaml:39:3: note: sensors.wrist_cam: this camera")
+    written = sorted(p.name for p in tmp_path.iterdir())
+    assert written == ["sensorcfg-demo.json", "sensorcfg-demo.npz", "sensorcfg-demo.png"]
+    assert [name for name in written if not _ignored(name)] == []
+
+
 def test_pre_commit_hook_runs_validate() -> None:
     yaml = pytest.importorskip("yaml")
     hooks = yaml.safe_load((ROOT / ".pre-commit-hooks.yaml").read_text())
