@@ -174,7 +174,9 @@ class Suite:
         return problems
 
     def _bind(self, model: ModelLike, import_callables: bool, batch: bool = False, call_callables: bool = True,
-              warp: bool = False) -> tuple[dict[str, Observable], list[Problem]]:
+              warp: bool = False, put_model: bool = False) -> tuple[dict[str, Observable], list[Problem]]:
+        """The observables and every problem; with `put_model` (and `warp`), MuJoCo Warp's refusal of the
+        model too (`_put_model_problems`: `WarpEnvironment` raises it as an UnsupportedError when it builds)."""
         from .binding import bind
 
         batch = batch or warp  # the Warp engine refuses what a batch refuses, and more
@@ -184,7 +186,22 @@ class Suite:
         problems += self._memory_problems(observables, mjmodel)
         if warp:
             problems += self._warp_problems(observables, mjmodel)
+        if warp and put_model:
+            problems += self._put_model_problems(mjmodel)
         return observables, problems
+
+    def _put_model_problems(self, model: mujoco.MjModel) -> list[Problem]:
+        """What MuJoCo Warp itself refuses of the compiled model (its `put_model`), at the suite's `model:`
+        line; nothing where MuJoCo Warp is not installed (then it is found when `WarpEnvironment` builds)."""
+        try:
+            from .warp.worlds import model_refusal
+        except ImportError:
+            return []
+        message = model_refusal(model)
+        if message is None:
+            return []
+        pos = self._loaded.doc.pos(("model",))
+        return [pos.problem(message, "model") if pos else Problem(message, "model", self.file)]
 
     def _warp_problems(self, observables: Mapping[str, Observable], model: mujoco.MjModel) -> list[Problem]:
         """What `WarpEnvironment` does not run besides what a batch refuses (`warp.support.refusals`), at the
@@ -307,12 +324,13 @@ class Suite:
 
         `generic` and `custom` callables are not imported unless `import_callables` is true, and never called;
         with `batch`, what BatchEnvironment cannot run is a problem too; with `warp`, what WarpEnvironment
-        cannot run (all a batch cannot, and more: `sensorcfg.warp.support`; Warp need not be installed).
+        cannot run (all a batch cannot, and more: `sensorcfg.warp.support`; Warp need not be installed; where
+        MuJoCo Warp is installed, also a model it refuses, at the `model:` line).
         `options` are checked too (the keyframe exists; a control interval is a whole number of the model's
         physics steps).
         """
         try:
-            return self._bind(model, import_callables, batch, call_callables=False, warp=warp)[1]
+            return self._bind(model, import_callables, batch, call_callables=False, warp=warp, put_model=True)[1]
         except SuiteError as e:
             return list(e.problems)
 
