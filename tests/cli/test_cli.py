@@ -294,6 +294,20 @@ def test_spec_table_and_json(tmp_path: Path) -> None:
     assert out["physics_steps_per_control_step"] == 5
 
 
+def test_spec_says_under_its_table_that_a_drawn_delay_is_not_a_reads_age(tmp_path: Path) -> None:
+    """The ms of a drawn delay are what samples draw; a read shows the sample that arrived last, which can be
+    older than the largest delay: said under the table when some delay is drawn, and only then."""
+    from sensorcfg.cli.spec import DRAWN_DELAYS
+
+    write(tmp_path / "s.yaml", VALID)  # gyro: delay {uniform: [0, 3]}
+    drawn = cli("spec", "s.yaml", cwd=tmp_path).stdout.splitlines()
+    assert drawn[drawn.index("2 enabled observations") + 1] == DRAWN_DELAYS
+    assert DRAWN_DELAYS.startswith("drawn delays: a read shows the sample that arrived last (dm_control's rule), "
+                                   "which can be older than the largest delay")
+    fixed = cli("spec", "s.yaml", "--set", "sensors.gyro.delay=2", cwd=tmp_path).stdout
+    assert fixed.splitlines()[-1] == "2 enabled observations" and "drawn delays" not in fixed
+
+
 def test_spec_lists_disabled_sensors_apart_and_applies_set(tmp_path: Path) -> None:
     write(tmp_path / "s.yaml", VALID)
     proc = cli("spec", "s.yaml", "--set", "sensors.gyro.enabled=false", "--set", "defaults.buffer=3",
