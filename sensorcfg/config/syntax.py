@@ -3,8 +3,8 @@
 PyYAML says `found character '\\t' that cannot start any token` for a tab and `expected <block end>, but found
 '<block mapping start>'` or `mapping values are not allowed here` for a key indented as no mapping around it
 is. Each row of `_WORDS` knows one of these messages and says what is wrong in the text and how to fix it,
-from the error's marks and the lines around them; `source` positions the problem at PyYAML's mark. Any other
-error keeps PyYAML's words. No mujoco, no pydantic.
+from the error's marks and the lines around them, and where to say it (PyYAML's mark, or the start of the key
+it is about); `source` makes the problem. Any other error keeps PyYAML's words. No mujoco, no pydantic.
 """
 
 from __future__ import annotations
@@ -45,10 +45,10 @@ def _content(line: str) -> bool:
     return bool(stripped) and not stripped.startswith("#")
 
 
-def _above(lines: list[str], line: int, deeper_than: int | None = None) -> int | None:
-    """The nearest line above `line` (0-based) that holds YAML, indented less than `deeper_than` if given."""
+def _above(lines: list[str], line: int, shallower_than: int | None = None) -> int | None:
+    """The nearest line above `line` (0-based) that holds YAML, indented less than `shallower_than` if given."""
     for n in range(min(line, len(lines)) - 1, -1, -1):
-        if _content(lines[n]) and (deeper_than is None or _indent(lines[n]) < deeper_than):
+        if _content(lines[n]) and (shallower_than is None or _indent(lines[n]) < shallower_than):
             return n
     return None
 
