@@ -75,7 +75,15 @@ def quote(value: Any, limit: int = QUOTE_LIMIT) -> str:
 
 @dataclasses.dataclass(frozen=True)
 class Problem:
-    """One mistake: where it is and how to fix it."""
+    """One mistake: where it is and how to fix it.
+
+    Attributes:
+        message: What is wrong and the fix.
+        loc: Its dotted location in the suite, e.g. "sensors.wrist_cam.interval" ('' when none).
+        file: The file (or override, or '<string>') it is in; None when it is not in one.
+        line: Its 1-based line; None when not known.
+        col: Its 1-based column; None when not known.
+    """
 
     message: str
     loc: str = ""  # dotted location in the suite, e.g. "sensors.wrist_cam.interval"
@@ -113,6 +121,11 @@ class SuiteError(SensorcfgError, ValueError):
     """
 
     def __init__(self, problems: Problem | str | Sequence[Problem]):
+        """One error for every problem found.
+
+        Args:
+            problems: The problems (one `Problem`, or several), or a message (a problem with no place).
+        """
         if isinstance(problems, str):
             problems = [Problem(problems)]
         elif isinstance(problems, Problem):

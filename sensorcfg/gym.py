@@ -27,7 +27,14 @@ __all__ = ["GymEnv", "space_from_spec"]
 
 
 def space_from_spec(spec: specs.Array) -> spaces.Box:
-    """A Box for a dm_env spec: its bounds when bounded, else the dtype's full range."""
+    """A Box for a dm_env spec: its bounds when bounded, else the dtype's full range.
+
+    Args:
+        spec: A dm_env `Array` or `BoundedArray` spec (an observation's, or the action's).
+
+    Returns:
+        The Gymnasium `Box` of the spec's shape and dtype.
+    """
     dtype = np.dtype(spec.dtype)
     if isinstance(spec, specs.BoundedArray):
         low = np.broadcast_to(spec.minimum, spec.shape).astype(dtype)
@@ -46,6 +53,12 @@ class GymEnv(gymnasium.Env):
     metadata: dict[str, Any] = {"render_modes": []}
 
     def __init__(self, env: Environment):
+        """Gymnasium's spaces from the environment's specs (a Dict of Boxes for the observations, a Box for the
+        action); `step` reports a LAST step with discount 0 as terminated, otherwise as truncated.
+
+        Args:
+            env: The sensorcfg `Environment` this view steps (closed by `close`).
+        """
         self.env = env
         self.observation_space = spaces.Dict(
             {name: space_from_spec(spec) for name, spec in env.observation_spec().items()})

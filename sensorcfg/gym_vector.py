@@ -45,6 +45,13 @@ class GymVectorEnv(VectorEnv):
     metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
 
     def __init__(self, env: BatchEnvironment):
+        """Gymnasium's spaces from the batch's specs, one simulation's (`single_observation_space`,
+        `single_action_space`) and the batch's; episodes auto-reset at the next step, as the batch's do.
+
+        Args:
+            env: The sensorcfg `BatchEnvironment` this view steps, one Gymnasium environment per simulation
+                (closed by `close`).
+        """
         self.env = env
         self.num_envs = env.nsim
         self.single_observation_space = spaces.Dict(

@@ -21,6 +21,15 @@ class Physics:
     __slots__ = ("model", "data")
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData | None = None):
+        """Hold `model` and its data.
+
+        Args:
+            model: The compiled MuJoCo model.
+            data: Its MjData; None: a new one (`mujoco.MjData(model)`).
+
+        Raises:
+            TypeError: `model` is not a `mujoco.MjModel`.
+        """
         if not isinstance(model, mujoco.MjModel):
             raise TypeError(f"Physics needs a mujoco.MjModel, got {type(model).__name__}")
         self.model = model

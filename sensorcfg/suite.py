@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 from .config import LoadedSuite, OptionsConfig, SensorConfig, SuiteConfig, load_path, load_text, to_steps
 from .config.limits import MAX_OBSERVATION_BYTES
+from .config.overrides import override_texts
 from .config.units import timestep_problem
 from .errors import ArgumentError, Problem, SuiteError, quote
 
@@ -27,12 +28,20 @@ if TYPE_CHECKING:
 __all__ = ["Suite", "load", "loads"]
 
 ModelLike = Any  # mujoco.MjModel, a path to an MJCF/MJB file, a Physics, or None for the suite's `model:`
+Overrides = Sequence[str] | Mapping[str, Any] | None  # 'dotted.key=value' texts, or dotted keys -> values
 
 
 class Suite:
     """A validated sensor suite: its sensors (with `defaults` applied), Updater options and default model."""
 
     def __init__(self, loaded: LoadedSuite):
+        """A suite from the config layer's result; `sensorcfg.load` and `sensorcfg.loads` make one from a file
+        or text, and are how a suite is meant to be made.
+
+        Args:
+            loaded: The validated suite (`sensorcfg.config.LoadedSuite`: its config, effective sensors and
+                the positions of its nodes, for messages at its lines).
+        """
         self._loaded = loaded
 
     def __repr__(self) -> str:
@@ -170,7 +179,9 @@ class Suite:
         return problems
 
     def _bind(self, model: ModelLike, import_callables: bool, batch: bool = False, call_callables: bool = True,
-              warp: bool = False) -> tuple[dict[str, Observable], list[Problem]]:
+              warp: bool = False, put_model: bool = False) -> tuple[dict[str, Observable], list[Problem]]:
+        """The observables and every problem; with `put_model` (and `warp`), MuJoCo Warp's refusal of the
+        model too (`_put_model_problems`: `WarpEnvironment` raises it as an UnsupportedError when it builds)."""
         from .binding import bind
 
         batch = batch or warp  # the Warp engine refuses what a batch refuses, and more
@@ -180,7 +191,22 @@ class Suite:
         problems += self._memory_problems(observables, mjmodel)
         if warp:
             problems += self._warp_problems(observables, mjmodel)
+        if warp and put_model:
+            problems += self._put_model_problems(mjmodel)
         return observables, problems
+
+    def _put_model_problems(self, model: mujoco.MjModel) -> list[Problem]:
+        """What MuJoCo Warp itself refuses of the compiled model (its `put_model`), at the suite's `model:`
+        line; nothing where MuJoCo Warp is not installed (then it is found when `WarpEnvironment` builds)."""
+        try:
+            from .warp.worlds import model_refusal
+        except ImportError:
+            return []
+        message = model_refusal(model)
+        if message is None:
+            return []
+        pos = self._loaded.doc.pos(("model",))
+        return [pos.problem(message, "model") if pos else Problem(message, "model", self.file)]
 
     def _warp_problems(self, observables: Mapping[str, Observable], model: mujoco.MjModel) -> list[Problem]:
         """What `WarpEnvironment` does not run besides what a batch refuses (`warp.support.refusals`), at the
@@ -303,12 +329,13 @@ class Suite:
 
         `generic` and `custom` callables are not imported unless `import_callables` is true, and never called;
         with `batch`, what BatchEnvironment cannot run is a problem too; with `warp`, what WarpEnvironment
-        cannot run (all a batch cannot, and more: `sensorcfg.warp.support`; Warp need not be installed).
+        cannot run (all a batch cannot, and more: `sensorcfg.warp.support`; Warp need not be installed; where
+        MuJoCo Warp is installed, also a model it refuses, at the `model:` line).
         `options` are checked too (the keyframe exists; a control interval is a whole number of the model's
         physics steps).
         """
         try:
-            return self._bind(model, import_callables, batch, call_callables=False, warp=warp)[1]
+            return self._bind(model, import_callables, batch, call_callables=False, warp=warp, put_model=True)[1]
         except SuiteError as e:
             return list(e.problems)
 
@@ -356,34 +383,57 @@ class Suite:
                 "pad_with_initial_value": options.pad_with_initial_value}
 
 
-def load(path: str | os.PathLike[str], overrides: Sequence[str] | None = None, *,
+def load(path: str | os.PathLike[str], overrides: Overrides = None, *,
          extends_root: str | os.PathLike[str] | None = None) -> Suite:
-    """Read and validate the suite at `path` (no model needed); raises SuiteError listing every problem.
+    """Read and validate the suite at `path` (no model needed).
 
-    `overrides` are `dotted.key=value` strings applied after `extends`, each value parsed as YAML:
-    `["sensors.wrist_cam.interval=10", "defaults.buffer=2"]`. `extends` may name files in the suite's
-    folder and below; `extends_root` widens that to another folder tree ('/' allows any file).
+    Args:
+        path: The suite file.
+        overrides: Applied after `extends`: `dotted.key=value` strings, each value parsed as YAML
+            (`["sensors.wrist_cam.interval=10", "defaults.buffer=2"]`), or a mapping of dotted keys to Python
+            values (`{"sensors.wrist_cam.interval": 10, "defaults.buffer": 2}`); their problems are reported
+            in the override's text (`override 'defaults.buffer=0':1:17`).
+        extends_root: The folder tree `extends` and `model:` may name files in ('/' allows any file).
+            Default: the suite's folder.
+
+    Returns:
+        The validated `Suite`.
+
+    Raises:
+        SuiteError: Every problem of the files and overrides, each at its line.
+        ArgumentError: `path` is not a path, `extends_root` cannot be resolved, or `overrides` is neither a
+            list of strings nor a mapping of dotted keys to values YAML can hold.
     """
     if not isinstance(path, (str, os.PathLike)):
         raise ArgumentError(f"load takes a path to a suite file; got {type(path).__name__} (use loads for text)")
     return Suite(load_path(Path(path), _overrides(overrides), extends_root=extends_root))
 
 
-def loads(text: str, overrides: Sequence[str] | None = None, *, file: str = "<string>",
+def loads(text: str, overrides: Overrides = None, *, file: str = "<string>",
           base_dir: str | os.PathLike[str] | None = None,
           extends_root: str | os.PathLike[str] | None = None) -> Suite:
-    """Like `load`, for YAML text; `extends` and `model` paths are relative to `base_dir` (default: cwd),
-    and `extends` may name files below `extends_root` (default: `base_dir`)."""
+    """Like `load`, for YAML text.
+
+    Args:
+        text: The suite's YAML.
+        overrides: As `load`'s.
+        file: The name its problems give the text.
+        base_dir: The folder `extends` and `model:` paths are relative to. Default: the working directory.
+        extends_root: The folder tree `extends` and `model:` may name files in. Default: `base_dir`.
+
+    Returns:
+        The validated `Suite`.
+
+    Raises:
+        SuiteError: Every problem of the text and overrides, each at its line.
+        ArgumentError: `text` is not a str, `base_dir` or `extends_root` cannot be resolved, or `overrides`
+            is not one of `load`'s forms.
+    """
     if not isinstance(text, str):
         raise ArgumentError(f"loads takes the suite's YAML text as a str; got {type(text).__name__} "
                             "(use sensorcfg.load for a path)")
     return Suite(load_text(text, _overrides(overrides), file=file, base_dir=base_dir, extends_root=extends_root))
 
 
-def _overrides(overrides: Sequence[str] | None) -> list[str] | None:
-    if overrides is None:
-        return None
-    if isinstance(overrides, str) or not all(isinstance(o, str) for o in overrides):
-        raise ArgumentError("overrides is a list of 'dotted.key=value' strings, for example "
-                            f"['defaults.buffer=2']; got {quote(overrides)}")
-    return list(overrides)
+def _overrides(overrides: Overrides) -> list[str] | None:
+    return None if overrides is None else override_texts(overrides)

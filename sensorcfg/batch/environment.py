@@ -173,6 +173,39 @@ class BatchEnvironment(ControlLoop):
                  control_timestep: float | None = None, time_limit: float | None = None,
                  seed: int | np.random.SeedSequence | None = None, reward_fn: BatchRewardFn | None = None,
                  termination_fn: BatchTerminationFn | None = None, keyframe: int | str | None = None):
+        """Compile the model with the suite's sensors, check that the batch runs every one of them, and make
+        the `mujoco.batch.Batch` of `nsim` simulations (each reset by the first `step` or `reset`).
+
+        Args:
+            model: What `Environment` takes: an MjModel, an MjSpec or a model path (`package://` and
+                `menagerie://` names too), or None for the suite's own `model:`.
+            suite: A `Suite`, a suite file's path, or a dict of observables (name -> `Observable`).
+            nsim: The number of simulations (a positive integer).
+            nthread: Threads `mujoco.batch` steps them with; None or 0: every CPU.
+            physics_steps_per_control_step: MuJoCo steps per control step. Default: the suite's
+                `options.control_interval`, else 1.
+            control_timestep: The control step in seconds, a whole number of physics steps (instead of
+                `physics_steps_per_control_step`, or agreeing with it).
+            time_limit: Seconds per episode, rounded to whole control steps (at least one); the step that
+                reaches it is LAST with discount 1. None: no limit.
+            seed: The root seed (a non-negative integer, a SeedSequence or None); simulation i draws from
+                `sim_seed(seed, i)`, so it is `Environment(model, suite, seed=sim_seed(seed, i))`.
+            reward_fn: `reward_fn(batch) -> (nsim,) rewards` from the `mujoco.batch.Batch` after the step;
+                None: rewards 0.
+            termination_fn: `termination_fn(batch) -> (nsim,) bools`; True ends that simulation's episode with
+                discount 0.
+            keyframe: The keyframe (index or name) every reset starts from. Default: the suite's
+                `options.keyframe`, else the model's reset state.
+
+        Raises:
+            UnsupportedError: MuJoCo 3, which has no `mujoco.batch`.
+            SuiteError: The suite has problems against the model or a batch does not run one of its sensors
+                (all of them, each at its line; `sensorcfg validate --engine batch` reports the same), or
+                `keyframe` is not one of the model's.
+            ArgumentError: A setting it cannot use: `nsim`, `nthread`, a seed, a callable that is not one,
+                a `control_timestep` that is not a whole number of physics steps, a `time_limit` that is not
+                positive.
+        """
         batch_module = _batch_module()
         _check_arguments(nsim, nthread, reward_fn, termination_fn)
         self._reward_fn, self._termination_fn = reward_fn, termination_fn

@@ -11,7 +11,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from ..errors import install_hint
+from ..errors import install_hint, printable
 from .common import (EXIT_OK, HelpFormatter, UsageError, add_suite_args, load_model, load_suite, model_path,
                      require_matplotlib, writable)
 from .run import add_run_args, control_steps, execute, settings_from
@@ -68,9 +68,10 @@ def command(args: argparse.Namespace) -> int:
         actions = "random" if settings.random_actions else "zero"
         print(f"sensorcfg demo: the bundled sensor suite on the bundled robot, {settings.steps} control steps of "
               f"{actions} controls\n")
+    spec.notes = []  # said once, by the run, before it pays for what they are about
     print(format_spec(spec), end="\n\n")
     title = "sensorcfg demo (bundled suite and robot)" if args.suite is None else None
     status = execute(suite, model_file, settings, out, plot, args.overrides, label="demo", title=title)
     if status == EXIT_OK:
-        print(f"\nnext: open {plot or out}; the suite it ran is {suite_file}")
+        print(f"\nnext: open {plot or out}; the suite it ran is {printable(suite.file)}")  # as the spec names it
     return status

@@ -28,7 +28,13 @@ EXAMPLES = """examples:
 Columns: elements selected, shape and dtype of the observation (buffer axis first), the bounds every value
 keeps (min..max; '-' when unbounded; '- (noise)' when noise that can leave them dropped them; a clip stage
 sets them; images keep theirs), sampling interval in physics steps and Hz, delay in steps and ms, buffer
-length, aggregator, and the noise stages in order. A drawn interval shows as lo..hi or {a,b} steps."""
+length, aggregator, and the noise stages in order. A drawn interval shows as lo..hi or {a,b} steps. With a
+drawn delay a read shows the sample that arrived last, which can be older than the largest delay."""
+
+# under the table when some delay is drawn: its ms are the delays samples draw, not the ages reads show
+# (measured: interval 1, delay {uniform: [1, 3]}, 100,000 reads; 2/81 exactly, docs/semantics.md)
+DRAWN_DELAYS = ("drawn delays: a read shows the sample that arrived last (dm_control's rule), which can be older "
+                "than the largest delay: with interval 1 and delay {uniform: [1, 3]}, 2.5% of reads are 4 steps old")
 
 
 class Spec:
@@ -122,6 +128,8 @@ def format_spec(spec: Spec) -> str:
     out += f"\n\n{count} enabled observation{'s' if count != 1 else ''}"
     if spec.disabled:
         out += f"; disabled: {', '.join(spec.disabled)}"
+    if any(r.delay_steps is None for r in spec.rows):
+        out += "\n" + DRAWN_DELAYS
     for name, group in spec.groups.items():
         out += f"\ngroup {printable(name)} ({group.width} values): " + ", ".join(
             f"{c.name} [{c.start}:{c.stop}]" for c in group.columns)

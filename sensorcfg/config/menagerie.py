@@ -24,13 +24,31 @@ _OFFLINE = ("; without a network, set MENAGERIE_ROOT to a Menagerie checkout "
             "(git clone https://github.com/google-deepmind/mujoco_menagerie)")
 
 
-def _package() -> Any:
+def _package(robot_name: str, inner: str) -> Any:
     try:
         return importlib.import_module("mujoco_menagerie")
     except ImportError:
-        raise ValueError(f"a {MENAGERIE_SCHEME} model is found through the {PACKAGE!r} package, which is not "
-                         f"installed: {install_hint('menagerie', PACKAGE)}; set MENAGERIE_ROOT to a Menagerie "
-                         "checkout to use it instead of the package's download cache") from None
+        raise ValueError(_not_installed(robot_name, inner)) from None
+
+
+def _not_installed(robot_name: str, inner: str) -> str:
+    """Why the package is needed, with what MENAGERIE_ROOT holds of the robot: the package is what reads
+    MENAGERIE_ROOT, so setting it is the fix only while it is unset."""
+    found = f"a {MENAGERIE_SCHEME} model is found through the {PACKAGE!r} package"
+    install = install_hint("menagerie", PACKAGE)
+    root = os.environ.get("MENAGERIE_ROOT")
+    if not root:
+        return (f"{found}, which is not installed: {install}; set MENAGERIE_ROOT to a Menagerie checkout to use "
+                "it instead of the package's download cache")
+    folder = Path(root) / robot_name
+    if not folder.is_dir():
+        missing = f"; MENAGERIE_ROOT ({root}) has no folder {robot_name!r} either: point it at a Menagerie checkout"
+    elif not (folder / inner).is_file():
+        missing = f"; {folder} has no file {inner!r} either"
+    else:
+        return (f"{found}, which reads MENAGERIE_ROOT ({root}, where {robot_name}/{inner} is) but is not installed: "
+                f"{install}")
+    return f"{found}, which reads MENAGERIE_ROOT but is not installed: {install}{missing}"
 
 
 def menagerie_file(value: str) -> tuple[Path, Path]:
@@ -39,7 +57,7 @@ def menagerie_file(value: str) -> tuple[Path, Path]:
     robot_name, _, inner = value[len(MENAGERIE_SCHEME):].partition("/")
     if not robot_name or not inner:
         raise ValueError(f"{value!r} names no file; {_FORM}")
-    menagerie = _package()
+    menagerie = _package(robot_name, inner)
     try:
         folder = Path(menagerie.get(robot_name).path(progress=None))
     except menagerie.DownloadError as e:  # offline, or a download that failed: a checkout works without one
@@ -53,5 +71,5 @@ def menagerie_file(value: str) -> tuple[Path, Path]:
 def menagerie_missing(value: str, folder: Path) -> str:
     """Why `value` names no file of its robot, with the robot's models."""
     robot_name, _, inner = value[len(MENAGERIE_SCHEME):].partition("/")
-    files = sorted(e.file for e in _package().get(robot_name).entry_points)
+    files = sorted(e.file for e in _package(robot_name, inner).get(robot_name).entry_points)
     return f"{robot_name!r} has no file {inner!r} (in {folder}); its models are: {', '.join(files)}"

@@ -10,15 +10,18 @@ reported and changes nothing.
 from __future__ import annotations
 
 import dataclasses
+import json
+import math
+import numbers
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
-from ..errors import Problem, SuiteError, did_you_mean, quote
+from ..errors import ArgumentError, Problem, SuiteError, did_you_mean, quote
 from .limits import MAX_DEPTH, MAX_OVERRIDE_BYTES
 from .source import Doc, Path_, Pos, compose, dotted
 
-__all__ = ["apply_override", "parse_key", "with_model"]
+__all__ = ["apply_override", "override_texts", "parse_key", "with_model"]
 
 _INDEX = re.compile(r"-?[0-9]{1,9}")  # ASCII digits only: int() would also read '١' or '²'-like digits
 _LABEL_LIMIT = 80
@@ -29,6 +32,50 @@ def with_model(overrides: Sequence[str] | None, model: object) -> list[str] | No
     `model`): the suite's own `model:` line is dropped, not resolved (a `menagerie://` line offline, or a
     file that is not on this machine, would otherwise stop a suite that runs on the model given)."""
     return [*(overrides or ()), "model=null"] if model is not None else (list(overrides) if overrides else None)
+
+
+def override_texts(overrides: Sequence[str] | Mapping[str, Any]) -> list[str]:
+    """Overrides as `dotted.key=value` texts: a list of them as it is, a mapping of dotted keys to Python
+    values (`{"defaults.buffer": 2, "sensors.s.delay": {"uniform": [1, 3]}}`) written as YAML that reads back
+    as the same values, so their mistakes are reported in the override's text like a written one's.
+    ArgumentError for what is neither."""
+    if isinstance(overrides, Mapping):
+        texts = []
+        for key, value in overrides.items():
+            if not isinstance(key, str) or not key.strip() or "=" in key:
+                raise ArgumentError(f"an overrides mapping's keys are dotted keys such as 'defaults.buffer' (no "
+                                    f"'='); got {quote(key)}")
+            texts.append(f"{key}={_yaml(value, key, 0)}")
+        return texts
+    if isinstance(overrides, str) or not isinstance(overrides, Sequence) or not all(isinstance(o, str)
+                                                                                    for o in overrides):
+        raise ArgumentError("overrides is a list of 'dotted.key=value' strings, for example ['defaults.buffer=2'], "
+                            f"or a mapping of dotted keys to values, {{'defaults.buffer': 2}}; got {quote(overrides)}")
+    return list(overrides)
+
+
+def _yaml(value: Any, key: str, depth: int) -> str:
+    """`value` as YAML flow text that `compose` reads back as `value` (strings always quoted, so '1e-3' stays
+    text); ArgumentError for a value YAML cannot hold."""
+    if depth > MAX_DEPTH:
+        raise ArgumentError(f"overrides[{quote(key)}] nests more than {MAX_DEPTH} levels deep (or contains itself)")
+    if value is None or isinstance(value, bool):
+        return {None: "null", True: "true", False: "false"}[value]
+    if isinstance(value, str):
+        return json.dumps(value, ensure_ascii=False)  # a JSON string is a YAML double-quoted scalar
+    if isinstance(value, numbers.Integral):
+        return str(int(value))
+    if isinstance(value, numbers.Real):
+        number = float(value)
+        return (".nan" if math.isnan(number) else ("-.inf" if number < 0 else ".inf") if math.isinf(number)
+                else repr(number))
+    if isinstance(value, Mapping):
+        return "{" + ", ".join(f"{_yaml(k, key, depth + 1)}: {_yaml(v, key, depth + 1)}"
+                               for k, v in value.items()) + "}"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_yaml(v, key, depth + 1) for v in value) + "]"
+    raise ArgumentError(f"overrides[{quote(key)}] is of type {type(value).__name__}; an override's value is what "
+                        "YAML holds: None, a bool, a number, a str, or a list or dict of them")
 
 
 def parse_key(key: str) -> Path_:

@@ -24,9 +24,10 @@ from typing import Any
 
 import yaml
 
-from ..errors import Problem, SuiteError, printable, quote
+from ..errors import QUOTE_LIMIT, Problem, SuiteError, printable, quote
 from . import limits
 from .limits import MAX_NODES
+from .syntax import plain_words
 
 __all__ = ["Doc", "Pos", "Path_", "compose", "dotted", "MAX_NODES", "DECIMAL"]
 
@@ -262,6 +263,10 @@ def _syntax_problem(error: yaml.MarkedYAMLError, loader: _BoundedLoader | None, 
         closer, where = _CLOSERS[char]
         return _pos(opened, file, col_offset=col_offset).problem(
             f"invalid YAML: this {quote(char)} is never closed; add {quote(closer)} {where}")
+    said = plain_words(error, text)
+    if said is not None:
+        return Pos(file, said.line + 1, said.column + 1 + (col_offset if said.line == 0 else 0)).problem(
+            f"invalid YAML: {said.message}")
     mark = error.problem_mark or error.context_mark
     problem = str(error.problem or error.context).removeprefix("but ")
     what = problem + (f" ({error.context})" if error.problem and error.context else "")
@@ -306,6 +311,16 @@ def compose(text: str, file: str, *, col_offset: int = 0) -> Doc:
         raise SuiteError(e.problem) from None
     doc.problems.extend(builder.problems)
     return doc
+
+
+# what YAML reads a key that is not a string as (a key is written in YAML, so its Python type is not said)
+_READ_AS: dict[type, str] = {type(None): "null", bool: "a boolean", int: "an integer", float: "a number"}
+
+
+def _spelled(node: yaml.Node) -> str:
+    """A scalar as it was written (`~`, `null`, `True`, `0x1F`), shortened; an empty one said so."""
+    text = str(node.value)
+    return printable(text if len(text) <= QUOTE_LIMIT else text[:QUOTE_LIMIT] + "...") if text else "(empty)"
 
 
 class _Builder:
@@ -416,7 +431,8 @@ class _Builder:
                 continue  # its problem is reported
             if not isinstance(key, str):
                 self.problems.append(key_pos.problem(
-                    f"the key {quote(key)} must be a name (a string); quote it if it really is one", dotted(path)))
+                    f"the key {_spelled(key_node)} must be a name (a string), but YAML reads it as "
+                    f"{_READ_AS.get(type(key), 'a value')}; quote it if it really is one", dotted(path)))
                 continue
             if key in first:
                 self.problems.append(key_pos.problem(

@@ -111,6 +111,17 @@ def dm_control_observables(suite: Any, physics: Any) -> dict[str, Any]:
 
         for name, obs in sensorcfg.dm_control_observables("suite.yaml", physics).items():
             self._task_observables[name] = obs
+
+    Args:
+        suite: A `Suite`, or a suite file's path.
+        physics: The dm_control Physics they read; its model must carry the suite's MuJoCo sensors and
+            cameras (`Suite.compile` makes one that does).
+
+    Returns:
+        The observables by sensor name, in the suite's order.
+
+    Raises:
+        SuiteError: Every problem of the suite against the physics' model, each at its line.
     """
     if not hasattr(suite, "build"):
         from .. import load

@@ -274,6 +274,38 @@ class Environment(ControlLoop, dm_env.Environment):
                  seed: int | np.random.SeedSequence | np.random.RandomState | None = None,
                  reward_fn: RewardFn | None = None, termination_fn: TerminationFn | None = None,
                  initialize_episode: InitializeFn | None = None, keyframe: int | str | None = None):
+        """Compile the model with the suite's sensors, bind them and take one reset for the specs (from its
+        own random state: the episodes' stream is untouched until the first `reset`).
+
+        Args:
+            model: An MjModel (which must carry the suite's MuJoCo sensors and cameras: `Suite.compile`), an
+                MjSpec or a model path (`package://` and `menagerie://` names too), compiled with them; or
+                None for the suite's own `model:`.
+            suite: A `Suite`, a suite file's path, or a dict of observables (name -> `Observable`).
+            physics_steps_per_control_step: MuJoCo steps per control step. Default: the suite's
+                `options.control_interval`, else 1.
+            control_timestep: The control step in seconds, a whole number of physics steps (instead of
+                `physics_steps_per_control_step`, or agreeing with it).
+            time_limit: Seconds per episode, rounded to whole control steps (at least one); the step that
+                reaches it is LAST with discount 1. None: no limit.
+            seed: The episodes' random stream: an integer from 0 to 2**32 - 1 or None (as
+                `numpy.random.RandomState(seed)`), a SeedSequence (as `BatchEnvironment` seeds a simulation:
+                `sensorcfg.batch.sim_seed`), or a RandomState used as it is.
+            reward_fn: `reward_fn(physics) -> float`, after each control step's physics; None: reward 0.
+            termination_fn: `termination_fn(physics) -> bool`, after each control step that did not diverge;
+                True ends the episode with discount 0.
+            initialize_episode: `initialize_episode(physics, random_state)`, at each reset after the model's
+                reset state (or keyframe) is set and before `mj_forward`.
+            keyframe: The keyframe (index or name) every reset starts from. Default: the suite's
+                `options.keyframe`, else the model's reset state.
+
+        Raises:
+            SuiteError: The suite has problems against the model (all of them, each at its line), the model
+                cannot be loaded, or `keyframe` is not one of the model's.
+            ArgumentError: A setting it cannot use: a seed out of range, a `control_timestep` that is not a
+                whole number of physics steps, a `time_limit` that is not positive, a model of another type.
+            UnsupportedError: A camera sensor without a usable OpenGL library.
+        """
         self._model, observables, kwargs = model_and_observables(*model_source(model, suite))
         self._physics = Physics(self._model)
         self._warning_counts = self._physics.data.warning.number  # a live view of MjData's counters
@@ -404,5 +436,17 @@ class Environment(ControlLoop, dm_env.Environment):
 
 
 def make_env(suite_path: str | os.PathLike, model: ModelArg = None, **kwargs: Any) -> Environment:
-    """An Environment for a suite file, on the suite's own `model:` unless one is given."""
+    """An Environment for a suite file, on the suite's own `model:` unless one is given.
+
+    Args:
+        suite_path: The suite file.
+        model: What `Environment` takes as its model; None: the suite's own `model:` (not read when given).
+        **kwargs: `Environment`'s other arguments (`physics_steps_per_control_step`, `seed`, ...).
+
+    Returns:
+        The `Environment`.
+
+    Raises:
+        SuiteError: As `Environment`, and for the suite file's own problems (all of them, each at its line).
+    """
     return Environment(model, suite_path, **kwargs)

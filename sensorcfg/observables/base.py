@@ -45,6 +45,22 @@ class Observable(metaclass=abc.ABCMeta):
     def __init__(self, update_interval: Schedule | None = 1, buffer_size: int | None = None,
                  delay: Schedule | None = None, aggregator: Any = None,
                  corruptor: Callable[..., Any] | None = None):
+        """The schedule settings every observable has (dm_control's), checked now.
+
+        Args:
+            update_interval: Physics steps between samples (a positive integer), or a callable drawing one
+                per sample (as dm_control's).
+            buffer_size: Samples each observation holds (a positive integer); None: 1.
+            delay: Physics steps between a sample and the first read that shows it (a non-negative integer),
+                or a callable drawing one per sample; None: 0.
+            aggregator: A reduction of the buffer axis: a name of `AGGREGATORS` ("mean", "max", ...), any
+                callable, or None.
+            corruptor: dm_control's `corruptor(value, random_state=...) -> value`, applied to each sample;
+                None: none.
+
+        Raises:
+            SuiteError: A setting that is not one of the above (an interval of 0, an unknown aggregator).
+        """
         self._update_interval = check_setting("update_interval", update_interval, repr(self))
         self._buffer_size = check_setting("buffer_size", buffer_size, repr(self))
         self._delay = check_setting("delay", delay, repr(self))

@@ -226,6 +226,23 @@ class Camera(Observable):
                  corruptor: Callable[..., Any] | None = None,
                  mode: Literal["rgb", "depth", "segmentation"] = "rgb",
                  scene_option: mujoco.MjvOption | Mapping[str, bool] | None = None):
+        """Check the image settings now; the camera is resolved, and its renderer made, when bound to a model.
+
+        Args:
+            camera: The model camera: 'camera:name', its name, or its id (-1: the free camera).
+            height: Image height in pixels; None: the camera's MJCF `resolution`, else 240.
+            width: Image width in pixels; None: the camera's MJCF `resolution`, else 320.
+            update_interval, buffer_size, delay, aggregator, corruptor: The schedule settings of every
+                observable (`Observable`).
+            mode: "rgb" (uint8 HxWx3), "depth" (float32 distances in the model's units, HxWx1) or
+                "segmentation" (int32 object ids and types, HxWx2).
+            scene_option: Scene flags switched by name (`SCENE_FLAGS`: shadow, reflection, skybox, ...), or an
+                `MjvOption`; None: MuJoCo's defaults.
+
+        Raises:
+            SuiteError: An unknown mode, a height or width that is not a positive integer, an unknown scene
+                flag, or a setting that is not one an observable takes.
+        """
         if mode not in MODES:
             raise SuiteError(f"unknown camera mode {mode!r}{did_you_mean(str(mode), MODES)}; use {', '.join(MODES)}")
         for name, value in (("height", height), ("width", width)):

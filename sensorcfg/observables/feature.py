@@ -262,6 +262,20 @@ class Feature(Observable):
     def __init__(self, kind: str, element: str | Sequence[str], update_interval: Any = 1,
                  buffer_size: int | None = None, delay: Any = None, aggregator: Any = None,
                  corruptor: Callable[..., Any] | None = None, index: Any = None, within: str | Sequence[str] | None = None):
+        """Check the kind against the element type now; the elements are resolved when bound to a model.
+
+        Args:
+            kind: What to read, by dm_control's bind name (`qpos`, `xpos`, `sensordata`, ...).
+            element: A selector 'type:name' (a glob such as 'joint:*' too), or a list of them.
+            update_interval, buffer_size, delay, aggregator, corruptor: The schedule settings of every
+                observable (`Observable`).
+            index: A part of the value (`numpy` indexing of one element's value, as `Feature(...)[index]`).
+            within: A 'body:name' (or a list of them) whose subtree the selection is restricted to.
+
+        Raises:
+            SuiteError: The element type has no such kind (with "did you mean"), the element list is empty,
+                or a setting is not one an observable takes.
+        """
         self._kind = kind
         self._element = element if isinstance(element, str) else tuple(element)
         self._index = index

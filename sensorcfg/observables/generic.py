@@ -35,6 +35,19 @@ class Generic(Observable):
     def __init__(self, raw_observation_callable: Callable[[Any], Any], update_interval: Any = 1,
                  buffer_size: int | None = None, delay: Any = None, aggregator: Any = None,
                  corruptor: Callable[..., Any] | None = None, *, origin: Problem | None = None):
+        """Wrap the callable; its first value fixes the shape and dtype every later value keeps.
+
+        Args:
+            raw_observation_callable: `fn(physics) -> value`, a number or an array of numbers.
+            update_interval, buffer_size, delay, aggregator, corruptor: The schedule settings of every
+                observable (`Observable`).
+            origin: Where problems of its values are reported (the suite line of a sensor built from a
+                suite); None: they name the callable.
+
+        Raises:
+            TypeError: `raw_observation_callable` is not callable.
+            SuiteError: A setting that is not one an observable takes.
+        """
         if not callable(raw_observation_callable):
             raise TypeError(f"Generic needs a callable, got {type(raw_observation_callable).__name__}")
         self._raw_callable = raw_observation_callable

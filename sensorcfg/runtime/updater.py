@@ -84,6 +84,20 @@ class Updater:
     def __init__(self, observables: Mapping[str, Any] | Sequence[Mapping[str, Any]],
                  physics_steps_per_control_step: int = 1, strip_singleton_buffer_dim: bool = False,
                  pad_with_initial_value: bool = False):
+        """dm_control's Updater settings; nothing is bound until `reset(physics, random_state)`.
+
+        Args:
+            observables: The observables by name (only the enabled ones are sampled), or a list or tuple of
+                such dicts (the observation is then nested alike).
+            physics_steps_per_control_step: Physics steps per control step: `update` is called after each,
+                `get_observation` once per control step.
+            strip_singleton_buffer_dim: Drop the buffer axis of observations whose buffer is 1.
+            pad_with_initial_value: Fill a buffer that is not yet full with the first sample instead of zeros.
+
+        Raises:
+            ArgumentError: `observables` is not a dict (or a list or tuple of dicts), or the steps per
+                control step are not a positive integer.
+        """
         nested = isinstance(observables, (list, tuple))
         valid = all(isinstance(o, Mapping) for o in observables) if nested else isinstance(observables, Mapping)
         if not valid:

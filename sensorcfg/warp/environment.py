@@ -24,6 +24,7 @@ control steps (one small copy).
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Callable, Mapping
 from typing import Any, NamedTuple
 
@@ -48,6 +49,7 @@ from .cameras import Cameras
 from .episode import episode_values
 from .generic import Generics, split
 from .philox import MODULE_OPTIONS
+from .quiet import quiet
 from .rays import Scans, plan as scan_plan
 from .sensors import Sensors
 from .support import field_refusal, refusals
@@ -139,27 +141,68 @@ def _flat(array: wp.array, nworld: int) -> wp.array:
 
 
 class WarpEnvironment(ControlLoop):
-    """`nworld` MuJoCo Warp worlds of one model, observed through one sensor suite (see the module's doc).
+    """`nworld` MuJoCo Warp worlds of one model, observed through one sensor suite (see the module's doc and
+    `__init__`'s arguments)."""
 
-    `model`: an MjModel, an MjSpec, a path or None for the suite's `model:`; `device`: a Warp device ("cuda:0",
-    "cpu"; None: Warp's default); `world_offset`: this process's first global world (under torchrun: rank x
-    nworld); `reward_fn(env)` / `termination_fn(env)` return (nworld,) float32 / bool device arrays from
-    `env.data` as the step's physics left it, before any restart (on a GPU they are recorded into the step's
-    CUDA graph: device work only, no host reads); `nconmax` / `njmax`: MuJoCo Warp's contact and constraint sizes per world; `capture`: replay each
-    control step as one CUDA graph (default: on CUDA devices; ignored on the CPU)."""
-
+    @quiet
     def __init__(self, model: ModelArg, suite: Any, nworld: int, *, device: str | None = None,
                  physics_steps_per_control_step: int | None = None, control_timestep: float | None = None,
                  time_limit: float | None = None, seed: int | np.random.SeedSequence | None = None,
                  reward_fn: WarpFn | None = None, termination_fn: WarpFn | None = None,
                  keyframe: int | str | None = None, world_offset: int = 0, key_episodes: int = 8,
                  nconmax: int | None = None, njmax: int | None = None, capture: bool | None = None):
+        """Compile the model with the suite's sensors, check that the engine runs every one of them, and put
+        the model and `nworld` worlds on `device` (each reset by the first `step` or `reset`).
+
+        Args:
+            model: What `Environment` takes: an MjModel, an MjSpec or a model path (`package://` and
+                `menagerie://` names too), or None for the suite's own `model:`.
+            suite: A `Suite`, a suite file's path, or a dict of observables (name -> `Observable`).
+            nworld: The number of worlds in this process (a positive integer).
+            device: A Warp device ("cuda:0", "cpu"); None: Warp's default.
+            physics_steps_per_control_step: MuJoCo steps per control step. Default: the suite's
+                `options.control_interval`, else 1.
+            control_timestep: The control step in seconds, a whole number of physics steps (instead of
+                `physics_steps_per_control_step`, or agreeing with it).
+            time_limit: Seconds per episode, rounded to whole control steps (at least one); the step that
+                reaches it is LAST with discount 1. None: no limit.
+            seed: The root seed (a non-negative integer, a SeedSequence or None): world w draws as simulation
+                `world_offset + w` of a `BatchEnvironment` with this seed.
+            reward_fn: `reward_fn(env) -> (nworld,) float32 device array` from `env.data` as the step's physics
+                left it, before any restart (on a GPU it is recorded into the step's CUDA graph: device work
+                only, no host reads); None: rewards 0.
+            termination_fn: `termination_fn(env) -> (nworld,) bool device array`, as `reward_fn`; True ends
+                that world's episode with discount 0.
+            keyframe: The keyframe (index or name) every reset starts from. Default: the suite's
+                `options.keyframe`, else the model's reset state.
+            world_offset: This process's first global world (under torchrun: rank x nworld), so that N
+                processes of n worlds run the worlds of one batch of N n.
+            key_episodes: Episodes per world whose noise keys the device holds ahead (at least 4); the host
+                tops the table up every `key_episodes // 4` control steps.
+            nconmax: MuJoCo Warp's contacts per world. Default: at least 64, and four times what
+                `mj_forward` finds at the initial state.
+            njmax: MuJoCo Warp's constraint rows per world. Default: at least 128, and four times what
+                `mj_forward` finds at the initial state.
+            capture: Replay each control step as one CUDA graph (recorded at the second step). Default: on
+                CUDA devices; ignored on the CPU.
+
+        Raises:
+            SuiteError: The suite has problems against the model or the engine does not run one of its
+                sensors (all of them, each at its line; `sensorcfg validate --engine warp` reports the same),
+                or `keyframe` is not one of the model's.
+            ArgumentError: A setting it cannot use: `nworld`, `world_offset`, `key_episodes`, a seed, a
+                `control_timestep` that is not a whole number of physics steps, a `time_limit` that is not
+                positive.
+            UnsupportedError: A model MuJoCo Warp itself does not run (its `put_model` refuses it).
+        """
         if isinstance(nworld, bool) or not isinstance(nworld, (int, np.integer)) or nworld < 1:
             raise ArgumentError(f"nworld must be a positive integer; got {nworld!r}")
         if isinstance(world_offset, bool) or not isinstance(world_offset, (int, np.integer)) or world_offset < 0:
             raise ArgumentError(f"world_offset must be a non-negative integer; got {world_offset!r}")
-        if not isinstance(key_episodes, int) or key_episodes < 4:
+        integral = isinstance(key_episodes, (int, numbers.Integral))  # any integer, numpy's too (int: for mypy)
+        if isinstance(key_episodes, bool) or not integral or key_episodes < 4:
             raise ArgumentError(f"key_episodes must be an integer of at least 4; got {key_episodes!r}")
+        key_episodes = int(key_episodes)
         self._nworld, self._offset = int(nworld), int(world_offset)
         self._batch_shape = (self._nworld,)
         self._reward_fn, self._termination_fn = reward_fn, termination_fn
@@ -330,6 +373,7 @@ class WarpEnvironment(ControlLoop):
         self._sensors.reset(mask, self._fields, self._worlds.steps)
         self._cameras.reset(mask)
 
+    @quiet
     def reset(self, ids: Any = None) -> WarpTimeStep:
         """Start new episodes of worlds `ids` (all when None: indices, or a boolean mask); the others continue."""
         chosen = chosen_ids(ids, self._nworld, "world", "this environment")
@@ -349,6 +393,7 @@ class WarpEnvironment(ControlLoop):
         self._discount.fill_(1.0)
         return WarpTimeStep(self._step_type, self._reward, self._discount, self._observe())
 
+    @quiet
     def step(self, actions: Any) -> WarpTimeStep:
         """One control step of every world (auto-resetting those whose episode ended). `actions`: (nworld, nu)
         float32 on the device (a Warp array, or anything `wp.from_dlpack`/`wp.array` takes)."""

@@ -23,8 +23,9 @@ import numpy as np
 import warp as wp
 
 from ..errors import UnsupportedError
+from .quiet import quiet_loads
 
-__all__ = ["Worlds", "default_sizes"]
+__all__ = ["Worlds", "default_sizes", "model_refusal", "put_model"]
 
 wp.set_module_options({"enable_backward": False})
 
@@ -109,6 +110,27 @@ def _version() -> str:
     return str(getattr(mjw, "__version__", "")) or "(version unknown)"
 
 
+def put_model(mjm: mujoco.MjModel) -> mjw.Model:
+    """MuJoCo Warp's model of `mjm` on the current device; UnsupportedError saying what MuJoCo Warp does not
+    run of it (a model feature: the PGS solver, a plugin, a dense Jacobian past 60 dofs, ...), not where."""
+    try:
+        return mjw.put_model(mjm)
+    except (NotImplementedError, ValueError) as e:
+        raise UnsupportedError(f"MuJoCo Warp {_version()} cannot run this model: {e} Run it on the CPU engines "
+                               "(Environment, BatchEnvironment), or change the model") from None
+
+
+def model_refusal(mjm: mujoco.MjModel) -> str | None:
+    """What MuJoCo Warp refuses of `mjm` (`put_model`, tried on Warp's CPU device, quietly), or None when it
+    takes it: what `validate --engine warp` checks of the model where MuJoCo Warp is installed."""
+    try:
+        with quiet_loads(), wp.ScopedDevice("cpu"):
+            put_model(mjm)
+    except UnsupportedError as e:
+        return str(e)
+    return None
+
+
 class Worlds:
     """nworld worlds of `mjm` on `device`, all reset to `keyframe` (an index of mjm's keyframes; None: qpos0).
 
@@ -129,11 +151,7 @@ class Worlds:
         self.nconmax = sizes[0] if nconmax is None else nconmax
         self.njmax = sizes[1] if njmax is None else njmax
         with wp.ScopedDevice(self.device):
-            try:
-                self.model = mjw.put_model(mjm)
-            except NotImplementedError as e:  # a model feature MuJoCo Warp does not run: say so, not where
-                raise UnsupportedError(f"MuJoCo Warp {_version()} cannot run this model: {e} Run it on the CPU "
-                                       "engines (Environment, BatchEnvironment), or change the model") from None
+            self.model = put_model(mjm)
             self.data = mjw.make_data(mjm, nworld=nworld, nconmax=self.nconmax, njmax=self.njmax)
             self.steps = wp.zeros(nworld, dtype=wp.int64)
             self.diverged = wp.zeros(nworld, dtype=bool)

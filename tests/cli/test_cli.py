@@ -294,6 +294,20 @@ def test_spec_table_and_json(tmp_path: Path) -> None:
     assert out["physics_steps_per_control_step"] == 5
 
 
+def test_spec_says_under_its_table_that_a_drawn_delay_is_not_a_reads_age(tmp_path: Path) -> None:
+    """The ms of a drawn delay are what samples draw; a read shows the sample that arrived last, which can be
+    older than the largest delay: said under the table when some delay is drawn, and only then."""
+    from sensorcfg.cli.spec import DRAWN_DELAYS
+
+    write(tmp_path / "s.yaml", VALID)  # gyro: delay {uniform: [0, 3]}
+    drawn = cli("spec", "s.yaml", cwd=tmp_path).stdout.splitlines()
+    assert drawn[drawn.index("2 enabled observations") + 1] == DRAWN_DELAYS
+    assert DRAWN_DELAYS.startswith("drawn delays: a read shows the sample that arrived last (dm_control's rule), "
+                                   "which can be older than the largest delay")
+    fixed = cli("spec", "s.yaml", "--set", "sensors.gyro.delay=2", cwd=tmp_path).stdout
+    assert fixed.splitlines()[-1] == "2 enabled observations" and "drawn delays" not in fixed
+
+
 def test_spec_lists_disabled_sensors_apart_and_applies_set(tmp_path: Path) -> None:
     write(tmp_path / "s.yaml", VALID)
     proc = cli("spec", "s.yaml", "--set", "sensors.gyro.enabled=false", "--set", "defaults.buffer=3",
@@ -473,6 +487,34 @@ def test_demo_without_matplotlib_skips_only_the_plot(tmp_path: Path, no_matplotl
     assert ("note: matplotlib is not installed, so there will be no plot; pip install matplotlib (or, from a "
             "sensorcfg clone, pip install '.[plot]') to get one") in proc.stdout
     assert sorted(p.name for p in tmp_path.iterdir()) == ["sensorcfg-demo.json", "sensorcfg-demo.npz"]
+
+
+def _ignored(name: str) -> bool:
+    """Whether the repository's .gitignore ignores a file `name` at its top (last matching pattern wins)."""
+    import fnmatch
+
+    ignored = False
+    for pattern in (ROOT / ".gitignore").read_text().splitlines():
+        negated = pattern.startswith("!")
+        if pattern and not pattern.startswith("#") and fnmatch.fnmatch(name, pattern.removeprefix("!").strip("/")):
+            ignored = not negated
+    return ignored
+
+
+def test_demo_says_its_notes_and_suite_once_and_git_ignores_what_it_writes(tmp_path: Path) -> None:
+    """Run from the folder above the bundled suite, the demo names it as the spec does (relative), prints the
+    suite's note once, and writes only files a clone's git ignores."""
+    assets = Path(sensorcfg.assets.path("demo.yaml")).parent
+    proc = cli("demo", "--steps", "2", "--prefix", str(tmp_path / "sensorcfg-demo"), cwd=assets.parent)
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert lines[2] == f"assets/demo.yaml on {assets / 'robot.xml'}"
+    assert lines[-1] == f"next: open {tmp_path / 'sensorcfg-demo.png'}; the suite it ran is assets/demo.yaml"
+    notes = [line for line in lines if ": note: " in line]
+    assert len(notes) == 1 and notes[0].startswith("assets/demo.yaml:39:3: note: sensors.wrist_cam: this camera")
+    written = sorted(p.name for p in tmp_path.iterdir())
+    assert written == ["sensorcfg-demo.json", "sensorcfg-demo.npz", "sensorcfg-demo.png"]
+    assert [name for name in written if not _ignored(name)] == []
 
 
 def test_pre_commit_hook_runs_validate() -> None:

@@ -29,6 +29,7 @@ SUITE = "model: menagerie://anybotics_anymal_c/scene.xml\nsensors:\n  q: {kind: 
 
 def test_a_missing_package_is_a_problem_at_the_model_line(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setitem(sys.modules, "mujoco_menagerie", None)  # import fails as if not installed
+    monkeypatch.delenv("MENAGERIE_ROOT", raising=False)
     with pytest.raises(SuiteError) as e:
         sensorcfg.loads(SUITE, file="s.yaml")
     assert [p.format() for p in e.value.problems] == [
@@ -36,6 +37,42 @@ def test_a_missing_package_is_a_problem_at_the_model_line(monkeypatch: pytest.Mo
         "not installed: pip install mujoco-menagerie (or, from a sensorcfg clone, pip install '.[menagerie]'); set "
         "MENAGERIE_ROOT to a Menagerie "
         "checkout to use it instead of the package's download cache"]
+
+
+@pytest.mark.parametrize(("made", "missing"), [
+    pytest.param((), "; MENAGERIE_ROOT ({root}) has no folder 'anybotics_anymal_c' either: point it at a Menagerie "
+                 "checkout", id="no-robot-folder"),
+    pytest.param(("anybotics_anymal_c",), "; {root}/anybotics_anymal_c has no file 'scene.xml' either",
+                 id="no-file"),
+])
+def test_a_missing_package_with_menagerie_root_set_says_what_is_missing(
+        made: tuple[str, ...], missing: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """MENAGERIE_ROOT is read by the package, so with it set the fix is the package (and what the checkout
+    lacks of the robot), not setting MENAGERIE_ROOT."""
+    monkeypatch.setitem(sys.modules, "mujoco_menagerie", None)
+    monkeypatch.setenv("MENAGERIE_ROOT", str(tmp_path))
+    for folder in made:
+        (tmp_path / folder).mkdir()
+    with pytest.raises(SuiteError) as e:
+        sensorcfg.loads(SUITE, file="s.yaml")
+    assert [p.format() for p in e.value.problems] == [
+        "s.yaml:1:8: error: model: a menagerie:// model is found through the 'mujoco-menagerie' package, which reads "
+        "MENAGERIE_ROOT but is not installed: pip install mujoco-menagerie (or, from a sensorcfg clone, pip install "
+        "'.[menagerie]')" + missing.format(root=tmp_path)]
+
+
+def test_a_missing_package_with_the_robot_under_menagerie_root_names_only_the_package(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setitem(sys.modules, "mujoco_menagerie", None)
+    monkeypatch.setenv("MENAGERIE_ROOT", str(tmp_path))
+    (tmp_path / "anybotics_anymal_c").mkdir()
+    shutil.copy(MODEL, tmp_path / "anybotics_anymal_c" / "scene.xml")
+    with pytest.raises(SuiteError) as e:
+        sensorcfg.loads(SUITE, file="s.yaml")
+    assert [p.message for p in e.value.problems] == [
+        f"a menagerie:// model is found through the 'mujoco-menagerie' package, which reads MENAGERIE_ROOT "
+        f"({tmp_path}, where anybotics_anymal_c/scene.xml is) but is not installed: pip install mujoco-menagerie "
+        "(or, from a sensorcfg clone, pip install '.[menagerie]')"]
 
 
 @pytest.mark.parametrize("model", ["menagerie://anybotics_anymal_c", "menagerie:///scene.xml"])

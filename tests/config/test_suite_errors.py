@@ -45,11 +45,64 @@ LOAD_MISTAKES = [
         '  s: {kind: qpos, element: [joint:elbow}\n',
         "2:40: error: invalid YAML: expected ',' or ']', but got '}' (while parsing a flow sequence)",
         id='yaml_syntax'),
+    # PyYAML's words about tabs and indentation, said plainly with the fix (issue 30)
     pytest.param(
         'sensors:\n'
         '\ts: {}\n',
-        "2:1: error: invalid YAML: found character '\\t' that cannot start any token (while scanning for the next token)",
+        "2:1: error: invalid YAML: tabs are not allowed for indentation in YAML; indent with spaces",
         id='yaml_tab'),
+    pytest.param(
+        'sensors:\n'
+        '  s:\n'
+        '    kind:\tqpos\n',
+        "3:10: error: invalid YAML: a tab cannot be read here: sensorcfg's YAML reader takes only spaces between "
+        "keys, values and items outside quotes; replace the tab with a space",
+        id='yaml_tab_after_a_key'),
+    pytest.param(
+        'sensors:\n'
+        '  s:\n'
+        '    kind: qpos\n'
+        '   element: joint:elbow\n',
+        "4:4: error: invalid YAML: this line is indented 3 spaces, but the lines above it are indented 4 (line 3) "
+        "and 2 (line 2): YAML places each line in a mapping or list by its indentation; indent it 4 or 2 spaces, "
+        "as the lines it belongs with",
+        id='key_between_indentations'),
+    pytest.param(
+        'sensors:\n'
+        '  s:\n'
+        '    kind: qpos\n'
+        '      # a comment is not a line of YAML\n'
+        '      element: joint:elbow\n',
+        "5:7: error: invalid YAML: this line is indented 6 spaces, deeper than the keys of the mapping above it "
+        "(4 spaces, from line 3), whose last value is already written; indent it 4 spaces if it is that "
+        "mapping's next key",
+        id='key_indented_under_a_comment'),
+    pytest.param(
+        'sensors:\n'
+        '  s:\n'
+        '    kind: qpos\n'
+        '      element: joint:elbow\n',
+        "4:7: error: invalid YAML: this line is indented deeper than line 3, so YAML reads 'element' as more of "
+        "that line's value, where no key can start; indent it as line 3's key (4 spaces) if it is the next key "
+        "of that mapping",
+        id='key_indented_under_a_value'),
+    pytest.param(
+        'sensors:\n'
+        '  s:\n'
+        '    kind: "qpos"\n'
+        '      element: joint:elbow\n',
+        "4:7: error: invalid YAML: this line is indented 6 spaces, deeper than the keys of the mapping above it "
+        "(4 spaces, from line 3), whose last value is already written; indent it 4 spaces if it is that "
+        "mapping's next key",
+        id='key_indented_under_a_quoted_value'),
+    pytest.param(
+        'sensors:\n'
+        '  s:\n'
+        '    kind: qpos\n'
+        '    element: joint: elbow\n',
+        "4:19: error: invalid YAML: a ': ' inside a value starts a key where YAML does not allow one; quote the "
+        "value (key: 'a: b') if the ': ' is part of it, or start the key on a line of its own",
+        id='colon_inside_a_value'),
     pytest.param(
         'sensors:\n'
         '  s:\n'
@@ -402,8 +455,28 @@ LOAD_MISTAKES = [
     pytest.param(
         'sensors:\n'
         '  1: {kind: qpos, element: joint:elbow}\n',
-        '2:3: error: sensors: the key 1 must be a name (a string); quote it if it really is one',
+        '2:3: error: sensors: the key 1 must be a name (a string), but YAML reads it as an integer; quote it if it '
+        'really is one',
         id='number_as_name'),
+    # a key is said as it was written, not as Python prints its value (issue 30)
+    pytest.param(
+        'sensors:\n'
+        '  null: {kind: qpos, element: joint:elbow}\n'
+        '  ~: {kind: qpos, element: joint:elbow}\n'
+        '  True: {kind: qpos, element: joint:elbow}\n'
+        '  0x1F: {kind: qpos, element: joint:elbow}\n'
+        '  1.50: {kind: qpos, element: joint:elbow}\n',
+        ['2:3: error: sensors: the key null must be a name (a string), but YAML reads it as null; quote it if it '
+         'really is one',
+         '3:3: error: sensors: the key ~ must be a name (a string), but YAML reads it as null; quote it if it '
+         'really is one',
+         '4:3: error: sensors: the key True must be a name (a string), but YAML reads it as a boolean; quote it if '
+         'it really is one',
+         '5:3: error: sensors: the key 0x1F must be a name (a string), but YAML reads it as an integer; quote it if '
+         'it really is one',
+         '6:3: error: sensors: the key 1.50 must be a name (a string), but YAML reads it as a number; quote it if it '
+         'really is one'],
+        id='keys_said_as_written'),
     pytest.param(
         'sensors:\n'
         '  s:\n'

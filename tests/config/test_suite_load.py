@@ -286,6 +286,44 @@ def test_overrides_are_validated_like_the_file() -> None:
     assert list(suite.sensors) == ["joint_pos", "hand_vel", "wrist_cam", "extra"]
 
 
+def test_overrides_given_as_a_mapping_of_dotted_keys_to_values() -> None:
+    """`load(overrides={...})` takes Python values by dotted key, as the strings take YAML text: the same
+    suite, and text stays text (a str that YAML would read as a number is not one)."""
+    text = ISSUE_EXAMPLE.format(model=ROBOT)
+    written = sensorcfg.loads(text, overrides=["sensors.wrist_cam.interval=10", "defaults.buffer=2",
+                                               "sensors.hand_vel.noise.0.std=0.5", "sensors.target_dist=null",
+                                               "sensors.extra={kind: qvel, element: 'joint:elbow', delay: "
+                                               "{uniform: [1, 3]}}"])
+    mapped = sensorcfg.loads(text, overrides={
+        "sensors.wrist_cam.interval": np.int64(10), "defaults.buffer": 2, "sensors.hand_vel.noise.0.std": 0.5,
+        "sensors.target_dist": None, "sensors.extra": {"kind": "qvel", "element": "joint:elbow",
+                                                       "delay": {"uniform": (1, 3)}}})
+    assert mapped.sensors == written.sensors
+    with pytest.raises(SuiteError) as info:
+        sensorcfg.loads(text, overrides={"defaults.buffer": "2", "sensors.wrist_cam.delay": float("inf")})
+    assert str(info.value).splitlines() == [
+        "override 'defaults.buffer=\"2\"':1:17: error: defaults.buffer: expected an integer; got the text '2'",
+        "override 'sensors.wrist_cam.delay=.inf':1:25: error: sensors.wrist_cam.delay: expected integer physics "
+        "steps, a duration like '4ms', or {uniform: [lo, hi]} / {choice: [...], p: [...]}; got inf"]
+
+
+@pytest.mark.parametrize(("overrides", "expected"), [
+    pytest.param({"defaults.buffer=2": 1}, "an overrides mapping's keys are dotted keys such as 'defaults.buffer' "
+                 "(no '='); got 'defaults.buffer=2'", id="key-with-equals"),
+    pytest.param({3: 1}, "an overrides mapping's keys are dotted keys such as 'defaults.buffer' (no '='); got 3",
+                 id="key-not-text"),
+    pytest.param({"defaults.buffer": object()}, "overrides['defaults.buffer'] is of type object; an override's "
+                 "value is what YAML holds: None, a bool, a number, a str, or a list or dict of them", id="value"),
+    pytest.param("defaults.buffer=2", "overrides is a list of 'dotted.key=value' strings, for example "
+                 "['defaults.buffer=2'], or a mapping of dotted keys to values, {'defaults.buffer': 2}; got "
+                 "'defaults.buffer=2'", id="one-string"),
+])
+def test_overrides_that_are_neither_form_are_argument_errors(overrides: object, expected: str) -> None:
+    with pytest.raises(sensorcfg.ArgumentError) as info:
+        sensorcfg.loads(ISSUE_EXAMPLE.format(model=ROBOT), overrides=overrides)  # type: ignore[arg-type]
+    assert str(info.value) == expected
+
+
 @pytest.mark.parametrize(("override", "expected"), [
     pytest.param("sensors.wrist_cam.interval=7mss",
                  "override 'sensors.wrist_cam.interval=7mss':1:28: error: sensors.wrist_cam.interval: "

@@ -260,3 +260,50 @@ def test_bad_ids_and_actions_are_argument_errors() -> None:
         e.reset([5])
     with pytest.raises(sensorcfg.ArgumentError, match=r"actions must be a \(3, \d+\) float32 array"):
         e.step(np.zeros((2, e._model.nu), np.float32))
+
+
+def test_key_episodes_takes_any_integer_but_a_bool() -> None:
+    e = env(2, noise=True, key_episodes=np.int64(4))
+    assert e._key_episodes == 4 and type(e._key_episodes) is int
+    e.reset()
+    e.step(np.zeros((2, e._model.nu), np.float32))
+    for bad in (True, 4.0, np.int32(3)):
+        with pytest.raises(sensorcfg.ArgumentError, match=r"key_episodes must be an integer of at least 4; got "):
+            env(2, key_episodes=bad)
+
+
+QUIET = """
+import numpy as np, warp as wp
+import sensorcfg
+from sensorcfg import assets
+from sensorcfg.warp.environment import WarpEnvironment
+levels = []
+def reward(env):
+    levels.append(wp.config.log_level)
+    return env._no_reward
+obs = {"q": sensorcfg.Feature("qpos", ["joint:shoulder", "joint:elbow"])}
+obs["q"].enabled = True
+wp.config.log_level = wp.LOG_INFO
+e = WarpEnvironment(str(assets.path("robot.xml")), obs, 2, device="cpu", physics_steps_per_control_step=2,
+                    reward_fn=reward)
+e.reset()
+for _ in range(2):
+    e.step(np.zeros((2, e._model.nu), np.float32))
+print("levels", levels, "after", wp.config.log_level, "info", wp.LOG_INFO, "warning", wp.LOG_WARNING)
+"""
+
+
+def test_building_and_stepping_prints_no_module_load_lines_and_restores_the_log_level() -> None:
+    """Warp prints a 'Module ... load on device' line per module a process loads (dozens, over the build,
+    the first reset and the first step); the engine quiets them while it works (its callbacks, such as a
+    `reward_fn`, run inside it) and gives the user's `wp.config.log_level` back after each call."""
+    import os
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-c", QUIET], capture_output=True, text=True, timeout=600,
+                          env={**os.environ})
+    assert proc.returncode == 0, proc.stderr
+    assert [line for line in proc.stdout.splitlines() if line.startswith("Module ")] == []
+    info, warning = wp.LOG_INFO, wp.LOG_WARNING
+    assert proc.stdout.splitlines()[-1] == f"levels [{warning}, {warning}] after {info} info {info} warning {warning}"

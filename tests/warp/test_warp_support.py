@@ -113,3 +113,28 @@ def test_warp_environment_refuses_a_suite_with_the_problems_validate_reports(tmp
     with pytest.raises(SuiteError) as refused:
         WarpEnvironment(None, suite, 2, device="cpu")
     assert [(p.loc, p.message) for p in refused.value.problems] == [(p.loc, p.message) for p in reported]
+
+
+PGS = """<mujoco><option solver="PGS"/><worldbody><body><joint name="j" type="hinge"/><geom size=".1"/></body>
+</worldbody></mujoco>"""
+
+
+def test_a_model_mujoco_warp_refuses_is_reported_by_validate_at_the_model_line(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """MuJoCo Warp's own refusal (its `put_model`: the PGS solver) is found by `validate --engine warp` where
+    MuJoCo Warp is installed, at the suite's `model:` line, with the words `WarpEnvironment` raises it in."""
+    from sensorcfg.cli import main
+    from sensorcfg.errors import UnsupportedError
+
+    (tmp_path / "pgs.xml").write_text(PGS)
+    (tmp_path / "s.yaml").write_text("model: pgs.xml\nsensors:\n  q: {kind: qpos, element: joint:j}\n")
+    suite = sensorcfg.load(tmp_path / "s.yaml")
+    reported = suite.check(warp=True)
+    assert [(p.line, p.col, p.loc) for p in reported] == [(1, 8, "model")]
+    assert "cannot run this model: mjSOL_PGS is unsupported. Run it on the CPU engines" in reported[0].message
+    assert suite.check(batch=True) == []
+    with pytest.raises(UnsupportedError) as refused:
+        WarpEnvironment(None, suite, 2, device="cpu")
+    assert str(refused.value) == reported[0].message
+    assert main(["validate", str(tmp_path / "s.yaml"), "--engine", "warp"]) == 1
+    assert f"s.yaml:1:8: error: model: {reported[0].message}" in capsys.readouterr().out
