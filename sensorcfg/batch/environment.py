@@ -48,9 +48,10 @@ The control step is chosen as `Environment` chooses it: `physics_steps_per_contr
 Rewards and terminations are vectorised as the physics is: `reward_fn(batch)` returns one reward per
 simulation and `termination_fn(batch)` one bool per simulation, from the `mujoco.batch.Batch` after the
 step (state fields such as `batch.qpos` are current; derived ones such as `batch.xpos` are current once
-bound, `batch.bind(name)`, which MuJoCo then copies out after every call). Only stepped simulations use
-them: a simulation's FIRST step has reward 0. A termination ends the episode with discount 0, as a
-divergence does (which takes precedence); without `reward_fn`, rewards are 0.
+bound, `batch.bind(name)`, which MuJoCo then copies out after every call), before the step restarts the
+simulations whose previous step ended their episode. Only stepped simulations use them: a simulation's FIRST
+step has reward 0. A termination ends the episode with discount 0, as a divergence does (which takes
+precedence); without `reward_fn`, rewards are 0. One that raises ends every simulation's episode (`step`).
 """
 
 from __future__ import annotations
@@ -366,6 +367,13 @@ class BatchEnvironment(ControlLoop):
             updater.prepare(active)
             self._rollout(actions, active, failed, messages)
             updater.update(active)
+        # rewards and terminations before the restarts (as the Warp engine orders them): one that raises leaves
+        # the simulations to restart as they were, and `step` restarts every simulation next
+        reward = np.zeros(self._nsim)
+        if self._reward_fn is not None:
+            reward[active] = self._per_simulation("reward_fn", self._reward_fn, np.float64)[active]
+        terminated = (active & self._per_simulation("termination_fn", self._termination_fn, bool)
+                      if self._termination_fn is not None else False)
         ids = np.flatnonzero(restart)
         if ids.size:
             self._reset_sims(ids)
@@ -373,12 +381,7 @@ class BatchEnvironment(ControlLoop):
         step_type = np.full(self._nsim, _MID, np.uint8)
         discount = np.ones(self._nsim)
         step_type[restart] = _FIRST
-        reward = np.zeros(self._nsim)
-        if self._reward_fn is not None:
-            reward[active] = self._per_simulation("reward_fn", self._reward_fn, np.float64)[active]
         diverged = self._diverged(active, failed, messages)
-        terminated = (active & self._per_simulation("termination_fn", self._termination_fn, bool)
-                      if self._termination_fn is not None else False)
         last, ending = episode_end(diverged, terminated, updater.control_steps, self._step_limit)
         last &= active
         if last.any():

@@ -22,12 +22,11 @@ import numpy as np
 from dm_env import specs
 
 from ..config.files import model_file
-from ..config.units import timestep_problem
 from ..errors import ArgumentError, Problem, SuiteError
 from ..physics import Physics, read_model
 from ..runtime.updater import Updater
 from ..selection import keyframe_id
-from .episode import episode_end
+from .episode import episode_end, step_limit, timed
 
 __all__ = ["NOT_COPYABLE", "ControlLoop", "Environment", "make_env", "load_model", "model_source", "random_state_from",
            "steps_per_control_step", "keyframe_index"]
@@ -121,18 +120,11 @@ def model_source(model: ModelArg, suite: Any) -> tuple[mujoco.MjModel | mujoco.M
     return model, suite
 
 
-def _timed(timestep: float, what: str) -> None:
-    """`what`, in seconds, needs physics steps that last a time (a suite's own times are checked at binding)."""
-    problem = timestep_problem(timestep)
-    if problem is not None:
-        raise ArgumentError(f"{what} is in seconds: {problem}")
-
-
 def steps_per_control_step(model: mujoco.MjModel, steps: int | None, control_timestep: float | None) -> int:
     """Physics steps per control step from either setting (both: they must agree; neither: 1)."""
     dt = float(model.opt.timestep)
     if control_timestep is not None:
-        _timed(dt, "control_timestep")
+        timed(dt, "control_timestep")
         ratio = float(control_timestep) / dt
         n = round(ratio)
         if n < 1 or not math.isclose(ratio, n, rel_tol=1e-9, abs_tol=1e-9):
@@ -155,24 +147,22 @@ def episode_timing(model: mujoco.MjModel, steps: int | None, control_timestep: f
     """(physics steps per control step, control timestep in s, control steps per episode or None).
 
     The control step is `steps` or `control_timestep` when given, else the suite's `control_interval`
-    (`suite_steps`), else one physics step; `time_limit` (s) becomes a number of control steps.
+    (`suite_steps`), else one physics step; `time_limit` (s) becomes a number of control steps (`step_limit`:
+    None or inf for no limit).
     """
     if steps is None and control_timestep is None:
         steps = suite_steps
     n = steps_per_control_step(model, steps, control_timestep)
     dt = n * float(model.opt.timestep)
-    if time_limit is not None and not time_limit > 0:
-        raise ArgumentError(f"time_limit must be positive seconds, got {time_limit!r}")
-    if time_limit is not None:
-        _timed(float(model.opt.timestep), "time_limit")
-    return n, dt, None if time_limit is None else max(1, round(time_limit / dt))
+    return n, dt, step_limit(time_limit, float(model.opt.timestep), dt)
 
 
-def action_spec(model: mujoco.MjModel, leading: tuple[int, ...] = ()) -> specs.BoundedArray:
-    """One control per actuator, bounded by `ctrlrange` where the actuator is control-limited."""
+def action_spec(model: mujoco.MjModel, leading: tuple[int, ...] = (), dtype: Any = np.float64) -> specs.BoundedArray:
+    """One control per actuator, bounded by `ctrlrange` where the actuator is control-limited, of the `dtype`
+    the engine's `ctrl` holds (float64 on the CPU engines, float32 on MuJoCo Warp's)."""
     lo, hi = model.actuator_ctrlrange.T.copy()
     limited = model.actuator_ctrllimited.astype(bool)
-    return specs.BoundedArray(shape=leading + (model.nu,), dtype=np.float64, name="action",
+    return specs.BoundedArray(shape=leading + (model.nu,), dtype=dtype, name="action",
                               minimum=np.where(limited, lo, -np.inf), maximum=np.where(limited, hi, np.inf))
 
 

@@ -1,19 +1,62 @@
-"""When an episode ends, and with which discount: one rule for `Environment` and `BatchEnvironment`.
+"""When an episode ends, and with which discount: one rule for `Environment`, `BatchEnvironment` and
+`WarpEnvironment`.
 
 A diverged simulation or a `termination_fn` ends the episode with discount 0 (termination); otherwise the
 time limit ends it with discount 1 (truncation); otherwise it goes on (discount 1). Elementwise: the single
-environment passes scalars, the batch one value per simulation.
+environment passes scalars, the batch one value per simulation (the Warp engine's `_end` kernel is this rule
+per world).
+
+Diverged is MuJoCo's bad-state test (`mju_isBad`: NaN, or beyond +-`mujoco.mjMAXVAL`, 1e10) on qpos, qvel,
+qacc, or a control as the step applies it (clamped to its `ctrlrange` where the actuator is ctrl-limited,
+unless `<flag clampctrl="disable"/>`; NaN stays NaN): `mj_step` counts a warning for each, which the CPU
+engines read; MuJoCo Warp counts none, and `warp.worlds` makes the same test on the device.
+
+The time limit is `time_limit` seconds as a whole number of control steps (`step_limit`): None or inf for no
+limit; at most `MAX_CONTROL_STEPS`, the most every engine's int64 step counter holds.
 """
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 
+from ..config.units import timestep_problem
 from ..errors import ArgumentError
 
-__all__ = ["chosen_ids", "episode_end"]
+__all__ = ["MAX_CONTROL_STEPS", "chosen_ids", "episode_end", "step_limit", "timed"]
+
+MAX_CONTROL_STEPS = 2**63 - 1  # int64: the control steps of an episode every engine counts
+
+
+def timed(timestep: float, what: str) -> None:
+    """`what`, in seconds, needs physics steps that last a time (a suite's own times are checked at binding)."""
+    problem = timestep_problem(timestep)
+    if problem is not None:
+        raise ArgumentError(f"{what} is in seconds: {problem}")
+
+
+def step_limit(time_limit: Any, timestep: float, control_timestep: float) -> int | None:
+    """The control steps an episode lasts for `time_limit` seconds (the nearest whole number, at least 1), or
+    None for no limit (None or inf); what does not fit (not a positive number, or more than
+    `MAX_CONTROL_STEPS`) is an ArgumentError saying what does. `timestep`: the model's physics timestep."""
+    if time_limit is None:
+        return None
+    expected = "time_limit must be a positive number of seconds, or None or float('inf') for no limit"
+    if isinstance(time_limit, bool) or not isinstance(time_limit, (int, float, np.integer, np.floating)):
+        raise ArgumentError(f"{expected}; got {time_limit!r}")
+    if time_limit == math.inf:
+        return None
+    if not time_limit > 0:  # (NaN too)
+        raise ArgumentError(f"{expected}; got {time_limit!r}")
+    timed(timestep, "time_limit")
+    longest = MAX_CONTROL_STEPS * control_timestep
+    if time_limit > longest:  # (an exact comparison, a huge integer too)
+        raise ArgumentError(f"time_limit {time_limit!r}s is more than {MAX_CONTROL_STEPS:,} control steps of "
+                            f"{control_timestep:g}s ({longest:.4g}s), the most an episode can count; give at "
+                            f"most {longest:.4g}s, or None or float('inf') for no limit")
+    return min(MAX_CONTROL_STEPS, max(1, round(float(time_limit) / control_timestep)))
 
 
 def chosen_ids(ids: Any, count: int, unit: str = "simulation", whole: str = "the batch") -> np.ndarray:

@@ -81,18 +81,25 @@ def _control(actions: wp.array2d[wp.float32], restart: wp.array[wp.int32], ctrl:
 
 
 @wp.kernel
-def _begin(needs_reset: wp.array[wp.int32], restart: wp.array[wp.int32], control_steps: wp.array[wp.int32]):
+def _to_float32(actions: wp.array2d[wp.float64], out: wp.array2d[wp.float32]):
+    """float64 actions rounded to float32 (to nearest, as numpy's `astype(np.float32)` rounds a host array)."""
+    w, a = wp.tid()
+    out[w, a] = wp.float32(actions[w, a])
+
+
+@wp.kernel
+def _begin(needs_reset: wp.array[wp.int32], restart: wp.array[wp.int32], control_steps: wp.array[wp.int64]):
     w = wp.tid()
     restart[w] = needs_reset[w]
     if needs_reset[w] == 1:
-        control_steps[w] = 0
+        control_steps[w] = wp.int64(0)
     else:
-        control_steps[w] = control_steps[w] + 1
+        control_steps[w] = control_steps[w] + wp.int64(1)
 
 
 @wp.kernel
 def _end(restart: wp.array[wp.int32], diverged: wp.array[bool], terminated: wp.array[bool],
-         control_steps: wp.array[wp.int32], limit: wp.int32, reward_in: wp.array[wp.float32],
+         control_steps: wp.array[wp.int64], limit: wp.int64, reward_in: wp.array[wp.float32],
          needs_reset: wp.array[wp.int32], step_type: wp.array[wp.int32], reward: wp.array[wp.float32],
          discount: wp.array[wp.float32]):
     w = wp.tid()
@@ -103,7 +110,7 @@ def _end(restart: wp.array[wp.int32], diverged: wp.array[bool], terminated: wp.a
         needs_reset[w] = 0
         return
     terminal = diverged[w] or terminated[w]
-    last = terminal or (limit > 0 and control_steps[w] >= limit)
+    last = terminal or (limit > wp.int64(0) and control_steps[w] >= limit)  # (`env.episode.episode_end`)
     step_type[w] = wp.where(last, 2, 1)
     reward[w] = reward_in[w]
     discount[w] = wp.where(terminal, wp.float32(0.0), wp.float32(1.0))
@@ -123,11 +130,11 @@ def _any(mask: wp.array[wp.int32], out: wp.array[wp.int32]):
 
 
 @wp.kernel
-def _started(mask: wp.array[wp.int32], needs_reset: wp.array[wp.int32], control_steps: wp.array[wp.int32]):
+def _started(mask: wp.array[wp.int32], needs_reset: wp.array[wp.int32], control_steps: wp.array[wp.int64]):
     w = wp.tid()
     if mask[w] == 1:
         needs_reset[w] = 0
-        control_steps[w] = 0
+        control_steps[w] = wp.int64(0)
 
 
 def _flat(array: wp.array, nworld: int) -> wp.array:
@@ -214,7 +221,7 @@ class WarpEnvironment(ControlLoop):
         self._n, self._control_timestep, limit = episode_timing(
             self._model, physics_steps_per_control_step, control_timestep, time_limit,
             options.get("physics_steps_per_control_step"))
-        self._limit = 0 if limit is None else int(limit)
+        self._limit = 0 if limit is None else int(limit)  # (0: none; at most `MAX_CONTROL_STEPS`, an int64)
         pad = bool(options.get("pad_with_initial_value", False))
         strip = bool(options.get("strip_singleton_buffer_dim", False))
         physics = Physics(self._model)
@@ -248,7 +255,7 @@ class WarpEnvironment(ControlLoop):
             self._needs_reset = wp.ones(n, dtype=wp.int32)
             self._restarting = wp.zeros(n, dtype=wp.int32)
             self._diverged = wp.zeros(n, dtype=bool)
-            self._control_steps = wp.zeros(n, dtype=wp.int32)
+            self._control_steps = wp.zeros(n, dtype=wp.int64)
             self._step_type = wp.zeros(n, dtype=wp.int32)
             self._reward = wp.zeros(n, dtype=wp.float32)
             self._discount = wp.ones(n, dtype=wp.float32)
@@ -256,7 +263,7 @@ class WarpEnvironment(ControlLoop):
             self._no_termination = wp.zeros(n, dtype=bool)
             self._mask = wp.zeros(n, dtype=wp.int32)
             self._any = wp.zeros(1, dtype=wp.int32)
-        self._action_spec = action_spec(self._model, (self._nworld,))
+        self._action_spec = action_spec(self._model, (self._nworld,), np.float32)  # MuJoCo Warp's ctrl
         dtypes = {name: spec.dtype if name in self._cameras.names else np.dtype(np.float32)  # cameras: the CPU's
                   for name, spec in self._spec.items()}
         self._observation_spec = {name: specs.Array((self._nworld, *spec.shape), dtypes[name], name=name)
@@ -375,8 +382,17 @@ class WarpEnvironment(ControlLoop):
 
     @quiet
     def reset(self, ids: Any = None) -> WarpTimeStep:
-        """Start new episodes of worlds `ids` (all when None: indices, or a boolean mask); the others continue."""
+        """Start new episodes of worlds `ids` (all when None: indices, or a boolean mask); the others continue.
+        An exception raised during it (by a batched generic callable) propagates and ends every world's
+        episode, as one raised during `step` does."""
         chosen = chosen_ids(ids, self._nworld, "world", "this environment")
+        try:
+            return self._reset(chosen)
+        except BaseException:
+            self._needs_reset.fill_(1)
+            raise
+
+    def _reset(self, chosen: np.ndarray) -> WarpTimeStep:
         self._mask.zero_()
         if chosen.size:
             wp.launch(_mask, dim=chosen.size, inputs=[wp.array(chosen.astype(np.int32), dtype=wp.int32,
@@ -395,9 +411,27 @@ class WarpEnvironment(ControlLoop):
 
     @quiet
     def step(self, actions: Any) -> WarpTimeStep:
-        """One control step of every world (auto-resetting those whose episode ended). `actions`: (nworld, nu)
-        float32 on the device (a Warp array, or anything `wp.from_dlpack`/`wp.array` takes)."""
-        self._set_actions(actions)
+        """One control step of every world (auto-resetting those whose episode ended).
+
+        `actions`: (nworld, nu) controls, float32 as `action_spec()` says: a Warp array, a torch or JAX array
+        (DLPack, on any device) or anything numpy takes; float64 is rounded to float32 (to nearest, on the
+        device for a device array, as numpy rounds a host one), and a torch tensor that requires grad is read
+        detached (the step copies its values into `ctrl`: no gradient flows through the environment).
+
+        An exception raised during it (by `reward_fn`, `termination_fn` or a batched generic callable)
+        propagates and ends every world's episode: the physics and the sensors may have run, so the next `step`
+        restarts every world (FIRST), as `BatchEnvironment` does."""
+        self._set_actions(actions)  # a bad action changes nothing
+        try:
+            self._run_step()
+        except BaseException:
+            self._needs_reset.fill_(1)
+            raise
+        self._keys_ahead()
+        return WarpTimeStep(self._step_type, self._reward, self._discount, self._observation)
+
+    def _run_step(self) -> None:
+        """The control step's device work: replayed as the CUDA graph once captured (at the second step)."""
         if self._graph is not None:
             wp.capture_launch(self._graph)
         elif self._capture and self._warm:
@@ -408,8 +442,6 @@ class WarpEnvironment(ControlLoop):
         else:
             self._device_step()
             self._warm = True
-        self._keys_ahead()
-        return WarpTimeStep(self._step_type, self._reward, self._discount, self._observation)
 
     def _device_step(self) -> None:
         """The control step's device work, from the actions in `_actions` to the step types: no host copy, no
@@ -432,25 +464,38 @@ class WarpEnvironment(ControlLoop):
         terminated = self._termination_fn(self) if self._termination_fn is not None else self._no_termination
         self._start_episodes(self._restarting)  # the worlds whose previous step ended their episode
         self._observation = self._observe()
-        wp.launch(_end, dim=n, inputs=[self._restarting, self._diverged, terminated, self._control_steps, self._limit,
-                                       reward],
+        wp.launch(_end, dim=n, inputs=[self._restarting, self._diverged, terminated, self._control_steps,
+                                       wp.int64(self._limit), reward],
                   outputs=[self._needs_reset, self._step_type, self._reward, self._discount], device=device)
 
     def _set_actions(self, actions: Any) -> None:
+        """`actions` into `_actions` (float32 on the device), as `step` says; anything else is an ArgumentError."""
+        shape = (self._nworld, self._model.nu)
+        if getattr(actions, "requires_grad", False) and callable(getattr(actions, "detach", None)):
+            actions = actions.detach()  # (torch's DLPack export refuses a tensor that requires grad)
         if isinstance(actions, wp.array):
             array = actions
         elif hasattr(actions, "__dlpack__") and not isinstance(actions, np.ndarray):
-            array = wp.from_dlpack(actions)
+            try:
+                array = wp.from_dlpack(actions)
+            except (BufferError, RuntimeError, TypeError, ValueError) as e:
+                raise ArgumentError(f"actions must be a {shape} float32 or float64 array; DLPack could not pass this "
+                                    f"{type(actions).__name__} to Warp: {e}") from None
         else:
             try:
-                host = np.asarray(actions, np.float32)
+                host = np.asarray(actions, np.float32)  # float64 rounded to nearest
             except (TypeError, ValueError):
-                raise ArgumentError(f"actions must be a ({self._nworld}, {self._model.nu}) array of numbers") from None
+                raise ArgumentError(f"actions must be a {shape} array of numbers") from None
             array = wp.array(host, dtype=wp.float32, device=self.device)
-        if tuple(array.shape) != (self._nworld, self._model.nu) or array.dtype != wp.float32:
-            raise ArgumentError(f"actions must be a ({self._nworld}, {self._model.nu}) float32 array (one control per "
-                                f"world and actuator); got {tuple(array.shape)} {wp.types.type_repr(array.dtype)}")
-        wp.copy(self._actions, array)
+        if tuple(array.shape) != shape or array.dtype not in (wp.float32, wp.float64):
+            raise ArgumentError(f"actions must be a {shape} float32 or float64 array (one control per world and "
+                                f"actuator; float64 is rounded to float32); got {tuple(array.shape)} "
+                                f"{wp.types.type_repr(array.dtype)}")
+        if array.dtype == wp.float32:
+            wp.copy(self._actions, array)
+        else:
+            wp.launch(_to_float32, dim=shape, inputs=[array.to(self.device)], outputs=[self._actions],
+                      device=self.device)
 
     def _observe(self) -> dict[str, wp.array]:
         outputs = {**self._sensors.read(self._worlds.steps), **self._cameras.read()}

@@ -7,9 +7,13 @@ so both can be recorded in a CUDA graph (`wp.ScopedCapture`, as mujoco_warp capt
 Conventions:
 - `steps[w]` (int64) counts the physics steps (`mjw.step`, one timestep each) of world w since its last
   reset: the engine's clock. MuJoCo Warp's `data.time` is float32 and drifts; never schedule by it.
-- `diverged[w]` (bool) is set once a step leaves world w's qpos, qvel or qacc non-finite, and stays set until
-  the world is reset. Unlike `mujoco.mj_step` (whose checks reset a diverged world and warn), MuJoCo Warp
-  goes on with non-finite numbers: the caller decides what a diverged world's readings are.
+- `diverged[w]` (bool) is set once a step leaves world w's qpos, qvel or qacc bad or ran on a bad control,
+  and stays set until the world is reset: MuJoCo's test (`mju_isBad`: NaN, or beyond +-`mujoco.mjMAXVAL`; a
+  control as MuJoCo applies it, clamped to its `ctrlrange` where ctrl-limited unless clamping is disabled,
+  a NaN staying NaN), whose warnings the CPU engines read as divergence (`env.episode`). Unlike
+  `mujoco.mj_step` (whose checks reset a diverged world, or zero its bad controls, and warn), MuJoCo Warp
+  goes on with such numbers (`ctrl` keeps what was written): the caller decides what a diverged world's
+  readings are.
 - `overflow` is MuJoCo Warp's per-world bitmask (`mjw.OverflowType`) of contacts or constraints that did not
   fit `nconmax` / `njmax`: such a world's physics is wrong, not just slow.
 - A reset world starts from keyframe `keyframe` (time, qpos, qvel, act, ctrl, mocap, plastic), or from
@@ -25,9 +29,11 @@ import warp as wp
 from ..errors import UnsupportedError
 from .quiet import quiet_loads
 
-__all__ = ["Worlds", "default_sizes", "model_refusal", "put_model"]
+__all__ = ["Worlds", "control_bounds", "default_sizes", "model_refusal", "put_model"]
 
 wp.set_module_options({"enable_backward": False})
+
+_MAX_VALUE = wp.constant(float(mujoco.mjMAXVAL))  # MuJoCo's bound of a sane value (1e10)
 
 
 def default_sizes(mjm: mujoco.MjModel, keyframe: int | None = None) -> tuple[int, int]:
@@ -92,18 +98,46 @@ def _keyframe(key: int, selected: wp.array[bool], key_time: wp.array[float],
         plastic[w, i] = key_plastic[key, i]
 
 
+@wp.func
+def _bad(x: float) -> bool:
+    """MuJoCo's `mju_isBad`: NaN, or beyond +-mjMAXVAL."""
+    return not (wp.abs(x) <= _MAX_VALUE)
+
+
 @wp.kernel
-def _count(qpos: wp.array2d[float], qvel: wp.array2d[float], qacc: wp.array2d[float],
-           steps: wp.array[wp.int64], diverged: wp.array[bool]):
-    """After one step: the world's step count advanced, and it is marked diverged if its state is not finite."""
+def _count(qpos: wp.array2d[float], qvel: wp.array2d[float], qacc: wp.array2d[float], ctrl: wp.array2d[float],
+           ctrl_low: wp.array[float], ctrl_high: wp.array[float], steps: wp.array[wp.int64],
+           diverged: wp.array[bool]):
+    """After one step: the world's step count advanced, and it is marked diverged if its state is bad or its
+    controls were (each clamped to [ctrl_low, ctrl_high] as MuJoCo clamps it: +-inf where it is not; none
+    checked where MuJoCo checks none, `ctrl_low` then empty)."""
     w = wp.tid()
     steps[w] = steps[w] + wp.int64(1)
     bad = diverged[w]
     for i in range(qpos.shape[1]):
-        bad = bad or not wp.isfinite(qpos[w, i])
+        bad = bad or _bad(qpos[w, i])
     for i in range(qvel.shape[1]):
-        bad = bad or not (wp.isfinite(qvel[w, i]) and wp.isfinite(qacc[w, i]))
+        bad = bad or _bad(qvel[w, i]) or _bad(qacc[w, i])
+    for i in range(ctrl_low.shape[0]):
+        c = ctrl[w, i]
+        if c < ctrl_low[i]:  # (mju_clip: a NaN compares false and stays NaN)
+            c = ctrl_low[i]
+        elif c > ctrl_high[i]:
+            c = ctrl_high[i]
+        bad = bad or _bad(c)
     diverged[w] = bad
+
+
+def control_bounds(mjm: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
+    """(low, high) of each control as `mj_fwdActuation` clamps it before its bad-control test: `ctrlrange`
+    where the actuator is ctrl-limited, +-inf where not or where `<flag clampctrl="disable"/>`; both empty where
+    actuation is disabled (MuJoCo then tests no control)."""
+    disabled = int(mjm.opt.disableflags)
+    if disabled & int(mujoco.mjtDisableBit.mjDSBL_ACTUATION):
+        return np.zeros(0, np.float32), np.zeros(0, np.float32)
+    clamped = mjm.actuator_ctrllimited.astype(bool) & ~bool(disabled & int(mujoco.mjtDisableBit.mjDSBL_CLAMPCTRL))
+    low, high = mjm.actuator_ctrlrange.T
+    return (np.where(clamped, low, -np.inf).astype(np.float32), np.where(clamped, high, np.inf).astype(np.float32))
 
 
 def _version() -> str:
@@ -155,6 +189,7 @@ class Worlds:
             self.data = mjw.make_data(mjm, nworld=nworld, nconmax=self.nconmax, njmax=self.njmax)
             self.steps = wp.zeros(nworld, dtype=wp.int64)
             self.diverged = wp.zeros(nworld, dtype=bool)
+            self._ctrl_bounds = [wp.array(b, dtype=float) for b in control_bounds(mjm)]
             self._selected = wp.zeros(nworld, dtype=bool)
             everything = wp.ones(nworld, dtype=bool)
         self.reset(everything)
@@ -169,7 +204,8 @@ class Worlds:
         with wp.ScopedDevice(self.device):
             for _ in range(substeps):
                 mjw.step(self.model, self.data)
-                wp.launch(_count, dim=self.nworld, inputs=[self.data.qpos, self.data.qvel, self.data.qacc],
+                wp.launch(_count, dim=self.nworld, inputs=[self.data.qpos, self.data.qvel, self.data.qacc,
+                                                           self.data.ctrl, *self._ctrl_bounds],
                           outputs=[self.steps, self.diverged])
 
     def forward(self) -> None:

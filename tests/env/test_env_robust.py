@@ -164,6 +164,39 @@ def test_an_exception_from_batch_user_code_ends_every_episode():
     assert env.step(actions).mid().all()
 
 
+@needs_batch
+def test_an_exception_in_the_step_that_restarts_a_simulation_restarts_it_once():
+    """Rewards and terminations come before the step's restarts (as on the Warp engine): when one raises, a
+    simulation whose episode had ended is not restarted yet, and the next step starts the next episode of every
+    simulation, the second of each here (a restart before the exception would have used one more: its third)."""
+    from sensorcfg.batch import BatchEnvironment
+    from sensorcfg.noise import build_noise
+
+    def noisy() -> dict[str, sensorcfg.Observable]:
+        obs = suite()
+        obs["noisy"] = sensorcfg.Feature("qpos", ["joint:shoulder", "joint:elbow"])  # (read at the reset too)
+        obs["noisy"].noise = build_noise([{"type": "gaussian", "std": 0.1}], (2,), np.float64, 0.002)
+        obs["noisy"].enabled = True
+        return obs
+
+    nsim = 2
+    ends = FailOnCall(-1, lambda batch: np.array([ends.calls == 1, False]))  # simulation 0 ends at the first step
+    env = BatchEnvironment(ROBOT, noisy(), nsim, seed=2, reward_fn=FailOnCall(2, lambda batch: np.zeros(nsim)),
+                           termination_fn=ends)
+    actions = np.zeros((nsim, 3))
+    env.reset()
+    assert env.step(actions).step_type.tolist() == [2, 1]
+    with pytest.raises(Boom):
+        env.step(actions)  # simulation 0 was to restart in it
+    restarted = env.step(actions)
+    assert restarted.first().all()
+    fresh = BatchEnvironment(ROBOT, noisy(), nsim, seed=2)
+    fresh.reset()
+    second = fresh.reset()
+    for k in restarted.observation:
+        np.testing.assert_array_equal(restarted.observation[k], second.observation[k], err_msg=k)
+
+
 def _envs():
     yield "Environment", lambda: sensorcfg.Environment(ROBOT, suite(), seed=1)
     if MUJOCO4:

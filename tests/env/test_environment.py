@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import unittest
 
 import dm_env
@@ -78,6 +79,61 @@ def test_time_limit_truncates_with_discount_one():
     assert [s.step_type for s in steps[:-1]] == [dm_env.StepType.MID] * 4
     assert steps[-1].last() and steps[-1].discount == 1.0
     assert env.step(np.zeros(3)).first()  # stepping after the end starts a new episode
+
+
+MUJOCO4 = int(mujoco.__version__.split(".")[0]) >= 4
+LIMITS = [  # (time_limit, control steps of 0.01 s or the message of the ArgumentError)
+    pytest.param(None, None, id="None"),
+    pytest.param(float("inf"), None, id="inf"),
+    pytest.param(np.float64(np.inf), None, id="numpy-inf"),
+    pytest.param(0.05, 5, id="seconds"),
+    pytest.param(1, 100, id="integer-seconds"),
+    pytest.param(0.001, 1, id="under-a-step"),
+    pytest.param((2**32 + 3) * 0.01, 2**32 + 3, id="beyond-int32"),
+    pytest.param(1e17, "time_limit 1e\\+17s is more than 9,223,372,036,854,775,807 control "
+                 "steps of 0.01s \\(9.223e\\+16s\\), the most an episode can count; give at most 9.223e\\+16s, or None "
+                 "or float\\('inf'\\) for no limit", id="beyond-int64"),
+    pytest.param(10**400, "time_limit 1000.*s is more than 9,223,372,036,854,775,807 control steps", id="huge-int"),
+    pytest.param(0, "time_limit must be a positive number of seconds, or None or float\\('inf'\\) for no limit; "
+                 "got 0$", id="zero"),
+    pytest.param(-math.inf, "positive number of seconds.*; got -inf", id="minus-inf"),
+    pytest.param(math.nan, "positive number of seconds.*; got nan", id="nan"),
+    pytest.param(True, "positive number of seconds.*; got True", id="bool"),
+    pytest.param("5", "positive number of seconds.*; got '5'", id="string"),
+]
+
+
+@pytest.mark.parametrize("time_limit, expected", LIMITS)
+def test_a_time_limit_is_whole_control_steps_none_or_an_argument_error(time_limit, expected):
+    """One rule for every environment (`env.episode.step_limit`): inf or None is no limit; what no engine's step
+    counter holds, or what is not positive seconds, is an ArgumentError saying what fits."""
+    from sensorcfg.env.episode import step_limit
+
+    envs = [lambda: sensorcfg.Environment(ROBOT, proprio(), control_timestep=0.01, time_limit=time_limit)]
+    if MUJOCO4:
+        from sensorcfg.batch import BatchEnvironment
+
+        envs.append(lambda: BatchEnvironment(ROBOT, proprio_batch(), 2, control_timestep=0.01, time_limit=time_limit))
+    if isinstance(expected, str):
+        with pytest.raises(ArgumentError, match=expected):
+            step_limit(time_limit, 0.002, 0.01)
+        for make in envs:
+            with pytest.raises(ArgumentError, match=expected):
+                make()
+        return
+    assert step_limit(time_limit, 0.002, 0.01) == expected
+    for make in envs:
+        assert make()._step_limit == expected
+
+
+def proprio_batch() -> dict[str, sensorcfg.Observable]:
+    return {k: v for k, v in proprio().items() if k != "time"}  # (a batch runs no per-simulation callable)
+
+
+def test_no_time_limit_never_ends_the_episode():
+    env = sensorcfg.Environment(ROBOT, proprio(), control_timestep=0.01, time_limit=float("inf"))
+    env.reset()
+    assert all(env.step(np.zeros(3)).mid() for _ in range(50))
 
 
 def test_termination_fn_ends_with_discount_zero_and_reward_fn_is_used():

@@ -3,6 +3,8 @@ noise-free reads that copy MuJoCo Warp's fields at the steps their windows name.
 
 from __future__ import annotations
 
+import math
+import warnings
 
 import mujoco
 import numpy as np
@@ -14,7 +16,9 @@ wp = warp_or_skip()
 
 import sensorcfg  # noqa: E402
 from sensorcfg import SuiteError, assets  # noqa: E402
+from sensorcfg.batch.environment import BatchEnvironment  # noqa: E402
 from sensorcfg.noise import build_noise  # noqa: E402
+from sensorcfg.observables.generic import BatchedGeneric  # noqa: E402
 from sensorcfg.warp.environment import WarpEnvironment  # noqa: E402
 
 ROBOT = str(assets.path("robot.xml"))
@@ -258,7 +262,9 @@ def test_bad_ids_and_actions_are_argument_errors() -> None:
     e = env()
     with pytest.raises(sensorcfg.ArgumentError, match=r"world id 5 is out of range: this environment has 3 worlds"):
         e.reset([5])
-    with pytest.raises(sensorcfg.ArgumentError, match=r"actions must be a \(3, \d+\) float32 array"):
+    with pytest.raises(sensorcfg.ArgumentError, match=r"actions must be a \(3, \d+\) float32 or float64 array "
+                                                      r"\(one control per world and actuator; float64 is rounded "
+                                                      r"to float32\); got \(2, 3\) float32"):
         e.step(np.zeros((2, e._model.nu), np.float32))
 
 
@@ -307,3 +313,154 @@ def test_building_and_stepping_prints_no_module_load_lines_and_restores_the_log_
     assert [line for line in proc.stdout.splitlines() if line.startswith("Module ")] == []
     info, warning = wp.LOG_INFO, wp.LOG_WARNING
     assert proc.stdout.splitlines()[-1] == f"levels [{warning}, {warning}] after {info} info {info} warning {warning}"
+
+
+# -- episode rules as on the CPU engines -----------------------------------------------------------------
+
+# a free motor and one limited to [-1, 1]; `clamp` off: MuJoCo applies the limited one's control unclamped
+MOTORS = """<mujoco><option>{flag}</option><worldbody><body><joint name="j" type="hinge" axis="0 1 0"/>
+<geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.05" mass="1"/></body></worldbody>
+<actuator><motor joint="j" name="free"/><motor joint="j" name="limited" ctrlrange="-1 1" ctrllimited="true"/>
+</actuator></mujoco>"""
+# (actuator, control, whether it ends the episode): MuJoCo's test of the control as it applies it, and of the
+# acceleration (a finite 1e9 N m gives a qacc beyond 1e10)
+CONTROLS = [(1, math.nan, True), (1, math.inf, False), (1, -1e11, False), (1, 0.5, False),
+            (0, math.nan, True), (0, math.inf, True), (0, -1e11, True), (0, 0.5, False), (0, 1e9, True)]
+
+
+@pytest.mark.parametrize("flag", ["", '<flag clampctrl="disable"/>'], ids=["clamped", "unclamped"])
+def test_a_bad_control_ends_a_worlds_episode_as_on_the_cpu_engines(flag: str) -> None:
+    """World k steps control k of `CONTROLS`: the step types and discounts are `BatchEnvironment`'s (MuJoCo's
+    bad-control warning: NaN, or beyond 1e10 once clamped where clamped; its bad-qacc warning), and the next step
+    restarts exactly the worlds that ended."""
+    model = mujoco.MjModel.from_xml_string(MOTORS.format(flag=flag))
+    obs = {"q": sensorcfg.Feature("qpos", "joint:j")}
+    obs["q"].enabled = True
+    n = len(CONTROLS)
+    actions = np.zeros((n, 2))
+    for k, (a, value, _) in enumerate(CONTROLS):
+        actions[k, a] = value
+    ends = [e or (bool(flag) and a == 1 and abs(v) > 1e10) for a, v, e in CONTROLS]
+    warp = WarpEnvironment(model, obs, n, device="cpu")
+    batch = BatchEnvironment(model, {"q": sensorcfg.Feature("qpos", "joint:j")}, n)
+    warp.reset(), batch.reset()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # (the batch's divergence warning)
+        ours, theirs = warp.step(actions), batch.step(actions)
+    assert theirs.step_type.tolist() == [LAST if e else MID for e in ends]
+    assert ours.step_type.numpy().tolist() == theirs.step_type.tolist()
+    assert ours.discount.numpy().tolist() == theirs.discount.tolist() == [0.0 if e else 1.0 for e in ends]
+    again = warp.step(np.zeros((n, 2)))
+    assert again.step_type.numpy().tolist() == [FIRST if e else MID for e in ends]
+
+
+@pytest.mark.parametrize("time_limit", [None, math.inf, (2**32 + 3) * 2 * TIMESTEP],
+                         ids=["None", "inf", "2**32+3-steps"])
+def test_no_time_limit_and_one_beyond_int32_steps_do_not_cut_episodes(time_limit) -> None:
+    e = env(time_limit=time_limit)
+    assert e._limit == (0 if time_limit in (None, math.inf) else 2**32 + 3)
+    e.reset()
+    types = [e.step(np.zeros((3, e._model.nu), np.float32)).step_type.numpy().tolist() for _ in range(5)]
+    assert types == [[MID] * 3] * 5
+
+
+def test_a_time_limit_beyond_what_an_episode_counts_is_an_argument_error() -> None:
+    with pytest.raises(sensorcfg.ArgumentError, match=r"time_limit 1e\+300s is more than 9,223,372,036,854,775,"
+                                                      r"807 control steps of 0.004s .* or None or float\('inf'\) "
+                                                      r"for no limit"):
+        env(time_limit=1e300)
+
+
+@wp.kernel
+def _zeros(out: wp.array[wp.float32]):
+    out[wp.tid()] = wp.float32(0.0)
+
+
+class Fails:
+    """A reward, a termination or a batched generic callable that raises while `armed` (else zeros)."""
+
+    def __init__(self, dtype):
+        self.armed, self.dtype = False, dtype
+
+    def __call__(self, *args):
+        if self.armed:
+            raise ZeroDivisionError("user code")
+        return wp.zeros(3, dtype=self.dtype, device="cpu")
+
+
+def _calling(where: str, fails: Fails) -> WarpEnvironment:
+    """An environment whose `where` (`reward_fn`, `termination_fn` or a batched generic sensor) is `fails`."""
+    obs, kwargs = observables(noise=True), {}
+    if where == "generic":
+        obs["g"] = BatchedGeneric(fails)
+        obs["g"].enabled = True
+    else:
+        kwargs[where] = fails
+    return WarpEnvironment(ROBOT, obs, 3, device="cpu", seed=3, physics_steps_per_control_step=2, **kwargs)
+
+
+@pytest.mark.parametrize("where", ["reward_fn", "termination_fn", "generic"])
+def test_an_exception_in_a_step_restarts_every_world_at_the_next(where: str) -> None:
+    """The step raises after its physics and samples ran; the next step is FIRST for every world, each starting
+    its next episode (the second here: a fresh environment's second reset), as `BatchEnvironment` does."""
+    dtype = bool if where == "termination_fn" else wp.float32
+    fails = Fails(dtype)
+    e = _calling(where, fails)
+    e.reset()
+    actions = np.full((3, e._model.nu), 0.5, np.float32)
+    e.step(actions)
+    fails.armed = True
+    with pytest.raises(ZeroDivisionError):
+        e.step(actions)
+    fails.armed = False
+    restarted = e.step(actions)
+    assert restarted.step_type.numpy().tolist() == [FIRST] * 3
+    assert e.steps.numpy().tolist() == [0, 0, 0]
+    fresh = _calling(where, Fails(dtype))
+    fresh.reset()
+    second = fresh.reset()
+    for name, array in second.observation.items():
+        assert restarted.observation[name].numpy().tobytes() == array.numpy().tobytes(), name
+    assert e.step(actions).step_type.numpy().tolist() == [MID] * 3
+
+
+def test_an_exception_in_a_reset_restarts_every_world_at_the_next_step() -> None:
+    """A batched generic callable raising in `reset(ids)` (the reset samples): its worlds are half restarted,
+    so the next step restarts every world, as after an exception in a step."""
+    fails = Fails(wp.float32)
+    e = _calling("generic", fails)
+    e.reset()
+    actions = np.zeros((3, e._model.nu), np.float32)
+    e.step(actions)
+    fails.armed = True
+    with pytest.raises(ZeroDivisionError):
+        e.reset([1])
+    fails.armed = False
+    assert e.step(actions).step_type.numpy().tolist() == [FIRST] * 3
+
+
+# -- actions ---------------------------------------------------------------------------------------------
+
+
+def test_actions_are_float32_as_the_spec_says_and_float64_is_rounded_alike_from_numpy_and_torch() -> None:
+    """The spec says float32 (MuJoCo Warp's ctrl); a float64 array, host or device (numpy, torch, Warp), is
+    rounded to nearest float32 alike; a torch tensor that requires grad is read detached; another dtype is an
+    ArgumentError naming what fits."""
+    import torch
+
+    e = env()
+    spec = e.action_spec()
+    assert spec.dtype == np.float32 and spec.shape == (3, e._model.nu)
+    np.testing.assert_array_equal(spec.maximum, e._model.actuator_ctrlrange[:, 1].astype(np.float32))
+    e.reset()
+    values = np.random.default_rng(0).uniform(-1, 1, (3, e._model.nu)) * (1 + 2.0**-30)  # not float32 numbers
+    expected = values.astype(np.float32)
+    assert not np.array_equal(expected.astype(np.float64), values)
+    for given in (values, torch.from_numpy(values), wp.array(values, dtype=wp.float64, device="cpu"),
+                  torch.from_numpy(expected), torch.from_numpy(values.copy()).requires_grad_(),
+                  torch.from_numpy(expected.copy()).requires_grad_()):
+        e.step(given)
+        assert e.data.ctrl.numpy().tobytes() == expected.tobytes(), type(given)
+    with pytest.raises(sensorcfg.ArgumentError, match=r"actions must be a \(3, 3\) float32 or float64 array .*; got "
+                                                      r"\(3, 3\) float16"):
+        e.step(torch.zeros((3, e._model.nu), dtype=torch.float16))

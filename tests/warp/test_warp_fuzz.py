@@ -22,7 +22,9 @@ float32 rounding. `FUZZ_SEEDS=a:b` runs sensor-layer seeds a..b-1 instead of the
 from __future__ import annotations
 
 import json
+import math
 import os
+import warnings
 from collections.abc import Callable
 from types import SimpleNamespace
 from typing import Any
@@ -362,16 +364,76 @@ CONTROLS: list[tuple[str, Any, dict[str, Any], bool]] = [
 ]
 
 
+class Injected(Exception):
+    """What a scripted reward or termination raises (`Scripted`)."""
+
+
+class Scripted:
+    """A `reward_fn` or `termination_fn` for both engines: its call k returns row k of `values` (a numpy array
+    for `BatchEnvironment`; a Warp array on `device` for `WarpEnvironment`) or raises `Injected` when k is in
+    `raises`. Both engines call them once per step, the termination after the reward."""
+
+    def __init__(self, values: np.ndarray, raises: set[int], device: str | None = None):
+        self.values, self.raises, self.device, self.calls = values, raises, device, 0
+
+    def __call__(self, env: Any) -> Any:
+        k, self.calls = self.calls, self.calls + 1
+        if k in self.raises:
+            raise Injected(f"call {k}")
+        return self.values[k] if self.device is None else wp.array(self.values[k], device=self.device)
+
+
+def episode_rules(seed: int, nworld: int, control_steps: int, substeps: int, nu: int) -> dict[str, Any]:
+    """A run's episode events, from their own stream (the suite's stream stays the one `fuzz_suite` draws): the
+    time limit (by `seed % 4`: a few control steps, none as None, none as inf, more steps than an int32 holds),
+    bad actions (NaN, +-inf, beyond mjMAXVAL: a NaN ends the world's episode, a clamped one does not), rewards,
+    terminations and the calls at which `reward_fn` or `termination_fn` raise."""
+    rng = np.random.default_rng([seed, 1])
+    timestep = substeps * float(MODEL.opt.timestep)
+    limit = [int(rng.integers(3, 8)) * timestep, None, math.inf, (2**32 + 3) * timestep][seed % 4]
+    bad = {t: [(int(w), int(rng.integers(nu)), float(rng.choice([np.nan, np.inf, -np.inf, 1e11])))
+               for w in rng.choice(nworld, int(rng.integers(1, nworld + 1)), replace=False)]
+           for t in range(1, control_steps + 1) if rng.random() < 0.15}
+    calls = 3 * control_steps
+    return {"time_limit": limit, "bad_actions": bad,
+            "rewards": rng.normal(0, 1, (calls, nworld)).astype(np.float32),
+            "terminations": rng.random((calls, nworld)) < 0.05,
+            "reward_raises": {int(k) for k in rng.integers(1, control_steps, 2)},
+            "termination_raises": {int(k) for k in rng.integers(1, control_steps, 1)}}
+
+
+def _step_both(warp: WarpEnvironment, batch: BatchEnvironment, actions: np.ndarray) -> tuple[Any, Any]:
+    """Both engines' step of `actions`; where a user function raised (in both: the same call of each), the step
+    after it, which restarts every world of both."""
+    results, raised = [], []
+    for env, given in ((warp, actions), (batch, actions.astype(np.float64))):
+        try:
+            results.append(env.step(given))
+        except Injected as e:
+            raised.append(str(e))
+    assert len(raised) in (0, 2) and len(set(raised)) <= 1, raised
+    if not raised:
+        return results[0], results[1]
+    ours, theirs = _step_both(warp, batch, actions)
+    assert (np.asarray(theirs.step_type) == 0).all() and (ours.step_type.numpy() == 0).all()
+    return ours, theirs
+
+
 def run_environments(seed: int, control_steps: int = 30) -> None:
     """`WarpEnvironment` against `BatchEnvironment` on a fuzzed suite of the controls: specs, every read of every
-    world, step types, rewards and discounts, through time limits, `reset(ids)`, noise levels and a reseed."""
+    world, step types, rewards and discounts, through time limits (none, huge), `reset(ids)`, noise levels, a
+    reseed, bad actions and exceptions in `reward_fn` / `termination_fn` (`episode_rules`)."""
     text, run = fuzz_suite(seed, CONTROLS)
     rng = np.random.default_rng(seed)
     substeps, nworld = run["substeps"], run["nworld"]
-    options = dict(seed=seed, time_limit=int(rng.integers(3, 8)) * substeps * float(MODEL.opt.timestep))
+    rules = episode_rules(seed, nworld, control_steps, substeps, MODEL.nu)
+    functions = {f"{kind}_fn": (rules[f"{kind}s"], rules[f"{kind}_raises"]) for kind in ("reward", "termination")}
+    options = dict(seed=seed, time_limit=rules["time_limit"])
     warp = WarpEnvironment(ROBOT, sensorcfg.loads(text), nworld, device="cpu", key_episodes=4 + 4 * (seed % 3),
+                           **{f: Scripted(*v, device="cpu") for f, v in functions.items()},
                            **options)  # its key table topped up every control step, every second, every third
-    batch = BatchEnvironment(ROBOT, sensorcfg.loads(text), nworld, **options)
+    batch = BatchEnvironment(ROBOT, sensorcfg.loads(text), nworld, **{f: Scripted(*v) for f, v in functions.items()},
+                             **options)
     ours_spec, their_spec = warp.observation_spec(), batch.observation_spec()
     assert list(ours_spec) == list(their_spec)
     for name, spec in ours_spec.items():
@@ -406,10 +468,14 @@ def run_environments(seed: int, control_steps: int = 30) -> None:
             ours, theirs = warp.reset(chosen), batch.reset(chosen)
         else:
             actions = rng.uniform(lo, hi, (nworld, warp._model.nu)).astype(np.float32)
-            ours, theirs = warp.step(actions), batch.step(actions.astype(np.float64))
+            for w, a, value in rules["bad_actions"].get(t + 1, []):
+                actions[w, a] = value
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)  # (the batch's divergence warnings)
+                ours, theirs = _step_both(warp, batch, actions)
 
 
-@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])  # (every kind of time limit: `episode_rules`)
 def test_the_warp_environment_reads_what_the_batch_reads_on_a_fuzzed_suite_of_the_controls(seed: int) -> None:
     run_environments(seed)
 
