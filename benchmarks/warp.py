@@ -158,13 +158,14 @@ def check(env: Any, observation: dict[str, Any], label: str) -> None:
 
 def measure(label: str, model: Any, suite: Path, nworld: int, device: str, steps: int, pairs: int,
             verify: bool) -> Row:
-    import mujoco_warp as mjw
     import numpy as np
     import warp as wp
+    from mujoco_warp._src.types import OverflowType  # (exported as mjw.OverflowType from MuJoCo Warp 4 on)
 
     from sensorcfg.warp.environment import WarpEnvironment
 
-    budgets = mjw.OverflowType.ITERATIONS | mjw.OverflowType.LS_ITERATIONS
+    # the solver's budgets reached (MuJoCo Warp 4's bits; 3.11 flags none)
+    budgets = sum(int(getattr(OverflowType, name, 0)) for name in ("ITERATIONS", "LS_ITERATIONS"))
     built = time.perf_counter()
     ending_kernel, any_kernel = _ending_kernels()
     restarting = wp.zeros(1, dtype=wp.int32, device=device)  # 1: the restarting setting's episodes end

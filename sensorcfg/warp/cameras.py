@@ -176,7 +176,8 @@ class _Camera:
         self.background = background_depth(model, cam)
         self.rc = mjw.create_render_context(
             model, nworld=nworld, cam_res=[(width, height)], render_rgb=[self.mode == "rgb"],
-            render_depth=[self.mode == "depth"], render_seg=[self.mode == "segmentation"], cam_active=[cam],
+            render_depth=[self.mode == "depth"], render_seg=[self.mode == "segmentation"],
+            cam_active=[i == cam for i in range(model.ncam)],  # (a flag per camera: 3.11's and 4.x's form)
             **settings(observable))
         self.pixels = width * height
         size = self.pixels * channels

@@ -23,36 +23,23 @@ control steps (one small copy).
 
 from __future__ import annotations
 
-import math
 import numbers
 from collections.abc import Callable, Mapping
 from typing import Any, NamedTuple
 
 import dm_env
-import mujoco
 import numpy as np
 import warp as wp
 from dm_env import specs
 
-from ..batch.environment import root_seed, sim_seed
-from ..draws import episode_entropy, sensor_keys
 from ..env.episode import chosen_ids
 from ..env.environment import (ControlLoop, ModelArg, action_spec, episode_timing, keyframe_index,
-                               model_and_observables, model_source, random_state_from)
-from ..errors import ArgumentError, Problem, SuiteError
-from ..noise.bounds import noisy_bounds
-from ..noise.level import leveled, own_bounds, set_level
-from ..physics import Physics
-from ..plan.bind import bind
-from ..runtime.updater import observation_spec
-from .cameras import Cameras
-from .episode import episode_values
-from .generic import Generics, split
+                               model_and_observables, model_source)
+from ..errors import ArgumentError
+from ..noise.level import leveled, set_level
+from .layer import EpisodeKeys, SensorLayer, bind_suite
 from .philox import MODULE_OPTIONS
 from .quiet import quiet
-from .rays import Scans, plan as scan_plan
-from .sensors import Sensors
-from .support import field_refusal, refusals
 from .worlds import Worlds
 
 __all__ = ["WarpEnvironment", "WarpTimeStep"]
@@ -137,16 +124,6 @@ def _started(mask: wp.array[wp.int32], needs_reset: wp.array[wp.int32], control_
         control_steps[w] = wp.int64(0)
 
 
-def _flat(array: wp.array, nworld: int) -> wp.array:
-    """An (nworld, ...) float32 MuJoCo Warp array (of scalars, vectors, quaternions or matrices) as an
-    (nworld, values) float32 view."""
-    scalar = getattr(array.dtype, "_wp_scalar_type_", array.dtype)
-    if scalar != wp.float32 or not array.is_contiguous:
-        raise SuiteError(f"a field of dtype {wp.types.type_repr(array.dtype)} cannot be read by the Warp engine")
-    size = math.prod(array.shape[1:]) * wp.types.type_size_in_bytes(array.dtype) // 4
-    return wp.array(ptr=array.ptr, dtype=wp.float32, shape=(nworld, size), device=array.device, copy=False)
-
-
 class WarpEnvironment(ControlLoop):
     """`nworld` MuJoCo Warp worlds of one model, observed through one sensor suite (see the module's doc and
     `__init__`'s arguments)."""
@@ -224,29 +201,13 @@ class WarpEnvironment(ControlLoop):
         self._limit = 0 if limit is None else int(limit)  # (0: none; at most `MAX_CONTROL_STEPS`, an int64)
         pad = bool(options.get("pad_with_initial_value", False))
         strip = bool(options.get("strip_singleton_buffer_dim", False))
-        physics = Physics(self._model)
-        mujoco.mj_forward(self._model, physics.data)
-        others, batched = split(observables)  # batched generic callables: called by `warp.generic`
-        bound = bind(others, physics, self._n, strip, pad)
-        self._refuse(bound, self._model)
+        binding = bind_suite(self._model, observables, self._n, strip, pad)
         self.device = wp.get_device(device)
         self._worlds = Worlds(self._model, self._nworld, self.device, self._keyframe, nconmax, njmax)
-        self._generics = Generics(batched, self._worlds, self._model)  # each called once: its shape
-        bound = self._generics.bind(bound, list(observables), physics, self._n, strip, pad)
-        bound, plan = scan_plan(bound, physics, self._nworld, self._n, pad,  # height scans read their own rays
-                                self._generics.sizes)
-        self._spec = {e.name: observation_spec(e.name, e.observable, e.channel) for e in bound.entries}
-        self._scans = Scans(self._model, plan, bound, self.device)
-        own = {**self._scans.heights, **self._generics.values}
-        self._fields = {**self._field_views([f for f, _ in plan.fields if f not in own] + self._scans.pose_fields),
-                        **own}
-        self._cameras = Cameras([(e.name, e.observable, e.channel) for e in bound.cameras], self._model, self._worlds,
-                                self._n, pad, {e.name: tuple(self._spec[e.name].shape) for e in bound.cameras})
-        bounds = {e.name: b for e in (*bound.fixed, *bound.drawn) if e.channel.noise is not None
-                  for b in [noisy_bounds(getattr(e.channel.noise, "_inner", e.channel.noise), own_bounds(e.observable))]
-                  if b is not None}
-        self._sensors = Sensors(plan, self.device, key_episodes, bounds)
-        self._pipelines = {e.name: e.channel.noise for e in (*bound.fixed, *bound.drawn)}
+        layer = SensorLayer(self._model, observables, binding, self._worlds, key_episodes)
+        self._layer, self._keys = layer, EpisodeKeys(layer.sensors, layer.pipelines, key_episodes, self._offset)
+        self._generics, self._scans, self._fields, self._cameras = layer.generics, layer.scans, layer.fields, layer.cameras
+        self._spec, self._sensors, self._pipelines = layer.spec, layer.sensors, layer.pipelines
         self._key_episodes = key_episodes
         self.seed(seed)
         with wp.ScopedDevice(self.device):
@@ -273,7 +234,6 @@ class WarpEnvironment(ControlLoop):
                                                      np.broadcast_to(spec.maximum, spec.shape), name=name)
                                   for name, spec in self._spec.items()}
         self._names = list(self._spec)
-        self._steps_since_keys = 0
         # a CUDA graph of the control step's device work, recorded at the second step (the first loads modules)
         self._capture = self.device.is_cuda if capture is None else bool(capture) and self.device.is_cuda
         self._graph: Any = None
@@ -281,58 +241,13 @@ class WarpEnvironment(ControlLoop):
 
     # -- construction ---------------------------------------------------------------------------------
 
-    @staticmethod
-    def _refuse(bound: Any, model: mujoco.MjModel) -> None:
-        """What this engine does not run (`support.refusals`), each at its sensor's key (`validate --engine
-        warp` says the same at the suite's lines)."""
-        fields = {e.name: source.field for e, source in zip((*bound.fixed, *bound.drawn), bound.sources())}
-        problems = [Problem(message, ".".join(map(str, ("sensors", entry.name, *key)))) for entry in bound.entries
-                    for key, message in refusals(entry.observable, fields.get(entry.name), model)]
-        if problems:
-            raise SuiteError(problems)
-
-    def _field_views(self, fields: list[str]) -> dict[str, wp.array]:
-        data = self._worlds.data
-        missing = [f for f in fields if getattr(data, f, None) is None]  # (an installed MuJoCo Warp unlike FIELDS')
-        if missing:
-            raise SuiteError(field_refusal(missing[0]))
-        return {f: _flat(getattr(data, f), self._nworld) for f in fields}
-
     # -- seeds and keys -------------------------------------------------------------------------------
 
     def seed(self, seed: int | np.random.SeedSequence | None) -> None:
         """Reseed every world (world w from `sim_seed(seed, world_offset + w)`); the next step resets them all."""
-        self._seed = root_seed(seed)
-        self._random_states = [random_state_from(sim_seed(self._seed, self._offset + w)) for w in range(self._nworld)]
-        self._keyed = np.zeros(self._nworld, np.int64)  # episodes whose keys are in the table, per world
-        self._table = np.zeros(self._sensors.key_table.shape, np.uint64)
-        self._values = np.zeros(self._sensors.episode_table.shape, np.float64)
-        wp.copy(self._sensors.episodes, wp.zeros(self._nworld, dtype=wp.int32, device=self.device))
-        self._top_up(np.zeros(self._nworld, np.int64))
+        self._seed = self._keys.seed(seed)
         if hasattr(self, "_needs_reset"):
             self._needs_reset.fill_(1)
-
-    def _top_up(self, used: np.ndarray) -> None:
-        """Keys of each world's episodes up to `used + key_episodes - 1`, drawn in order from its random state
-        as `BatchEnvironment` draws them (only when some sensor is noisy or drawn)."""
-        names = self._sensors.key_names
-        if not names:
-            return
-        table, values, size = self._table, self._values, self._key_episodes
-        worlds = np.flatnonzero(self._keyed < used + size)
-        for w in worlds.tolist():
-            while self._keyed[w] < used[w] + size:
-                e = int(self._keyed[w]) % size
-                table[w, e], values[w, e] = episode_keys(self._sensors, self._pipelines,
-                                                         episode_entropy(self._random_states[w]))
-                self._keyed[w] += 1
-        self._sensors.set_keys(worlds, table[worlds], values[worlds])
-
-    def _keys_ahead(self) -> None:
-        self._steps_since_keys += 1
-        if self._steps_since_keys >= self._key_episodes // 4 and self._sensors.key_names:
-            self._steps_since_keys = 0
-            self._top_up(self._sensors.episodes.numpy().astype(np.int64))
 
     # -- properties -----------------------------------------------------------------------------------
 
@@ -375,10 +290,7 @@ class WarpEnvironment(ControlLoop):
     def _restart_masked(self, mask: wp.array) -> None:
         self._worlds.reset(mask)
         self._worlds.forward()  # MuJoCo Warp has no per-world forward: every world's derived fields, again
-        self._scans.cast(self._fields, self._worlds.steps, every=True)
-        self._generics.run()
-        self._sensors.reset(mask, self._fields, self._worlds.steps)
-        self._cameras.reset(mask)
+        self._layer.start(mask)
 
     @quiet
     def reset(self, ids: Any = None) -> WarpTimeStep:
@@ -398,7 +310,7 @@ class WarpEnvironment(ControlLoop):
             wp.launch(_mask, dim=chosen.size, inputs=[wp.array(chosen.astype(np.int32), dtype=wp.int32,
                                                                  device=self.device)],
                       outputs=[self._mask], device=self.device)
-            self._top_up(self._sensors.episodes.numpy().astype(np.int64))
+            self._keys.top_up()
             self._start_episodes(self._mask)
             wp.launch(_started, dim=self._nworld, inputs=[self._mask], outputs=[self._needs_reset, self._control_steps],
                       device=self.device)
@@ -427,7 +339,7 @@ class WarpEnvironment(ControlLoop):
         except BaseException:
             self._needs_reset.fill_(1)
             raise
-        self._keys_ahead()
+        self._keys.ahead()
         return WarpTimeStep(self._step_type, self._reward, self._discount, self._observation)
 
     def _run_step(self) -> None:
@@ -453,10 +365,7 @@ class WarpEnvironment(ControlLoop):
                       outputs=[self._worlds.data.ctrl], device=device)
         for substep in range(1, self._n + 1):
             self._worlds.step(1)
-            self._scans.cast(self._fields, self._worlds.steps)
-            self._generics.run()
-            self._sensors.record(self._fields, self._worlds.steps)
-            self._cameras.record(substep)
+            self._layer.record(substep)
         wp.copy(self._diverged, self._worlds.diverged)
         # rewards and terminations from the Data the physics steps left, before a restart's forward recomputes
         # every world's derived fields (a restarting world's are ignored: its step is FIRST)
@@ -498,19 +407,10 @@ class WarpEnvironment(ControlLoop):
                       device=self.device)
 
     def _observe(self) -> dict[str, wp.array]:
-        outputs = {**self._sensors.read(self._worlds.steps), **self._cameras.read()}
-        return {name: outputs[name] for name in self._names}
+        return self._layer.read()
 
     def close(self) -> None:
         pass
-
-
-def episode_keys(sensors: Sensors, pipelines: Mapping[str, Any], entropy: list[int]) -> tuple[np.ndarray, np.ndarray]:
-    """An episode's keys of the noisy and drawn sensors (`Sensors.key_names`; `draws.sensor_keys`, as the CPU
-    engines key them) and what the noisy ones' stages draw at its reset (`episode.episode_values`), from the
-    episode's entropy."""
-    keys = sensor_keys(entropy, sensors.key_names)
-    return keys, episode_values(sensors, pipelines, keys)
 
 
 def torch_views(observation: Mapping[str, wp.array]) -> dict[str, Any]:

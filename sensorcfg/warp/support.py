@@ -2,8 +2,9 @@
 
 - `STAGES`: the noise stage types its kernels run (`warp.sensors` holds each one's kernel code), with
   parameters fixed or drawn per episode (drawn on the host, `warp.episode`);
-- `FIELDS`: the mjData fields a sensor may read there: those MuJoCo Warp's `Data` holds as (nworld, ...)
-  float32 arrays laid out as mjData's, so a position computed on an MjData addresses the same value;
+- `FIELDS`: the mjData fields a sensor may read there: those the installed MuJoCo Warp's `Data` holds as
+  (nworld, ...) float32 arrays laid out as mjData's, so a position computed on an MjData addresses the same
+  value (`FIELDS_BY_LINE`: per MuJoCo Warp line, 4.x and 3.11, mjlab 1.6's pin; 4.x's where none is installed);
 - `RAY_GEOMS`: the geom types MuJoCo Warp's ray caster casts height scans' rays at (`warp/rays.py`);
 - `refusals(observable, field, model)`: what the engine does not run of one bound sensor, as (key, message)
   pairs, the key a path inside the sensor's entry of a suite (`kind`, `interval`, `delay`, `noise.<i>.type`,
@@ -18,6 +19,8 @@ Warp engine runs, `warp.generic`.)
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from importlib import metadata
 from typing import Any
 
 import mujoco
@@ -29,7 +32,8 @@ from ..plan.noise import step
 from ..plan.records import NoiseStep
 from .camera_support import camera_refusals
 
-__all__ = ["FIELDS", "RAY_GEOMS", "STAGES", "Found", "field_refusal", "refusals", "stage_refusals", "terrain_refusals"]
+__all__ = ["FIELDS", "FIELDS_BY_LINE", "LINE", "RAY_GEOMS", "STAGES", "Found", "field_refusal", "refusals",
+           "stage_refusals", "terrain_refusals"]
 
 Found = list[tuple[tuple[str | int, ...], str]]  # (key path inside the sensor, message), as `checks.Found`
 
@@ -40,10 +44,11 @@ STAGES: tuple[str, ...] = ("gaussian", "uniform", "bias", "scale", "random_walk"
 # MuJoCo 4.0.0's mjData extents (`mujoco.introspect`) by `fields_of_mujoco_warp` in
 # tests/warp/test_warp_support.py, which checks this table against the installed mujoco_warp (and the values
 # against MjData's): a field whose first axis is nworld, whose scalar is float32 (vectors, quaternions and
-# matrices of them included), that mjData has with the same axes (MuJoCo Warp's `nactuator` is mjData's
-# `nout`: it runs one force output per actuator); not a sparse matrix (nC, nD, nJten, nJmom, nJfe or nefmK
+# matrices of them included), that mjData has with the same axes (MuJoCo Warp's `nactuator`, and 3.11's `nu`, are
+# mjData's `nout`: it runs no SO3 transmission nor gain, so one control and one force output per actuator); not
+# a sparse matrix (nC, nD, nJten, nJmom, nJfe or nefmK
 # values, laid out by each library's own sparsity) nor a factor of one (qLDiagInv, qHDiagInv).
-FIELDS: frozenset[str] = frozenset({
+_FIELDS_4: frozenset[str] = frozenset({
     "act", "act_dot", "actuator_force", "actuator_length", "actuator_velocity", "cacc", "cam_xmat", "cam_xpos",
     "cdof", "cdof_dot", "cfrc_ext", "cfrc_int", "cinert", "crb", "ctrl", "cvel", "efm_as", "efm_c", "efm_ca",
     "efm_diag", "efm_ts", "energy", "flexedge_hessian", "flexedge_length", "flexedge_velocity", "flexvert_hessian",
@@ -54,6 +59,25 @@ FIELDS: frozenset[str] = frozenset({
     "subtree_angmom", "subtree_com", "subtree_linvel", "ten_length", "ten_velocity", "time", "userdata", "wrap_xpos",
     "xanchor", "xaxis", "xfrc_applied", "ximat", "xipos", "xmat", "xpos", "xquat",
 })
+
+# What MuJoCo Warp 3.11 (the line mjlab 1.6 pins) does not hold of them, by the same rule
+_LACKING_3_11 = frozenset({"efm_as", "efm_c", "efm_ca", "efm_diag", "efm_ts", "flexedge_hessian", "flexvert_hessian",
+                           "plastic", "qfrc_adhesion"})
+FIELDS_BY_LINE: Mapping[str, frozenset[str]] = {"4": _FIELDS_4, "3.11": _FIELDS_4 - _LACKING_3_11}
+
+
+def _installed_line() -> str:
+    """The installed MuJoCo Warp's line (a key of `FIELDS_BY_LINE`): "3.11" below 4, else (or where none is
+    installed) "4". Read from the package's metadata, so that this module stays importable without Warp."""
+    try:
+        major = int(metadata.version("mujoco-warp").split(".")[0])
+    except (metadata.PackageNotFoundError, ValueError):
+        return "4"
+    return "3.11" if major < 4 else "4"
+
+
+LINE = _installed_line()
+FIELDS: frozenset[str] = FIELDS_BY_LINE[LINE]
 
 # MuJoCo Warp 4.0.0's ray caster (`mujoco_warp/_src/ray.py`: `ray_geom`, `ray_mesh`, `ray_hfield`); it reads a
 # geom of any other type (an SDF) as a miss
@@ -70,6 +94,9 @@ _INSTEAD = {"site_xquat": "xmat", "geom_xquat": "xmat", "xiquat": "ximat"}
 def field_refusal(field: str, kind: str | None = None) -> str:
     """Why the Warp engine cannot read mjData field `field` (one not in `FIELDS`), read by kind `kind`."""
     reads = f"kind {kind!r} reads mjData's {field}" if kind and kind != field else f"mjData's {field}"
+    if field in _FIELDS_4:  # held by MuJoCo Warp 4, not by the installed line
+        return f"{reads}, which MuJoCo Warp {LINE}'s Data does not hold; read another kind, install MuJoCo Warp 4 " \
+               f"(sensorcfg[warp]), or {_CPU}"
     instead = f"read {_INSTEAD[field]!r} instead (the same orientation as a matrix)" if field in _INSTEAD else \
         "read another kind"
     return f"{reads}, which MuJoCo Warp's Data does not hold as float32 values; {instead}, or {_CPU}"

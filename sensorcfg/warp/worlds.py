@@ -14,12 +14,15 @@ Conventions:
   `mujoco.mj_step` (whose checks reset a diverged world, or zero its bad controls, and warn), MuJoCo Warp
   goes on with such numbers (`ctrl` keeps what was written): the caller decides what a diverged world's
   readings are.
-- `overflow` is MuJoCo Warp's per-world bitmask (`mjw.OverflowType`) of contacts or constraints that did not
-  fit `nconmax` / `njmax`: such a world's physics is wrong, not just slow.
-- A reset world starts from keyframe `keyframe` (time, qpos, qvel, act, ctrl, mocap, plastic), or from
-  the model's qpos0 and zeros with no keyframe, as `mujoco.mj_resetDataKeyframe` / `mj_resetData` do; its
-  derived quantities (positions, sensors) are those of the old state until the next `forward` or `step`.
+- `overflow` is MuJoCo Warp's per-world bitmask (`mjw.OverflowType` on 4.x) of contacts or constraints that
+  did not fit `nconmax` / `njmax`: such a world's physics is wrong, not just slow.
+- A reset world starts from keyframe `keyframe` (`KEYFRAME_STATE`: time, qpos, qvel, act, ctrl, mocap, and
+  plastic where MuJoCo has plasticity), or from the model's qpos0 and zeros with no keyframe, as
+  `mujoco.mj_resetDataKeyframe` / `mj_resetData` do; its derived quantities (positions, sensors) are those of
+  the old state until the next `forward` or `step`.
 """
+
+from __future__ import annotations
 
 import mujoco
 import mujoco_warp as mjw
@@ -29,7 +32,7 @@ import warp as wp
 from ..errors import UnsupportedError
 from .quiet import quiet_loads
 
-__all__ = ["Worlds", "control_bounds", "default_sizes", "model_refusal", "put_model"]
+__all__ = ["KEYFRAME_STATE", "Worlds", "control_bounds", "default_sizes", "model_refusal", "put_model"]
 
 wp.set_module_options({"enable_backward": False})
 
@@ -69,33 +72,39 @@ def _select_bool(mask: wp.array[bool], selected: wp.array[bool], steps: wp.array
         diverged[w] = False
 
 
+# a keyframe's state: (MjModel's key field, the Data field it restarts); a field one MuJoCo lacks (MuJoCo 3.11 has
+# no plasticity) is none of its keyframes' state
+KEYFRAME_STATE = (("key_time", "time"), ("key_qpos", "qpos"), ("key_qvel", "qvel"), ("key_act", "act"),
+                  ("key_ctrl", "ctrl"), ("key_mpos", "mocap_pos"), ("key_mquat", "mocap_quat"),
+                  ("key_plastic", "plastic"))
+
+
 @wp.kernel
-def _keyframe(key: int, selected: wp.array[bool], key_time: wp.array[float],
-              key_qpos: wp.array2d[float], key_qvel: wp.array2d[float],
-              key_act: wp.array2d[float], key_ctrl: wp.array2d[float],
-              key_mpos: wp.array2d[wp.vec3], key_mquat: wp.array2d[wp.quat],
-              key_plastic: wp.array2d[float], time: wp.array[float], qpos: wp.array2d[float],
-              qvel: wp.array2d[float], act: wp.array2d[float], ctrl: wp.array2d[float],
-              mocap_pos: wp.array2d[wp.vec3], mocap_quat: wp.array2d[wp.quat],
-              plastic: wp.array2d[float]):
-    """Keyframe `key`'s state into the selected worlds (after `mjw.reset_data` cleared them)."""
-    w = wp.tid()
-    if not selected[w]:
-        return
-    time[w] = key_time[key]
-    for i in range(qpos.shape[1]):
-        qpos[w, i] = key_qpos[key, i]
-    for i in range(qvel.shape[1]):
-        qvel[w, i] = key_qvel[key, i]
-    for i in range(act.shape[1]):
-        act[w, i] = key_act[key, i]
-    for i in range(ctrl.shape[1]):
-        ctrl[w, i] = key_ctrl[key, i]
-    for i in range(mocap_pos.shape[1]):
-        mocap_pos[w, i] = key_mpos[key, i]
-        mocap_quat[w, i] = key_mquat[key, i]
-    for i in range(plastic.shape[1]):
-        plastic[w, i] = key_plastic[key, i]
+def _keyframe(selected: wp.array[bool], row: wp.array[wp.float32], out: wp.array2d[wp.float32]):
+    """One field of a keyframe's state (`row`, float32 as MuJoCo Warp holds it) into the selected worlds
+    (after `mjw.reset_data` cleared them)."""
+    w, i = wp.tid()
+    if selected[w]:
+        out[w, i] = row[i]
+
+
+def _values(array: wp.array, nworld: int) -> wp.array:
+    """An (nworld, ...) float32 array of MuJoCo Warp's Data (scalars, vectors or quaternions) as (nworld, values)."""
+    size = array.size * wp.types.type_size_in_bytes(array.dtype) // (4 * nworld)
+    return wp.array(ptr=array.ptr, dtype=wp.float32, shape=(nworld, size), device=array.device, copy=False)
+
+
+def _keyframe_rows(mjm: mujoco.MjModel, key: int, data: object, nworld: int) -> list[tuple[wp.array, wp.array]]:
+    """Keyframe `key`'s state as (row, Data view) pairs of its non-empty fields (read from `mjm`: MuJoCo Warp
+    3.11's Model holds no keyframes)."""
+    out = []
+    for key_field, field in KEYFRAME_STATE:
+        if not hasattr(mjm, key_field):
+            continue
+        row = np.ravel(getattr(mjm, key_field)[key]).astype(np.float32)
+        if row.size:
+            out.append((wp.array(row, dtype=wp.float32), _values(getattr(data, field), nworld)))
+    return out
 
 
 @wp.func
@@ -170,7 +179,10 @@ class Worlds:
 
     `model`, `data`: MuJoCo Warp's (`mjw.put_model(mjm)`, `mjw.make_data(mjm, nworld, nconmax, njmax)`);
     `steps` (nworld,) int64 and `diverged` (nworld,) bool device arrays (see the module's conventions).
-    nconmax / njmax (contacts / constraint rows per world) default to `default_sizes`."""
+    nconmax / njmax (contacts / constraint rows per world) default to `default_sizes` (None in `over`'s)."""
+
+    nconmax: int | None
+    njmax: int | None
 
     def __init__(self, mjm: mujoco.MjModel, nworld: int, device: wp.Device | str | None = None,
                  keyframe: int | None = None, nconmax: int | None = None, njmax: int | None = None):
@@ -178,21 +190,38 @@ class Worlds:
             raise ValueError(f"nworld must be at least 1; got {nworld}")
         if keyframe is not None and not 0 <= keyframe < mjm.nkey:
             raise ValueError(f"keyframe {keyframe} is not one of the model's {mjm.nkey} keyframes")
-        self.device = wp.get_device(device)
-        self.nworld = nworld
-        self.keyframe = keyframe
+        device = wp.get_device(device)
         sizes = default_sizes(mjm, keyframe) if nconmax is None or njmax is None else (nconmax, njmax)
-        self.nconmax = sizes[0] if nconmax is None else nconmax
-        self.njmax = sizes[1] if njmax is None else njmax
-        with wp.ScopedDevice(self.device):
-            self.model = put_model(mjm)
-            self.data = mjw.make_data(mjm, nworld=nworld, nconmax=self.nconmax, njmax=self.njmax)
+        nconmax = sizes[0] if nconmax is None else nconmax
+        njmax = sizes[1] if njmax is None else njmax
+        with wp.ScopedDevice(device):
+            model = put_model(mjm)
+            data = mjw.make_data(mjm, nworld=nworld, nconmax=nconmax, njmax=njmax)
+        self._adopt(mjm, model, data, nworld, device, keyframe)
+        self.nconmax, self.njmax = nconmax, njmax
+        with wp.ScopedDevice(device):
+            everything = wp.ones(nworld, dtype=bool)
+        self.reset(everything)
+
+    @classmethod
+    def over(cls, mjm: mujoco.MjModel, model: mjw.Model, data: mjw.Data, device: wp.Device | str | None) -> Worlds:
+        """The worlds of a MuJoCo Warp `model` and `data` (of `mjm`) that another library made and steps
+        (mjlab's simulation): `count` after each of its physics steps, `restarted` after it resets worlds;
+        `step` and `reset` are the owner's, not these worlds'."""
+        worlds = cls.__new__(cls)
+        worlds._adopt(mjm, model, data, int(data.qpos.shape[0]), wp.get_device(device), None)
+        worlds.nconmax, worlds.njmax = None, None
+        return worlds
+
+    def _adopt(self, mjm: mujoco.MjModel, model: mjw.Model, data: mjw.Data, nworld: int, device: wp.Device,
+               keyframe: int | None) -> None:
+        self.device, self.nworld, self.keyframe, self.model, self.data = device, nworld, keyframe, model, data
+        with wp.ScopedDevice(device):
             self.steps = wp.zeros(nworld, dtype=wp.int64)
             self.diverged = wp.zeros(nworld, dtype=bool)
             self._ctrl_bounds = [wp.array(b, dtype=float) for b in control_bounds(mjm)]
             self._selected = wp.zeros(nworld, dtype=bool)
-            everything = wp.ones(nworld, dtype=bool)
-        self.reset(everything)
+            self._key_rows = [] if keyframe is None else _keyframe_rows(mjm, keyframe, data, nworld)
 
     @property
     def overflow(self) -> wp.array:
@@ -204,9 +233,13 @@ class Worlds:
         with wp.ScopedDevice(self.device):
             for _ in range(substeps):
                 mjw.step(self.model, self.data)
-                wp.launch(_count, dim=self.nworld, inputs=[self.data.qpos, self.data.qvel, self.data.qacc,
-                                                           self.data.ctrl, *self._ctrl_bounds],
-                          outputs=[self.steps, self.diverged])
+                self.count()
+
+    def count(self) -> None:
+        """After one physics step of every world: the step counts advanced, divergence checked."""
+        wp.launch(_count, dim=self.nworld, inputs=[self.data.qpos, self.data.qvel, self.data.qacc, self.data.ctrl,
+                                                   *self._ctrl_bounds],
+                  outputs=[self.steps, self.diverged], device=self.device)
 
     def forward(self) -> None:
         """`mjw.forward` of every world: derived quantities (and sensors) of the current states, which a step's
@@ -219,18 +252,20 @@ class Worlds:
         keyframe or qpos0, step count 0, divergence cleared. The other worlds are not touched."""
         if mask.shape != (self.nworld,):
             raise ValueError(f"a reset mask is ({self.nworld},); got {mask.shape}")
-        select = _select_bool if mask.dtype == wp.bool else _select
-        if select is _select and mask.dtype != wp.int32:
+        if mask.dtype not in (wp.bool, wp.int32):
             raise ValueError(f"a reset mask is bool or int32; got {wp.types.type_repr(mask.dtype)}")
-        m, d = self.model, self.data
         with wp.ScopedDevice(self.device):
-            wp.launch(select, dim=self.nworld, inputs=[mask], outputs=[self._selected, self.steps, self.diverged])
-            mjw.reset_data(m, d, self._selected)
-            if self.keyframe is not None:
-                wp.launch(_keyframe, dim=self.nworld,
-                          inputs=[self.keyframe, self._selected, m.key_time, m.key_qpos, m.key_qvel, m.key_act,
-                                  m.key_ctrl, m.key_mpos, m.key_mquat, m.key_plastic],
-                          outputs=[d.time, d.qpos, d.qvel, d.act, d.ctrl, d.mocap_pos, d.mocap_quat, d.plastic])
+            self.restarted(mask)
+            mjw.reset_data(self.model, self.data, self._selected)
+            for row, out in self._key_rows:
+                wp.launch(_keyframe, dim=out.shape, inputs=[self._selected, row], outputs=[out])
+
+    def restarted(self, mask: wp.array) -> None:
+        """The worlds where `mask` ((nworld,) bool or int32) is set start again: step count 0, divergence cleared
+        (their physics is reset by `reset`, or by the owner of `over`'s worlds)."""
+        select = _select_bool if mask.dtype == wp.bool else _select
+        wp.launch(select, dim=self.nworld, inputs=[mask], outputs=[self._selected, self.steps, self.diverged],
+                  device=self.device)
 
     def state(self, name: str) -> np.ndarray:
         """A host copy of one of `data`'s (nworld, ...) arrays, for tests and diagnostics (not per step)."""

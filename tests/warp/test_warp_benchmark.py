@@ -16,6 +16,7 @@ from conftest import warp_or_skip  # noqa: E402
 wp = warp_or_skip()
 
 from sensorcfg.warp.environment import WarpEnvironment  # noqa: E402
+from sensorcfg.warp.support import LINE  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 BENCHMARKS = ROOT / "benchmarks"
@@ -25,6 +26,9 @@ def test_quick_run_checks_the_go2_suite_and_prints_the_table() -> None:
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
     done = subprocess.run([sys.executable, str(BENCHMARKS / "warp.py"), "--quick", "--models", "go2"], cwd=ROOT,
                           env=env, capture_output=True, text=True, timeout=1800)
+    if LINE == "3.11":  # MuJoCo Warp 3.11 itself refuses the Go2 stand-in (MULTICCD with geom margins): said so
+        assert done.returncode != 0 and "MuJoCo Warp 3.11.0 cannot run this model: geom pair" in done.stderr
+        return
     assert done.returncode == 0, done.stdout + done.stderr
     assert "quick: every observation matched its spec" in done.stdout
     table = done.stdout.splitlines()

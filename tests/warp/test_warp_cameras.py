@@ -11,13 +11,13 @@ import mujoco
 import numpy as np
 import pytest
 
+from cpu_batch import cpu_batch  # noqa: E402
 from conftest import MODELS, warp_or_skip  # noqa: E402
 
 wp = warp_or_skip()
 
 import sensorcfg  # noqa: E402
 from sensorcfg import SuiteError  # noqa: E402
-from sensorcfg.batch.environment import BatchEnvironment  # noqa: E402
 from sensorcfg.noise import build_noise  # noqa: E402
 from sensorcfg.observables.camera import Camera  # noqa: E402
 from sensorcfg.physics import Physics  # noqa: E402
@@ -82,7 +82,7 @@ def interior(seg: np.ndarray) -> np.ndarray:
 
 def test_shapes_and_dtypes_are_the_cpu_cameras(run) -> None:
     env, seen, _ = run
-    cpu = BatchEnvironment(SCENE, cameras(), NWORLD, physics_steps_per_control_step=2)
+    cpu = cpu_batch(SCENE, cameras, NWORLD, physics_steps_per_control_step=2)
     cpu_spec, cpu_obs = cpu.observation_spec(), cpu.reset().observation
     spec = env.observation_spec()
     for name in ("rgb", "depth", "segmentation"):

@@ -11,12 +11,12 @@ import mujoco
 import numpy as np
 import pytest
 
+from cpu_batch import cpu_batch  # noqa: E402
 from conftest import warp_or_skip  # noqa: E402
 
 wp = warp_or_skip()
 
 import sensorcfg  # noqa: E402
-from sensorcfg.batch.environment import BatchEnvironment  # noqa: E402
 from sensorcfg.draws import ChoiceSteps, UniformSteps  # noqa: E402
 from sensorcfg.noise import build_noise  # noqa: E402
 from sensorcfg.noise import streams  # noqa: E402
@@ -183,7 +183,7 @@ def test_warp_environment_reads_what_the_batch_reads_with_drawn_schedules() -> N
     timestep = float(mujoco.MjModel.from_xml_path(ROBOT).opt.timestep)
     options = dict(physics_steps_per_control_step=1, seed=4, time_limit=9 * timestep)
     warp = WarpEnvironment(ROBOT, suite(), 2, device="cpu", **options)
-    batch = BatchEnvironment(ROBOT, suite(), 2, **options)
+    batch = cpu_batch(ROBOT, suite, 2, **options)
     ours, theirs = warp.reset(), batch.reset()
     rng = np.random.default_rng(0)
     for t in range(24):

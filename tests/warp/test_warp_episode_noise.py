@@ -83,7 +83,7 @@ def replay_episodes(make: Callable[[], dict[str, Any]], nworld: int, substeps: i
     """World w of the Warp sensor layer against an Updater over `make()`'s observables on the bundled robot,
     both reading world w's CPU trajectory (`test_warp_fuzz.replay`: worlds `restarts[t]` start a new episode at
     control step t, new episodes from `levels[t]` on have that noise level, the key table holds
-    `key_episodes` episodes ahead and is topped up by `WarpEnvironment._top_up`). Returns the most episodes a
+    `key_episodes` episodes ahead and is topped up by `layer.EpisodeKeys.top_up`). Returns the most episodes a
     world started."""
     options = {"physics_steps_per_control_step": substeps, "strip_singleton_buffer_dim": False,
                "pad_with_initial_value": False}

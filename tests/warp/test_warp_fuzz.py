@@ -9,7 +9,7 @@ step, 2-5 worlds.
 
 - the sensor layer (`warp.sensors`, Warp's CPU device) against one Updater per world on world w's CPU
   trajectory: random worlds restart at random control steps, noise levels change mid-run, and more episodes
-  run than the key table holds (its top-up is `WarpEnvironment._top_up`). The suite's fields are rounded to
+  run than the key table holds (its top-up is `layer.EpisodeKeys.top_up`). The suite's fields are rounded to
   float32 on that trajectory, so both engines sample the same values and only their arithmetic differs;
 - `WarpEnvironment` against `BatchEnvironment` on suites of the controls (the same values whatever the
   physics): specs, reads, step types, rewards, discounts, time limits, `reset(ids)`, noise levels;
@@ -26,7 +26,6 @@ import math
 import os
 import warnings
 from collections.abc import Callable
-from types import SimpleNamespace
 from typing import Any
 
 import mujoco
@@ -34,18 +33,20 @@ import numpy as np
 import pytest
 
 from conftest import warp_or_skip  # noqa: E402
+from cpu_batch import cpu_batch  # noqa: E402
 
 wp = warp_or_skip()
 
 import sensorcfg  # noqa: E402
 from sensorcfg import assets  # noqa: E402
-from sensorcfg.batch.environment import BatchEnvironment, root_seed, sim_seed  # noqa: E402
+from sensorcfg.batch.environment import root_seed, sim_seed  # noqa: E402
 from sensorcfg.env.environment import random_state_from  # noqa: E402
 from sensorcfg.noise.bounds import noisy_bounds  # noqa: E402
 from sensorcfg.noise.level import leveled, own_bounds, set_level  # noqa: E402
 from sensorcfg.physics import Physics  # noqa: E402
 from sensorcfg.plan.bind import bind, plan_suite  # noqa: E402
 from sensorcfg.warp.environment import WarpEnvironment  # noqa: E402
+from sensorcfg.warp.layer import EpisodeKeys, refuse  # noqa: E402
 from sensorcfg.warp.sensors import Sensors  # noqa: E402
 
 ROBOT = str(assets.path("robot.xml"))
@@ -222,7 +223,7 @@ def replay(make: Callable[[], dict[str, Any]], model: mujoco.MjModel, options: d
     w's CPU trajectory (random actions; the fields the suite reads rounded to float32 at each step). At control
     step t the worlds `restarts[t]` start a new episode instead of stepping, and from `levels[t]` on new
     episodes have that noise level; `options`: the Updater's keywords; the key table holds `key_episodes`
-    episodes ahead, topped up every `key_episodes // 4` control steps by `WarpEnvironment._top_up`. Plain
+    episodes ahead, topped up every `key_episodes // 4` control steps by `EpisodeKeys.top_up`. Plain
     noise-free reads are compared bit for bit, the rest to float32 rounding. Returns the most episodes a world
     started."""
     substeps, strip = options["physics_steps_per_control_step"], options["strip_singleton_buffer_dim"]
@@ -231,7 +232,7 @@ def replay(make: Callable[[], dict[str, Any]], model: mujoco.MjModel, options: d
     mujoco.mj_forward(model, physics.data)
     observables = make()
     bound = bind(observables, physics, substeps, strip, pad)
-    WarpEnvironment._refuse(bound, model)
+    refuse(bound, model)
     plan = plan_suite(bound, physics, bound.sources(), nworld, substeps, pad)
     entries = (*bound.fixed, *bound.drawn)
     bounds = {e.name: b for e in entries if e.channel.noise is not None
@@ -240,14 +241,11 @@ def replay(make: Callable[[], dict[str, Any]], model: mujoco.MjModel, options: d
     sensors = Sensors(plan, wp.get_device("cpu"), key_episodes, bounds)
     names = [f for f, _ in plan.fields]
     plain = {s.name for s in plan.sensors if s.noise is None and s.aggregator is None}
-    host = SimpleNamespace(_sensors=sensors, _key_episodes=key_episodes, _keyed=np.zeros(nworld, np.int64),
-                           _table=np.zeros(sensors.key_table.shape, np.uint64),
-                           _values=np.zeros(sensors.episode_table.shape),
-                           _pipelines={e.name: e.channel.noise for e in entries},
-                           _random_states=[np.random.RandomState(100 + w) for w in range(nworld)])
+    keys = EpisodeKeys(sensors, {e.name: e.channel.noise for e in entries}, key_episodes)
+    keys.start([np.random.RandomState(100 + w) for w in range(nworld)])
 
     def top_up() -> None:
-        WarpEnvironment._top_up(host, sensors.episodes.numpy().astype(np.int64))  # type: ignore[arg-type]
+        keys.top_up()
 
     worlds = [(sensorcfg.Updater(obs, **options), Physics(model), np.random.RandomState(100 + w), obs)
               for w, obs in enumerate([make() for _ in range(nworld)])]
@@ -306,7 +304,7 @@ def replay(make: Callable[[], dict[str, Any]], model: mujoco.MjModel, options: d
                 sensors.record(fields_of(datas, names), device_steps, wp.array(mask, dtype=wp.int32, device="cpu"))
             if chosen:
                 restart(chosen)
-            if t % (key_episodes // 4) == 0:  # as `WarpEnvironment._keys_ahead` tops it up
+            if t % (key_episodes // 4) == 0:  # as `EpisodeKeys.ahead` tops it up
                 top_up()
         got = {name: array.numpy() for name, array in sensors.read(device_steps).items()}
         for w, (u, *_) in enumerate(worlds):
@@ -317,7 +315,7 @@ def replay(make: Callable[[], dict[str, Any]], model: mujoco.MjModel, options: d
                 else:
                     np.testing.assert_allclose(got[name][w], value, rtol=1e-5, atol=1e-6,
                                                err_msg=f"world {w} control step {t} {name}")
-    assert not sensors.key_names or (host._keyed >= sensors.episodes.numpy()).all()
+    assert not sensors.key_names or (keys.keyed >= sensors.episodes.numpy()).all()
     return int(sensors.episodes.numpy().max())
 
 
@@ -402,7 +400,7 @@ def episode_rules(seed: int, nworld: int, control_steps: int, substeps: int, nu:
             "termination_raises": {int(k) for k in rng.integers(1, control_steps, 1)}}
 
 
-def _step_both(warp: WarpEnvironment, batch: BatchEnvironment, actions: np.ndarray) -> tuple[Any, Any]:
+def _step_both(warp: WarpEnvironment, batch: Any, actions: np.ndarray) -> tuple[Any, Any]:
     """Both engines' step of `actions`; where a user function raised (in both: the same call of each), the step
     after it, which restarts every world of both."""
     results, raised = [], []
@@ -432,8 +430,8 @@ def run_environments(seed: int, control_steps: int = 30) -> None:
     warp = WarpEnvironment(ROBOT, sensorcfg.loads(text), nworld, device="cpu", key_episodes=4 + 4 * (seed % 3),
                            **{f: Scripted(*v, device="cpu") for f, v in functions.items()},
                            **options)  # its key table topped up every control step, every second, every third
-    batch = BatchEnvironment(ROBOT, sensorcfg.loads(text), nworld, **{f: Scripted(*v) for f, v in functions.items()},
-                             **options)
+    batch = cpu_batch(ROBOT, lambda: sensorcfg.loads(text), nworld, **{f: Scripted(*v) for f, v in functions.items()},
+                      **options)
     ours_spec, their_spec = warp.observation_spec(), batch.observation_spec()
     assert list(ours_spec) == list(their_spec)
     for name, spec in ours_spec.items():

@@ -19,7 +19,8 @@ from sensorcfg.draws import episode_entropy  # noqa: E402
 from sensorcfg.physics import Physics  # noqa: E402
 from sensorcfg.plan.bind import bind  # noqa: E402
 from sensorcfg.warp import rays  # noqa: E402
-from sensorcfg.warp.environment import WarpEnvironment, episode_keys  # noqa: E402
+from sensorcfg.warp.environment import WarpEnvironment  # noqa: E402
+from sensorcfg.warp.layer import episode_keys  # noqa: E402
 from sensorcfg.warp.sensors import Sensors  # noqa: E402
 
 # a floor (x, y in [-2, 2]), a heightfield ramp over x in [2.2, 4.2] (a gap between them where rays miss), a

@@ -22,7 +22,7 @@ from sensorcfg.draws import episode_entropy  # noqa: E402
 from sensorcfg.noise import build_noise  # noqa: E402
 from sensorcfg.physics import Physics  # noqa: E402
 from sensorcfg.plan.bind import bind, plan_suite  # noqa: E402
-from sensorcfg.warp.environment import episode_keys  # noqa: E402
+from sensorcfg.warp.layer import episode_keys  # noqa: E402
 from sensorcfg.warp.sensors import Sensors  # noqa: E402
 
 ROBOT = str(assets.path("robot.xml"))

@@ -20,12 +20,14 @@ import sensorcfg  # noqa: E402
 from sensorcfg import SuiteError  # noqa: E402
 from sensorcfg.kinds import ON_DEMAND  # noqa: E402
 from sensorcfg.warp.environment import WarpEnvironment  # noqa: E402
-from sensorcfg.warp.support import FIELDS  # noqa: E402
+from sensorcfg.warp.support import FIELDS, LINE  # noqa: E402
 from sensorcfg.warp.worlds import Worlds  # noqa: E402
 
 _SPARSE = {"nC", "nD", "nJten", "nJmom", "nJfe", "nefmK"}  # nonzeros of sparse matrices: each library's layout
 _FACTORS = {"qLDiagInv", "qHDiagInv"}  # of M's factorization, which each library computes its own way
-_SAME = {"nactuator": "nout"}  # MuJoCo Warp runs one force output per actuator
+# MuJoCo Warp (3.11 and 4) runs no SO3 transmission nor gain (its put_model refuses them): one control and one
+# force output per actuator, so that nu, nactuator and nout are one number in every model it runs
+_SAME = {"nactuator": "nout", "nu": "nout"}
 
 
 def _axes(dims: tuple) -> tuple[tuple[str, ...], int]:
@@ -58,8 +60,9 @@ def fields_of_mujoco_warp() -> frozenset[str]:
 def test_fields_are_those_of_the_installed_mujoco_warp() -> None:
     generated = fields_of_mujoco_warp()
     assert FIELDS == generated, f"missing: {sorted(generated - FIELDS)}; extra: {sorted(FIELDS - generated)}"
-    assert "site_xquat" not in FIELDS and hasattr(mujoco.MjData(mujoco.MjModel.from_xml_string("<mujoco/>")),
-                                                  "site_xquat")
+    assert LINE == ("4" if int(mujoco.__version__.split(".")[0]) >= 4 else "3.11")  # (each MuJoCo Warp's MuJoCo)
+    assert "site_xquat" not in FIELDS and (LINE != "4" or hasattr(mujoco.MjData(mujoco.MjModel.from_xml_string(
+        "<mujoco/>")), "site_xquat"))  # MuJoCo 4 has it, MuJoCo Warp 4 does not
 
 
 @pytest.mark.parametrize("model", ["arm.xml", "extras.xml"])
@@ -80,7 +83,20 @@ def test_fields_hold_mjdatas_values_in_mjdatas_layout(model: str) -> None:
         ours = getattr(worlds.data, field).numpy().reshape(2, -1)
         theirs = np.asarray(getattr(data, field), np.float64).reshape(-1)
         assert ours.shape == (2, theirs.size), field
-        np.testing.assert_allclose(ours[1], theirs, rtol=1e-4, atol=1e-4, err_msg=field)
+        if field == "sensordata" and LINE == "3.11":  # MuJoCo 3.11's accelerometer on a body welded to the world
+            static = _static_accelerometers(mjm)  # reads 0; MuJoCo 4 and MuJoCo Warp (3.11 and 4) read gravity
+            ours, theirs = ours[:, ~static], theirs[~static]
+        scale = max(1.0, float(np.abs(theirs).max(initial=0.0)))  # float32 sums round by the terms' magnitude
+        np.testing.assert_allclose(ours[1], theirs, rtol=1e-4, atol=1e-4 * scale, err_msg=field)
+
+
+def _static_accelerometers(mjm: mujoco.MjModel) -> np.ndarray:
+    """A mask of sensordata: the values of accelerometers on sites of bodies welded to the world."""
+    out = np.zeros(mjm.nsensordata, bool)
+    for i in np.flatnonzero(mjm.sensor_type == int(mujoco.mjtSensor.mjSENS_ACCELEROMETER)):
+        if mjm.body_weldid[mjm.site_bodyid[mjm.sensor_objid[i]]] == 0:
+            out[mjm.sensor_adr[i]:mjm.sensor_adr[i] + mjm.sensor_dim[i]] = True
+    return out
 
 
 # one thing of each class the Warp engine does not run (tests/cli/test_validate_engine.py: validate reports them),
@@ -97,18 +113,26 @@ sensors:
     kind: rgb
     element: camera:hand_cam
     camera: {width: 32, height: 24}
-  tip_quat: {kind: xquat, element: site:tip}
+  {refused}
   ok: {kind: qpos, element: joint:shoulder, noise: [{type: gaussian, std: 0.01}]}
 """
+# a field the installed MuJoCo Warp's Data does not hold as mjData's (MuJoCo 3.11 has no site_xquat; MuJoCo Warp
+# 3.11 no qfrc_adhesion), and the start of its message
+REFUSED = {"4": ("tip_quat", "{kind: xquat, element: site:tip}", "kind 'xquat' reads mjData's site_xquat"),
+           "3.11": ("adhesion", "{kind: qfrc_adhesion, element: joint:shoulder}",
+                    "mjData's qfrc_adhesion, which MuJoCo Warp 3.11's Data does not hold; read another kind, install "
+                    "MuJoCo Warp 4")}
 
 
 def test_warp_environment_refuses_a_suite_with_the_problems_validate_reports(tmp_path: Path) -> None:
     shutil.copy(MODELS / "arm.xml", tmp_path)
-    (tmp_path / "s.yaml").write_text(SUITE)
+    name, sensor, message = REFUSED[LINE]
+    (tmp_path / "s.yaml").write_text(SUITE.replace("{refused}", f"{name}: {sensor}"))
     suite = sensorcfg.load(tmp_path / "s.yaml")
     reported = suite.check(warp=True)
     assert [(p.line, p.loc) for p in reported] == [
-        (8, "sensors.drawn.noise.0.cutoff"), (11, "sensors.cam.element"), (13, "sensors.tip_quat.kind")]
+        (8, "sensors.drawn.noise.0.cutoff"), (11, "sensors.cam.element"), (13, f"sensors.{name}.kind")]
+    assert reported[2].message.startswith(message)
     assert suite.check(batch=True) == []
     with pytest.raises(SuiteError) as refused:
         WarpEnvironment(None, suite, 2, device="cpu")
