@@ -6,6 +6,9 @@
   failure here (SENSORCFG_REQUIRE_ORACLE=1).
 - `tests-warp`: the Warp engine (`sensorcfg[warp]`) on Warp's CPU device, with torch for its actions' tests and
   the suite plan's tests; a missing Warp fails here (SENSORCFG_REQUIRE_WARP=1).
+- `tests-mjlab`: the Warp engine on MuJoCo Warp 3.11 as mjlab 1.6 pins it (`sensorcfg[mjlab]`, torch CPU), its
+  tests and the mjlab adapter's; a missing Warp or mjlab fails here (SENSORCFG_REQUIRE_WARP=1,
+  SENSORCFG_REQUIRE_MJLAB=1).
 - `typecheck`: mypy (pinned) over the package; any error fails the session.
 
 Both test sessions build the compiled noise kernel (setup.py; the machines have a C compiler) and set
@@ -18,7 +21,7 @@ import os
 
 import nox
 
-nox.options.sessions = ["tests-mujoco4", "oracle-mujoco3", "tests-warp", "typecheck"]
+nox.options.sessions = ["tests-mujoco4", "oracle-mujoco3", "tests-warp", "tests-mjlab", "typecheck"]
 nox.options.reuse_existing_virtualenvs = True
 nox.options.error_on_missing_interpreters = True
 
@@ -54,6 +57,22 @@ def tests_warp(session: nox.Session) -> None:
                 "'mujoco_warp', mujoco_warp.__version__ if hasattr(mujoco_warp, '__version__') else '?', "
                 "'warp', warp.__version__)")
     _pytest(session, "tests/warp", "tests/plan", SENSORCFG_REQUIRE_WARP="1")
+
+
+# torch first, pinned: mjlab asks for torch>=2.7, which pip would otherwise take from the index (a CUDA build)
+MJLAB_TORCH = "torch==2.13.0"
+
+
+@nox.session(name="tests-mjlab")
+def tests_mjlab(session: nox.Session) -> None:
+    """mjlab 1.6 beside sensorcfg: the Warp engine on its MuJoCo Warp 3.11 (Warp's CPU device; what 3.11 lacks
+    is refused at the suite's line, `warp/support.py`), and the mjlab adapter on mjlab's Go1 velocity task with
+    2 worlds (replayed by Updaters; 2 iterations of mjlab's RSL-RL runner)."""
+    session.install(MJLAB_TORCH)
+    session.install("-e", ".[test,mjlab]", MJLAB_TORCH, "mjlab==1.6.0")
+    session.run("python", "-c", "import mujoco, mujoco_warp, mjlab, torch; print('mujoco', mujoco.__version__, "
+                "'mujoco_warp', getattr(mujoco_warp, '__version__', '?'), 'torch', torch.__version__)")
+    _pytest(session, "tests/warp", "tests/mjlab", SENSORCFG_REQUIRE_WARP="1", SENSORCFG_REQUIRE_MJLAB="1")
 
 
 # The libraries whose type stubs mypy reads, at the versions the package was last checked against, so that a

@@ -242,7 +242,23 @@ class Suite:
 
     def _compile(self, model: ModelLike, batch: bool, extra: Sequence[Added] = ()) -> mujoco.MjModel:
         """`compile`, with `extra` sensors added last (a batch's relays, `batch.relay`)."""
-        mjmodel, refused = self._compiled(model, batch, extra)
+        return self._refusing(*self._compiled(model, batch, extra))
+
+    def _add_to(self, spec: mujoco.MjSpec) -> mujoco.MjModel:
+        """The suite's MuJoCo sensors and sites (a batch's: on-demand fields filled) added to `spec` itself, a
+        scene that another library compiles (mjlab's); the model compiled. A suite that adds cameras cannot be
+        added so (its cameras are mounted on a copy): SuiteError at `cameras`."""
+        if self.config.cameras:
+            message = ("a suite added to another library's scene cannot add cameras (`cameras:`): add them to the "
+                       "scene itself, and name them in the sensors' `element`")
+            pos = self._loaded.doc.pos(("cameras",))
+            raise SuiteError(pos.problem(message, "cameras") if pos else Problem(message, "cameras", self.file))
+        from .native import add_native
+
+        return self._refusing(*add_native(spec, self._sources(), True))
+
+    def _refusing(self, mjmodel: mujoco.MjModel, refused: Mapping[str, str]) -> mujoco.MjModel:
+        """`mjmodel`, or SuiteError at each sensor MuJoCo refused (`refused`: its message, by sensor)."""
         if refused:
             from .binding import bind
 

@@ -91,3 +91,15 @@ def warp_or_skip() -> types.ModuleType:
         if os.environ.get("SENSORCFG_REQUIRE_WARP", "") not in ("", "0"):
             pytest.fail(f"{message} (SENSORCFG_REQUIRE_WARP=1 forbids skipping)", pytrace=False)
         pytest.skip(message, allow_module_level=True)
+
+
+def mjlab_or_skip() -> types.ModuleType:
+    """mjlab (with the Warp engine's libraries), or skip the module; where SENSORCFG_REQUIRE_MJLAB=1 (the
+    `tests-mjlab` nox session, which installs `sensorcfg[mjlab]`) a missing one fails instead."""
+    try:
+        return importlib.import_module("mjlab")
+    except ImportError as e:
+        message = f"sensorcfg[mjlab] is not installed: {e}"
+        if os.environ.get("SENSORCFG_REQUIRE_MJLAB", "") not in ("", "0"):
+            pytest.fail(f"{message} (SENSORCFG_REQUIRE_MJLAB=1 forbids skipping)", pytrace=False)
+        pytest.skip(message, allow_module_level=True)

@@ -33,8 +33,8 @@ from ..observables.feature import computed_by_model
 from ..selection import ADDED_PREFIX, split_selector
 from .additions import Added, native_row, sensor_additions
 
-__all__ = ["Compiled", "HIDDEN_GROUP", "compile_model", "native_names", "reads_on_demand", "MAX_REFUSALS",
-           "NOT_COMPILED"]
+__all__ = ["Compiled", "HIDDEN_GROUP", "add_native", "compile_model", "native_names", "reads_on_demand",
+           "MAX_REFUSALS", "NOT_COMPILED"]
 
 Compiled = tuple[mujoco.MjModel, dict[str, str]]  # the model, and the problem of each suite sensor left out
 _ELEMENT = re.compile(re.escape(ADDED_PREFIX) + r"([A-Za-z_][A-Za-z0-9_\-/]*):\d+\b")  # `additions.sensor_name`
@@ -142,7 +142,13 @@ def compile_model(source: Any, sensors: Mapping[str, SensorConfig], batch: bool 
 
     Raises ValueError when MuJoCo cannot read or compile the file itself.
     """
-    spec = _spec(source)
+    return add_native(_spec(source), sensors, batch, extra)
+
+
+def add_native(spec: mujoco.MjSpec, sensors: Mapping[str, SensorConfig], batch: bool = False,
+               extra: Sequence[Added] = ()) -> Compiled:
+    """`compile_model` on `spec` itself: its additions are left in it (a framework's scene that compiles it
+    again, mjlab's), those MuJoCo refused taken out."""
     names = native_names(sensors)
     if extra and not names and not batch:  # nothing to resolve against the model as written: one compile
         for added in extra:
