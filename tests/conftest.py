@@ -80,26 +80,25 @@ def assert_batch_equals_single(model: str, suite: object, nsim: int, seed: int, 
                 np.testing.assert_array_equal(out.observation[name][i], value, err_msg=name)
 
 
+def _extra_or_skip(extra: str, modules: tuple[str, ...]) -> types.ModuleType:
+    """The last of `modules` (all imported), or skip the test module; where SENSORCFG_REQUIRE_<EXTRA>=1 (the nox
+    session that installs `sensorcfg[<extra>]`) a missing one fails instead."""
+    try:
+        return [importlib.import_module(name) for name in modules][-1]
+    except ImportError as e:
+        message, variable = f"sensorcfg[{extra}] is not installed: {e}", f"SENSORCFG_REQUIRE_{extra.upper()}"
+        if os.environ.get(variable, "") not in ("", "0"):
+            pytest.fail(f"{message} ({variable}=1 forbids skipping)", pytrace=False)
+        pytest.skip(message, allow_module_level=True)
+
+
 def warp_or_skip() -> types.ModuleType:
     """Warp (with MuJoCo Warp importable), or skip the module; where SENSORCFG_REQUIRE_WARP=1 (the `tests-warp`
-    nox session, which installs `sensorcfg[warp]`) a missing one fails instead."""
-    try:
-        importlib.import_module("mujoco_warp")
-        return importlib.import_module("warp")
-    except ImportError as e:
-        message = f"sensorcfg[warp] is not installed: {e}"
-        if os.environ.get("SENSORCFG_REQUIRE_WARP", "") not in ("", "0"):
-            pytest.fail(f"{message} (SENSORCFG_REQUIRE_WARP=1 forbids skipping)", pytrace=False)
-        pytest.skip(message, allow_module_level=True)
+    and `tests-mjlab` nox sessions) a missing one fails instead."""
+    return _extra_or_skip("warp", ("mujoco_warp", "warp"))
 
 
 def mjlab_or_skip() -> types.ModuleType:
-    """mjlab (with the Warp engine's libraries), or skip the module; where SENSORCFG_REQUIRE_MJLAB=1 (the
-    `tests-mjlab` nox session, which installs `sensorcfg[mjlab]`) a missing one fails instead."""
-    try:
-        return importlib.import_module("mjlab")
-    except ImportError as e:
-        message = f"sensorcfg[mjlab] is not installed: {e}"
-        if os.environ.get("SENSORCFG_REQUIRE_MJLAB", "") not in ("", "0"):
-            pytest.fail(f"{message} (SENSORCFG_REQUIRE_MJLAB=1 forbids skipping)", pytrace=False)
-        pytest.skip(message, allow_module_level=True)
+    """mjlab, or skip the module; where SENSORCFG_REQUIRE_MJLAB=1 (the `tests-mjlab` nox session, which installs
+    `sensorcfg[mjlab]`) a missing one fails instead."""
+    return _extra_or_skip("mjlab", ("mjlab",))

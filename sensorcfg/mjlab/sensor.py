@@ -133,6 +133,7 @@ class SuiteSensor(Sensor[dict[str, torch.Tensor]]):
     def physics_steps_per_control_step(self) -> int:
         return self._n
 
+    @quiet
     def update(self, dt: float) -> None:
         super().update(dt)
         layer = self.layer
@@ -153,6 +154,7 @@ class SuiteSensor(Sensor[dict[str, torch.Tensor]]):
             self._pending_torch[torch.as_tensor(env_ids, device=self._pending_torch.device)] = 1
             self._any_pending = True
 
+    @quiet
     def _compute_data(self) -> dict[str, torch.Tensor]:
         layer = self.layer
         if self._substep not in (0, self._n):

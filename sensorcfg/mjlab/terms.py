@@ -89,7 +89,8 @@ def attach(env_cfg: Any, suite: str | os.PathLike[str] | Suite, groups: Mapping[
         for term in keep:
             if own is None or term not in own.terms:
                 have = ", ".join(own.terms) if own is not None else "none (no such group)"
-                raise ArgumentError(f"observation group {mjlab_group!r} has no term {term!r} to keep; its terms: {have}")
+                raise ArgumentError(f"observation group {mjlab_group!r} has no term {term!r} to keep; its terms: "
+                                    f"{have}")
             kept[term] = own.terms[term]
         terms = {name: ObservationTermCfg(func=SuiteGroup, params={"sensor_name": name, "group": suite_group}),
                  **kept}

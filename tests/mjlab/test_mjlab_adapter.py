@@ -5,7 +5,7 @@ refused."""
 
 from __future__ import annotations
 
-import sys
+import importlib.util
 from typing import Any
 
 import numpy as np
@@ -16,6 +16,9 @@ from conftest import ROOT, mjlab_or_skip, warp_or_skip  # noqa: E402
 wp = warp_or_skip()
 mjlab_or_skip()
 
+# mjlab.rl at collection: its tensordict imports triton where a CUDA build of torch brings it, and triton's LLVM
+# crashes the process when it loads after OpenGL's (Mesa's llvmpipe, which tests/warp's CPU cameras load)
+import mjlab.rl  # noqa: E402,F401
 import torch  # noqa: E402
 
 import sensorcfg  # noqa: E402
@@ -25,8 +28,10 @@ from sensorcfg.errors import ArgumentError, SuiteError  # noqa: E402
 from sensorcfg.noise.level import leveled  # noqa: E402
 from sensorcfg.physics import Physics  # noqa: E402
 
-sys.path.insert(0, str(ROOT / "examples" / "mjlab"))
-import train as example  # noqa: E402
+_spec = importlib.util.spec_from_file_location("mjlab_train_example", ROOT / "examples" / "mjlab" / "train.py")
+assert _spec is not None and _spec.loader is not None
+example = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(example)
 
 SEED, OFFSET, NWORLD = 5, 3, 2
 POLICY = ["base_lin_vel", "base_ang_vel", "projected_gravity", "joint_pos", "joint_vel"]
@@ -81,9 +86,9 @@ class Replay:
         states = iter(self.snapshots)
         self.worlds[w][0].control_step(lambda: self._copy(w, next(states)))
 
-    def check(self, t: int) -> dict[str, list[dict[str, np.ndarray]]]:
-        """Every observation of every world against its Updater's: noise-free plain reads bit for bit (float32
-        copies of MuJoCo Warp's fields), the others to float32 rounding."""
+    def check(self, t: int) -> list[dict[str, np.ndarray]]:
+        """Every observation of every world against its Updater's (returned): noise-free plain reads bit for bit
+        (float32 copies of MuJoCo Warp's fields), the others to float32 rounding."""
         plan = self.sensor.layer.sensors.plan
         plain = {s.name for s in plan.sensors if s.noise is None and s.aggregator is None}
         got = {name: value.numpy() for name, value in self.sensor.data.items()}
@@ -96,7 +101,7 @@ class Replay:
                 else:
                     np.testing.assert_allclose(got[name][w], value, rtol=1e-5, atol=1e-6,
                                                err_msg=f"world {w} control step {t} {name}")
-        return {"theirs": theirs}
+        return theirs
 
 
 def test_each_world_reads_what_an_updater_replaying_its_states_reads(env: Any) -> None:
@@ -135,7 +140,7 @@ def test_each_world_reads_what_an_updater_replaying_its_states_reads(env: Any) -
                     restarts += 1
                 elif t != 3:
                     replay.control_step(w)
-        theirs = replay.check(t)["theirs"]
+        theirs = replay.check(t)
         for mjlab_group, suite_group in example.GROUPS.items():
             group = groups[suite_group]
             for w in range(NWORLD):

@@ -420,3 +420,22 @@ def test_an_unnamed_element_a_sensor_refers_to_is_a_mistake_at_its_key(sensor: s
     problems = sensorcfg.loads(f"sensors:\n  s: {sensor}\n", file="f.yaml").check(model)
     assert [p.loc for p in problems] == [f"sensors.s.{key}"]
     assert "refer to elements by name" in problems[0].message and "name it in the model" in problems[0].message
+
+
+def test_a_suite_added_to_another_librarys_scene_edits_the_scene_itself() -> None:
+    """`Suite._add_to` (the mjlab adapter's `edit_spec`): the suite's sensors and sites are left in the scene's
+    MjSpec, which compiles to the model `Suite.compile` gives from a copy; cameras it would add, a refused
+    sensor, are said at their lines."""
+    suite = sensorcfg.loads(EXAMPLE)
+    spec = mujoco.MjSpec.from_file(TERRAIN)
+    before = len(spec.sensors)
+    model = suite._add_to(spec)
+    copied = suite.compile(mujoco.MjSpec.from_file(TERRAIN), batch=True)
+    assert len(spec.sensors) > before and spec.compile().nsensordata == model.nsensordata == copied.nsensordata
+    names = [model.sensor(i).name for i in range(model.nsensor)]
+    assert names == [copied.sensor(i).name for i in range(copied.nsensor)]
+    with_cameras = sensorcfg.loads("cameras:\n  eye: {element: body:base, pos: [0, 0, 1]}\n"
+                                   "sensors:\n  q: {kind: qpos, element: 'joint:*'}\n")
+    with pytest.raises(SuiteError, match=r"<string>:2:3: error: cameras: a suite added to another library's scene "
+                                         r"cannot add cameras"):
+        with_cameras._add_to(mujoco.MjSpec.from_file(TERRAIN))
