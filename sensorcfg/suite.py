@@ -296,14 +296,16 @@ class Suite:
               warp: bool = False) -> list[Problem]:
         """Every problem of the suite against `model` (empty when it builds); never raises for a mistake.
 
-        `generic` and `custom` callables are not imported unless `import_callables` is true, and never called;
-        with `batch`, what BatchEnvironment cannot run is a problem too; with `warp`, what WarpEnvironment
+        `generic` and `custom` callables are not imported unless `import_callables` is true; imported, a `generic`
+        callable whose noise or aggregator needs its value's shape is called once on a fresh state of the model,
+        as `build` calls it, so what the shape decides is found here too (custom noise is never called); with
+        `batch`, what BatchEnvironment cannot run is a problem too; with `warp`, what WarpEnvironment
         cannot run (all a batch cannot, and more: `sensorcfg.warp.support`; Warp need not be installed).
         `options` are checked too (the keyframe exists; a control interval is a whole number of the model's
         physics steps).
         """
         try:
-            return self._bind(model, import_callables, batch, call_callables=False, warp=warp)[1]
+            return self._bind(model, import_callables, batch, call_callables=import_callables, warp=warp)[1]
         except SuiteError as e:
             return list(e.problems)
 
