@@ -172,7 +172,7 @@ def test_validate_directory_of_mixed_suites(tmp_path: Path) -> None:
     assert set(files) == {"a_ok.yaml", "b_bad.yml", "c_ok.yaml"}
     assert files["a_ok.yaml"]["valid"] and files["c_ok.yaml"]["valid"] and not files["b_bad.yml"]["valid"]
     assert out["summary"] == {"files": 3, "invalid_files": 1, "problems": files["b_bad.yml"]["problems"],
-                              "checked_with_model": 3, "without_model": 0}  # b_bad.yml's valid sensors too
+                              "checked_with_model": 3, "without_model": 0, "callables_not_imported": 0}
     assert {Path(p["file"]).name for p in out["problems"]} == {"b_bad.yml"}
     assert all(p["severity"] == "error" and p["line"] >= 1 and p["col"] >= 1 for p in out["problems"])
     # Text format: one line per problem, all in the invalid file, and the summary.
