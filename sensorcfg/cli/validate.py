@@ -67,8 +67,8 @@ def add_parser(sub: Any, epilog: str) -> None:
                    "(default: each suite's own 'model:'; given, that line is not read)")
     p.add_argument("--format", choices=sorted(REPORTERS), default="text", help="output format (default: text)")
     p.add_argument("--import", dest="import_callables", action="store_true",
-                   help="import 'generic' and 'custom' callables too (a generic one whose noise or aggregator needs its "
-                   "value's shape is called once, as building calls it; custom noise is never called)")
+                   help="import 'generic' and 'custom' callables too (a generic one whose noise or aggregator needs "
+                   "its value's shape is called once, as building calls it; custom noise is never called)")
     p.add_argument("--engine", choices=list(ENGINES), default="single",
                    help="check what this engine runs: single (Environment; the default), batch (BatchEnvironment: "
                    "no noise, aggregators or drawn schedules on cameras; float64 mjData features; no generic or "
@@ -244,8 +244,9 @@ def report_text(results: Sequence[FileResult]) -> str:
     no_model = s["without_model"]
     scope = f" ({no_model} without a model: syntax and schema only)" if no_model else ""
     n = s["callables_not_imported"]
-    scope += f"; {n} callable{'s' if n != 1 else ''} not imported (pass --import to check {'them' if n != 1 else 'it'})" \
-        if n else ""
+    if n:
+        plural = ("s", "them") if n != 1 else ("", "it")
+        scope += f"; {n} callable{plural[0]} not imported (pass --import to check {plural[1]})"
     if not results:
         lines.append("no suite could be read")
     elif s["problems"]:

@@ -9,9 +9,9 @@ children left), the sensors of the merged suite before any is validated. docs/cl
 
 from __future__ import annotations
 
-__all__ = ["MAX_SUITE_BYTES", "MAX_DEPTH", "MAX_NODES", "MAX_INT_DIGITS", "MAX_SENSORS", "MAX_BUFFER", "MAX_OBSERVATION_BYTES",
-           "MAX_KEPT_BYTES",
-           "MAX_SCHEDULE_STEPS", "MAX_EXTENDS", "MAX_OVERRIDE_BYTES", "MAX_RAYS"]
+__all__ = ["MAX_SUITE_BYTES", "MAX_DEPTH", "MAX_NODES", "MAX_INT_DIGITS", "MAX_SENSORS", "MAX_BUFFER",
+           "MAX_OBSERVATION_BYTES", "MAX_KEPT_BYTES", "MAX_SCHEDULE_STEPS", "MAX_EXTENDS", "MAX_OVERRIDE_BYTES",
+           "MAX_RAYS"]
 
 MAX_SUITE_BYTES = 1 << 20  # a suite's text: its file and every file of its `extends` chain together (1 MiB)
 MAX_OVERRIDE_BYTES = 64 << 10  # one --set KEY=VALUE

@@ -147,6 +147,6 @@ def to_steps(value: int | str, timestep: float, *, minimum: int, maximum: int = 
         what = f"{value} is shorter than one {step_text} physics step"
     else:
         what = f"{value} is not a whole number of {step_text} physics steps ({_fmt(exact)} steps)"
-    spelled = [_spelled(s, unit, timestep) for s in choices]
-    steps = " (an integer is physics steps)" if any(text.isdigit() for text in spelled) else ""
-    raise ValueError(f"{what}; use {' or '.join(spelled)}{steps}")
+    offered = [_spelled(s, unit, timestep) for s in choices]
+    steps = " (an integer is physics steps)" if any(text.isdigit() for text in offered) else ""
+    raise ValueError(f"{what}; use {' or '.join(offered)}{steps}")

@@ -184,7 +184,8 @@ def test_a_batched_generic_is_refused_at_its_line_by_the_cpu_engines_and_checked
                "drop 'batched' for a callable of one simulation's physics")
     for args in [(), ("--engine", "batch")]:
         done = validate(suite, *args)
-        assert done.returncode == 1 and done.stdout.splitlines() == [refusal, NOT_IMPORTED.format("1 problem in 1 of 1 suite")], args
+        summary = NOT_IMPORTED.format("1 problem in 1 of 1 suite")
+        assert done.returncode == 1 and done.stdout.splitlines() == [refusal, summary], args
     assert validate(suite, "--engine", "warp").stdout == NOT_IMPORTED.format("1 suite valid") + "\n"
     done = validate(suite, "--engine", "warp", "--import")
     assert done.returncode == 1 and "s.yaml:5:15: error: sensors.reach.callable: cannot import module " \
