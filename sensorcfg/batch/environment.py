@@ -13,14 +13,15 @@ leaves the other simulations' streams unchanged. Each sensor's noise then has it
 (`sensor_key(episode entropy, sensor name)`), as in the single simulation.
 
 Episodes start from `keyframe` (a name or an index), else the suite's `options.keyframe`, else the model's
-reset state. Episodes (auto-reset, by default as dm_env and Gymnasium's next-step mode, `autoreset="next_step"`):
-a simulation whose last step ended its episode (time limit: truncation, discount 1; divergence or
-`termination_fn`: termination, discount 0; `BatchTimeStep.truncated()` tells them apart) is reset by the next
-`step`, which returns FIRST for it and ignores its action; so does every simulation before the first `reset`.
-With `autoreset="same_step"` (RSL-RL's, Isaac Lab's and mjlab's rule) the step that ends an episode starts the
-next one: it returns LAST with the ended episode's reward and discount, and the new episode's first
-observation; the new episode draws what it would draw in next-step mode (its noise and schedules' keys, in
-the same order from the simulation's random state), so its observations are the same given the same actions. `reset(ids)` restarts the given simulations now (all when None): their physics, buffers and
+reset state. Episodes (auto-reset, by default as dm_env and Gymnasium's next-step mode,
+`autoreset="next_step"`): a simulation whose last step ended its episode (time limit: truncation, discount 1;
+divergence or `termination_fn`: termination, discount 0; `BatchTimeStep.truncated()` tells them apart) is
+reset by the next `step`, which returns FIRST for it and ignores its action; so does every simulation before
+the first `reset`. With `autoreset="same_step"` (RSL-RL's, Isaac Lab's and mjlab's rule) the step that ends an
+episode starts the next one: it returns LAST with the ended episode's reward and discount, and the new
+episode's first observation; the new episode draws what it would draw in next-step mode (its noise's and
+schedules' keys, in the same order from the simulation's random state), so its observations are the same given
+the same actions. `reset(ids)` restarts the given simulations now (all when None): their physics, buffers and
 per-episode noise only. It returns every simulation's observation, FIRST for the reset ones and MID for
 the others; rewards are 0 and discounts 1 at FIRST steps. A simulation stepped for the step on which it is
 reset costs one control step of physics whose result is discarded (the batch steps all simulations at

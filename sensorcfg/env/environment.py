@@ -173,9 +173,9 @@ def model_and_observables(model: Any, suite: Any, batch: bool = False, extra: Se
     """The model (a path or an MjSpec compiled with the suite's MuJoCo sensor kinds, then the `extra`
     sensors: a batch's relays), its observables and the Updater's keyword arguments, from a Suite, a suite
     path, or a dict of observables; the suite's `options.keyframe` and its observation `groups` (names in
-    column order) too, under "keyframe" and "groups" (the environment pops them). With `batch`, what a BatchEnvironment cannot run is a problem too (with `warp`, what a
-    WarpEnvironment cannot), and so is what the suite's sensors would keep in `nsim` simulations
-    (`Suite._memory_problems`)."""
+    column order) too, under "keyframe" and "groups" (the environment pops them). With `batch`, what a
+    BatchEnvironment cannot run is a problem too (with `warp`, what a WarpEnvironment cannot), and so is what
+    the suite's sensors would keep in `nsim` simulations (`Suite._memory_problems`)."""
     if isinstance(suite, Mapping):
         if isinstance(model, (str, os.PathLike, mujoco.MjSpec)) and (extra or isinstance(model, mujoco.MjSpec)):
             from ..native import compile_model
@@ -201,7 +201,7 @@ def model_and_observables(model: Any, suite: Any, batch: bool = False, extra: Se
     if problems:
         raise SuiteError(problems)
     return model, observables, {**suite.updater_kwargs(model), "keyframe": getattr(suite.options, "keyframe", None),
-                                "groups": dict(suite.groups)}
+                                "groups": dict(getattr(suite, "groups", {}))}
 
 
 def keyframe_index(model: mujoco.MjModel, keyframe: int | str | None, suite_keyframe: int | str | None) -> int | None:

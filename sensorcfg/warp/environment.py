@@ -18,9 +18,9 @@ followed by the batched generic callables (`warp.generic`) and the sensors' reco
 and step types (`_end`), the restart of the worlds whose previous step ended their episode (with
 `autoreset="same_step"`: of those whose episode this step ended, in this step, as `BatchEnvironment` does; on
 the device, a mask and a conditional node of the step's graph), one `mjw.forward` of every world when any
-restarts (the restarted worlds' reset samples need their derived fields), then the reads. Episode keys are drawn on
-the host, a table of `key_episodes` episodes per world ahead; the host tops it up every `key_episodes // 4`
-control steps (one small copy).
+restarts (the restarted worlds' reset samples need their derived fields), then the reads. Episode keys are
+drawn on the host, a table of `key_episodes` episodes per world ahead; the host tops it up every
+`key_episodes // 4` control steps (one small copy).
 """
 
 from __future__ import annotations

@@ -13,6 +13,7 @@ import sensorcfg
 from sensorcfg import assets
 from sensorcfg.batch.environment import BatchEnvironment
 from sensorcfg.env.episode import truncated
+from test_batch import needs_batch
 
 ROBOT = str(assets.path("robot.xml"))
 SUBSTEPS = 2
@@ -100,7 +101,6 @@ def assert_same_episodes(same: list[list[dict[str, Any]]], later: list[list[dict
 
 def batch(autoreset: str, nsim: int = 3) -> BatchEnvironment:
     """A batch of the suite whose simulation 1 terminates at control step `STOP` of each of its episodes."""
-    pytest.importorskip("mujoco.batch")
     env: BatchEnvironment | None = None
 
     def termination(batch: Any) -> np.ndarray:
@@ -112,6 +112,7 @@ def batch(autoreset: str, nsim: int = 3) -> BatchEnvironment:
     return env
 
 
+@needs_batch
 def test_same_step_episodes_are_the_next_step_episodes() -> None:
     """Episode by episode, every observation of every simulation is the same in both modes (bit for bit):
     the new episode's first observation, returned by the step that ended the old one, is what the next step
@@ -119,6 +120,7 @@ def test_same_step_episodes_are_the_next_step_episodes() -> None:
     assert_same_episodes(record(batch("same_step"), 14), record(batch("next_step"), 20))
 
 
+@needs_batch
 def test_the_ending_step_returns_the_next_episode_and_time_outs_are_truncations_only() -> None:
     env = batch("same_step")
     episodes = record(env, 6)
@@ -131,7 +133,7 @@ def test_the_ending_step_returns_the_next_episode_and_time_outs_are_truncations_
     assert truncated(np.array([2, 2, 1, 0]), np.array([1.0, 0.0, 1.0, 1.0])).tolist() == [True, False, False, False]
 
 
+@needs_batch
 def test_autoreset_is_one_of_two() -> None:
-    pytest.importorskip("mujoco.batch")
     with pytest.raises(sensorcfg.ArgumentError, match="autoreset must be one of 'next_step', 'same_step'"):
         BatchEnvironment(ROBOT, sensorcfg.loads(SUITE), 1, autoreset="same")

@@ -5,10 +5,10 @@ tests/warp/test_warp_groups.py)."""
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 import sensorcfg
 from sensorcfg import assets
+from test_batch import needs_batch
 
 ROBOT = str(assets.path("robot.xml"))
 SUITE = """
@@ -31,7 +31,8 @@ COLUMNS = {
 
 
 def _columns(env: sensorcfg.Environment | sensorcfg.BatchEnvironment) -> dict[str, list[tuple]]:
-    return {name: [(c.name, c.start, c.stop, c.shape) for c in group.columns] for name, group in env.group_spec().items()}
+    return {name: [(c.name, c.start, c.stop, c.shape) for c in group.columns]
+            for name, group in env.group_spec().items()}
 
 
 def _by_hand(observation: dict[str, np.ndarray], group: str, lead: tuple[int, ...]) -> np.ndarray:
@@ -51,8 +52,8 @@ def test_the_single_environment_concatenates_its_groups_in_the_pinned_order() ->
         np.testing.assert_array_equal(vector, _by_hand(step.observation, name, ()))
 
 
+@needs_batch
 def test_the_batch_concatenates_its_groups_per_simulation() -> None:
-    pytest.importorskip("mujoco.batch")
     env = sensorcfg.BatchEnvironment(ROBOT, sensorcfg.loads(SUITE), 3, seed=3)
     assert _columns(env) == COLUMNS
     env.reset()

@@ -21,6 +21,7 @@ from rsl_rl.runners import OnPolicyRunner  # noqa: E402
 from sensorcfg import assets  # noqa: E402
 from sensorcfg.rsl_rl import RslRlVecEnv  # noqa: E402
 from sensorcfg.warp.environment import WarpEnvironment  # noqa: E402
+from test_batch import needs_batch  # noqa: E402
 
 ROBOT = str(assets.path("robot.xml"))
 LIMIT = 3  # control steps of 4 ms per episode
@@ -54,14 +55,13 @@ def warp_env(nworld: int = 4, **options: Any) -> WarpEnvironment:
 
 
 def batch_env(nsim: int = 4, **options: Any) -> Any:
-    pytest.importorskip("mujoco.batch")
     options.setdefault("autoreset", "same_step")
     return sensorcfg.BatchEnvironment(ROBOT, sensorcfg.loads(SUITE), nsim, seed=5, nthread=1,
                                       reward_fn=lambda b: -np.square(b.qvel).sum(1), time_limit=LIMIT * 0.004,
                                       **options)
 
 
-@pytest.mark.parametrize("make", [warp_env, batch_env], ids=["warp", "batch"])
+@pytest.mark.parametrize("make", [warp_env, pytest.param(batch_env, marks=needs_batch)], ids=["warp", "batch"])
 def test_the_on_policy_runner_trains_two_iterations(make: Any) -> None:
     vec = RslRlVecEnv(make())
     runner = OnPolicyRunner(vec, copy.deepcopy(TRAIN), log_dir=None, device="cpu")
@@ -72,7 +72,7 @@ def test_the_on_policy_runner_trains_two_iterations(make: Any) -> None:
     assert runner.alg.storage.dones.sum() > 0  # episodes ended within the rollouts
 
 
-@pytest.mark.parametrize("make", [warp_env, batch_env], ids=["warp", "batch"])
+@pytest.mark.parametrize("make", [warp_env, pytest.param(batch_env, marks=needs_batch)], ids=["warp", "batch"])
 def test_a_step_returns_groups_dones_time_outs_and_the_next_episode(make: Any) -> None:
     env = make()
     vec = RslRlVecEnv(env)
