@@ -4,8 +4,9 @@
   build a dm_control Physics, so parity tests skip in this session only).
 - `oracle-mujoco3`: MuJoCo 3.17.0 with dm_control 1.0.50 as the parity oracle; a skipped parity test is a
   failure here (SENSORCFG_REQUIRE_ORACLE=1).
-- `tests-warp`: the Warp engine (`sensorcfg[warp]`) on Warp's CPU device, with torch for its actions' tests and
-  the suite plan's tests; a missing Warp fails here (SENSORCFG_REQUIRE_WARP=1).
+- `tests-warp`: the Warp engine (`sensorcfg[warp]`) on Warp's CPU device, with torch for its actions' tests,
+  RSL-RL (`sensorcfg[rsl-rl]`: its VecEnv, PPO and torchrun on gloo) and the suite plan's tests; a missing Warp
+  fails here (SENSORCFG_REQUIRE_WARP=1).
 - `tests-mjlab`: the Warp engine on MuJoCo Warp 3.11 as mjlab 1.6 pins it (`sensorcfg[mjlab]`, torch CPU), its
   tests and the mjlab adapter's; a missing Warp or mjlab fails here (SENSORCFG_REQUIRE_WARP=1,
   SENSORCFG_REQUIRE_MJLAB=1).
@@ -50,9 +51,11 @@ def oracle_mujoco3(session: nox.Session) -> None:
 @nox.session(name="tests-warp")
 def tests_warp(session: nox.Session) -> None:
     """The Warp engine on Warp's CPU device (the same kernels as on a GPU, compiled by LLVM; cached under
-    ~/.cache/warp): its own tests and the suite plan's, with `sensorcfg[warp]` installed (required here), and
-    torch (CPU), whose tensors the engine takes as actions (DLPack)."""
-    session.install("-e", ".[test,warp]", "mujoco>=4,<5", "torch==2.13.0")
+    ~/.cache/warp): its own tests and the suite plan's, with `sensorcfg[warp]` installed (required here),
+    torch (CPU; pinned in the same install, so that RSL-RL's requirements cannot bring another), whose tensors
+    the engine takes as actions (DLPack), and `sensorcfg[rsl-rl]` (the VecEnv's and examples/several_gpus.py's
+    tests)."""
+    session.install("-e", ".[test,warp,rsl-rl]", "mujoco>=4,<5", "torch==2.13.0")
     session.run("python", "-c", "import mujoco, mujoco_warp, warp; print('mujoco', mujoco.__version__, "
                 "'mujoco_warp', mujoco_warp.__version__ if hasattr(mujoco_warp, '__version__') else '?', "
                 "'warp', warp.__version__)")

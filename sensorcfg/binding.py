@@ -61,7 +61,7 @@ class _Binder:
     suite: LoadedSuite
     model: mujoco.MjModel
     import_callables: bool
-    call_callables: bool = True  # building (not checking): a generic sensor with noise is called once for its shape
+    call_callables: bool = True  # a generic sensor with noise or an aggregator is called once for its shape
     batch: bool = False  # also check what BatchEnvironment needs
     warp: bool = False  # for the Warp engine: batched generic callables run (elsewhere they are refused)
     refused: Mapping[str, str] = dataclasses.field(default_factory=dict)  # the problem of each native sensor left out
@@ -354,7 +354,8 @@ class _Binder:
         return scan, scan.shape, np.dtype(np.float64)
 
     def generic(self, name: str, cfg: SensorConfig, timing: dict[str, Any]) -> tuple[Observable, Any, Any] | None:
-        assert cfg.callable is not None
+        if cfg.callable is None:  # the loader reports a missing (or rejected) callable, once
+            return None
         path = ("sensors", name, "callable")
         pos = self.suite.doc.pos(path)
         loc = ".".join(path)
@@ -367,7 +368,7 @@ class _Binder:
         if fn is None:
             return None
         shape = dtype = None
-        if cfg.noise and self.call_callables:  # the noise needs the value's shape: one call on a fresh state
+        if (cfg.noise or cfg.aggregator) and self.call_callables:  # they need the value's shape: one call, fresh state
             physics = Physics(self.model)
             mujoco.mj_forward(physics.model, physics.data)
             try:
@@ -468,8 +469,9 @@ def bind(suite: LoadedSuite, model: mujoco.MjModel, *, import_callables: bool, c
     `batch`, also what BatchEnvironment cannot run; with `warp`, for the Warp engine (which runs batched
     generic callables: `BatchedGeneric`, refused elsewhere at their `batched` key).
 
-    With `call_callables` false (checking), no user callable is called: a generic sensor's noise, which
-    needs the shape of its value, is then built (and its shape-dependent mistakes found) only by a build.
+    With `call_callables` (building, and checking with the callables imported), a generic sensor whose noise or
+    aggregator needs its value's shape is called once, on a fresh state, for it; without (checking without
+    importing), no user callable is called.
     `refused`: the problem of each native sensor left out of the compiled model (`sensorcfg.native`)."""
     binder = _Binder(suite, model, import_callables, call_callables, batch, warp, dict(refused or {}))
     timestep = timestep_problem(float(model.opt.timestep))

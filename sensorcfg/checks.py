@@ -63,15 +63,16 @@ def constant_problem(what: str) -> str:
 
 
 def sensor_problems(cfg: SensorConfig, shape: tuple[int, ...] | None, strip: bool) -> Found:
-    """An aggregator needs a buffer axis to reduce and values to reduce."""
-    if cfg.aggregator is None or shape is None or cfg.kind in IMAGE_KINDS:
+    """An aggregator needs a buffer axis to reduce (decided by the options alone, whatever the value: a generic
+    callable's shape is not known until it is called) and values to reduce (with the value's shape)."""
+    if cfg.aggregator is None or cfg.kind in IMAGE_KINDS:
         return []
     buffer = cfg.buffer or 1
     if strip and buffer == 1:
+        axis = f"the value's own first axis (shape {shape})" if shape is not None else "the value's own first axis"
         return [(("aggregator",), f"with options.strip_singleton_buffer_dim and a buffer of 1 there is no buffer axis, "
-                 f"so {cfg.aggregator!r} would reduce the value's own first axis (shape {shape}); remove the "
-                 "aggregator, or use a buffer of 2 or more")]
-    if 0 in shape:
+                 f"so {cfg.aggregator!r} would reduce {axis}; remove the aggregator, or use a buffer of 2 or more")]
+    if shape is not None and 0 in shape:
         return [(("aggregator",), f"the value has no entries (shape {shape}), so {cfg.aggregator!r} has nothing "
                  "to reduce (min and max raise, mean and median give nan); remove the aggregator or select "
                  "elements that have this value")]

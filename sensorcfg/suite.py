@@ -11,7 +11,7 @@ import os
 import types
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from .config import LoadedSuite, OptionsConfig, SensorConfig, SuiteConfig, load_path, load_text, to_steps
 from .config.limits import MAX_OBSERVATION_BYTES
@@ -29,6 +29,14 @@ __all__ = ["Suite", "load", "loads"]
 
 ModelLike = Any  # mujoco.MjModel, a path to an MJCF/MJB file, a Physics, or None for the suite's `model:`
 Overrides = Sequence[str] | Mapping[str, Any] | None  # 'dotted.key=value' texts, or dotted keys -> values
+
+
+class _Compiled(NamedTuple):
+    """The model a suite binds to, as `Suite._compiled` made it."""
+
+    model: mujoco.MjModel
+    refused: dict[str, str]  # MuJoCo's message for each native sensor it left out, by sensor
+    unmounted: list[Problem]  # the suite's cameras that could not be mounted as written (in the world's frame)
 
 
 class Suite:
@@ -80,31 +88,36 @@ class Suite:
     # -- against a model ------------------------------------------------------------------------
 
     def _mjmodel(self, model: ModelLike) -> mujoco.MjModel:
-        return self._compiled(model)[0]
+        compiled = self._compiled(model)
+        if compiled.unmounted:
+            raise SuiteError(compiled.unmounted)
+        return compiled.model
 
     def _sources(self) -> dict[str, SensorConfig]:
         """The sensors that may add MuJoCo sensors: clean twins read their source's."""
         return {k: v for k, v in self._loaded.sensors.items() if k not in self._loaded.twins}
 
-    def _compiled(self, model: ModelLike, batch: bool = False, extra: Sequence[Added] = ()
-                  ) -> tuple[mujoco.MjModel, dict[str, str]]:
-        """The model to bind to, and MuJoCo's message for each native sensor it refused. A path (or the
-        suite's `model:`, or an MjSpec) is compiled with the suite's native sensors (for a batch, also with
-        sensors that make MuJoCo fill the on-demand fields the suite reads) and its `cameras`; an MjModel
-        is taken as it is (it must carry them)."""
+    def _compiled(self, model: ModelLike, batch: bool = False, extra: Sequence[Added] = ()) -> _Compiled:
+        """The model to bind to, MuJoCo's message for each native sensor it refused, and the problems of the
+        suite's cameras that could not be mounted as written (`native.cameras.mount`: mounted in the world's
+        frame, so that the sensors reading them are still judged). A path (or the suite's `model:`, or an
+        MjSpec) is compiled with the suite's native sensors (for a batch, also with sensors that make MuJoCo
+        fill the on-demand fields the suite reads) and its `cameras`; an MjModel is taken as it is (it must
+        carry them)."""
         import mujoco
 
         if isinstance(model, mujoco.MjModel):
-            return self._carrying(model), {}
+            return _Compiled(self._carrying(model), {}, [])
         if isinstance(model, mujoco.MjSpec):
             from .native import compile_model
 
-            return compile_model(self._mounted(model), self._sources(), batch, extra)
+            spec, unmounted = self._mounted(model)
+            return _Compiled(*compile_model(spec, self._sources(), batch, extra), unmounted)
         if model is not None and not isinstance(model, (str, os.PathLike)):
             from .physics import raw_structs
 
             try:
-                return self._carrying(raw_structs(model)[0]), {}
+                return _Compiled(self._carrying(raw_structs(model)[0]), {}, [])
             except TypeError as e:
                 raise ArgumentError(f"model: {e}; or pass an MjModel or a path") from None
         if model is None:
@@ -123,20 +136,29 @@ class Suite:
                 path = model_file(path)  # a package:// or menagerie:// name, as --model and the environments take it
             from .physics import read_model
 
-            if self.config.cameras:
+            if self._mounts():
                 from .native.cameras import mount
 
-                source, found = mount(path, self.config.cameras)
+                source, found = mount(path, self.config.cameras, self._rejected_cameras())
             elif self._adds_to_model(batch) or extra:
-                return compile_model(path, self._sources(), batch, extra)
+                return _Compiled(*compile_model(path, self._sources(), batch, extra), [])
             else:
-                return read_model(path), {}
+                return _Compiled(read_model(path), {}, [])
         except (ValueError, OSError) as e:
             message = f"cannot load the model {quote(str(path), 160)}: {str(e).strip()}"
             raise SuiteError(pos.problem(message, "model") if pos else Problem(message, file=str(path))) from None
-        if found:
-            raise SuiteError(self._at_paths(found))
-        return compile_model(source, self._sources(), batch, extra)
+        return _Compiled(*compile_model(source, self._sources(), batch, extra), self._at_paths(found))
+
+    def _rejected_cameras(self) -> list[str]:
+        """The names of the suite's cameras whose definition the schema refused (a partial suite's): still
+        cameras it defines, for the sensors that name them."""
+        written = self._loaded.doc.value.get("cameras") if isinstance(self._loaded.doc.value, dict) else None
+        return [k for k in written if isinstance(k, str) and k not in self.config.cameras] \
+            if isinstance(written, dict) else []
+
+    def _mounts(self) -> bool:
+        """Whether the suite adds cameras to its model (some of them perhaps with mistakes)."""
+        return bool(self.config.cameras or self._rejected_cameras())
 
     def _adds_to_model(self, batch: bool = False) -> bool:
         """Whether the suite's model differs from its file: MuJoCo sensors for its native kinds, its
@@ -145,18 +167,17 @@ class Suite:
         from .native import native_names, reads_on_demand
 
         sources = self._sources()
-        return bool(native_names(sources) or self.config.cameras or (batch and reads_on_demand(sources)))
+        return bool(native_names(sources) or self._mounts() or (batch and reads_on_demand(sources)))
 
-    def _mounted(self, spec: mujoco.MjSpec) -> mujoco.MjSpec:
-        """`spec` with the suite's cameras (a copy), or `spec` itself when the suite adds none."""
-        if not self.config.cameras:
-            return spec
+    def _mounted(self, spec: mujoco.MjSpec) -> tuple[mujoco.MjSpec, list[Problem]]:
+        """`spec` with the suite's cameras (a copy), or `spec` itself when the suite adds none; and the problems
+        of those that could not be mounted as written."""
+        if not self._mounts():
+            return spec, []
         from .native.cameras import mount
 
-        mounted, found = mount(spec, self.config.cameras)
-        if found:
-            raise SuiteError(self._at_paths(found))
-        return mounted
+        mounted, found = mount(spec, self.config.cameras, self._rejected_cameras())
+        return mounted, self._at_paths(found)
 
     def _carrying(self, model: mujoco.MjModel) -> mujoco.MjModel:
         """`model`, which must already carry the suite's cameras."""
@@ -185,9 +206,10 @@ class Suite:
         from .binding import bind
 
         batch = batch or warp  # the Warp engine refuses what a batch refuses, and more
-        mjmodel, refused = self._compiled(model, batch)
+        mjmodel, refused, unmounted = self._compiled(model, batch)
         observables, problems = bind(self._loaded, mjmodel, import_callables=import_callables,
                                      call_callables=call_callables, batch=batch, refused=refused, warp=warp)
+        problems[:0] = unmounted
         problems += self._memory_problems(observables, mjmodel)
         if warp:
             problems += self._warp_problems(observables, mjmodel)
@@ -257,12 +279,16 @@ class Suite:
 
         return self._refusing(*add_native(spec, self._sources(), True))
 
-    def _refusing(self, mjmodel: mujoco.MjModel, refused: Mapping[str, str]) -> mujoco.MjModel:
-        """`mjmodel`, or SuiteError at each sensor MuJoCo refused (`refused`: its message, by sensor)."""
+    def _refusing(self, mjmodel: mujoco.MjModel, refused: Mapping[str, str],
+                  unmounted: Sequence[Problem] = ()) -> mujoco.MjModel:
+        """`mjmodel`, or SuiteError at each sensor MuJoCo refused (`refused`: its message, by sensor) and each
+        camera that could not be mounted (`unmounted`)."""
         if refused:
             from .binding import bind
 
-            raise SuiteError(bind(self._loaded, mjmodel, import_callables=False, refused=refused)[1])
+            raise SuiteError([*unmounted, *bind(self._loaded, mjmodel, import_callables=False, refused=refused)[1]])
+        if unmounted:
+            raise SuiteError(list(unmounted))
         return mjmodel
 
     def _memory_problems(self, observables: Mapping[str, Observable], model: mujoco.MjModel,
@@ -343,15 +369,18 @@ class Suite:
               warp: bool = False) -> list[Problem]:
         """Every problem of the suite against `model` (empty when it builds); never raises for a mistake.
 
-        `generic` and `custom` callables are not imported unless `import_callables` is true, and never called;
-        with `batch`, what BatchEnvironment cannot run is a problem too; with `warp`, what WarpEnvironment
+        `generic` and `custom` callables are not imported unless `import_callables` is true; imported, a `generic`
+        callable whose noise or aggregator needs its value's shape is called once on a fresh state of the model,
+        as `build` calls it, so what the shape decides is found here too (custom noise is never called); with
+        `batch`, what BatchEnvironment cannot run is a problem too; with `warp`, what WarpEnvironment
         cannot run (all a batch cannot, and more: `sensorcfg.warp.support`; Warp need not be installed; where
         MuJoCo Warp is installed, also a model it refuses, at the `model:` line).
         `options` are checked too (the keyframe exists; a control interval is a whole number of the model's
         physics steps).
         """
         try:
-            return self._bind(model, import_callables, batch, call_callables=False, warp=warp, put_model=True)[1]
+            return self._bind(model, import_callables, batch, call_callables=import_callables, warp=warp,
+                              put_model=True)[1]
         except SuiteError as e:
             return list(e.problems)
 

@@ -13,10 +13,15 @@ leaves the other simulations' streams unchanged. Each sensor's noise then has it
 (`sensor_key(episode entropy, sensor name)`), as in the single simulation.
 
 Episodes start from `keyframe` (a name or an index), else the suite's `options.keyframe`, else the model's
-reset state. Episodes (auto-reset, as dm_env and Gymnasium's next-step mode): a simulation whose last step ended its
-episode (time limit: truncation, discount 1; divergence: termination, discount 0) is reset by the next
-`step`, which returns FIRST for it and ignores its action; so does every simulation before the first
-`reset`. `reset(ids)` restarts the given simulations now (all when None): their physics, buffers and
+reset state. Episodes (auto-reset, by default as dm_env and Gymnasium's next-step mode,
+`autoreset="next_step"`): a simulation whose last step ended its episode (time limit: truncation, discount 1;
+divergence or `termination_fn`: termination, discount 0; `BatchTimeStep.truncated()` tells them apart) is
+reset by the next `step`, which returns FIRST for it and ignores its action; so does every simulation before
+the first `reset`. With `autoreset="same_step"` (RSL-RL's, Isaac Lab's and mjlab's rule) the step that ends an
+episode starts the next one: it returns LAST with the ended episode's reward and discount, and the new
+episode's first observation; the new episode draws what it would draw in next-step mode (its noise's and
+schedules' keys, in the same order from the simulation's random state), so its observations are the same given
+the same actions. `reset(ids)` restarts the given simulations now (all when None): their physics, buffers and
 per-episode noise only. It returns every simulation's observation, FIRST for the reset ones and MID for
 the others; rewards are 0 and discounts 1 at FIRST steps. A simulation stepped for the step on which it is
 reset costs one control step of physics whose result is discarded (the batch steps all simulations at
@@ -66,7 +71,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..env.episode import chosen_ids, episode_end
+from ..env.episode import autoreset_mode, chosen_ids, episode_end, truncated
 from ..env.environment import (_BAD_STATE, ControlLoop, ModelArg, action_spec, episode_timing, keyframe_index,
                                model_and_observables, model_source, random_state_from)
 from ..errors import ArgumentError, SuiteError, UnsupportedError
@@ -141,7 +146,8 @@ def sim_seed(seed: int | np.random.SeedSequence | None, i: int) -> np.random.See
 
 
 class BatchTimeStep(NamedTuple):
-    """A dm_env TimeStep per simulation: arrays with a leading nsim axis."""
+    """A dm_env TimeStep per simulation: arrays with a leading nsim axis. With `autoreset="same_step"` a LAST
+    step's observation is the new episode's first."""
 
     step_type: NDArray[np.uint8]  # (nsim,) dm_env.StepType values
     reward: np.ndarray  # (nsim,) float64
@@ -161,6 +167,16 @@ class BatchTimeStep(NamedTuple):
     def last(self) -> NDArray[np.bool_]:
         return self._is(_LAST)
 
+    def truncated(self) -> NDArray[np.bool_]:
+        """The simulations whose episode this step ended at the time limit (LAST, discount 1)."""
+        ended: NDArray[np.bool_] = truncated(self.step_type, self.discount)
+        return ended
+
+    def terminated(self) -> NDArray[np.bool_]:
+        """The simulations whose episode this step ended by a termination or a divergence (LAST, discount 0)."""
+        ended: NDArray[np.bool_] = self.last() & (self.discount == 0)
+        return ended
+
 
 class BatchEnvironment(ControlLoop):
     """nsim simulations of one MuJoCo model, stepped together and observed through one sensor suite.
@@ -173,7 +189,8 @@ class BatchEnvironment(ControlLoop):
                  nthread: int | None = None, physics_steps_per_control_step: int | None = None,
                  control_timestep: float | None = None, time_limit: float | None = None,
                  seed: int | np.random.SeedSequence | None = None, reward_fn: BatchRewardFn | None = None,
-                 termination_fn: BatchTerminationFn | None = None, keyframe: int | str | None = None):
+                 termination_fn: BatchTerminationFn | None = None, keyframe: int | str | None = None,
+                 autoreset: str = "next_step"):
         """Compile the model with the suite's sensors, check that the batch runs every one of them, and make
         the `mujoco.batch.Batch` of `nsim` simulations (each reset by the first `step` or `reset`).
 
@@ -197,6 +214,9 @@ class BatchEnvironment(ControlLoop):
                 discount 0.
             keyframe: The keyframe (index or name) every reset starts from. Default: the suite's
                 `options.keyframe`, else the model's reset state.
+            autoreset: When the episode after one that ended starts: "next_step" (the next step, which
+                returns FIRST and ignores that simulation's action) or "same_step" (the step that ended it,
+                which returns the new episode's first observation with the ended one's LAST).
 
         Raises:
             UnsupportedError: MuJoCo 3, which has no `mujoco.batch`.
@@ -205,10 +225,11 @@ class BatchEnvironment(ControlLoop):
                 `keyframe` is not one of the model's.
             ArgumentError: A setting it cannot use: `nsim`, `nthread`, a seed, a callable that is not one,
                 a `control_timestep` that is not a whole number of physics steps, a `time_limit` that is not
-                positive.
+                positive, an `autoreset` that is not one of the two.
         """
         batch_module = _batch_module()
         _check_arguments(nsim, nthread, reward_fn, termination_fn)
+        self._same_step = autoreset_mode(autoreset)
         self._reward_fn, self._termination_fn = reward_fn, termination_fn
         model, suite = model_source(model, suite)  # None: the suite's own `model:`
         self._model, observables, options = model_and_observables(model, suite, batch=True, nsim=int(nsim))
@@ -217,6 +238,7 @@ class BatchEnvironment(ControlLoop):
         self._nsim = int(nsim)
         self._batch_shape = (self._nsim,)
         self._keyframe = keyframe_index(self._model, keyframe, options.pop("keyframe", None))
+        groups = options.pop("groups", {})
         self._n, self._control_timestep, self._step_limit = episode_timing(
             self._model, physics_steps_per_control_step, control_timestep, time_limit,
             options.get("physics_steps_per_control_step"))
@@ -241,10 +263,12 @@ class BatchEnvironment(ControlLoop):
         self._seed = root_seed(seed)
         self._random_states = [random_state_from(sim_seed(self._seed, i)) for i in range(self._nsim)]
         self._needs_reset = np.ones(self._nsim, bool)
+        self._control_steps = np.zeros(self._nsim, np.int64)  # what the time limit counts (`control_steps`)
         self._bad = np.zeros(self._nsim, np.int64)
         self.last_divergence: list[str | None] = [None] * self._nsim
         self._action_spec = action_spec(self._model, (self._nsim,))
         self._observation_spec = self._updater.observation_spec()
+        self._lay_out_groups(groups)
 
     def _updater_for(self, model: mujoco.MjModel, observables: dict[str, Any], flags: dict[str, bool],
                      relays: Mapping[str, Mapping[int, int]] | None = None) -> BatchUpdater:
@@ -299,6 +323,18 @@ class BatchEnvironment(ControlLoop):
         return self._updater
 
     @property
+    def autoreset(self) -> str:
+        """When the episode after one that ended starts: "next_step" or "same_step" (`__init__`)."""
+        return "same_step" if self._same_step else "next_step"
+
+    @property
+    def control_steps(self) -> NDArray[np.int64]:
+        """(nsim,) control steps since each simulation's reset: what the time limit counts. Writable (a write
+        moves that simulation's time limit, not its sensors' clocks): RSL-RL's `init_at_random_ep_len`
+        staggers the first episodes so."""
+        return self._control_steps
+
+    @property
     def seed_sequence(self) -> np.random.SeedSequence:
         """The batch's root seed; simulation i's is `sim_seed(seed_sequence, i)`."""
         return self._seed
@@ -332,6 +368,7 @@ class BatchEnvironment(ControlLoop):
                 values[f][i] = getattr(data, f)
         self._updater.reset(ids, self._random_states)
         self._needs_reset[ids] = False
+        self._control_steps[ids] = 0
         self._bad[ids] = self._bad_counts()[ids]
         for i in ids:
             self.last_divergence[int(i)] = None
@@ -346,7 +383,7 @@ class BatchEnvironment(ControlLoop):
         return BatchTimeStep(step_type, np.zeros(self._nsim), np.ones(self._nsim), self._updater.get_observation())
 
     def step(self, actions: ArrayLike) -> BatchTimeStep:
-        """One control step of every simulation (auto-resetting those whose episode ended).
+        """One control step of every simulation (auto-resetting those whose episode ended: `autoreset`).
 
         An exception raised during it (by `reward_fn` or `termination_fn`) propagates and ends every
         simulation's episode: the next `step` resets them all (FIRST), as after a LAST step."""
@@ -367,27 +404,29 @@ class BatchEnvironment(ControlLoop):
             updater.prepare(active)
             self._rollout(actions, active, failed, messages)
             updater.update(active)
-        # rewards and terminations before the restarts (as the Warp engine orders them): one that raises leaves
-        # the simulations to restart as they were, and `step` restarts every simulation next
+            self._control_steps[active] += 1
+        # rewards, terminations and episode ends before the restarts (as the Warp engine orders them): one that
+        # raises leaves the simulations to restart as they were, and `step` restarts every simulation next
         reward = np.zeros(self._nsim)
         if self._reward_fn is not None:
             reward[active] = self._per_simulation("reward_fn", self._reward_fn, np.float64)[active]
         terminated = (active & self._per_simulation("termination_fn", self._termination_fn, bool)
                       if self._termination_fn is not None else False)
-        ids = np.flatnonzero(restart)
+        diverged = self._diverged(active, failed, messages)
+        last, ending = episode_end(diverged, terminated, self._control_steps, self._step_limit)
+        last &= active
+        ids = np.flatnonzero(restart | last if self._same_step else restart)
         if ids.size:
             self._reset_sims(ids)
         observation = updater.get_observation()
         step_type = np.full(self._nsim, _MID, np.uint8)
         discount = np.ones(self._nsim)
         step_type[restart] = _FIRST
-        diverged = self._diverged(active, failed, messages)
-        last, ending = episode_end(diverged, terminated, updater.control_steps, self._step_limit)
-        last &= active
         if last.any():
             step_type[last] = _LAST
             discount[last] = ending[last]
-            self._needs_reset |= last
+            if not self._same_step:
+                self._needs_reset |= last
         return BatchTimeStep(step_type, reward, discount, observation)
 
     def _per_simulation(self, label: str, fn: Callable[[Any], Any], dtype: Any) -> np.ndarray:

@@ -92,7 +92,7 @@ class BatchUpdater:
         self.read_noise = ReadNoise(read, self.fixed, layout, self.pad) if read else None
         self.reset_values = layout.reset_values
         self.history, self.flat, self.cols, self.rows = layout.history, layout.flat, layout.cols, layout.rows
-        self.ageimelines = Timelines([(e.name, cast(DrawnChannel, e.channel).drawn) for e in drawn], self.nsim,
+        self.timelines = Timelines([(e.name, cast(DrawnChannel, e.channel).drawn) for e in drawn], self.nsim,
                                    self.substeps, self.pad)
         self.global_step = 0  # global physics steps
         self.age = np.zeros(self.nsim, np.int64)  # physics steps since each simulation's reset
@@ -170,7 +170,7 @@ class BatchUpdater:
         """Each simulation's draws at reset, in the Updater's order; returns the noisy channels' keys
         (channel, simulation, 2), in the order of `self.noise`."""
         labels = [self.labels[c] for c in self.noise]
-        planned = [label for label, _ in self.ageimelines.specs]
+        planned = [label for label, _ in self.timelines.specs]
         keys = np.zeros((len(labels) + len(planned), ids.size, 2), np.uint64)  # noise's, then schedules'
         for m, i in enumerate(ids.tolist()):
             entropy = episode_entropy(random_states[i]) if self.noisy or planned else None
@@ -179,15 +179,15 @@ class BatchUpdater:
             if self.cameras is not None:
                 self.cameras.reset_noise(i, entropy or [])
         if planned:
-            self.ageimelines.start(ids, keys[len(labels):])
+            self.timelines.start(ids, keys[len(labels):])
         return keys[:len(labels)]
 
     # -- the physics loop -------------------------------------------------------------------------
 
     def prepare(self, active: np.ndarray) -> None:
         """Before a control step: plan random schedules ahead for the simulations about to step."""
-        if self.ageimelines.specs:
-            self.ageimelines.ensure(np.flatnonzero(active), self.control_steps)
+        if self.timelines.specs:
+            self.timelines.ensure(np.flatnonzero(active), self.control_steps)
 
     def update(self, active: np.ndarray) -> None:
         """After a control step's rollout (into `record_out`): store, sample and corrupt its substeps steps."""
@@ -214,13 +214,13 @@ class BatchUpdater:
         else:
             self.age[active] += substeps
             self.control_steps[active] += 1
-        if self.ageimelines.specs:
-            self.ageimelines.advance(np.flatnonzero(active))
+        if self.timelines.specs:
+            self.timelines.advance(np.flatnonzero(active))
 
     def _noise_calls(self, history_row: int, active: np.ndarray, everyone: bool) -> list[tuple[int, int, np.ndarray, np.ndarray]]:
         """(substep k, channel, sims, steps) of this control step's noisy samples, in order."""
         noisy = self._noisy_samples(history_row)
-        taken = self.ageimelines.taken_now() if self.ageimelines.specs else None
+        taken = self.timelines.taken_now() if self.timelines.specs else None
         calls = []
         for k in range(1, self.substeps + 1):
             for c, sims in noisy[k - 1]:
@@ -228,7 +228,7 @@ class BatchUpdater:
                     sims = sims[active[sims]]
                 if sims.size:
                     calls.append((k, c, sims, self.age[sims] + k))
-            for r in range(len(self.ageimelines.specs)):
+            for r in range(len(self.timelines.specs)):
                 c = self.nfixed + r
                 if c in self.corrupted:
                     sims = np.flatnonzero(cast(np.ndarray, taken)[:, r, k - 1] & active)
@@ -288,12 +288,12 @@ class BatchUpdater:
                 reduced = reduce_stacked(group.aggregator, window)
                 for i, sub, shape in group.members:
                     out[i] = reduced[:, sub].reshape(self.nsim, *shape)
-        if self.ageimelines.specs:
+        if self.timelines.specs:
             self._read_drawn(out)
         return {name: out[self.output_index[name]] for name in self.names}
 
     def _read_drawn(self, out: list[Any]) -> None:
-        for r, codes in enumerate(self.ageimelines.last):
+        for r, codes in enumerate(self.timelines.last):
             c = self.nfixed + r
             ch = self.channels[c]
             values = self.flat.take(self.layout.drawn(c, codes, self.age, self.global_step))  # (nsim, buffer, width)

@@ -49,6 +49,7 @@ class FileResult:
     loaded: bool = True  # False when syntax or schema problems stopped it before the model
     notes: list[Problem] = dataclasses.field(default_factory=list)  # advice on a valid suite (`Suite.notes`)
     error: str | None = None  # an I/O error: the path could not be read (reported on its own line, exit 2)
+    not_imported: int = 0  # the callables it names that were not imported (checked without --import)
 
     @property
     def valid(self) -> bool:
@@ -66,7 +67,8 @@ def add_parser(sub: Any, epilog: str) -> None:
                    "(default: each suite's own 'model:'; given, that line is not read)")
     p.add_argument("--format", choices=sorted(REPORTERS), default="text", help="output format (default: text)")
     p.add_argument("--import", dest="import_callables", action="store_true",
-                   help="import 'generic' and 'custom' callables too (imported, never called)")
+                   help="import 'generic' and 'custom' callables too (a generic one whose noise or aggregator needs "
+                   "its value's shape is called once, as building calls it; custom noise is never called)")
     p.add_argument("--engine", choices=list(ENGINES), default="single",
                    help="check what this engine runs: single (Environment; the default), batch (BatchEnvironment: "
                    "no noise, aggregators or drawn schedules on cameras; float64 mjData features; no generic or "
@@ -199,7 +201,16 @@ def check_file(path: Path, model: tuple[str, Any] | None, overrides: Sequence[st
     files = list(dict.fromkeys(p.file for p in problems))
     problems.sort(key=lambda p: (files.index(p.file), p.line or 0, p.col or 0))
     notes = [] if problems else suite.notes(target)
-    return FileResult(str(path), name, problems, notes=notes)
+    return FileResult(str(path), name, problems, notes=notes,
+                      not_imported=0 if import_callables else len(_callables(suite)))
+
+
+def _callables(suite: Any) -> set[str]:
+    """The callables a suite names ('module:function', each once): its generic sensors' and its custom noise's."""
+    named = {cfg.callable for cfg in suite.sensors.values() if cfg.callable is not None}
+    named |= {stage.callable for cfg in suite.sensors.values() for stage in cfg.noise or ()
+              if stage.type == "custom" and isinstance(stage.callable, str)}
+    return named
 
 
 def check_isolated(path: Path, *args: Any) -> FileResult:
@@ -220,7 +231,8 @@ def _summary(results: Sequence[FileResult]) -> dict[str, int]:  # suites read (I
     return {"files": len(results), "invalid_files": sum(not r.valid for r in results),
             "problems": sum(len(r.problems) for r in results),
             "checked_with_model": sum(r.model is not None for r in results),
-            "without_model": sum(r.loaded and r.model is None for r in results)}
+            "without_model": sum(r.loaded and r.model is None for r in results),
+            "callables_not_imported": sum(r.not_imported for r in results)}
 
 
 def report_text(results: Sequence[FileResult]) -> str:
@@ -231,6 +243,10 @@ def report_text(results: Sequence[FileResult]) -> str:
     files = f"{s['files']} suite{'s' if s['files'] != 1 else ''}"
     no_model = s["without_model"]
     scope = f" ({no_model} without a model: syntax and schema only)" if no_model else ""
+    n = s["callables_not_imported"]
+    if n:
+        plural = ("s", "them") if n != 1 else ("", "it")
+        scope += f"; {n} callable{plural[0]} not imported (pass --import to check {plural[1]})"
     if not results:
         lines.append("no suite could be read")
     elif s["problems"]:

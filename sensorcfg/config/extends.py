@@ -5,7 +5,9 @@ Positions follow the values, so a mistake inherited from a parent points into th
 
 A suite names files on the machine that checks it (often CI, on suites from pull requests), so what it
 may extend is bounded: files inside `root` (by default the folder of the suite that was named, and every
-folder below it), regular files only (see `files`), at most `MAX_EXTENDS` in a chain, no cycles. A file
+folder below it), regular files only (see `files`), at most `MAX_EXTENDS` in a chain, no cycles, and the
+chain's bytes and values together within `limits` (each parent read and built only within what the files
+extending it left, so a long chain of large files stops at the first one past the budget). A file
 that is not a suite (its top level is not a mapping of suite keys) is reported at the `extends` line
 without quoting any of its contents.
 """
@@ -20,7 +22,7 @@ from ..errors import SuiteError, quote
 from .files import ROOT_HINT, Unreadable, display, inside, read_text, resolve
 from .limits import MAX_EXTENDS
 from .models import SuiteConfig
-from .source import Doc, Path_, Pos, compose
+from .source import Doc, Path_, Pos, TooLarge, compose
 
 __all__ = ["with_parents", "merge", "SUITE_KEYS"]
 
@@ -55,9 +57,13 @@ def _parent_path(target: Any, at: Pos, base_dir: Path, chain: tuple[Path, ...], 
     return path
 
 
-def with_parents(doc: Doc, base_dir: Path, chain: tuple[Path, ...], root: Path | None) -> Doc:
-    """`doc` merged over the suites it extends (recursively); bad paths, cycles and non-suites raise
-    SuiteError at the `extends` line. `chain` holds the files already on the way (for cycles)."""
+def with_parents(doc: Doc, base_dir: Path, chain: tuple[Path, ...], root: Path | None, *, nodes: int = 0,
+                 size: int = 0) -> Doc:
+    """`doc` merged over the suites it extends (recursively); bad paths, cycles, non-suites and a chain past
+    the limits raise SuiteError at the `extends` line. `chain` holds the files already on the way (for cycles);
+    `nodes` and `size` the values and bytes of the files that extend `doc`: a suite's files together are
+    bounded (`limits`), so a parent is read and built only within what they left."""
+    nodes, size = nodes + doc.nodes, size + doc.size
     if not isinstance(doc.value, dict) or "extends" not in doc.value:
         return doc
     target = doc.value.pop("extends")
@@ -66,12 +72,16 @@ def with_parents(doc: Doc, base_dir: Path, chain: tuple[Path, ...], root: Path |
         return doc
     path = _parent_path(target, at, base_dir, chain, root)
     try:
-        text = read_text(path)
+        text = read_text(path, size)
     except Unreadable as e:
         raise _fail(at, f"cannot read {_shown(target)} (resolved to {path}): {e}; extends paths are relative "
                         "to the file that names them") from None
     try:
-        parent = compose(text, display(path))
+        parent = compose(text, display(path), spent=nodes)
+    except TooLarge as e:  # a limit's message quotes nothing of the file
+        place = e.problems[0]
+        raise _fail(at, f"{_shown(target)} takes the suite past a limit (at its line {place.line}, column "
+                        f"{place.col}): {place.message}") from None
     except SuiteError as e:  # PyYAML's message may quote the file (an alias name): say only where
         place = e.problems[0]
         raise _fail(at, f"{_shown(target)} is not a suite: it is not valid YAML (line {place.line}, column "
@@ -82,7 +92,7 @@ def with_parents(doc: Doc, base_dir: Path, chain: tuple[Path, ...], root: Path |
     if unknown:
         raise _fail(at, f"{_shown(target)} is not a suite: {len(unknown)} of its top-level keys are not suite "
                         f"keys ({', '.join(SUITE_KEYS)}); check it with 'sensorcfg validate' on that file")
-    parent = with_parents(parent, path.parent, chain + (path,), root)
+    parent = with_parents(parent, path.parent, chain + (path,), root, nodes=nodes, size=size)
     return merge(parent, doc)
 
 
@@ -92,7 +102,8 @@ def merge(parent: Doc, child: Doc) -> Doc:
     Positions follow the values: a replaced or deleted subtree takes its positions from the child (or
     loses them), in one pass over each table whatever the number of keys the child changes.
     """
-    out = Doc(parent.value, dict(parent.values), dict(parent.keys), parent.problems + child.problems)
+    out = Doc(parent.value, dict(parent.values), dict(parent.keys), parent.problems + child.problems,
+              parent.nodes + child.nodes, parent.size + child.size)
     if child.value is None:
         return out
     plan = _Plan()

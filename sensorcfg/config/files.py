@@ -2,7 +2,8 @@
 
 `validate` runs in CI on suites from pull requests, so a suite must not make it read a FIFO (blocks
 forever), a device such as /dev/zero (never ends), a directory or a socket: a file's type is checked
-before it is opened and again on the open descriptor, and at most `MAX_FILE_BYTES` are read. Failures are
+before it is opened and again on the open descriptor, and at most `MAX_SUITE_BYTES` are read (for a file of an
+`extends` chain, what the files before it left of them). Failures are
 `Unreadable` with a one-line reason that never includes the file's contents.
 
 Which files: a suite's `extends` and `model:` stay inside the folder tree of the suite being loaded (its
@@ -81,10 +82,17 @@ def irregular(path: str | os.PathLike[str]) -> str | None:
     return f"it is {what}, not a regular file" if what else None
 
 
-def read_text(path: Path, limit: int | None = None) -> str:
-    """The UTF-8 text of the regular file at `path`, at most `limit` bytes (default `MAX_FILE_BYTES`);
-    anything else is `Unreadable`."""
-    limit = limits.MAX_FILE_BYTES if limit is None else limit
+def read_text(path: Path, spent: int = 0) -> str:
+    """The UTF-8 text of the regular file at `path`, at most `MAX_SUITE_BYTES` less the `spent` bytes of the
+    files that extend it (a suite's files together are bounded, not each); anything else is `Unreadable`."""
+    limit = max(limits.MAX_SUITE_BYTES - spent, 0)
+
+    def too_large(size: str) -> Unreadable:
+        if not spent:
+            return Unreadable(f"it is {size} bytes; a suite may be at most {limit:,}")
+        return Unreadable(f"it is {size} bytes, and the files that extend it {spent:,}; a suite's files together "
+                          f"may be at most {limits.MAX_SUITE_BYTES:,} bytes")
+
     try:
         what = _not_regular(os.stat(path).st_mode)  # before opening: opening a FIFO or a device may block
         if what:
@@ -100,7 +108,7 @@ def read_text(path: Path, limit: int | None = None) -> str:
         if what:
             raise Unreadable(f"it is {what}, not a regular file")
         if info.st_size > limit:
-            raise Unreadable(f"it is {info.st_size:,} bytes; a suite may be at most {limit:,}")
+            raise too_large(f"{info.st_size:,}")
         chunks, size = [], 0
         while size <= limit:
             chunk = os.read(fd, min(1 << 16, limit + 1 - size))
@@ -113,7 +121,7 @@ def read_text(path: Path, limit: int | None = None) -> str:
     finally:
         os.close(fd)
     if size > limit:
-        raise Unreadable(f"it is more than {limit:,} bytes; a suite may be at most {limit:,}")
+        raise too_large(f"more than {limit:,}")
     try:
         return b"".join(chunks).decode("utf-8")
     except UnicodeDecodeError as e:

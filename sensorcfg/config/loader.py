@@ -23,7 +23,8 @@ from ..errors import ArgumentError, Problem, SuiteError, quote
 from .extends import with_parents
 from .files import PACKAGE_SCHEME, Unreadable, display, read_text, resolve, resolve_model_path
 from .groups import resolve_groups
-from .locate import describe, problem_at, problems_from
+from .limits import MAX_SENSORS
+from .locate import describe, problem_at, problems_from, too_many
 from .models import SensorConfig, SuiteConfig
 from .overrides import apply_override
 from .rules import effective
@@ -213,6 +214,9 @@ def _validate(doc: Doc, file: str, dirs: dict[str, Path], root: Path | None, pro
                                    f"defaults and sensors; got {describe(value)}", fallback_file=file))
         return LoadResult(None, _sorted(problems))
     problems[:0] = doc.problems
+    sensors = value.get("sensors")
+    if isinstance(sensors, dict) and len(sensors) > MAX_SENSORS:  # before any sensor is validated: one problem
+        return LoadResult(None, (problem_at(doc, ("sensors",), too_many("sensors", MAX_SENSORS, len(sensors))),))
     try:
         config = SuiteConfig.model_validate(value)
     except ValidationError as e:

@@ -19,7 +19,7 @@ from pydantic_core import ErrorDetails
 from ..errors import Problem, did_you_mean, quote
 from .source import Doc, Path_, dotted
 
-__all__ = ["problems_from", "normalize", "model_at", "problem_at"]
+__all__ = ["problems_from", "normalize", "model_at", "problem_at", "too_many"]
 
 # pydantic error type -> what was expected (used as "expected X; got Y")
 _EXPECTED = {
@@ -180,7 +180,7 @@ def _message(error: ErrorDetails, path: Path_, root: type[BaseModel], value: Any
         return f"{form}; got {quote(given)}"
     if kind == "too_long":
         count = len(given) if isinstance(given, (dict, list)) else ctx.get("actual_length")
-        return f"at most {ctx.get('max_length')} {_ITEMS.get(str(name), 'entries')}; got {count}"
+        return too_many(str(name), ctx.get("max_length"), count)
     if kind == "less_than_equal" and str(name) in _AT_MOST:
         return f"{_AT_MOST[str(name)].format(next(iter(ctx.values()), '?'))}; got {quote(given)}"
     if kind in ("greater_than_equal", "greater_than", "less_than_equal", "less_than"):
@@ -192,6 +192,11 @@ def _message(error: ErrorDetails, path: Path_, root: type[BaseModel], value: Any
     if str(error["msg"]).startswith("Input should"):
         return f"{error['msg']}; got {describe(given)}"
     return str(error["msg"])  # a custom error (noise stages) already says what it found
+
+
+def too_many(name: str, most: Any, count: Any) -> str:
+    """The problem of a mapping or list `name` with `count` entries, past its `most`."""
+    return f"at most {most} {_ITEMS.get(name, 'entries')}; got {count}"
 
 
 def _fixed_length(error: ErrorDetails) -> bool:

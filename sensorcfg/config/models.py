@@ -11,9 +11,10 @@ import math
 import re
 from typing import TYPE_CHECKING, Annotated, Any, Literal, TypeAlias
 
-from pydantic import (BaseModel, ConfigDict, Field, PlainSerializer, PlainValidator, StringConstraints,
+from pydantic import (AfterValidator, BaseModel, ConfigDict, Field, PlainSerializer, PlainValidator, StringConstraints,
                       WithJsonSchema, field_validator, model_validator)
 
+from .callables import CALLABLE_PATTERN, callable_problem
 from .noise import NoiseStage
 from .tables import GENERIC_KIND, HEIGHTSCAN_KIND, IMAGE_KINDS, aggregator_names
 from ..errors import quote
@@ -26,7 +27,6 @@ __all__ = ["CameraConfig", "ChoiceDraw", "DefaultsConfig", "MountedCameraConfig"
 _FROZEN = ConfigDict(frozen=True, extra="forbid")
 SENSOR_NAME_PATTERN = r"^[A-Za-z_][A-Za-z0-9_\-/]*$"
 _SELECTOR = re.compile(r"\A[a-z]+:\S.*\Z")
-_CALLABLE = re.compile(r"\A[A-Za-z_][\w.]*:[A-Za-z_][\w.]*\Z")
 _INDEX_PART = re.compile(r"\A\s*(-?\d+|(-?\d+)?\s*:\s*(-?\d+)?(\s*:\s*(-?\d+)?)?|\.\.\.)\s*\Z")
 
 
@@ -199,6 +199,17 @@ if TYPE_CHECKING:  # a Literal of the registered aggregators' names, built at im
 else:
     AggregatorName = Literal[aggregator_names()]
 SensorName = Annotated[str, StringConstraints(pattern=SENSOR_NAME_PATTERN)]
+
+
+def _callable_name(value: str) -> str:
+    problem = callable_problem(value, "my_pkg.sensors:distance")
+    if problem:
+        raise ValueError(problem)
+    return value
+
+
+CallableName = Annotated[str, AfterValidator(_callable_name),
+                         WithJsonSchema({"type": "string", "pattern": CALLABLE_PATTERN})]
 
 
 # -- the configs ----------------------------------------------------------------------------------
@@ -394,9 +405,8 @@ class SensorConfig(BaseModel):
     camera: CameraConfig | None = Field(
         None, description=f"Image settings; for {', '.join(IMAGE_KINDS)} sensors only.",
         examples=[{"width": 64, "height": 48}])
-    callable: str | None = Field(
-        None, pattern=_CALLABLE.pattern.replace(r"\A", "^").replace(r"\Z", "$"),
-        description="For kind 'generic': 'module:function', called with the physics handle; imported when the "
+    callable: CallableName | None = Field(
+        None, description="For kind 'generic': 'module:function', called with the physics handle; imported when the "
         "suite is built, not when it is checked.", examples=["my_pkg.sensors:distance_to_target"])
     batched: bool | None = Field(
         None, strict=True, description="For kind 'generic', on the Warp engine (WarpEnvironment) only: the callable "

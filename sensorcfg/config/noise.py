@@ -14,15 +14,15 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
-import re
 from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Annotated, Any, ClassVar, Literal, Union
 
-from pydantic import BaseModel, ConfigDict, Field, WrapValidator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, WithJsonSchema, WrapValidator, model_validator
 from pydantic.json_schema import SkipJsonSchema
 from pydantic_core import PydanticCustomError
 
 from ..errors import did_you_mean, quote
+from .callables import CALLABLE_PATTERN, callable_problem
 from .parameters import (PER_VALUE, Duration, EpisodeUniform, Frequency, PerValue, Probability, Real, Std, Step,
                          error_at, ordered, parse_quantity)
 
@@ -279,16 +279,16 @@ class MisalignStage(BaseModel):
         return self
 
 
-_CALLABLE = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_][\w.]*$")
-
-
 def _check_callable(value: Any, handler: Any, info: Any) -> Any:
     if callable(value):
         return value
-    if isinstance(value, str) and _CALLABLE.match(value):
-        return value
-    raise PydanticCustomError("noise_callable", "expected 'module:function' (e.g. 'mypkg.noise:corrupt'), got "
-                              f"{quote(value)}")
+    if not isinstance(value, str):
+        raise PydanticCustomError("noise_callable", "expected 'module:function' (e.g. 'mypkg.noise:corrupt'), got "
+                                  f"{quote(value)}")
+    problem = callable_problem(value, "mypkg.noise:corrupt")
+    if problem:
+        raise PydanticCustomError("noise_callable", problem)
+    return value
 
 
 class CustomStage(BaseModel):
@@ -299,7 +299,8 @@ class CustomStage(BaseModel):
 
     model_config = _MODEL
     type: Literal["custom"] = _type("custom", "A callable corruptor with dm_control's signature.")
-    callable: Annotated[Union[str, SkipJsonSchema[Callable[..., Any]]], WrapValidator(_check_callable)] = Field(
+    callable: Annotated[Union[Annotated[str, WithJsonSchema({"type": "string", "pattern": CALLABLE_PATTERN})],
+                              SkipJsonSchema[Callable[..., Any]]], WrapValidator(_check_callable)] = Field(
         description="'module:function' importable at binding time, called as f(value, random_state=rs) and "
         "returning a value of the same shape (from Python, the function itself).",
         examples=["mypkg.noise:salt_and_pepper"])

@@ -29,7 +29,7 @@ from . import limits
 from .limits import MAX_NODES
 from .syntax import plain_words
 
-__all__ = ["Doc", "Pos", "Path_", "compose", "dotted", "MAX_NODES", "DECIMAL"]
+__all__ = ["Doc", "Pos", "Path_", "TooLarge", "compose", "dotted", "MAX_NODES", "DECIMAL"]
 
 Path_ = tuple[str | int, ...]
 
@@ -146,6 +146,8 @@ class Doc:
     values: dict[Path_, Pos] = dataclasses.field(default_factory=dict)
     keys: dict[Path_, Pos] = dataclasses.field(default_factory=dict)
     problems: list[Problem] = dataclasses.field(default_factory=list)  # found while composing (tags, duplicates)
+    nodes: int = 0  # values built (aliases expanded) of its text and of every text merged into it (`limits`)
+    size: int = 0  # bytes of those texts
 
     def pos(self, path: Path_, *, key: bool = False) -> Pos | None:
         """The position of `path` (its key when asked and known), else of its nearest ancestor."""
@@ -179,25 +181,40 @@ def _pos(mark: yaml.Mark, file: str, line_offset: int = 0, col_offset: int = 0) 
     return Pos(file, mark.line + 1 + line_offset, col)
 
 
+class TooLarge(SuiteError):
+    """A text past a limit of `limits` (nesting, values): its one problem quotes nothing of the text."""
+
+
 class _TooLarge(yaml.MarkedYAMLError):
     """Raised while composing: the text nests too deep or holds too many values."""
 
 
-class _BoundedLoader(_CoreLoader):
-    """The core-schema composer, stopped at `MAX_DEPTH` nested collections and `MAX_NODES` nodes (its
-    composer recurses once per level, so a deeply nested file would otherwise raise RecursionError)."""
+def _too_many(spent: int, through_aliases: bool) -> str:
+    """The problem of a text past `MAX_NODES` values, `spent` of them in the files that extend it."""
+    if not spent:
+        return (f"the file expands to more than {limits.MAX_NODES:,} values (through aliases); write it out plainly"
+                if through_aliases else f"the file holds more than {limits.MAX_NODES:,} values; a suite is far smaller")
+    alias = ", through aliases" if through_aliases else ""
+    return (f"the suite's files hold more than {limits.MAX_NODES:,} values together{alias} ({spent:,} of them in the "
+            "files that extend this one); a suite is far smaller")
 
-    def __init__(self, stream: str):
+
+class _BoundedLoader(_CoreLoader):
+    """The core-schema composer, stopped at `MAX_DEPTH` nested collections and `MAX_NODES` nodes less the
+    `spent` values of the files that extend this one (its composer recurses once per level, so a deeply
+    nested file would otherwise raise RecursionError)."""
+
+    def __init__(self, stream: str, spent: int = 0):
         super().__init__(stream)
         self.depth = 0
-        self.nodes = 0
+        self.nodes = spent
+        self.spent = spent
 
     def compose_node(self, parent: yaml.Node | None, index: Any) -> yaml.Node | None:  # type: ignore[override]
         mark = self.peek_event().start_mark
         self.nodes += 1
         if self.nodes > limits.MAX_NODES:
-            raise _TooLarge(problem=f"the file holds more than {limits.MAX_NODES:,} values; a suite is far smaller",
-                            problem_mark=mark)
+            raise _TooLarge(problem=_too_many(self.spent, through_aliases=False), problem_mark=mark)
         self.depth += 1
         if self.depth > limits.MAX_DEPTH:
             raise _TooLarge(problem=f"values nest more than {limits.MAX_DEPTH} levels deep; a suite needs about 6",
@@ -274,15 +291,15 @@ def _syntax_problem(error: yaml.MarkedYAMLError, loader: _BoundedLoader | None, 
     return pos.problem(f"invalid YAML: {printable(what, 200)}")
 
 
-def _compose_node(text: str, file: str, col_offset: int) -> yaml.Node | None:
-    """The composed document; SuiteError for invalid YAML or a text past the limits."""
+def _compose_node(text: str, file: str, col_offset: int, spent: int) -> yaml.Node | None:
+    """The composed document; SuiteError for invalid YAML, TooLarge for a text past the limits."""
     loader: _BoundedLoader | None = None
     try:
-        loader = _BoundedLoader(text)  # reads the text: a character YAML does not allow is a marked error
+        loader = _BoundedLoader(text, spent)  # reads the text: a character YAML does not allow is a marked error
         return loader.get_single_node()
     except _TooLarge as e:
         pos = _pos(e.problem_mark, file, col_offset=col_offset) if e.problem_mark else Pos(file, 1, 1)
-        raise SuiteError(pos.problem(str(e.problem))) from None
+        raise TooLarge(pos.problem(str(e.problem))) from None
     except yaml.MarkedYAMLError as e:
         raise SuiteError(_syntax_problem(e, loader, text, file, col_offset)) from None
     except yaml.YAMLError as e:
@@ -292,24 +309,26 @@ def _compose_node(text: str, file: str, col_offset: int) -> yaml.Node | None:
             loader.dispose()
 
 
-def compose(text: str, file: str, *, col_offset: int = 0) -> Doc:
-    """Parse one YAML document into a `Doc`; raises SuiteError for invalid YAML or a text past the limits
-    (also through aliases: then that is the one problem reported).
+def compose(text: str, file: str, *, col_offset: int = 0, spent: int = 0) -> Doc:
+    """Parse one YAML document into a `Doc`; raises SuiteError for invalid YAML, TooLarge for a text past the
+    limits (also through aliases: then that is the one problem reported). `spent`: the values of the files
+    that extend this one, which count towards `MAX_NODES` with its own.
 
     Disallowed tags and duplicate keys do not stop the walk: they are listed in `Doc.problems` (the node
     is left out) so that the rest of the file is still checked. `col_offset` shifts columns of the first
     line (an override's value starts after `key=`).
     """
-    node = _compose_node(text, file, col_offset)
-    doc = Doc(None)
+    node = _compose_node(text, file, col_offset, spent)
+    doc = Doc(None, size=len(text.encode("utf-8", "surrogatepass")))
     if node is None:
         return doc
-    builder = _Builder(file, col_offset, doc)
+    builder = _Builder(file, col_offset, doc, spent)
     try:
         doc.value = builder.build(node, ())
     except _Stop as e:
-        raise SuiteError(e.problem) from None
+        raise TooLarge(e.problem) from None
     doc.problems.extend(builder.problems)
+    doc.nodes = builder.count - spent
     return doc
 
 
@@ -326,14 +345,15 @@ def _spelled(node: yaml.Node) -> str:
 class _Builder:
     """Walks composed nodes, building values and recording positions and problems."""
 
-    def __init__(self, file: str, col_offset: int, doc: Doc):
+    def __init__(self, file: str, col_offset: int, doc: Doc, spent: int = 0):
         self.file = file
         self.col_offset = col_offset
         self.doc = doc
         self.problems: list[Problem] = []
         self.constructor = _CoreLoader("")  # constructs single safe scalars
         self.open: set[int] = set()  # ids of the collections being built (an alias to one is a cycle)
-        self.count = 0
+        self.count = spent  # values built, with those of the files that extend this one
+        self.spent = spent
 
     def pos(self, node: yaml.Node) -> Pos:
         return _pos(node.start_mark, self.file, col_offset=self.col_offset)
@@ -342,9 +362,7 @@ class _Builder:
         self.doc.values[path] = self.pos(node)
         self.count += 1
         if self.count > limits.MAX_NODES:
-            raise _Stop(self.pos(node).problem(
-                f"the file expands to more than {limits.MAX_NODES:,} values (through aliases); write it out plainly",
-                dotted(path)))
+            raise _Stop(self.pos(node).problem(_too_many(self.spent, through_aliases=True), dotted(path)))
         if len(path) > limits.MAX_DEPTH:  # aliases inside aliases nest deeper than the text does
             raise _Stop(self.pos(node).problem(
                 f"values nest more than {limits.MAX_DEPTH} levels deep (through aliases); a suite needs about 6"))

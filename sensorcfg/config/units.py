@@ -84,9 +84,44 @@ def timestep_problem(timestep: float) -> str | None:
             "the model a timestep such as <option timestep=\"0.002\"/>")
 
 
+def _exact(number: float, unit: str, timestep: float) -> float:
+    """Physics steps of `number` `unit` (a duration, or a rate's period), not rounded; inf when a rate overflows."""
+    with warnings.catch_warnings():  # a rate of 1e-300Hz overflows to inf, which callers report
+        warnings.simplefilter("ignore", RuntimeWarning)
+        if unit in RATE_UNITS:
+            hertz = number * RATE_UNITS[unit] * timestep
+            return 1.0 / hertz if hertz else math.inf
+        return number * DURATION_UNITS[unit] / timestep
+
+
+def _whole(exact: float) -> int | None:
+    """The whole number of steps `exact` is, to rounding, else None: the one acceptance rule."""
+    nearest = round(exact) if math.isfinite(exact) else None
+    if nearest is not None and math.isclose(exact, nearest, rel_tol=_RELATIVE_TOLERANCE, abs_tol=1e-9):
+        return int(nearest)
+    return None
+
+
+def _spelled(steps: int, unit: str, timestep: float) -> str:
+    """`steps` written so that it validates as exactly that many steps: in `unit` when its six significant digits
+    are exact (250Hz, 6ms), else as a duration (200Hz on 2ms steps: 3 steps are 166.666...Hz, written 6ms), else
+    as the integer (a timestep whose multiples need more digits)."""
+    if unit in RATE_UNITS:
+        rate = f"{_fmt(1.0 / (steps * timestep * RATE_UNITS[unit]))}{unit}" if steps else ""
+        candidates = [rate, format_seconds(steps * timestep)]
+    else:
+        candidates = [f"{_fmt(steps * timestep / DURATION_UNITS[unit])}{unit}", format_seconds(steps * timestep)]
+    for text in candidates:
+        match = _TEXT.match(text)
+        if match and _whole(_exact(float(match.group(1)), match.group(2), timestep)) == steps:
+            return text
+    return str(steps)
+
+
 def to_steps(value: int | str, timestep: float, *, minimum: int, maximum: int = MAX_SCHEDULE_STEPS) -> int:
-    """Physics steps for an integer, a duration or a rate; ValueError names the nearest valid values, or
-    the bound when the value is more than `maximum` steps, or why `timestep` cannot time a duration."""
+    """Physics steps for an integer, a duration or a rate; ValueError names the nearest valid values (each
+    spelled so that it validates: `_spelled`), or the bound when the value is more than `maximum` steps, or why
+    `timestep` cannot time a duration."""
     if isinstance(value, int):
         if value > maximum:
             raise ValueError(f"{value} physics steps is more than {maximum:,}, the most a schedule may take")
@@ -95,29 +130,16 @@ def to_steps(value: int | str, timestep: float, *, minimum: int, maximum: int = 
     problem = timestep_problem(timestep)
     if problem is not None:
         raise ValueError(f"{value} needs a physics step's duration: {problem}")
-    with warnings.catch_warnings():  # a rate of 1e-300Hz overflows to inf, which is reported below
-        warnings.simplefilter("ignore", RuntimeWarning)
-        if kind == "rate":
-            exact = 1.0 / (number * RATE_UNITS[unit] * timestep) if number * RATE_UNITS[unit] * timestep else math.inf
-        else:
-            exact = number * DURATION_UNITS[unit] / timestep
+    exact = _exact(number, unit, timestep)
     if not exact <= maximum:
         spelled = f"{exact:.3g}" if math.isfinite(exact) else "infinitely many"
         raise ValueError(f"{value} is {spelled} physics steps of {format_seconds(timestep)}; a schedule may take at "
                          f"most {maximum:,} steps")
-    nearest = round(exact)
-    if math.isclose(exact, nearest, rel_tol=_RELATIVE_TOLERANCE, abs_tol=1e-9) and nearest >= minimum:
-        return int(nearest)
-
-    def spell(steps: int) -> str:
-        if kind == "rate":
-            return f"{_fmt(1.0 / (steps * timestep * RATE_UNITS[unit]))}{unit}"
-        return f"{_fmt(steps * timestep / DURATION_UNITS[unit])}{unit}"
-
+    whole = _whole(exact)
+    if whole is not None and whole >= minimum:
+        return whole
     step_text = format_seconds(timestep)
-    low, high = math.floor(exact), math.ceil(exact)
-    if math.isclose(exact, nearest, rel_tol=_RELATIVE_TOLERANCE, abs_tol=1e-9):
-        low = high = nearest
+    low, high = (whole, whole) if whole is not None else (math.floor(exact), math.ceil(exact))
     choices = [s for s in dict.fromkeys((low, high, minimum)) if s >= minimum][:2]
     if kind == "rate" and exact < minimum:
         what = f"{value} is faster than one sample per {step_text} physics step"
@@ -125,5 +147,6 @@ def to_steps(value: int | str, timestep: float, *, minimum: int, maximum: int = 
         what = f"{value} is shorter than one {step_text} physics step"
     else:
         what = f"{value} is not a whole number of {step_text} physics steps ({_fmt(exact)} steps)"
-    return_choices = " or ".join(spell(s) for s in choices)
-    raise ValueError(f"{what}; use {return_choices}")
+    offered = [_spelled(s, unit, timestep) for s in choices]
+    steps = " (an integer is physics steps)" if any(text.isdigit() for text in offered) else ""
+    raise ValueError(f"{what}; use {' or '.join(offered)}{steps}")

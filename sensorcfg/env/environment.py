@@ -12,6 +12,7 @@ from __future__ import annotations
 import functools
 import math
 import os
+import types
 import warnings
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, TypeAlias
@@ -23,6 +24,7 @@ from dm_env import specs
 
 from ..config.files import model_file
 from ..errors import ArgumentError, Problem, SuiteError
+from ..groups import Group, layout
 from ..physics import Physics, read_model
 from ..runtime.updater import Updater
 from ..selection import keyframe_id
@@ -170,10 +172,10 @@ def model_and_observables(model: Any, suite: Any, batch: bool = False, extra: Se
                           warp: bool = False) -> tuple[mujoco.MjModel, dict[str, Any], dict[str, Any]]:
     """The model (a path or an MjSpec compiled with the suite's MuJoCo sensor kinds, then the `extra`
     sensors: a batch's relays), its observables and the Updater's keyword arguments, from a Suite, a suite
-    path, or a dict of observables; the suite's `options.keyframe` too, under "keyframe" (the environment
-    pops it). With `batch`, what a BatchEnvironment cannot run is a problem too (with `warp`, what a
-    WarpEnvironment cannot), and so is what the suite's sensors would keep in `nsim` simulations
-    (`Suite._memory_problems`)."""
+    path, or a dict of observables; the suite's `options.keyframe` and its observation `groups` (names in
+    column order) too, under "keyframe" and "groups" (the environment pops them). With `batch`, what a
+    BatchEnvironment cannot run is a problem too (with `warp`, what a WarpEnvironment cannot), and so is what
+    the suite's sensors would keep in `nsim` simulations (`Suite._memory_problems`)."""
     if isinstance(suite, Mapping):
         if isinstance(model, (str, os.PathLike, mujoco.MjSpec)) and (extra or isinstance(model, mujoco.MjSpec)):
             from ..native import compile_model
@@ -198,7 +200,8 @@ def model_and_observables(model: Any, suite: Any, batch: bool = False, extra: Se
     problems = suite._memory_problems(observables, model, nsim, batch) if nsim > 1 else []
     if problems:
         raise SuiteError(problems)
-    return model, observables, {**suite.updater_kwargs(model), "keyframe": getattr(suite.options, "keyframe", None)}
+    return model, observables, {**suite.updater_kwargs(model), "keyframe": getattr(suite.options, "keyframe", None),
+                                "groups": dict(getattr(suite, "groups", {}))}
 
 
 def keyframe_index(model: mujoco.MjModel, keyframe: int | str | None, suite_keyframe: int | str | None) -> int | None:
@@ -208,15 +211,42 @@ def keyframe_index(model: mujoco.MjModel, keyframe: int | str | None, suite_keyf
 
 
 class ControlLoop:
-    """What both environments expose about their control loop; subclasses set `_n`, `_control_timestep`,
-    `_action_spec`, `_observation_spec` and `_batch_shape` (() for one simulation, (nsim,) for a batch).
-    Neither environment can be copied or pickled (`NOT_COPYABLE` says why)."""
+    """What every environment exposes about its control loop; subclasses set `_n`, `_control_timestep`,
+    `_step_limit`, `_action_spec`, `_observation_spec` and `_batch_shape` (() for one simulation, (nsim,) for a
+    batch), then lay out the suite's groups (`_lay_out_groups`). No environment can be copied or pickled
+    (`NOT_COPYABLE` says why)."""
 
     _n: int
     _control_timestep: float
+    _step_limit: int | None
     _action_spec: specs.BoundedArray
     _observation_spec: dict[str, specs.Array]
     _batch_shape: tuple[int, ...] = ()
+    _groups: Mapping[str, Group] = types.MappingProxyType({})
+
+    def _lay_out_groups(self, groups: Mapping[str, tuple[str, ...]]) -> None:
+        """The suite's observation groups (names in column order) laid out by the observation spec's shapes."""
+        lead = len(self._batch_shape)
+        shapes = {name: tuple(spec.shape[lead:]) for name, spec in self._observation_spec.items()}
+        self._groups = types.MappingProxyType(layout(groups, shapes))
+
+    @property
+    def step_limit(self) -> int | None:
+        """Control steps per episode (the time limit), or None for no limit."""
+        return self._step_limit
+
+    def group_spec(self) -> Mapping[str, Group]:
+        """The suite's observation groups (`groups:`), in the suite's order: each group's columns (which
+        observation lies at which columns of its vector, `Group.columns`) and `width`; empty when the suite has
+        none (or the environment was given a dict of observables)."""
+        return self._groups
+
+    def groups(self, observation: Mapping[str, Any]) -> dict[str, Any]:
+        """Each group's vector from an `observation` of this environment (a step's or a reset's): (width,) for
+        one simulation, (n, width) for a batch; numpy arrays from the CPU engines, torch tensors (no copy before
+        the concatenation) from the Warp engine's arrays (`Group.concatenate`)."""
+        lead = len(self._batch_shape)
+        return {name: group.concatenate(observation, lead) for name, group in self._groups.items()}
 
     @property
     def physics_steps_per_control_step(self) -> int:
@@ -303,6 +333,7 @@ class Environment(ControlLoop, dm_env.Environment):
         self._ctrl = self._physics.data.ctrl  # a live view too
         self._physics_step = functools.partial(mujoco.mj_step, self._model, self._physics.data)
         suite_keyframe = kwargs.pop("keyframe", None)
+        groups = kwargs.pop("groups", {})
         self._n, self._control_timestep, self._step_limit = episode_timing(
             self._model, physics_steps_per_control_step, control_timestep, time_limit,
             kwargs.pop("physics_steps_per_control_step", None))
@@ -320,6 +351,7 @@ class Environment(ControlLoop, dm_env.Environment):
         self._reset_physics(np.random.RandomState(0), initialize=False)
         self._updater.reset(self._physics, np.random.RandomState(0))
         self._observation_spec = self._updater.observation_spec()
+        self._lay_out_groups(groups)
 
     # -- properties -------------------------------------------------------------------------------
 

@@ -25,9 +25,33 @@ import numpy as np
 from ..config.units import timestep_problem
 from ..errors import ArgumentError
 
-__all__ = ["MAX_CONTROL_STEPS", "chosen_ids", "episode_end", "step_limit", "timed"]
+__all__ = ["AUTORESETS", "MAX_CONTROL_STEPS", "autoreset_mode", "chosen_ids", "episode_end", "step_limit", "timed",
+           "truncated"]
 
 MAX_CONTROL_STEPS = 2**63 - 1  # int64: the control steps of an episode every engine counts
+_LAST = 2  # dm_env.StepType.LAST
+
+# When a many-simulation engine starts the episode after one that ended (Gymnasium's names for the two modes):
+# "next_step": the next step does (dm_env's rule: it returns FIRST and ignores that simulation's action);
+# "same_step": the step that ended it does, and returns the new episode's first observation with the old one's
+# LAST step type, reward and discount (RSL-RL's, Isaac Lab's and mjlab's rule).
+AUTORESETS = ("next_step", "same_step")
+
+
+def autoreset_mode(autoreset: Any) -> bool:
+    """Whether `autoreset` (one of `AUTORESETS`) restarts an ended episode in the same step; anything else is an
+    ArgumentError naming the choices."""
+    if not isinstance(autoreset, str) or autoreset not in AUTORESETS:
+        raise ArgumentError(f"autoreset must be one of {', '.join(map(repr, AUTORESETS))} (when the episode after "
+                            f"one that ended starts); got {autoreset!r}")
+    return autoreset == "same_step"
+
+
+def truncated(step_type: Any, discount: Any) -> Any:
+    """Per simulation, whether this step ended its episode at the time limit (a truncation: LAST with discount
+    1), not by a termination or a divergence (LAST with discount 0). Plain operators: numpy arrays, torch
+    tensors (the Warp engine's arrays viewed with `wp.to_torch`)."""
+    return (step_type == _LAST) & (discount > 0)
 
 
 def timed(timestep: float, what: str) -> None:

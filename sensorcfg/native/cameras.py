@@ -10,7 +10,7 @@ already carry the suite's cameras (an MjModel from `Suite.compile` does).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import mujoco
@@ -64,10 +64,15 @@ def _body(spec: mujoco.MjSpec, plain: mujoco.MjModel, body: int) -> Any:
     return found if found is not None else spec.bodies[body]
 
 
-def mount(source: Any, cameras: Mapping[str, MountedCameraConfig]) -> tuple[mujoco.MjSpec, Found]:
+def mount(source: Any, cameras: Mapping[str, MountedCameraConfig], rejected: Sequence[str] = ()
+          ) -> tuple[mujoco.MjSpec, Found]:
     """`source` (an MJCF path or an MjSpec, copied) as an MjSpec with `cameras` added, and the problems of
-    those that could not be (their names are kept out). Raises ValueError when MuJoCo cannot read or
-    compile the file itself."""
+    those that could not be. Raises ValueError when MuJoCo cannot read or compile the file itself.
+
+    A camera whose frame is wrong is still added, in the world's frame, and the names in `rejected` (cameras
+    whose definition the schema refused) as bare cameras there: a camera with a mistake is still a camera the
+    suite defines, so the sensors that read it are judged on their own mistakes and a misspelt name is offered
+    it ("did you mean"); the suite does not build while its cameras have problems."""
     spec = _spec(source)
     plain = spec.compile()
     own = [plain.camera(i).name for i in range(plain.ncam)]
@@ -78,23 +83,34 @@ def mount(source: Any, cameras: Mapping[str, MountedCameraConfig]) -> tuple[mujo
             found.append((here, f"the model already has a camera named {name!r}; give the suite's camera another "
                                 "name, or read the model's own as 'camera:" + name + "' without adding one"))
             continue
-        try:
-            selection = select(plain, camera.element)
-        except SuiteError as e:
-            found += [(here + ("element",), p.message) for p in e.problems]
-            continue
-        if selection.type not in ("body", "site") or len(selection.ids) != 1:
-            found.append((here + ("element",), f"a camera is mounted in one frame, 'body:<name>' or "
-                                               f"'site:<name>'; got {camera.element!r}"))
-            continue
-        body, pos, quat = _frame(plain, selection.type, selection.ids[0], camera)
+        frame = _mount_frame(plain, camera, here, found)
+        body, pos, quat = _frame(plain, *frame, camera) if frame else (0, np.asarray(camera.pos, float),
+                                                                         _orientation(camera))
         added = _body(spec, plain, body).add_camera(name=name, pos=pos, quat=quat, fovy=camera.fovy)
         if camera.resolution is not None:
             added.resolution = list(camera.resolution)
             width, height = camera.resolution  # the offscreen buffer holds the image the suite asks for
             buffer = spec.visual.global_
             buffer.offwidth, buffer.offheight = max(buffer.offwidth, int(width)), max(buffer.offheight, int(height))
+    for name in rejected:
+        if name not in own and name not in cameras:
+            spec.worldbody.add_camera(name=name)
     return spec, found
+
+
+def _mount_frame(plain: mujoco.MjModel, camera: MountedCameraConfig, here: tuple[str, ...], found: Found
+                 ) -> tuple[str, int] | None:
+    """The (type, id) of the one body or site `camera.element` names, or None with its problem in `found`."""
+    try:
+        selection = select(plain, camera.element)
+    except SuiteError as e:
+        found += [(here + ("element",), p.message) for p in e.problems]
+        return None
+    if selection.type not in ("body", "site") or len(selection.ids) != 1:
+        found.append((here + ("element",), f"a camera is mounted in one frame, 'body:<name>' or "
+                                           f"'site:<name>'; got {camera.element!r}"))
+        return None
+    return selection.type, selection.ids[0]
 
 
 def carried(model: mujoco.MjModel, cameras: Mapping[str, MountedCameraConfig]) -> Found:

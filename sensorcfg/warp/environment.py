@@ -14,11 +14,13 @@ without aggregator is a copy of MuJoCo Warp's float32 field at the step its wind
 and aggregators run on float32 samples, so they agree with the CPU's to float32 rounding.
 
 Per control step: actions into `ctrl` (worlds about to restart ignore theirs), `substeps` physics steps each
-followed by the batched generic callables (`warp.generic`) and the sensors' record, the restart of the worlds
-whose previous step ended their episode, one `mjw.forward` of every world (the restarted worlds' reset samples
-need their derived fields), then the reads, rewards, terminations and step types. Episode keys are drawn on
-the host, a table of `key_episodes` episodes per world ahead; the host tops it up every `key_episodes // 4`
-control steps (one small copy).
+followed by the batched generic callables (`warp.generic`) and the sensors' record, the rewards, terminations
+and step types (`_end`), the restart of the worlds whose previous step ended their episode (with
+`autoreset="same_step"`: of those whose episode this step ended, in this step, as `BatchEnvironment` does; on
+the device, a mask and a conditional node of the step's graph), one `mjw.forward` of every world when any
+restarts (the restarted worlds' reset samples need their derived fields), then the reads. Episode keys are
+drawn on the host, a table of `key_episodes` episodes per world ahead; the host tops it up every
+`key_episodes // 4` control steps (one small copy).
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ import numpy as np
 import warp as wp
 from dm_env import specs
 
-from ..env.episode import chosen_ids
+from ..env.episode import autoreset_mode, chosen_ids
 from ..env.environment import (ControlLoop, ModelArg, action_spec, episode_timing, keyframe_index,
                                model_and_observables, model_source)
 from ..errors import ArgumentError
@@ -52,12 +54,29 @@ _FIRST, _MID, _LAST = (int(t) for t in (dm_env.StepType.FIRST, dm_env.StepType.M
 
 class WarpTimeStep(NamedTuple):
     """A dm_env TimeStep per world: (nworld,) device arrays, observations (nworld, ...) float32
-    (a camera's: its CPU dtype, as vectors of its channels: `warp.cameras`)."""
+    (a camera's: its CPU dtype, as vectors of its channels: `warp.cameras`). With `autoreset="same_step"` a
+    LAST step's observation is the new episode's first."""
 
     step_type: wp.array
     reward: wp.array
     discount: wp.array
     observation: dict[str, wp.array]
+
+    def truncated(self) -> wp.array:
+        """(nworld,) bool, on the device: the worlds whose episode this step ended at the time limit (LAST,
+        discount 1; `env.episode.truncated`)."""
+        return self._ended(True)
+
+    def terminated(self) -> wp.array:
+        """(nworld,) bool, on the device: the worlds whose episode this step ended by a termination or a
+        divergence (LAST, discount 0)."""
+        return self._ended(False)
+
+    def _ended(self, by_time: bool) -> wp.array:
+        out = wp.empty(self.step_type.shape, dtype=bool, device=self.step_type.device)
+        wp.launch(_ended, dim=out.shape, inputs=[self.step_type, self.discount, int(by_time)], outputs=[out],
+                  device=out.device)
+        return out
 
 
 @wp.kernel
@@ -85,23 +104,38 @@ def _begin(needs_reset: wp.array[wp.int32], restart: wp.array[wp.int32], control
 
 
 @wp.kernel
-def _end(restart: wp.array[wp.int32], diverged: wp.array[bool], terminated: wp.array[bool],
-         control_steps: wp.array[wp.int64], limit: wp.int64, reward_in: wp.array[wp.float32],
-         needs_reset: wp.array[wp.int32], step_type: wp.array[wp.int32], reward: wp.array[wp.float32],
-         discount: wp.array[wp.float32]):
+def _end(restart: wp.array[wp.int32], diverged: wp.array[bool], terminated: wp.array[bool], limit: wp.int64,
+         same_step: wp.int32, reward_in: wp.array[wp.float32], control_steps: wp.array[wp.int64],
+         needs_reset: wp.array[wp.int32], starting: wp.array[wp.int32], step_type: wp.array[wp.int32],
+         reward: wp.array[wp.float32], discount: wp.array[wp.float32]):
+    """The step's types, rewards and discounts, and the worlds whose episode starts now (`starting`): those
+    that needed a reset, and with `same_step` those whose episode this step ended (their time limit's count
+    restarts: `control_steps` 0); without it, those are reset by the next step (`needs_reset`)."""
     w = wp.tid()
     if restart[w] == 1:
         step_type[w] = 0
         reward[w] = wp.float32(0.0)
         discount[w] = wp.float32(1.0)
         needs_reset[w] = 0
+        starting[w] = 1
         return
     terminal = diverged[w] or terminated[w]
     last = terminal or (limit > wp.int64(0) and control_steps[w] >= limit)  # (`env.episode.episode_end`)
     step_type[w] = wp.where(last, 2, 1)
     reward[w] = reward_in[w]
     discount[w] = wp.where(terminal, wp.float32(0.0), wp.float32(1.0))
-    needs_reset[w] = wp.where(last, 1, 0)
+    now = last and same_step == 1
+    needs_reset[w] = wp.where(last and not now, 1, 0)
+    starting[w] = wp.where(now, 1, 0)
+    if now:
+        control_steps[w] = wp.int64(0)
+
+
+@wp.kernel
+def _ended(step_type: wp.array[wp.int32], discount: wp.array[wp.float32], by_time: int, out: wp.array[bool]):
+    """LAST steps with discount 1 (`by_time`: truncations) or 0 (terminations)."""
+    w = wp.tid()
+    out[w] = step_type[w] == 2 and (discount[w] > wp.float32(0.0)) == (by_time == 1)
 
 
 @wp.kernel
@@ -134,7 +168,8 @@ class WarpEnvironment(ControlLoop):
                  time_limit: float | None = None, seed: int | np.random.SeedSequence | None = None,
                  reward_fn: WarpFn | None = None, termination_fn: WarpFn | None = None,
                  keyframe: int | str | None = None, world_offset: int = 0, key_episodes: int = 8,
-                 nconmax: int | None = None, njmax: int | None = None, capture: bool | None = None):
+                 nconmax: int | None = None, njmax: int | None = None, capture: bool | None = None,
+                 autoreset: str = "next_step"):
         """Compile the model with the suite's sensors, check that the engine runs every one of them, and put
         the model and `nworld` worlds on `device` (each reset by the first `step` or `reset`).
 
@@ -169,6 +204,9 @@ class WarpEnvironment(ControlLoop):
                 `mj_forward` finds at the initial state.
             capture: Replay each control step as one CUDA graph (recorded at the second step). Default: on
                 CUDA devices; ignored on the CPU.
+            autoreset: When the episode after one that ended starts: "next_step" (the next step, which
+                returns FIRST and ignores that world's action) or "same_step" (the step that ended it, which
+                returns the new episode's first observation with the ended one's LAST), as `BatchEnvironment`.
 
         Raises:
             SuiteError: The suite has problems against the model or the engine does not run one of its
@@ -176,7 +214,7 @@ class WarpEnvironment(ControlLoop):
                 or `keyframe` is not one of the model's.
             ArgumentError: A setting it cannot use: `nworld`, `world_offset`, `key_episodes`, a seed, a
                 `control_timestep` that is not a whole number of physics steps, a `time_limit` that is not
-                positive.
+                positive, an `autoreset` that is not one of the two.
             UnsupportedError: A model MuJoCo Warp itself does not run (its `put_model` refuses it).
         """
         if isinstance(nworld, bool) or not isinstance(nworld, (int, np.integer)) or nworld < 1:
@@ -187,6 +225,7 @@ class WarpEnvironment(ControlLoop):
         if isinstance(key_episodes, bool) or not integral or key_episodes < 4:
             raise ArgumentError(f"key_episodes must be an integer of at least 4; got {key_episodes!r}")
         key_episodes = int(key_episodes)
+        self._same_step = autoreset_mode(autoreset)
         self._nworld, self._offset = int(nworld), int(world_offset)
         self._batch_shape = (self._nworld,)
         self._reward_fn, self._termination_fn = reward_fn, termination_fn
@@ -195,10 +234,12 @@ class WarpEnvironment(ControlLoop):
         leveled(observables)
         self._observables = observables
         self._keyframe = keyframe_index(self._model, keyframe, options.pop("keyframe", None))
-        self._n, self._control_timestep, limit = episode_timing(
+        groups = options.pop("groups", {})
+        self._n, self._control_timestep, self._step_limit = episode_timing(
             self._model, physics_steps_per_control_step, control_timestep, time_limit,
             options.get("physics_steps_per_control_step"))
-        self._limit = 0 if limit is None else int(limit)  # (0: none; at most `MAX_CONTROL_STEPS`, an int64)
+        # (0: none; at most `MAX_CONTROL_STEPS`, an int64)
+        self._limit = 0 if self._step_limit is None else int(self._step_limit)
         pad = bool(options.get("pad_with_initial_value", False))
         strip = bool(options.get("strip_singleton_buffer_dim", False))
         binding = bind_suite(self._model, observables, self._n, strip, pad)
@@ -214,6 +255,7 @@ class WarpEnvironment(ControlLoop):
             self._actions = wp.zeros((n, self._model.nu), dtype=wp.float32)
             self._needs_reset = wp.ones(n, dtype=wp.int32)
             self._restarting = wp.zeros(n, dtype=wp.int32)
+            self._starting = wp.zeros(n, dtype=wp.int32)
             self._diverged = wp.zeros(n, dtype=bool)
             self._control_steps = wp.zeros(n, dtype=wp.int64)
             self._step_type = wp.zeros(n, dtype=wp.int32)
@@ -233,6 +275,7 @@ class WarpEnvironment(ControlLoop):
                                                      np.broadcast_to(spec.maximum, spec.shape), name=name)
                                   for name, spec in self._spec.items()}
         self._names = list(self._spec)
+        self._lay_out_groups(groups)
         # a CUDA graph of the control step's device work, recorded at the second step (the first loads modules)
         self._capture = self.device.is_cuda if capture is None else bool(capture) and self.device.is_cuda
         self._graph: Any = None
@@ -266,6 +309,18 @@ class WarpEnvironment(ControlLoop):
     @property
     def worlds(self) -> Worlds:
         return self._worlds
+
+    @property
+    def autoreset(self) -> str:
+        """When the episode after one that ended starts: "next_step" or "same_step" (`__init__`)."""
+        return "same_step" if self._same_step else "next_step"
+
+    @property
+    def control_steps(self) -> wp.array:
+        """(nworld,) int64 on the device: control steps since each world's reset, what the time limit counts.
+        Writable (a write moves that world's time limit, not its sensors' clocks): RSL-RL's
+        `init_at_random_ep_len` staggers the first episodes so."""
+        return self._control_steps
 
     @property
     def steps(self) -> wp.array:
@@ -370,11 +425,12 @@ class WarpEnvironment(ControlLoop):
         # every world's derived fields (a restarting world's are ignored: its step is FIRST)
         reward = self._reward_fn(self) if self._reward_fn is not None else self._no_reward
         terminated = self._termination_fn(self) if self._termination_fn is not None else self._no_termination
-        self._start_episodes(self._restarting)  # the worlds whose previous step ended their episode
+        wp.launch(_end, dim=n, inputs=[self._restarting, self._diverged, terminated, wp.int64(self._limit),
+                                       wp.int32(self._same_step), reward],
+                  outputs=[self._control_steps, self._needs_reset, self._starting, self._step_type, self._reward,
+                           self._discount], device=device)
+        self._start_episodes(self._starting)  # those that needed a reset (same step: and those that just ended)
         self._observation = self._observe()
-        wp.launch(_end, dim=n, inputs=[self._restarting, self._diverged, terminated, self._control_steps,
-                                       wp.int64(self._limit), reward],
-                  outputs=[self._needs_reset, self._step_type, self._reward, self._discount], device=device)
 
     def _set_actions(self, actions: Any) -> None:
         """`actions` into `_actions` (float32 on the device), as `step` says; anything else is an ArgumentError."""

@@ -172,7 +172,7 @@ def test_validate_directory_of_mixed_suites(tmp_path: Path) -> None:
     assert set(files) == {"a_ok.yaml", "b_bad.yml", "c_ok.yaml"}
     assert files["a_ok.yaml"]["valid"] and files["c_ok.yaml"]["valid"] and not files["b_bad.yml"]["valid"]
     assert out["summary"] == {"files": 3, "invalid_files": 1, "problems": files["b_bad.yml"]["problems"],
-                              "checked_with_model": 3, "without_model": 0}  # b_bad.yml's valid sensors too
+                              "checked_with_model": 3, "without_model": 0, "callables_not_imported": 0}
     assert {Path(p["file"]).name for p in out["problems"]} == {"b_bad.yml"}
     assert all(p["severity"] == "error" and p["line"] >= 1 and p["col"] >= 1 for p in out["problems"])
     # Text format: one line per problem, all in the invalid file, and the summary.
@@ -234,6 +234,55 @@ def test_validate_import_callables_only_when_asked(tmp_path: Path) -> None:
     write(tmp_path / "no_such_module_xyz" / "__init__.py", "")
     write(tmp_path / "no_such_module_xyz" / "sensors.py", "def distance(physics):\n    return 1.0\n")
     assert cli("validate", "g.yaml", "--import", cwd=tmp_path).returncode == 0
+
+
+def test_validate_says_how_many_callables_it_did_not_import(tmp_path: Path) -> None:
+    """Issue 30: without --import, "1 suite valid" said nothing of the callables it had not checked."""
+    suite = (VALID + "  far:\n    kind: generic\n    callable: no_such_module_xyz.sensors:distance\n"
+             "  near: {kind: generic, callable: 'no_such_module_xyz.sensors:distance', enabled: false}\n"
+             "  noisy: {kind: qpos, element: 'joint:elbow', noise: [{type: custom, callable: 'no_such:corrupt'}]}\n")
+    write(tmp_path / "g.yaml", suite)
+    proc = cli("validate", "g.yaml", cwd=tmp_path)
+    assert proc.returncode == 0
+    assert proc.stdout.splitlines()[-1] == "1 suite valid; 2 callables not imported (pass --import to check them)"
+    out = json.loads(cli("validate", "g.yaml", "--format", "json", cwd=tmp_path).stdout)
+    assert out["summary"]["callables_not_imported"] == 2
+    assert "not imported" not in cli("validate", "g.yaml", "--import", cwd=tmp_path).stdout
+    write(tmp_path / "ok.yaml", VALID)
+    assert cli("validate", "ok.yaml", cwd=tmp_path).stdout == "1 suite valid\n"  # (no callables: nothing to say)
+
+
+@pytest.mark.parametrize("spelling, reason", [
+    pytest.param("'m:'", "the function's name after ':' is missing", id="no-function"),
+    pytest.param("':f'", "the module's name before ':' is missing", id="no-module"),
+    pytest.param("'1m:f'", "'1m' is not a Python name (a name starts with an ASCII letter or '_' and holds ASCII "
+                 "letters, digits and '_')", id="digit-first"),
+    pytest.param("'a-b:f'", "'a-b' is not a Python name (a name starts with an ASCII letter or '_' and holds ASCII "
+                 "letters, digits and '_'); rename it, for example to 'a_b'", id="dash"),
+    pytest.param("'m.:f'", "the module 'm.' has an empty part between dots", id="empty-part"),
+    pytest.param("'m:f:g'", "it has more than one ':' (one separates the module from the function)", id="two-colons"),
+])
+def test_validate_with_a_model_reports_a_malformed_callable_at_its_line(tmp_path: Path, spelling: str,
+                                                                       reason: str) -> None:
+    """Issue 30: with a model, these printed "sensorcfg failed on this file (AssertionError: '')"."""
+    write(tmp_path / "g.yaml", f"sensors:\n  g:\n    kind: generic\n    callable: {spelling}\n"
+                               "  n: {kind: qpos, element: 'joint:elbow', noise: [{type: custom, callable: "
+                               f"{spelling}}}]}}\n")
+    proc = cli("validate", "g.yaml", "--model", str(sensorcfg.assets.path("robot.xml")), cwd=tmp_path)
+    got = spelling.strip("'")
+    assert proc.returncode == 1 and proc.stdout.splitlines() == [
+        f"g.yaml:4:15: error: sensors.g.callable: a callable is written 'module:function' (for example "
+        f"'my_pkg.sensors:distance'); got '{got}': {reason}",
+        f"g.yaml:5:76: error: sensors.n.noise.0.callable: a callable is written 'module:function' (for example "
+        f"'mypkg.noise:corrupt'); got '{got}': {reason}",
+        "2 problems in 1 of 1 suite"]
+
+
+def test_validate_reports_a_callable_that_is_not_text(tmp_path: Path) -> None:
+    write(tmp_path / "g.yaml", "sensors:\n  g: {kind: generic, callable: 5}\n")
+    proc = cli("validate", "g.yaml", "--model", str(sensorcfg.assets.path("robot.xml")), cwd=tmp_path)
+    assert proc.stdout.splitlines() == ["g.yaml:2:32: error: sensors.g.callable: expected a string; got 5",
+                                        "1 problem in 1 of 1 suite"]
 
 
 @pytest.mark.parametrize("args, message", [

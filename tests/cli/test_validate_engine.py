@@ -163,6 +163,7 @@ def test_validate_engine_warp_refuses_a_height_scan_whose_rays_would_meet_an_sdf
         "1 problem in 1 of 1 suite"]
 
 
+NOT_IMPORTED = "{}; 1 callable not imported (pass --import to check it)"  # the summary, without --import
 BATCHED_SUITE = """model: arm.xml
 sensors:
   reach:
@@ -183,8 +184,9 @@ def test_a_batched_generic_is_refused_at_its_line_by_the_cpu_engines_and_checked
                "drop 'batched' for a callable of one simulation's physics")
     for args in [(), ("--engine", "batch")]:
         done = validate(suite, *args)
-        assert done.returncode == 1 and done.stdout.splitlines() == [refusal, "1 problem in 1 of 1 suite"], args
-    assert validate(suite, "--engine", "warp").stdout == "1 suite valid\n"
+        summary = NOT_IMPORTED.format("1 problem in 1 of 1 suite")
+        assert done.returncode == 1 and done.stdout.splitlines() == [refusal, summary], args
+    assert validate(suite, "--engine", "warp").stdout == NOT_IMPORTED.format("1 suite valid") + "\n"
     done = validate(suite, "--engine", "warp", "--import")
     assert done.returncode == 1 and "s.yaml:5:15: error: sensors.reach.callable: cannot import module " \
         "'reach_sensors'" in done.stdout, done.stdout
@@ -197,9 +199,9 @@ def test_a_batched_generic_is_refused_at_its_line_by_the_cpu_engines_and_checked
 
 def test_a_per_simulation_generic_on_the_warp_engine_is_told_of_batched(tmp_path: Path) -> None:
     suite = suite_file(tmp_path, BATCHED_SUITE.replace("    batched: true\n", ""))
-    assert validate(suite).stdout == "1 suite valid\n"
+    assert validate(suite).stdout == NOT_IMPORTED.format("1 suite valid") + "\n"
     assert validate(suite, "--engine", "warp").stdout.splitlines() == [
         "s.yaml:4:11: error: sensors.reach.kind: a generic callable runs Python per sample and simulation, which a "
         "BatchEnvironment cannot vectorise; use the single-simulation Environment for it, or, on the Warp engine "
         "(WarpEnvironment), 'batched: true' with a callable that takes every world at once",
-        "1 problem in 1 of 1 suite"]
+        NOT_IMPORTED.format("1 problem in 1 of 1 suite")]

@@ -94,7 +94,7 @@ def test_validate_batch_reports_every_batch_problem_at_its_line(tmp_path: Path) 
         "s.yaml:11:54: error: sensors.custom.noise.0: a custom noise stage runs Python once per sample and "
         "simulation, which a BatchEnvironment cannot vectorise; express it with built-in stages, or use the "
         "single-simulation Environment",
-        "4 problems in 1 of 1 suite"]
+        "4 problems in 1 of 1 suite; 2 callables not imported (pass --import to check them)"]
 
 
 def test_batch_environment_on_a_suite_raises_the_same_positioned_problems(tmp_path: Path) -> None:

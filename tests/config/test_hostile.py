@@ -143,7 +143,7 @@ def test_node_count_and_file_size_limits(monkeypatch: pytest.MonkeyPatch, tmp_pa
     monkeypatch.setattr(limits, "MAX_NODES", 50)
     assert problems_of("sensors: {}\nx: [" + ", ".join(["1"] * 60) + "]\n") == [
         "<string>:2:140: error: the file holds more than 50 values; a suite is far smaller"]
-    monkeypatch.setattr(limits, "MAX_FILE_BYTES", 1024)
+    monkeypatch.setattr(limits, "MAX_SUITE_BYTES", 1024)
     big = tmp_path / "big.yaml"
     big.write_text("# " + "x" * 2000 + "\nsensors: {}\n")
     with pytest.raises(SuiteError) as info:
@@ -500,6 +500,89 @@ def test_odd_suites_raise_only_suite_errors(text: str, tmp_path: Path) -> None:
 def test_too_many_sensors_is_one_problem() -> None:
     text = "sensors:\n" + "".join(f"  s{i}: {{kind: qpos, element: 'joint:elbow'}}\n" for i in range(1001))
     assert problems_of(text) == ["<string>:2:3: error: sensors: at most 1000 sensors in a suite; got 1001"]
+
+
+def _composed(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """The files whose text `extends` composes from now on (the structural sign that a file was read and built)."""
+    from sensorcfg.config import extends
+
+    files: list[str] = []
+    compose = extends.compose
+
+    def recorded(text: str, file: str, **kwargs) -> object:
+        files.append(Path(file).name)
+        return compose(text, file, **kwargs)
+
+    monkeypatch.setattr(extends, "compose", recorded)
+    return files
+
+
+def _chain(tmp_path: Path, texts: list[str]) -> Path:
+    """Files f0.yaml extends f1.yaml ... extends the last; file i holds texts[i]."""
+    for i, text in enumerate(texts):
+        parent = f"extends: f{i + 1}.yaml\n" if i + 1 < len(texts) else ""
+        (tmp_path / f"f{i}.yaml").write_text(parent + text)
+    return tmp_path / "f0.yaml"
+
+
+def test_the_bytes_of_an_extends_chain_are_bounded_together(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Issue 30: each file of a 32-file chain was allowed 1 MiB (113 s, 1.4 GiB before a problem): the files of
+    a suite share one budget, and a parent past what its children left is refused before it is read."""
+    comment = "# " + "x" * 500_000 + "\n"  # (cheap to read: the budget is what is tested)
+    top = _chain(tmp_path, [comment + "sensors: {}\n", comment, comment, "sensors: {}\n"])
+    composed = _composed(monkeypatch)
+    assert problems_of_file(top) == [
+        "f1.yaml:1:10: error: extends: cannot read 'f2.yaml' (resolved to f2.yaml): it is 500,020 bytes, and the "
+        "files that extend it 1,000,052; a suite's files together may be at most "
+        "1,048,576 bytes; extends paths are relative to the file that names them"]
+    assert composed == ["f1.yaml"]  # f2.yaml is refused by its size alone, f3.yaml never reached
+
+
+def test_the_values_of_an_extends_chain_are_bounded_together(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Each file under MAX_NODES, an alias in each, the chain far past it: stopped in the file that passes it."""
+    monkeypatch.setattr(limits, "MAX_NODES", 1_000)
+    flags = "defaults:\n  camera:\n    scene: &s {" + ", ".join(f"k{i}: true" for i in range(200)) + "}\n"
+    aliased = flags + "cameras:\n  c: {element: body:base}\nsensors:\n" + "".join(
+        f"  s{i}: {{kind: rgb, element: camera:c, camera: {{scene: *s}}}}\n" for i in range(2))  # about 600 values
+    top = _chain(tmp_path, [aliased] * 32)
+    composed = _composed(monkeypatch)
+    [problem] = problems_of_file(top)
+    assert problem.startswith("f0.yaml:1:10: error: extends: 'f1.yaml' takes the suite past a limit (at its line ")
+    assert problem.endswith("the suite's files hold more than 1,000 values together (619 of them in the files that "
+                            "extend this one); a suite is far smaller")
+    assert composed == ["f1.yaml"]  # nothing past the file that passed the limit is read
+
+
+def test_the_sensors_of_a_merged_suite_are_counted_before_any_is_validated(tmp_path: Path,
+                                                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    """Issue 30: 9,600 sensors cost 54 s of validation (a problem each) before "at most 1000 sensors"."""
+    from sensorcfg.config.models import SuiteConfig
+
+    def sensors(first: int) -> str:
+        return "sensors:\n" + "".join(f"  s{i}: {{kind: qpos, element: 'joint:elbow', buffers: 2}}\n"
+                                       for i in range(first, first + 600))
+    top = _chain(tmp_path, [sensors(0), sensors(600)])  # each file under the limit, the suite past it
+    validated: list[object] = []
+    validate = SuiteConfig.model_validate
+    monkeypatch.setattr(SuiteConfig, "model_validate", lambda value, **kw: validated.append(value) or validate(value))
+    assert problems_of_file(top) == ["f1.yaml:2:3: error: sensors: at most 1000 sensors in a suite; got 1200"]
+    assert validated == []  # no sensor validated (each would have been a problem, 'buffers')
+    assert problems_of(sensors(0), file="one.yaml")[0].startswith("one.yaml:2:")  # (600 are checked as usual)
+
+
+def test_a_chain_of_large_files_stops_at_the_budget_in_bounded_time(tmp_path: Path) -> None:
+    """The issue's chain at the real limits, in a subprocess with a memory limit: 32 files of 900 kB each."""
+    comment = "".join("# " + "x" * 1_000 + "\n" for _ in range(900))
+    _chain(tmp_path, [comment + f"sensors:\n  s{i}: {{kind: qpos, element: 'joint:elbow'}}\n" for i in range(32)])
+    proc = cli("validate", "f0.yaml", cwd=tmp_path, timeout=60)
+    assert proc.returncode == 1 and proc.stdout.splitlines()[-1] == "1 problem in 1 of 1 suite", proc.stdout
+    assert "a suite's files together may be at most 1,048,576 bytes" in proc.stdout
+
+
+def problems_of_file(path: Path) -> list[str]:
+    with pytest.raises(SuiteError) as info:
+        sensorcfg.load(path)
+    return [p.format().replace(str(path.parent) + "/", "") for p in info.value.problems]
 
 
 def test_extends_that_deletes_many_keys_takes_linear_time(tmp_path: Path) -> None:

@@ -132,7 +132,10 @@ BAD = [
     pytest.param({"type": "lowpass", "cutoff": "fast"}, ("cutoff",),
                  "expected a frequency such as '20Hz' or a number (Hz), got 'fast'", id="not-a-frequency"),
     pytest.param({"type": "custom", "callable": "os.path"}, ("callable",),
-                 "expected 'module:function' (e.g. 'mypkg.noise:corrupt'), got 'os.path'", id="callable-form"),
+                 "a callable is written 'module:function' (for example 'mypkg.noise:corrupt'); got 'os.path': it has "
+                 "no ':' (one separates the module from the function)", id="callable-form"),
+    pytest.param({"type": "custom", "callable": 3}, ("callable",),
+                 "expected 'module:function' (e.g. 'mypkg.noise:corrupt'), got 3", id="callable-not-text"),
 ]
 
 

@@ -375,7 +375,7 @@ LOAD_MISTAKES = [
         '  s:\n'
         '    kind: generic\n'
         '    callable: my_pkg.sensors.distance\n',
-        "4:15: error: sensors.s.callable: a callable is written 'module:function' (for example 'my_pkg.sensors:distance'); got 'my_pkg.sensors.distance'",
+        "4:15: error: sensors.s.callable: a callable is written 'module:function' (for example 'my_pkg.sensors:distance'); got 'my_pkg.sensors.distance': it has no ':' (one separates the module from the function)",
         id='generic_bad_callable'),
     pytest.param(
         'sensors:\n'
@@ -635,7 +635,7 @@ MODEL_MISTAKES = [
         '    kind: qpos\n'
         '    element: joint:elbow\n'
         '    interval: 30Hz\n',
-        '5:15: error: sensors.s.interval: 30Hz is not a whole number of 2ms physics steps (16.6667 steps); use 31.25Hz or 29.4118Hz',
+        '5:15: error: sensors.s.interval: 30Hz is not a whole number of 2ms physics steps (16.6667 steps); use 31.25Hz or 34ms',
         id='interval_rate'),
     pytest.param(
         'sensors:\n'

@@ -371,6 +371,46 @@ def test_to_steps(value, minimum, steps) -> None:
         assert to_steps(value, 0.002, minimum=minimum) == steps
 
 
+def _suggestions(message: str) -> list[int | str]:
+    """The values a to_steps message offers ('...; use 250Hz or 6ms'), as a suite would write them."""
+    offered = message.rpartition("; use ")[2].removesuffix(" (an integer is physics steps)")
+    return [int(text) if text.isdigit() else text for text in offered.split(" or ")]
+
+
+_TIMESTEPS = (0.002, 0.001, 0.0005, 0.004, 0.01, 0.0025, 1 / 60, 1 / 3000, 0.00033, 0.0013, 7e-5)
+_TIMES = [f"{n}Hz" for n in (1, 3, 7, 33, 45, 60, 120, 200, 240, 300, 333, 500, 700, 999, 1500)] + [
+    f"{n}ms" for n in (0.3, 1, 1.5, 3, 4.4, 7, 9.1, 25, 33.3)] + ["0.7kHz", "2.5kHz", "0.05s", "123us"]
+
+
+@pytest.mark.parametrize("timestep", _TIMESTEPS, ids=lambda t: f"{t:.6g}s")
+def test_every_suggested_time_is_accepted_when_substituted(timestep: float) -> None:
+    """Issue 30: 200Hz on 2ms steps suggested 166.667Hz, which is then rejected (1/(166.667 * 2ms) is not 3)."""
+    refused = 0
+    for value in _TIMES:
+        for minimum in (0, 1) if not value.endswith("Hz") else (1,):
+            try:
+                to_steps(value, timestep, minimum=minimum)
+                continue
+            except ValueError as e:
+                if "; use " not in str(e):
+                    continue  # past the largest schedule: no suggestion
+                offered = _suggestions(str(e))
+            refused += 1
+            assert offered, value
+            for suggestion in offered:
+                assert to_steps(suggestion, timestep, minimum=minimum) >= minimum, (value, timestep, str(e))
+    assert refused > len(_TIMES) // 2
+
+
+def test_a_rate_between_whole_steps_suggests_what_validates() -> None:
+    with pytest.raises(ValueError) as info:
+        to_steps("200Hz", 0.002, minimum=1)
+    assert str(info.value) == "200Hz is not a whole number of 2ms physics steps (2.5 steps); use 250Hz or 6ms"
+    with pytest.raises(ValueError) as info:
+        to_steps("1.5ms", 1 / 3000, minimum=1)  # no decimal duration is 4 or 5 of these steps in six digits
+    assert str(info.value).endswith("; use 4 or 5 (an integer is physics steps)")
+
+
 def test_uniform_and_choice_draws_are_seeded_and_inclusive() -> None:
     rs = np.random.RandomState(1)
     draws = np.array([UniformSteps(1, 3)(random_state=rs) for _ in range(3000)])
@@ -429,6 +469,38 @@ def test_check_does_not_import_generic_callables(tmp_path: Path, monkeypatch, ro
     obs, _ = run(observables, robot, strip_singleton_buffer_dim=True)
     assert obs["g"].shape == (2,) and np.all(obs["g"] != 0)  # the noise applied
     monkeypatch.delitem(sys.modules, "probe_sensors")
+
+
+def test_check_with_imported_callables_finds_what_building_refuses(tmp_path: Path, monkeypatch, robot) -> None:
+    """Issue 30: check(import_callables=True) passed suites the environment then refused (or, for an aggregator
+    with no buffer axis, ran with the value's own axis reduced)."""
+    (tmp_path / "three_sensors.py").write_text(
+        "import numpy as np\nCALLS = []\ndef read(physics):\n    CALLS.append(1)\n    return np.zeros(3)\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    no_axis = sensorcfg.loads("options: {strip_singleton_buffer_dim: true}\nsensors:\n  g: {kind: generic, "
+                              "callable: 'three_sensors:read', buffer: 1, aggregator: mean}\n", file="s.yaml")
+    expected = ("s.yaml:3:77: error: sensors.g.aggregator: with options.strip_singleton_buffer_dim and a buffer of 1 "
+                "there is no buffer axis, so 'mean' would reduce the value's own first axis{}; remove the "
+                "aggregator, or use a buffer of 2 or more")
+    assert [p.format() for p in no_axis.check(robot)] == [expected.format("")]  # decided without the callable
+    assert "three_sensors" not in sys.modules
+    found = no_axis.check(robot, import_callables=True)
+    assert [p.format() for p in found] == [expected.format(" (shape (3,))")]
+    with pytest.raises(SuiteError) as info:
+        no_axis.build(robot)
+    assert info.value.problems == found
+    noisy = sensorcfg.loads("sensors:\n  g: {kind: generic, callable: 'three_sensors:read', "
+                            "noise: [{type: clip, min: [0, 0], max: 1}]}\n", file="s.yaml")
+    assert noisy.check(robot) == []  # (the shape is not known without the callable)
+    found = noisy.check(robot, import_callables=True)
+    assert [p.format() for p in found] == ["s.yaml:2:80: error: sensors.g.noise.0.min: 2 entries do not fit the "
+                                           "observation's shape (3,): give a number or 3 (one per value)"]
+    with pytest.raises(SuiteError) as info:
+        noisy.build(robot)
+    assert info.value.problems == found
+    calls = sys.modules["three_sensors"].CALLS
+    assert len(calls) == 4  # once per check (imported) or build that needed the shape, on a fresh state
+    monkeypatch.delitem(sys.modules, "three_sensors")
 
 
 def test_a_missing_generic_callable_is_reported_when_imported(robot) -> None:

@@ -154,6 +154,53 @@ def test_a_malformed_camera_is_its_only_problem(bad: str, tmp_path: Path, capsys
     assert "quat" in bad or "a camera name starts with" in errors[0]  # not "a sensor name"
 
 
+_SCENE_TYPO = ("8:70: error: sensors.scene.camera.scene.shadw: unknown scene flag 'shadw' (did you mean 'shadow'?); "
+               "flags: ...")
+
+
+@pytest.mark.parametrize("camera, expected", [
+    pytest.param("{element: 'body:bsae', resolution: [64, 48]}",
+                 ["3:24: error: cameras.wrist_cam.element: the model has no body named 'bsae' (did you mean 'base'?)",
+                  _SCENE_TYPO], id="misspelt-mount"),
+    pytest.param("{element: 'body:*'}",
+                 ["3:24: error: cameras.wrist_cam.element: a camera is mounted in one frame, 'body:<name>' or "
+                  "'site:<name>'; got 'body:*'", _SCENE_TYPO], id="not-one-frame"),
+    pytest.param("{element: 'body:base', resolution: [0, 48]}",  # (the sensors reading it are not judged)
+                 ["3:50: error: cameras.wrist_cam.resolution.0: expected a value >= 1; got 0"], id="bad-resolution"),
+])
+def test_a_camera_with_a_mistake_still_names_a_camera_for_its_sensors(camera: str, expected: list[str],
+                                                                      tmp_path: Path) -> None:
+    """Issue 30: a misspelt mount hid a second typo, in a sensor's camera name; with a bad `resolution` the
+    sensor's error read "its cameras are: (none)". Both are reported, and the camera with a mistake is still
+    one the suite defines: the sensors reading it are judged on their own mistakes only."""
+    from sensorcfg.cli import main
+
+    shutil.copy(TERRAIN, tmp_path / "terrain.xml")  # (a model without cameras of its own)
+    (tmp_path / "s.yaml").write_text(
+        f"model: terrain.xml\ncameras:\n  wrist_cam: {camera}\nsensors:\n"
+        "  typo: {kind: rgb, element: 'camera:wrist_cm'}\n  reads: {kind: rgb, element: 'camera:wrist_cam'}\n"
+        "  other: {kind: qpos, element: 'joint:*'}\n"
+        "  scene: {kind: depth, element: 'camera:wrist_cam', camera: {scene: {shadw: false}}}\n")
+    expected = [expected[0], "5:30: error: sensors.typo.element: the model has no camera named 'wrist_cm' (did you "
+                "mean 'wrist_cam'?)", *expected[1:]]
+    found = check(tmp_path / "s.yaml")
+    assert len(found) == len(expected), found
+    for got, want in zip(found, expected):
+        assert got == want or (want.endswith(" ...") and got.startswith(want[:-4])), got
+    assert main(["validate", str(tmp_path / "s.yaml")]) == 1
+    if "resolution: [0" not in camera:
+        with pytest.raises(sensorcfg.SuiteError) as info:
+            sensorcfg.load(tmp_path / "s.yaml").compile()
+        assert [p.loc for p in info.value.problems] == ["cameras.wrist_cam.element"]
+
+
+def check(path: Path) -> list[str]:
+    """Every problem `validate` finds in the suite at `path`, as 'line:col: error: ...'."""
+    from sensorcfg.cli.validate import check_file
+
+    return [p.format().removeprefix(f"{path}:") for p in check_file(path, None, [], False).problems]
+
+
 def test_a_camera_larger_than_the_models_offscreen_buffer_renders_at_its_resolution() -> None:
     """Found by review: a suite camera with `resolution: [1280, 720]` on a model whose offscreen buffer is
     640x480 was refused at the sensor, with a hint to edit the robot file that `cameras:` exists to spare."""

@@ -149,15 +149,22 @@ def _cli(*args: str, cwd: Path) -> subprocess.CompletedProcess:
                           text=True, timeout=300)
 
 
-def test_validate_import_never_calls_user_callables(sensors_module: Path) -> None:
+def test_validate_import_calls_a_generic_only_for_the_shape_its_noise_needs(sensors_module: Path) -> None:
+    """`validate --import` finds what the shape of a generic sensor's value decides (issue 30: check passed,
+    the environment refused), so it calls a generic whose noise needs the shape once, as building does; custom
+    noise is never called, and without --import nothing is."""
     (sensors_module / "s.yaml").write_text(NOISY)
+    calls = sensors_module / "calls.txt"
+    proc = _cli("validate", "s.yaml", cwd=sensors_module)
+    assert proc.returncode == 0 and not calls.exists(), proc.stdout + proc.stderr
     proc = _cli("validate", "--import", "s.yaml", cwd=sensors_module)
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    assert not (sensors_module / "calls.txt").exists()
-    # and Suite.check with imports neither
-    suite = sensorcfg.load(sensors_module / "s.yaml")
+    assert calls.read_text().split() == ["generic"]
+    calls.unlink()
+    suite = sensorcfg.load(sensors_module / "s.yaml")  # and Suite.check with imports the same
+    assert suite.check() == [] and not calls.exists()
     assert suite.check(import_callables=True) == []
-    assert not (sensors_module / "calls.txt").exists()
+    assert calls.read_text().split() == ["generic"]
 
 
 def test_spec_never_calls_custom_noise(sensors_module: Path) -> None:

@@ -33,12 +33,14 @@ def cpu_batch(model: Any, make: Callable[[], Any], nsim: int, **options: Any) ->
 class Simulations:
     """`BatchEnvironment`'s interface (the calls these tests make) over one `Environment` per simulation. A
     `reward_fn` or `termination_fn` is a batch's (one value per simulation), called once per step as the batch
-    calls it (the reward first); one that raises ends every simulation's episode, as in a batch."""
+    calls it (the reward first); one that raises ends every simulation's episode, as in a batch. With
+    `autoreset="same_step"` a LAST step shows the new episode's first observation, as a batch's."""
 
     def __init__(self, model: Any, make: Callable[[], Any], nsim: int, seed: Any = None,
                  reward_fn: Callable[[Any], Any] | None = None, termination_fn: Callable[[Any], Any] | None = None,
-                 **options: Any):
+                 autoreset: str = "next_step", **options: Any):
         root = root_seed(seed)
+        self._same_step = autoreset == "same_step"
         self._fns = (reward_fn, termination_fn)
         self._values: list[Any] = [np.zeros(nsim), np.zeros(nsim, bool)]
         per_sim = {name: (lambda i, k=k: (lambda physics: self._values[k][i]))
@@ -79,7 +81,13 @@ class Simulations:
             for env in self._envs:
                 env._needs_reset = True
             raise
-        return self._stacked([env.step(a) for env, a in zip(self._envs, np.asarray(actions))])
+        steps = []
+        for env, action in zip(self._envs, np.asarray(actions)):
+            step = env.step(action)
+            if self._same_step and step.last():  # the next episode starts in this step: its first observation
+                step = step._replace(observation=env.reset().observation)
+            steps.append(step)
+        return self._stacked(steps)
 
     def seed(self, seed: Any) -> None:
         root = root_seed(seed)

@@ -417,16 +417,17 @@ def _step_both(warp: WarpEnvironment, batch: Any, actions: np.ndarray) -> tuple[
     return ours, theirs
 
 
-def run_environments(seed: int, control_steps: int = 30) -> None:
+def run_environments(seed: int, control_steps: int = 30, autoreset: str = "next_step") -> None:
     """`WarpEnvironment` against `BatchEnvironment` on a fuzzed suite of the controls: specs, every read of every
     world, step types, rewards and discounts, through time limits (none, huge), `reset(ids)`, noise levels, a
-    reseed, bad actions and exceptions in `reward_fn` / `termination_fn` (`episode_rules`)."""
+    reseed, bad actions and exceptions in `reward_fn` / `termination_fn` (`episode_rules`), both engines
+    restarting ended episodes as `autoreset` says."""
     text, run = fuzz_suite(seed, CONTROLS)
     rng = np.random.default_rng(seed)
     substeps, nworld = run["substeps"], run["nworld"]
     rules = episode_rules(seed, nworld, control_steps, substeps, MODEL.nu)
     functions = {f"{kind}_fn": (rules[f"{kind}s"], rules[f"{kind}_raises"]) for kind in ("reward", "termination")}
-    options = dict(seed=seed, time_limit=rules["time_limit"])
+    options = dict(seed=seed, time_limit=rules["time_limit"], autoreset=autoreset)
     warp = WarpEnvironment(ROBOT, sensorcfg.loads(text), nworld, device="cpu", key_episodes=4 + 4 * (seed % 3),
                            **{f: Scripted(*v, device="cpu") for f, v in functions.items()},
                            **options)  # its key table topped up every control step, every second, every third
@@ -476,6 +477,11 @@ def run_environments(seed: int, control_steps: int = 30) -> None:
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])  # (every kind of time limit: `episode_rules`)
 def test_the_warp_environment_reads_what_the_batch_reads_on_a_fuzzed_suite_of_the_controls(seed: int) -> None:
     run_environments(seed)
+
+
+@pytest.mark.parametrize("seed", [0, 4])  # (a time limit of a few control steps: `episode_rules`)
+def test_the_engines_agree_with_same_step_resets_on_a_fuzzed_suite_of_the_controls(seed: int) -> None:
+    run_environments(seed, autoreset="same_step")
 
 
 def run_environment_physics(seed: int, nworld: int = 2, control_steps: int = 14) -> None:
