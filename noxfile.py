@@ -10,7 +10,7 @@
 - `tests-mjlab`: the Warp engine on MuJoCo Warp 3.11 as mjlab 1.6 pins it (`sensorcfg[mjlab]`, torch CPU), its
   tests and the mjlab adapter's; a missing Warp or mjlab fails here (SENSORCFG_REQUIRE_WARP=1,
   SENSORCFG_REQUIRE_MJLAB=1).
-- `typecheck`: mypy (pinned) over the package; any error fails the session.
+- `typecheck`: mypy and ruff (both pinned) over the package; any error fails the session.
 
 Both test sessions build the compiled noise kernel (setup.py; the machines have a C compiler) and set
 SENSORCFG_REQUIRE_KERNEL=1, so that a kernel that failed to build fails its tests instead of skipping them.
@@ -81,9 +81,12 @@ def tests_mjlab(session: nox.Session) -> None:
 # The libraries whose type stubs mypy reads, at the versions the package was last checked against, so that a
 # new release of one of them cannot fail this session with no change here (the test sessions take the newest).
 TYPED_WITH = ["mypy==2.4.1", "numpy==2.4.6", "pydantic==2.14.3", "mujoco==4.0.0", "gymnasium==1.4.0"]
+# The linter, pinned for the same reason (its rules: pyproject.toml's [tool.ruff])
+RUFF = "ruff==0.17.6"
 
 
 @nox.session(name="typecheck")
 def typecheck(session: nox.Session) -> None:
-    session.install("-e", ".[test,gym]", *TYPED_WITH)
+    session.install("-e", ".[test,gym]", *TYPED_WITH, RUFF)
     session.run("mypy", "sensorcfg", "--ignore-missing-imports")
+    session.run("ruff", "check", "sensorcfg")
