@@ -56,8 +56,8 @@ def _noisy(camera: _Camera, i: int | np.integer, frame: np.ndarray, step: int) -
 class BatchCameras:
     """The camera observables of a batch (`entries`: (position, observable, channel) each)."""
 
-    def __init__(self, entries: list[tuple[int, Observable, FixedChannel]], model: mujoco.MjModel, nsim: int, substeps: int,
-                 pad: bool):
+    def __init__(self, entries: list[tuple[int, Observable, FixedChannel]], model: mujoco.MjModel, nsim: int,
+                 substeps: int, pad: bool):
         self.data = mujoco.MjData(model)  # each simulation's MjData is copied here to render it
         physics = Physics(model, self.data)
         self.nsim, self.substeps, self.pad = nsim, substeps, pad
@@ -96,7 +96,8 @@ class BatchCameras:
         return sorted(out)
 
     def sample(self, k: int, age: np.ndarray, active: np.ndarray) -> None:
-        """Render the frames due after substep k (`age`: each simulation's steps since reset before this control step)."""
+        """Render the frames due after substep k (`age`: each simulation's steps since reset before this control
+        step)."""
         for camera in self.cameras:
             ch = camera.ch
             due = np.flatnonzero(camera.needed[(age + k) % camera.needed.size] & active)

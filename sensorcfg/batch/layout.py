@@ -204,7 +204,8 @@ class Layout:
         at = 0
         for out in plan.reads.plain:
             size = out.positions.size
-            self.plain.append(PlainRead(out.sensor, slice(at, at + size), (self.nsim, *plan.sensors[out.sensor].output)))
+            self.plain.append(PlainRead(out.sensor, slice(at, at + size),
+                                        (self.nsim, *plan.sensors[out.sensor].output)))
             at += size
         self.plain_cols = (np.concatenate([out.positions for out in plan.reads.plain]) if plan.reads.plain
                            else np.zeros(0, np.intp))
@@ -215,7 +216,8 @@ class Layout:
         # positions a read takes from its control step's records: noise-free samples of the last substeps steps
         recent = ((delta == 0) | (delta > rows - substeps)) & ~self.history_only[self.col][None, :]
         self.from_record = np.vstack([recent, np.zeros((1, self.col.size), bool)])  # never at a reset read
-        self.substep = np.where(recent, np.where(delta == 0, substeps, delta - (rows - substeps)), substeps)  # of a recent sample
+        # the substep of a recent sample
+        self.substep = np.where(recent, np.where(delta == 0, substeps, delta - (rows - substeps)), substeps)
 
     def clear(self) -> None:
         """Forget cached positions (a reset changed which simulation is at which phase)."""
@@ -300,7 +302,8 @@ class Layout:
             stride = np.where(self.from_record, self.record_read_stride, w)
             table = self._tables.put(history_row, (
                 (np.ascontiguousarray(base[:, self.plain_cols]), np.ascontiguousarray(stride[:, self.plain_cols])),
-                [tuple(np.ascontiguousarray(a[:, g.part].reshape(-1, *g.block).transpose(1, 0, 2)) for a in (base, stride))
+                [tuple(np.ascontiguousarray(a[:, g.part].reshape(-1, *g.block).transpose(1, 0, 2))
+                       for a in (base, stride))
                  for g in self.groups]))
         return table
 

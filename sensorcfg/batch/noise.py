@@ -308,8 +308,8 @@ class BatchPipeline:
             make = BATCHED.get(type(stage))
             if make is None:
                 what = getattr(stage, "name", None)
-                raise SuiteError(f"sensor {sensor!r}: " + batch_refusal("noise stage", kind=type(stage).__name__.lower(),
-                                                                        detail=f" ({what})" if what else ""))
+                raise SuiteError(f"sensor {sensor!r}: " + batch_refusal(
+                    "noise stage", kind=type(stage).__name__.lower(), detail=f" ({what})" if what else ""))
             batched.append(make(stage, nsim, stride))
         for form in batched:
             form.link(batched)

@@ -5,11 +5,11 @@ A fixed-schedule sensor whose noise only adds numbers (gaussian and uniform stag
 (`noise.streams`). So where its reads show each sample about once (`added_as_read`; a frame stack keeps the
 history path, which draws a sample's numbers once), the batch keeps that sensor's raw samples, as it keeps a
 noise-free sensor's (only those a later read needs, the rest read straight from the control step's
-records), and a read adds each
-sample's noise to the values it gathered, one sum per sensor, before any reduction (`streams.add_rows`: each
-sensor's sum prepared once per batch, its keys, samples and positions per read). A sample in the windows of several reads gets the same numbers each time. Padding before
-the reset sample is the reset sample's noisy value (`pad_with_initial_value`) or zeros, which no noise
-touches, as in the single-simulation Updater.
+records), and a read adds each sample's noise to the values it gathered, one sum per sensor, before any
+reduction (`streams.add_rows`: each sensor's sum prepared once per batch, its keys, samples and positions per
+read). A sample in the windows of several reads gets the same numbers each time. Padding before the reset sample
+is the reset sample's noisy value (`pad_with_initial_value`) or zeros, which no noise touches, as in the
+single-simulation Updater.
 
 A simulation whose episode has a noise level other than 1 blends the result with the raw value
 (`noise.level.blend`, as the pipeline's last stage does).
@@ -81,7 +81,8 @@ class ReadNoise:
     Every sensor's (simulation, slot) pairs are laid end to end, so that a read computes all their sample
     indices in one pass; the keys, which change only at resets (`restart`), are kept in that order too."""
 
-    def __init__(self, pipelines: dict[int, BatchPipeline], channels: Sequence[FixedChannel], layout: Layout, pad: bool):
+    def __init__(self, pipelines: dict[int, BatchPipeline], channels: Sequence[FixedChannel], layout: Layout,
+                 pad: bool):
         self.pad = pad
         self.nsim = nsim = layout.nsim
         self.sensors: list[_Sensor] = []
@@ -94,15 +95,16 @@ class ReadNoise:
                                    "(an internal error)")
             schedule, size = channels[c].schedule, int(np.prod(channels[c].shape, dtype=np.int64))
             if pipeline.stride != schedule.interval:  # a fixed schedule's is: sample j's numbers are the j-th
-                raise RuntimeError(f"read noise of channel {c}: its noise stride is not its interval (an internal error)")
+                raise RuntimeError(f"read noise of channel {c}: its noise stride is not its interval "
+                                   "(an internal error)")
             count = nsim * schedule.buffer
             templates = stage.template.draws(np.zeros(0, np.int64), np.zeros((0, 2), np.uint64))
             prepared = prepare(templates, stage.terms)
             self.sensors.append(_Sensor(stage, size, slice(at, at + count), pipeline.blend, prepared))
             at += count
             # the read at t sees sample `schedule.newest(t) + schedule.offsets()[slot]` in slot `slot`
-            columns.append((np.repeat(np.arange(nsim), schedule.buffer), _starts(layout, c, size, schedule.buffer).ravel(),
-                            np.tile(schedule.offsets(), nsim),
+            columns.append((np.repeat(np.arange(nsim), schedule.buffer),
+                            _starts(layout, c, size, schedule.buffer).ravel(), np.tile(schedule.offsets(), nsim),
                             *(np.full(count, v) for v in (schedule.delay, schedule.interval))))
         self.sims, self.starts, self.first, delay, interval = (
             np.concatenate(column).astype(np.int64) for column in zip(*columns))
@@ -118,7 +120,8 @@ class ReadNoise:
             self.keys[sensor.span] = sensor.stage.keys[self.sims[sensor.span]]
 
     def apply(self, values: np.ndarray, age: np.ndarray) -> None:
-        """Add each read sample's noise to `values`, one read of every simulation (`age`: each one's steps since reset)."""
+        """Add each read sample's noise to `values`, one read of every simulation (`age`: each one's steps since
+        reset)."""
         steps = newest_sample(age[None, :], self.pair_delay, self.pair_interval)  # (pair, simulation)
         sample = steps.ravel().take(self.pair_at)
         sample += self.first  # < 0: padding

@@ -101,7 +101,8 @@ def _size(model: mujoco.MjModel, field: str) -> int:
     return relay.width * int(getattr(model, relay.size))
 
 
-def choose(model: mujoco.MjModel, sources: Sequence[Source], recorded: Mapping[str, int], substeps: int) -> Relays | None:
+def choose(model: mujoco.MjModel, sources: Sequence[Source], recorded: Mapping[str, int],
+           substeps: int) -> Relays | None:
     """The relays worth adding for a batch that records each field of `recorded` after that many substeps
     of a control step of `substeps`, reading `sources`; None when none pays.
 

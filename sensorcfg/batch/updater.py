@@ -7,10 +7,11 @@ episode's age), then one reduction per (aggregator, buffer) group.
 
 A fixed-schedule sensor whose noise only adds numbers (gaussian and uniform stages) gets it as the batch
 reads (`batch.read_noise`) when its reads show each sample about once (`added_as_read`): its history keeps raw
-samples, as a noise-free sensor's. Other noise runs at each
-sample's own step on the simulations that sample then, in place in the history (`batch.noise`); random intervals and delays are planned per simulation by the single-simulation
-channel itself (`batch.random_schedules`). Scheduling, buffers and noise are the single-simulation Updater's to
-the bit: the per-simulation state is its episode's age (`age`), random state, noise and random plans.
+samples, as a noise-free sensor's. Other noise runs at each sample's own step on the simulations that sample
+then, in place in the history (`batch.noise`); random intervals and delays are planned per simulation by the
+single-simulation channel itself (`batch.random_schedules`). Scheduling, buffers and noise are the
+single-simulation Updater's to the bit: the per-simulation state is its episode's age (`age`), random state,
+noise and random plans.
 
 Differences from the Updater: every observable must be a float64 mjData feature without a corruptor, or
 a camera (rendered per simulation by `batch.camera`); generic callables, corruptors and custom
@@ -52,7 +53,8 @@ def _camera_stops(ch: FixedChannel, substeps: int) -> set[int]:
     """The substeps (1..substeps) after which the camera may render: a rollout returns there."""
     needed = set(ch.needed_phases())
     period = ch.period()
-    return {k for k in range(1, substeps + 1) for t in range(0, math.lcm(period, substeps), substeps) if (t + k) % period in needed}
+    return {k for k in range(1, substeps + 1) for t in range(0, math.lcm(period, substeps), substeps)
+            if (t + k) % period in needed}
 
 
 class BatchUpdater:
@@ -200,7 +202,8 @@ class BatchUpdater:
             for call in self._noise_calls(history_row, active, everyone):  # additive-only pipelines: in place, at once
                 k, c, sims, steps = call
                 if self.corrupted[c].fused is not None:
-                    sums.append(self.corrupted[c].sum(self.history[history_row + k - 1], int(self.cols[c]), sims, steps))
+                    sums.append(self.corrupted[c].sum(self.history[history_row + k - 1], int(self.cols[c]),
+                                                      sims, steps))
                 else:
                     calls.append(call)
             add_sums(sums)
@@ -217,7 +220,8 @@ class BatchUpdater:
         if self.timelines.specs:
             self.timelines.advance(np.flatnonzero(active))
 
-    def _noise_calls(self, history_row: int, active: np.ndarray, everyone: bool) -> list[tuple[int, int, np.ndarray, np.ndarray]]:
+    def _noise_calls(self, history_row: int, active: np.ndarray,
+                     everyone: bool) -> list[tuple[int, int, np.ndarray, np.ndarray]]:
         """(substep k, channel, sims, steps) of this control step's noisy samples, in order."""
         noisy = self._noisy_samples(history_row)
         taken = self.timelines.taken_now() if self.timelines.specs else None
