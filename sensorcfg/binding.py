@@ -197,7 +197,8 @@ class _Binder:
         if cfg.kind in IMAGE_KINDS or cfg.kind == GENERIC_KIND or cfg.element is None:
             return None
         first = cfg.element if isinstance(cfg.element, str) else cfg.element[0]
-        spec = kinds_of(read_type(split_selector(first)[0], cfg.kind)).get(cfg.kind)  # None: a MuJoCo sensor or a height scan
+        # None: a MuJoCo sensor or a height scan
+        spec = kinds_of(read_type(split_selector(first)[0], cfg.kind)).get(cfg.kind)
         return spec.field if spec is not None else None
 
     def within(self, name: str, cfg: SensorConfig) -> bool:

@@ -22,7 +22,8 @@ from .errors import did_you_mean
 from .kinds import CONSTANT, INTERNAL, STATE, kinds_of, offered_kinds, state_twin
 from .observables.feature import batch_on_demand_problem
 
-__all__ = ["constant_problem", "render_cost", "kind_problems", "sensor_problems", "batch_problems", "batch_refusal", "per_simulation_refusal"]
+__all__ = ["constant_problem", "render_cost", "kind_problems", "sensor_problems", "batch_problems", "batch_refusal",
+           "per_simulation_refusal"]
 
 Found = list[tuple[tuple[str | int, ...], str]]  # (key path inside the sensor, message)
 
@@ -159,7 +160,8 @@ def render_cost(model: mujoco.MjModel, scene: Mapping[str, bool]) -> str | None:
         used = np.unique(model.geom_matid[model.geom_matid >= 0])
         shiny = used[model.mat_reflectance[used] > 0]
         if shiny.size:
-            found.append(("reflection", f"reflections (in {_names(model, mujoco.mjtObj.mjOBJ_MATERIAL, shiny, 'material')})"))
+            found.append(("reflection",
+                          f"reflections (in {_names(model, mujoco.mjtObj.mjOBJ_MATERIAL, shiny, 'material')})"))
     if not found:
         return None
     off = ", ".join(f"{flag}: false" for flag, _ in found)

@@ -1,4 +1,5 @@
-"""A Gymnasium vector environment over a `BatchEnvironment` (extra `gym`: `pip install gymnasium`, or from a clone `pip install '.[gym]'`).
+"""A Gymnasium vector environment over a `BatchEnvironment` (extra `gym`: `pip install gymnasium`, or from a
+clone `pip install '.[gym]'`).
 
 `GymVectorEnv` has Gymnasium's next-step autoreset (`AutoresetMode.NEXT_STEP`), which is the batch's own:
 the step after a simulation's episode ends resets it, returns its first observation, and ignores its

@@ -126,7 +126,8 @@ def kept(observable: Any, substeps: int, batch: bool = False) -> Kept | None:
         at = f" at an interval of {shortest:,}" if interval[0] == interval[1] else f" at intervals from {shortest:,}"
         what = f"a delay of {up_to}{latest:,} steps" + (at if longest > 1 else "")
         return Kept(rows, unit, row, sample, steps, "delay", what, history, noisy > 1)
-    at = f" at an interval of {longest:,} steps" if interval[0] == interval[1] else f" at intervals up to {longest:,} steps"
+    at = (f" at an interval of {longest:,} steps" if interval[0] == interval[1]
+          else f" at intervals up to {longest:,} steps")
     what = f"a buffer of {buffer:,}" + (at if longest > 1 else "")
     return Kept(rows, unit, row, sample, steps, "buffer", what, history, noisy > 1)
 
@@ -152,8 +153,8 @@ def _shape(observable: Any) -> str:
 def kept_problems(observables: Mapping[str, Any], model: mujoco.MjModel, substeps: int,
                   nsim: int = 1, batch: bool = False) -> list[tuple[str, str, str]]:
     """(sensor, key, message) for each enabled sensor that would keep more than `MAX_KEPT_BYTES`, in all
-    `nsim` simulations (of a `BatchEnvironment` with `batch`), and for the shared history of the plain features when it would. Features learn
-    their shape by binding to `model` (as the Updater binds them at reset)."""
+    `nsim` simulations (of a `BatchEnvironment` with `batch`), and for the shared history of the plain features
+    when it would. Features learn their shape by binding to `model` (as the Updater binds them at reset)."""
     unbound = [o for o in observables.values() if isinstance(o, Feature) and o.array_spec is None]
     if unbound:
         physics = Physics(model)
@@ -162,7 +163,8 @@ def kept_problems(observables: Mapping[str, Any], model: mujoco.MjModel, substep
     found: list[tuple[str, str, str]] = []
     where, everything = (f" in each of {nsim:,} simulations", " in all") if nsim > 1 else ("", "")
     limit = f"a sensor may keep at most {MAX_KEPT_BYTES / _GIB:g} GiB between its samples and its reads"
-    sized = {name: k for name, o in observables.items() if o.enabled for k in [kept(o, substeps, batch)] if k is not None}
+    sized = {name: k for name, o in observables.items() if o.enabled
+             for k in [kept(o, substeps, batch)] if k is not None}
     for name, k in sized.items():
         if k.bytes(nsim) > MAX_KEPT_BYTES:
             found.append((name, k.key, f"{k.what} keeps {k.rows:,} {k.unit} of {k.sample:,} bytes "

@@ -174,7 +174,8 @@ class _Resolver:
             self.hints -= 1
             hint = did_you_mean(name, names)
         if not hint:
-            hint = f"; its {_plural(type_name)} are: {', '.join(names[:12]) or '(none)'}" + (" ..." if len(names) > 12 else "")
+            hint = (f"; its {_plural(type_name)} are: {', '.join(names[:12]) or '(none)'}"
+                    + (" ..." if len(names) > 12 else ""))
             unnamed = len(elements.names) - len(names)
             if unnamed:
                 hint += f" ({unnamed} unnamed: select them by id, '{type_name}:{ID_PREFIX}<id>', or with a glob)"
@@ -253,7 +254,8 @@ def _entries(value: str | Sequence[str], key: str) -> list[tuple[str, Where]]:
     return [(v, (key, i)) for i, v in enumerate(value)]
 
 
-def _roots(r: _Resolver, within: str | Sequence[str] | None) -> tuple[frozenset[int] | None, list[tuple[Where, Problem]]]:
+def _roots(r: _Resolver,
+           within: str | Sequence[str] | None) -> tuple[frozenset[int] | None, list[tuple[Where, Problem]]]:
     """The bodies `within` names (None without one), and its problems."""
     if within is None:
         return None, []
@@ -288,7 +290,8 @@ def resolve(model: mujoco.MjModel, element: str | Sequence[str],
         return Resolved(None, problems)
     entries = _entries(element, "element")
     if not entries:
-        return Resolved(None, [(("element",), Problem("an empty element list selects nothing; name at least one element"))])
+        return Resolved(None, [(("element",),
+                                Problem("an empty element list selects nothing; name at least one element"))])
     bodies = [] if within is None else [text.partition(":")[2] for text, _ in _entries(within, "within")]
     scope = f" under {'body' if len(bodies) == 1 else 'bodies'} {', '.join(map(repr, bodies))}" if bodies else ""
     batched = not isinstance(element, str)
