@@ -20,8 +20,8 @@ from ..errors import Problem, SensorcfgError, SuiteError, install_hint, printabl
 
 __all__ = ["EXIT_OK", "EXIT_INVALID", "EXIT_USAGE", "EXIT_CODES_HELP", "HelpFormatter", "UsageError", "override",
            "positive_int", "positive_float", "writable", "require_matplotlib", "importable_cwd", "add_suite_args",
-           "existing_file", "load_model", "load_suite", "model_option", "model_path", "suite_model", "user_code_failure",
-           "user_code_problem", "add_common_suite_args", "os_reason", "seed"]
+           "existing_file", "load_model", "load_suite", "model_option", "model_path", "suite_model",
+           "user_code_failure", "user_code_problem", "add_common_suite_args", "os_reason", "seed"]
 
 EXIT_OK, EXIT_INVALID, EXIT_USAGE = 0, 1, 2
 
@@ -61,7 +61,8 @@ def add_suite_args(parser: argparse.ArgumentParser, *, suite_optional: bool = Fa
     else:
         parser.add_argument("suite", metavar="SUITE", help="suite file (YAML)")
     parser.add_argument("--model", metavar="MODEL", help="MJCF/MJB model, or package://PKG/FILE or "
-                        "menagerie://ROBOT/FILE as in a suite (default: the suite's 'model:'; given, that line is not read)")
+                        "menagerie://ROBOT/FILE as in a suite (default: the suite's 'model:'; given, that line is "
+                        "not read)")
     add_common_suite_args(parser)
 
 

@@ -146,9 +146,10 @@ def _walk(root: Path, found: Found) -> None:
             path = folder / entry.name
             try:
                 is_dir = entry.is_dir()
-                if entry.is_symlink() and (is_dir or path.suffix in SUFFIXES) and not path.resolve().is_relative_to(top):
-                    found.error(path, f"a link out of the folder being validated ({printable(str(root))}): not followed; "
-                                      "name it on the command line to check the file it leads to")
+                if (entry.is_symlink() and (is_dir or path.suffix in SUFFIXES)
+                        and not path.resolve().is_relative_to(top)):
+                    found.error(path, f"a link out of the folder being validated ({printable(str(root))}): not "
+                                      "followed; name it on the command line to check the file it leads to")
                     continue
                 info = os.stat(path) if is_dir or path.suffix in SUFFIXES else None
             except OSError as e:  # a broken symlink, or one in a loop: a suite name is worth reporting
@@ -279,8 +280,8 @@ def command(args: argparse.Namespace) -> int:
         importable_cwd()
     models: dict[str, Any] = {}
     engine = "batch" if args.batch and args.engine == "single" else args.engine  # (warp's checks include batch's)
-    results = [check_isolated(f, model, with_model(args.overrides, args.model) or [], args.import_callables, models, args.extends_root,
-                              engine) for f in found.files]
+    results = [check_isolated(f, model, with_model(args.overrides, args.model) or [], args.import_callables, models,
+                              args.extends_root, engine) for f in found.files]
     results += found.errors
     print(REPORTERS[args.format](results))
     errors = [r for r in results if r.error]

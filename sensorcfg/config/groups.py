@@ -56,7 +56,8 @@ def resolve_groups(groups: Mapping[str, tuple[str, ...]], sensors: Mapping[str, 
             if entry not in sensors and entry in written:
                 continue
             if entry not in sensors:
-                hint = did_you_mean(entry, list(sensors)) or f"; the suite's observations are: {', '.join(list(sensors)[:12])}"
+                hint = (did_you_mean(entry, list(sensors))
+                        or f"; the suite's observations are: {', '.join(list(sensors)[:12])}")
                 problems.append(problem_at(doc, here, f"the suite has no observation named {entry!r}{hint}"))
             elif entry in members:
                 problems.append(problem_at(doc, here, f"{entry!r} is already in group {group!r} (each observation "

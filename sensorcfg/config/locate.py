@@ -218,7 +218,8 @@ def _wrong_length(root: type[BaseModel], path: Path_, value: Any) -> str:
     found = _child(_at(value, path[:-1]), path[-1]) if path else None
     count = f"{len(found)}" if isinstance(found, list) else describe(found)
     name = path[-1] if path else "the list"
-    return f"{name} takes {len(items) or 'more'} {what}; got {count}{f': {quote(found, 60)}' if isinstance(found, list) else ''}"
+    return (f"{name} takes {len(items) or 'more'} {what}; got {count}"
+            f"{f': {quote(found, 60)}' if isinstance(found, list) else ''}")
 
 
 def describe(value: Any) -> str:

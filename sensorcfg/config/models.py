@@ -52,7 +52,6 @@ class ChoiceDraw(BaseModel):
 
 def _fixed(value: Any, *, rates: bool, minimum: int, drawn: bool = False) -> int | str:
     """A fixed number of steps or a time; `drawn`: where a draw would be accepted too (the message says so)."""
-    what = "a rate like '50Hz', " if rates else ""
     if isinstance(value, bool) or not isinstance(value, (int, str)):
         forms = ["integer physics steps", *(["a rate like '50Hz'"] if rates else []), "a duration like '4ms'",
                  *(["{uniform: [lo, hi]} / {choice: [...], p: [...]}"] if drawn else [])]

@@ -6,4 +6,4 @@ from .additions import native_row, sensor_name
 from .table import NATIVE
 
 __all__ = ["NATIVE", "add_native", "bind_native", "carry_hint", "compile_model", "native_names", "native_row",
-           "sensor_name"]
+           "reads_on_demand", "sensor_name"]

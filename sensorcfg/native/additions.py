@@ -190,8 +190,8 @@ def sensor_additions(model: mujoco.MjModel, name: str, cfg: SensorConfig, report
                f"(mjSENS_{row.sensor}); upgrade MuJoCo or use another kind")
         return None
     if type_name not in row.objects:
-        report(here + ("element",), f"{_a(cfg.kind)} {cfg.kind} sensor reads {' or '.join(t + ':<name>' for t in row.objects)}; "
-               f"got {first!r}")
+        report(here + ("element",), f"{_a(cfg.kind)} {cfg.kind} sensor reads "
+               f"{' or '.join(t + ':<name>' for t in row.objects)}; got {first!r}")
         return None
     ok = True
     ref: tuple[str | None, str | None] = (None, None)

@@ -66,7 +66,8 @@ def _rows() -> tuple[NativeType, ...]:
              NativeType("camprojection", "CAMPROJECTION", ("site", "body"), body_site=True, with_=("camera",),
                         with_required=True)]
     rows += [NativeType(k, k.upper(), ("joint",), joint_types=scalar) for k in ("jointpos", "jointvel", "jointactfrc")]
-    rows += [NativeType(k, k.upper(), ("joint",), limited=True) for k in ("jointlimitpos", "jointlimitvel", "jointlimitfrc")]
+    rows += [NativeType(k, k.upper(), ("joint",), limited=True)
+             for k in ("jointlimitpos", "jointlimitvel", "jointlimitfrc")]
     rows += [NativeType(k, k.upper(), ("joint",), joint_types=("BALL",)) for k in ("ballquat", "ballangvel")]
     rows += [NativeType(k, k.upper(), ("tendon",)) for k in ("tendonpos", "tendonvel", "tendonactfrc")]
     rows += [NativeType(k, k.upper(), ("tendon",), limited=True) for k in ("tendonlimitpos", "tendonlimitvel",

@@ -29,8 +29,9 @@ class NoisePipeline:
     """The stages of one sensor, applied in order to each raw sample.
 
     `reset(rng, stride)` starts an episode: each stage draws from its own part of the sensor's counter-based
-    streams (`stages.Streams`), so adding or removing a stage leaves the draws of the others unchanged. `pipeline(value, step)` returns a new array
-    of the observation's dtype (or writes into `out`); `step` counts physics steps since reset.
+    streams (`stages.Streams`), so adding or removing a stage leaves the draws of the others unchanged.
+    `pipeline(value, step)` returns a new array of the observation's dtype (or writes into `out`); `step` counts
+    physics steps since reset.
     """
 
     def __init__(self, stages: Sequence[rt.Stage], names: Sequence[str], ctx: rt.Context,

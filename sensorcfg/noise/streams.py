@@ -98,7 +98,8 @@ def _counters(draws: Sequence[Draw]) -> tuple[list[np.ndarray], list[np.ndarray]
     per_row = np.repeat(q, m)  # counters per sample row
     samples = np.concatenate([np.asarray(d.samples, np.int64).ravel() for d in draws])
     keys = np.concatenate([np.asarray(d.keys, np.uint64).reshape(-1, 2) for d in draws])
-    halves = np.ascontiguousarray(keys).view(np.uint32).reshape(-1, 4)[:, [_LOW, _HIGH, 2 + _LOW, 2 + _HIGH]]  # k0 lo, hi, k1 lo, hi
+    # k0 lo, hi, k1 lo, hi
+    halves = np.ascontiguousarray(keys).view(np.uint32).reshape(-1, 4)[:, [_LOW, _HIGH, 2 + _LOW, 2 + _HIGH]]
     tags = np.repeat(np.array([d.stage << 24 | d.lane << 22 for d in draws], np.uint32), m)
     start = np.cumsum(per_row) - per_row
     index = np.arange(int(per_row.sum()), dtype=np.int64) - np.repeat(start, per_row)  # v // 4 within a row

@@ -6,9 +6,9 @@ after aggregation: min, max and median of values within bounds stay within them;
 does up to rounding (the mean of three 0.1s is 0.1 + 1 ulp), so its bounds widen by the rounding's
 worst case (`aggregated_bounds`), and a spec holds every value the reads return.
 `reduce` is the same reduction written for the bank and the batch (a stacked group of buffers, reduced once
-per group; `reduce(x, out)` writes into `out`), bit-identical to numpy's (and so dm_control's) reduction along axis 0: numpy adds rows in order
-and divides the sum by the count; a median is the middle value, or the mean of the two middle values.
-(dm_control sets a misspelled `bounds_reserving` on its built-ins while its Updater reads
+per group; `reduce(x, out)` writes into `out`), bit-identical to numpy's (and so dm_control's) reduction along
+axis 0: numpy adds rows in order and divides the sum by the count; a median is the middle value, or the mean of
+the two middle values. (dm_control sets a misspelled `bounds_reserving` on its built-ins while its Updater reads
 `preserves_bounds`, so it silently drops bounds; we read both names.)
 """
 
@@ -20,12 +20,13 @@ from typing import Any, NamedTuple, cast
 
 import numpy as np
 
-__all__ = ["AGGREGATORS", "Aggregator", "FAMILIES", "Family", "aggregated_bounds", "builtin", "family", "get_aggregator",
-           "pairwise", "preserves_bounds", "reduce_stacked"]
+__all__ = ["AGGREGATORS", "Aggregator", "FAMILIES", "Family", "aggregated_bounds", "builtin", "family",
+           "get_aggregator", "pairwise", "preserves_bounds", "reduce_stacked"]
 
 
 def _mean(x: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
-    total: np.ndarray = np.add.reduce(x, 0, None, cast(Any, out))  # numpy adds from 0.0 row by row: a sum of -0.0s is 0.0
+    # numpy adds from 0.0 row by row: a sum of -0.0s is 0.0
+    total: np.ndarray = np.add.reduce(x, 0, None, cast(Any, out))
     return np.true_divide(total, x.shape[0], out=total)
 
 

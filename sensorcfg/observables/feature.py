@@ -22,8 +22,8 @@ from ..physics import raw_structs
 from ..selection import select, split_selector
 from .base import Observable
 
-__all__ = ["Feature", "FieldReader", "SyncingFieldReader", "feature_index", "forward_if_dirty", "on_demand", "OnDemandCompute",
-           "batch_on_demand_problem"]
+__all__ = ["Feature", "FieldReader", "SyncingFieldReader", "feature_index", "forward_if_dirty", "on_demand",
+           "OnDemandCompute", "batch_on_demand_problem"]
 
 
 class FieldReader:
@@ -261,7 +261,8 @@ class Feature(Observable):
 
     def __init__(self, kind: str, element: str | Sequence[str], update_interval: Any = 1,
                  buffer_size: int | None = None, delay: Any = None, aggregator: Any = None,
-                 corruptor: Callable[..., Any] | None = None, index: Any = None, within: str | Sequence[str] | None = None):
+                 corruptor: Callable[..., Any] | None = None, index: Any = None,
+                 within: str | Sequence[str] | None = None):
         """Check the kind against the element type now; the elements are resolved when bound to a model.
 
         Args:
