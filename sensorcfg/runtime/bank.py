@@ -29,8 +29,9 @@ from .schedule import Schedule, history_rows
 if TYPE_CHECKING:
     from mujoco import MjData
 
-__all__ = ["FeatureBank", "BankMember", "bank_member", "plain_refusal", "qualifies", "GroupMember", "PlainRead", "ReadLayout", "ReductionGroup", "buffer_view",
-           "fields_of", "noise_chunk", "read_layout", "rebind_noise", "reuse_key"]
+__all__ = ["FeatureBank", "BankMember", "bank_member", "plain_refusal", "qualifies", "GroupMember", "PlainRead",
+           "ReadLayout", "ReductionGroup", "buffer_view", "fields_of", "noise_chunk", "read_layout", "rebind_noise",
+           "reuse_key"]
 
 _READS_BUDGET = 4 << 20  # bytes of read layouts kept, at least (4 x the history's size when that is more)
 _CHUNK_STEPS = 1024  # physics steps of noise drawn at a time (rounded up to the sampling period): one Philox call each

@@ -152,7 +152,8 @@ class BankNoise:
         items = []
         for i, ops in enumerate(self.programs):
             if ops and (members is None or i in members):
-                offsets, places = (self.first[i], self.first_places[i]) if step == 0 else (self.offsets[i], self.places[i])
+                offsets, places = ((self.first[i], self.first_places[i]) if step == 0
+                                   else (self.offsets[i], self.places[i]))
                 items.append((i, step + offsets, places + start))
         self._write(items)
 

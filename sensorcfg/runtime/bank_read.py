@@ -119,10 +119,10 @@ class _Cuts:
         return operator.itemgetter(*self.keys)
 
 
-def compile_read(channels: Sequence[object], layout: ReadLayout, noise_layers: Callable[[np.ndarray], list[Layer]] | None,
-                 pads_at: int | None) -> CompiledRead:
-    """`channels`: the members, one output each; `layout`: `read_layout(...)` of one phase; `noise_layers(source)`: the bank noise's read layers for the
-    values gathered from `source` (None without noise);
+def compile_read(channels: Sequence[object], layout: ReadLayout,
+                 noise_layers: Callable[[np.ndarray], list[Layer]] | None, pads_at: int | None) -> CompiledRead:
+    """`channels`: the members, one output each; `layout`: `read_layout(...)` of one phase; `noise_layers(source)`:
+    the bank noise's read layers for the values gathered from `source` (None without noise);
     `pads_at`: where the history's source holds the families' pads (`PADS`): the gather fills the families'
     blocks too; or None: noise applies to the gathered windows first, and a second take stacks them."""
     index, groups, plain = layout

@@ -213,7 +213,8 @@ class DrawnBank:
         if len(self.recent) == 3:  # rounds that ended before the current step
             self.older += np.bincount(self.recent.pop(0) // _KEY, minlength=len(self.channels))
         # a sample is shown first in its own round or the next: each counted once
-        self.recent.append(_new(round_.take_sim * _KEY + round_.take_step, self.recent[-1] if self.recent else _ZERO[:0]))
+        self.recent.append(_new(round_.take_sim * _KEY + round_.take_step,
+                                self.recent[-1] if self.recent else _ZERO[:0]))
         if self.noise is not None:  # the noise of the samples this round takes first
             for chunk in range(base, base + length, self.chunk) if base and self.walkers else ():
                 self.noise.fill(chunk, self.walkers)  # (the reset drew the first chunk's random walks)

@@ -106,7 +106,8 @@ def kernel_read(compiled_read: CompiledRead, layers: Sequence[Layer], history: n
     if read is None or any(step.kind not in _CODES for step in compiled_read.records):
         return None
     program = _Program()
-    program.add("gather", compiled_read.gathered, history, history.size, 0, len(compiled_read.gathered))  # the kernel checks the index
+    # the kernel checks the index
+    program.add("gather", compiled_read.gathered, history, history.size, 0, len(compiled_read.gathered))
     for layer in layers:
         program.layer(layer, compiled_read.gathered)
     noised = len(program.records)

@@ -29,7 +29,8 @@ __all__ = ["Updater", "observation_spec", "shows_zeros"]
 _MAX_TABLE_PERIOD = 1 << 16
 
 _Task = Callable[[int], None]  # one sampling task of the table, called with the step
-_Reader = Union[FixedChannel, RandomChannel, DrawnChannel, BankMember, DrawnMember]  # what the layout holds per observable
+# what the layout holds per observable
+_Reader = Union[FixedChannel, RandomChannel, DrawnChannel, BankMember, DrawnMember]
 
 SYNC_ORDER = -2  # `SamplingTask.order` of bringing a dirty dm_control physics up to date: before anything
 BANK_ORDER = -1  # of the bank's snapshots and noise draws: pure reads of the state, before any sampler
@@ -251,8 +252,8 @@ class Updater:
         order, the observables' order. The bank's snapshots and noise are pure reads and go first."""
         bank = self._bank
         banked = {id(m.channel) for m in bank.members()} if bank else set()
-        tasks = [SamplingTask(ch.period(), ch.needed_phases(), order, ch.sample) for order, ch in enumerate(self._channels)
-                 if isinstance(ch, FixedChannel) and id(ch) not in banked]
+        tasks = [SamplingTask(ch.period(), ch.needed_phases(), order, ch.sample)
+                 for order, ch in enumerate(self._channels) if isinstance(ch, FixedChannel) and id(ch) not in banked]
         if bank:
             tasks[:0] = self._bank_tasks(bank)
         if self._drawn:  # its snapshots, at the steps its rounds planned: a pure read of the state, first
