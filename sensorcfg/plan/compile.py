@@ -1,8 +1,8 @@
 """Compiling a suite plan (`SuitePlan`) from bound channels: schedules, read tables, masks, noise programs.
 
 One function per part; each reuses the rule's one home (`runtime/schedule.Schedule` for windows and taken
-samples and the history's rows, `runtime/bank.read_layout` for what a read gathers and how it is reduced, `runtime/drawn.Drawn` for
-drawn schedules' spans).
+samples and the history's rows, `runtime/bank.read_layout` for what a read gathers and how it is reduced,
+`runtime/drawn.Drawn` for drawn schedules' spans).
 """
 
 from __future__ import annotations

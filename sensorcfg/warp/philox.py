@@ -26,8 +26,8 @@ import warp as wp
 
 from ..noise import streams
 
-__all__ = ["MODULE_OPTIONS", "Ziggurat", "block", "counter", "normal", "numbers", "philox4x32", "tag", "uniform", "value",
-           "ziggurat"]
+__all__ = ["MODULE_OPTIONS", "Ziggurat", "block", "counter", "normal", "numbers", "philox4x32", "tag", "uniform",
+           "value", "ziggurat"]
 
 MODULE_OPTIONS = {"fuse_fp": False, "enable_backward": False}  # numpy's roundings; no adjoints (nothing is
 # differentiated), which halves the compile time
