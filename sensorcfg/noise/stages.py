@@ -144,7 +144,8 @@ class Sum(_Additive):
         """The parts' numbers added in order; `values` replaces the episode draws of the bias parts (each
         sample's, (m, *shape), in the batch)."""
         samples = np.asarray(samples, np.int64)
-        keys = np.broadcast_to(self.streams.keys if keys is None else keys, (samples.size, 2))  # type: ignore[union-attr]
+        keys = np.broadcast_to(self.streams.keys if keys is None else keys,  # type: ignore[union-attr]
+                               (samples.size, 2))
         return self.shape(numbers(self.draws(samples, keys)), samples.size, values)
 
     def affine(self) -> list[Affine] | None:
