@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numbers
 from collections.abc import Mapping
-from typing import Any, NamedTuple, cast
+from typing import TYPE_CHECKING, NamedTuple, cast
 
 import numpy as np
 
@@ -21,6 +21,10 @@ from ..runtime.channels import Channel, DrawnChannel, FixedChannel, RandomChanne
 from .compile import compile_plan
 from .records import Source, SuitePlan
 
+if TYPE_CHECKING:
+    from ..observables.base import Observable
+    from ..physics import Physics
+
 __all__ = ["Bound", "Entry", "bind", "check_per_simulation", "check_plain", "per_simulation", "plan_suite"]
 
 
@@ -28,7 +32,7 @@ class Entry(NamedTuple):
     """An enabled observable, with its (single-simulation) channel."""
 
     name: str
-    observable: Any
+    observable: Observable
     channel: FixedChannel | RandomChannel | DrawnChannel
 
 
@@ -45,7 +49,7 @@ class Bound(NamedTuple):
         return [Source(_reader(e.channel).field, _reader(e.channel).index) for e in (*self.fixed, *self.drawn)]
 
 
-def _largest(label: str, attr: str, value: Any, default: int) -> int:
+def _largest(label: str, attr: str, value: object, default: int) -> int:
     """The largest value an interval or delay setting can take (drawn ones must say, to size the history)."""
     if not value:
         return default
@@ -69,12 +73,12 @@ def _check_drawn(entry: Entry) -> None:
                          "allowed (interval 1, delay 0 steps)")
 
 
-def per_simulation(obs: Any) -> bool:
+def per_simulation(obs: Observable) -> bool:
     """Observables that need a simulation's whole MjData (cameras, height scans): run per simulation."""
     return hasattr(obs, "camera_id") or getattr(obs, "per_simulation", False)
 
 
-def check_plain(name: str, obs: Any, ch: Channel) -> None:
+def check_plain(name: str, obs: Observable, ch: Channel) -> None:
     """A feature must be a plain float64 mjData feature with a built-in aggregator (or none)."""
     if getattr(obs, "corruptor", None) is not None:
         raise SuiteError(f"sensor {name!r}: {batch_refusal('corruptor')}")
@@ -88,7 +92,7 @@ def check_plain(name: str, obs: Any, ch: Channel) -> None:
                          f"{', '.join(AGGREGATORS)} on a buffer (a custom callable would run per simulation)")
 
 
-def check_per_simulation(name: str, obs: Any, ch: Channel) -> None:
+def check_per_simulation(name: str, obs: Observable, ch: Channel) -> None:
     """Cameras and height scans run per simulation: no corruptor, aggregator or drawn schedule."""
     what = ("a corruptor" if getattr(obs, "corruptor", None) is not None
             else "an aggregator" if ch.aggregator is not None
@@ -98,7 +102,7 @@ def check_per_simulation(name: str, obs: Any, ch: Channel) -> None:
         raise SuiteError(f"{'camera' if camera else 'height scan'} {name!r}: {per_simulation_refusal(camera, what)}")
 
 
-def bind(observables: Mapping[str, Any], physics: Any, substeps: int, strip: bool, pad: bool) -> Bound:
+def bind(observables: Mapping[str, Observable], physics: Physics, substeps: int, strip: bool, pad: bool) -> Bound:
     """Each enabled observable bound to `physics` (a single-simulation physics of the model) with its channel,
     as the single-simulation Updater binds them; each simulation's episode later draws its own schedules
     and noise. Raises SuiteError for what a batch cannot run (a field MuJoCo computes on demand cannot be
@@ -122,7 +126,7 @@ def bind(observables: Mapping[str, Any], physics: Any, substeps: int, strip: boo
     return Bound(entries, cameras, [e for e in features if isinstance(e.channel, FixedChannel)], drawn)
 
 
-def _fields(physics: Any, sources: list[Source]) -> dict[str, tuple[int, ...]]:
+def _fields(physics: Physics, sources: list[Source]) -> dict[str, tuple[int, ...]]:
     """The mjData fields the sources read, in order of first use, with their shapes."""
     data = physics.data if not hasattr(physics.data, "ptr") else physics.data.ptr
     fields: dict[str, tuple[int, ...]] = {}
@@ -131,7 +135,7 @@ def _fields(physics: Any, sources: list[Source]) -> dict[str, tuple[int, ...]]:
     return fields
 
 
-def plan_suite(bound: Bound, physics: Any, sources: list[Source], nsim: int, substeps: int, pad: bool) -> SuitePlan:
+def plan_suite(bound: Bound, physics: Physics, sources: list[Source], nsim: int, substeps: int, pad: bool) -> SuitePlan:
     """The suite plan of bound features reading `sources` (`bound.sources()`, or relayed ones)."""
     model = physics.model if not hasattr(physics.model, "ptr") else physics.model.ptr
     return compile_plan([cast(FixedChannel, e.channel) for e in bound.fixed],

@@ -18,8 +18,8 @@ from ..runtime.channels import DrawnChannel, FixedChannel
 from ..runtime.drawn import Drawn
 from ..runtime.schedule import history_rows
 from .noise import program
-from .records import (BoolArray, DrawnSteps, DrawnTiming, FixedTiming, PlainOutput, ReadTable, ReducedOutput,
-                      ReductionBlock, SensorRecord, Source, SuitePlan, frozen)
+from .records import (BoolArray, DrawnSteps, DrawnTiming, FixedTiming, IntArray, PlainOutput, ReadTable,
+                      ReducedOutput, ReductionBlock, SensorRecord, Source, SuitePlan, frozen)
 
 __all__ = ["compile_plan"]
 
@@ -55,7 +55,7 @@ def _record(channel: FixedChannel | DrawnChannel, source: Source, first: int) ->
                         Source(source.field, frozen(source.positions, np.intp)))
 
 
-def _read_table(fixed: Sequence[FixedChannel], cols: np.ndarray, rows: int, substeps: int,
+def _read_table(fixed: Sequence[FixedChannel], cols: IntArray, rows: int, substeps: int,
                 cycle: int) -> ReadTable:
     """Per phase of a read, each read position's row offset (mod `rows`) and column, and the outputs."""
     nphase = cycle // substeps
@@ -79,7 +79,7 @@ def _read_table(fixed: Sequence[FixedChannel], cols: np.ndarray, rows: int, subs
                      plain, blocks)
 
 
-def _masks(fixed: Sequence[FixedChannel], cols: np.ndarray, width: int, nphase: int,
+def _masks(fixed: Sequence[FixedChannel], cols: IntArray, width: int, nphase: int,
            substeps: int) -> tuple[BoolArray, BoolArray]:
     """(phase, substep, column): a sample is taken; it is shown by a later control step's read."""
     taken = np.zeros((nphase, substeps, width), bool)

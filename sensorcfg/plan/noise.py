@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..config.noise import EpisodeUniform
+from ..config.noise import EpisodeUniform, NoiseStage
 from .records import FloatArray, NoiseProgram, NoiseStep, frozen
+
+if TYPE_CHECKING:
+    from ..noise.pipeline import NoisePipeline
 
 __all__ = ["ADDITIVE", "program"]
 
@@ -15,7 +18,7 @@ ADDITIVE = frozenset({"gaussian", "uniform"})  # stages that only add numbers dr
 _WORDS = (str,)
 
 
-def _param(value: Any, shape: tuple[int, ...]) -> FloatArray:
+def _param(value: object, shape: tuple[int, ...]) -> FloatArray:
     """A numeric parameter broadcast to the sensor's values and raveled (a 3 x 3 matrix stays 3 x 3)."""
     array = np.asarray(value, np.float64)
     if array.shape == (3, 3):
@@ -23,7 +26,7 @@ def _param(value: Any, shape: tuple[int, ...]) -> FloatArray:
     return frozen(np.broadcast_to(array, shape).ravel())
 
 
-def step(config: Any, stream: int, shape: tuple[int, ...]) -> NoiseStep:
+def step(config: NoiseStage, stream: int, shape: tuple[int, ...]) -> NoiseStep:
     """One stage's config (a validated `config.noise` model) as a `NoiseStep`."""
     params: list[tuple[str, FloatArray]] = []
     options: list[tuple[str, str]] = []
@@ -47,7 +50,7 @@ def step(config: Any, stream: int, shape: tuple[int, ...]) -> NoiseStep:
     return NoiseStep(config.type, stream, tuple(params), tuple(options), tuple(drawn))
 
 
-def program(pipeline: Any, shape: tuple[int, ...], stride: int) -> NoiseProgram | None:
+def program(pipeline: NoisePipeline | None, shape: tuple[int, ...], stride: int) -> NoiseProgram | None:
     """The program of a sensor's pipeline (`noise.pipeline.NoisePipeline`, leveled or not), or None."""
     if pipeline is None:
         return None

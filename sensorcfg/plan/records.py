@@ -23,7 +23,7 @@ Conventions (one physics step is one `mj_step`; steps count from each simulation
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import NamedTuple, TypeVar, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -37,7 +37,15 @@ FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 
 
-def frozen(array: npt.ArrayLike, dtype: npt.DTypeLike | None = None) -> np.ndarray:
+# quoted: numpy's scalar types take no parameters at run time
+_Scalar = TypeVar("_Scalar", bound="np.generic[object]")
+
+
+@overload
+def frozen(array: npt.NDArray[_Scalar], dtype: None = None) -> npt.NDArray[_Scalar]: ...
+@overload
+def frozen(array: npt.ArrayLike, dtype: type[_Scalar]) -> npt.NDArray[_Scalar]: ...
+def frozen(array: npt.ArrayLike, dtype: type[np.generic[object]] | None = None) -> npt.NDArray[np.generic[object]]:
     """A read-only contiguous copy: a plan's arrays cannot be changed by the engine that runs it."""
     out = np.array(array, dtype=dtype, copy=True, order="C")
     out.flags.writeable = False
@@ -197,7 +205,7 @@ class SuitePlan(NamedTuple):
     read_later: BoolArray
     fields: tuple[tuple[str, tuple[int, ...]], ...]
 
-    def columns(self, sensor: int) -> slice:
+    def columns(self, sensor: int) -> slice[int, int, None]:
         """Sensor `sensor`'s columns of a row."""
         first, stop = self.sensors[sensor].columns
         return slice(first, stop)
