@@ -32,7 +32,7 @@ import numpy as np
 import warp as wp
 
 from ..plan import DrawnTiming, SuitePlan
-from .drawn import DrawnSchedules
+from .drawn import DrawnSchedules, Reduction
 from .episode import Turns, turn
 from .philox import MODULE_OPTIONS, Ziggurat, value, ziggurat
 from .program import STAGES, NoisePrograms, NoiseSteps, NoiseValues, noise_tables, taken_at
@@ -355,11 +355,11 @@ class Sensors:
     def _outputs(self) -> dict[str, wp.array]:
         """Each sensor's output: a view of the gather (plain) or of the reduced blocks, (nworld, *output)."""
         plan, out = self.plan, {}
-        self._blocks = []
+        self._blocks: list[Reduction] = []
         at = 0
         for block in plan.reads.blocks:
             width = block.positions.size // block.buffer
-            self._blocks.append((int(block.positions[0]), block.buffer, width, _AGGREGATOR_CODES[block.aggregator], at))
+            self._blocks.append(Reduction(int(block.positions[0]), block.buffer, width, block.aggregator, at))
             for member in block.outputs:
                 sensor = plan.sensors[member.sensor]
                 out[sensor.name] = self._view(self.reduced, at + member.columns[0], sensor.output)
@@ -432,13 +432,15 @@ class Sensors:
             wp.launch(_gather_reads, dim=(n, reads.column.size),
                       inputs=[steps, plan.rows, reads.cycle, plan.substeps, reads.nphase, self._delta,
                               self._column, self.history], outputs=[self.gathered], device=self.device)
-        for first, buffer, width, code, at in self._blocks:
-            wp.launch(_reduce, dim=(n, width), inputs=[self.gathered, first, buffer, width, code],
-                      outputs=[self.reduced, at], device=self.device)
+        for block in self._blocks:
+            self._reduce_block(self.gathered, block, self.reduced)
         if self._drawn is not None:
             self._drawn.read(steps, self.history)
-            for first, buffer, width, name, at in self._drawn.blocks:
-                wp.launch(_reduce, dim=(n, width), inputs=[self._drawn.gathered, first, buffer, width,
-                                                           _AGGREGATOR_CODES[name]],
-                          outputs=[self._drawn.reduced, at], device=self.device)
+            for block in self._drawn.blocks:
+                self._reduce_block(self._drawn.gathered, block, self._drawn.reduced)
         return self.outputs
+
+    def _reduce_block(self, gathered: wp.array, block: Reduction, out: wp.array) -> None:
+        wp.launch(_reduce, dim=(self.plan.nsim, block.width),
+                  inputs=[gathered, block.first, block.buffer, block.width, _AGGREGATOR_CODES[block.aggregator]],
+                  outputs=[out, block.at], device=self.device)
