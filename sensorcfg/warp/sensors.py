@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from typing import NamedTuple
 
 import numpy as np
 import warp as wp
@@ -51,6 +52,14 @@ class NoiseMemory:
     state: wp.array3d[wp.float64]
     walked: wp.array3d[wp.int64]
     work: wp.array2d[wp.float64]
+
+
+class _FieldCopy(NamedTuple):
+    """What `record` copies of plan field `field`: its values at `positions` into history `columns`."""
+
+    field: str
+    columns: wp.array
+    positions: wp.array
 
 
 @wp.kernel
@@ -314,7 +323,7 @@ class Sensors:
 
     # -- construction --------------------------------------------------------------------------------
 
-    def _field_tables(self) -> list[tuple[str, wp.array, wp.array]]:
+    def _field_tables(self) -> list[_FieldCopy]:
         out = []
         for field, _ in self.plan.fields:
             cols, pos = [], []
@@ -323,8 +332,8 @@ class Sensors:
                     first, stop = sensor.columns
                     cols.append(np.arange(first, stop))
                     pos.append(sensor.source.positions.ravel())
-            out.append((field, wp.array(np.concatenate(cols).astype(np.int32), dtype=wp.int32),
-                        wp.array(np.concatenate(pos).astype(np.int32), dtype=wp.int32)))
+            out.append(_FieldCopy(field, wp.array(np.concatenate(cols).astype(np.int32), dtype=wp.int32),
+                                 wp.array(np.concatenate(pos).astype(np.int32), dtype=wp.int32)))
         return out
 
     def _noise_worlds(self, bounds: Mapping[str, tuple[np.ndarray, np.ndarray]], key_episodes: int) -> None:
@@ -387,8 +396,9 @@ class Sensors:
         all worlds when None), then noise. `fields`: each plan field as an (nworld, size) float32 view."""
         mask = self.everyone if mask is None else mask
         n, rows = self.plan.nsim, self.plan.rows
-        for field, cols, pos in self._fields:
-            wp.launch(_gather, dim=(n, cols.shape[0]), inputs=[fields[field], cols, pos, steps, mask, rows],
+        for copy in self._fields:
+            wp.launch(_gather, dim=(n, copy.columns.shape[0]),
+                      inputs=[fields[copy.field], copy.columns, copy.positions, steps, mask, rows],
                       outputs=[self.history], device=self.device)
         if self._drawn is not None:
             self._drawn.record(steps, mask, self.keys, self.due)
