@@ -38,7 +38,8 @@ import warp as wp
 from ..plan import DrawnSteps, DrawnTiming, SuitePlan
 from .philox import MODULE_OPTIONS, block, uniform
 
-__all__ = ["DrawnSchedules", "DrawnView", "draw", "largest_gap", "ring_size"]
+__all__ = ["DrawnPositions", "DrawnRing", "DrawnSchedules", "DrawnTimings", "DrawnView", "Reduction", "draw",
+           "largest_gap", "ring_size"]
 
 wp.set_module_options(MODULE_OPTIONS)
 
@@ -69,65 +70,121 @@ def draw(kind: wp.int32, first: wp.int32, count: wp.int32, values: wp.array[wp.i
     return values[first + wp.min(k, count - 1)]
 
 
+@wp.struct
+class DrawnTimings:
+    """Per drawn sensor, its plan's `DrawnTiming` as the kernels read it: its episode key's index in the keys
+    (`key_slot`), its index among the noisy sensors (`noisy`, -1: clean), its `buffer`, and its interval's and
+    delay's `DrawnSteps` as `draw` reads them (kind, first, count) in the shared `values` and `cumulative`."""
+
+    key_slot: wp.array[wp.int32]
+    noisy: wp.array[wp.int32]
+    buffer: wp.array[wp.int32]
+    interval_kind: wp.array[wp.int32]
+    interval_first: wp.array[wp.int32]
+    interval_count: wp.array[wp.int32]
+    delay_kind: wp.array[wp.int32]
+    delay_first: wp.array[wp.int32]
+    delay_count: wp.array[wp.int32]
+    values: wp.array[wp.int64]
+    cumulative: wp.array[wp.float64]
+
+
+@wp.struct
+class DrawnRing:
+    """Per world and drawn sensor: the next sample's index and time, and the latest `ring` samples' times and
+    arrivals (sample j at slot j % ring)."""
+
+    ring: wp.int32
+    next_j: wp.array2d[wp.int64]
+    next_t: wp.array2d[wp.int64]
+    times: wp.array3d[wp.int64]
+    arrivals: wp.array3d[wp.int64]
+
+
+@wp.struct
+class DrawnPositions:
+    """Per gathered position of the drawn sensors' reads (buffer, width each): its drawn sensor, window entry
+    and history column."""
+
+    sensor: wp.array[wp.int32]
+    entry: wp.array[wp.int32]
+    column: wp.array[wp.int32]
+
+
+@wp.func
+def _interval(timings: DrawnTimings, d: wp.int32, k0: wp.uint64, k1: wp.uint64, j: wp.int64) -> wp.int64:
+    """Drawn sensor d's interval before sample j (lane 0)."""
+    return draw(timings.interval_kind[d], timings.interval_first[d], timings.interval_count[d], timings.values,
+                timings.cumulative, k0, k1, j, wp.uint32(0))
+
+
+@wp.func
+def _delay(timings: DrawnTimings, d: wp.int32, k0: wp.uint64, k1: wp.uint64, j: wp.int64) -> wp.int64:
+    """Drawn sensor d's delay of sample j (lane 1)."""
+    return draw(timings.delay_kind[d], timings.delay_first[d], timings.delay_count[d], timings.values,
+                timings.cumulative, k0, k1, j, wp.uint32(1))
+
+
 @wp.kernel
-def _advance(steps: wp.array[wp.int64], mask: wp.array[wp.int32], keys: wp.array3d[wp.uint64],
-             key_slot: wp.array[wp.int32], noisy: wp.array[wp.int32], setting: wp.array2d[wp.int32],
-             values: wp.array[wp.int64], cumulative: wp.array[wp.float64], ring: wp.int32,
-             next_j: wp.array2d[wp.int64], next_t: wp.array2d[wp.int64], times: wp.array3d[wp.int64],
-             arrivals: wp.array3d[wp.int64], due: wp.array2d[wp.int32]):
+def _advance(
+    # In:
+    steps: wp.array[wp.int64], mask: wp.array[wp.int32], keys: wp.array3d[wp.uint64], timings: DrawnTimings,
+    # Out:
+    ring: DrawnRing, due: wp.array2d[wp.int32],
+):
     w, d = wp.tid()
     if mask[w] == 0:
         return
     s = steps[w]
-    k0 = keys[w, key_slot[d], 0]
-    k1 = keys[w, key_slot[d], 1]
-    n = noisy[d]
+    k0 = keys[w, timings.key_slot[d], 0]
+    k1 = keys[w, timings.key_slot[d], 1]
+    n = timings.noisy[d]
     if s == wp.int64(0):  # a reset: sample 0 at step 0, the next after the first interval
-        times[w, d, 0] = wp.int64(0)
-        arrivals[w, d, 0] = draw(setting[d, 3], setting[d, 4], setting[d, 5], values, cumulative, k0, k1,
-                                 wp.int64(0), wp.uint32(1))
-        next_j[w, d] = wp.int64(1)
-        next_t[w, d] = draw(setting[d, 0], setting[d, 1], setting[d, 2], values, cumulative, k0, k1,
-                            wp.int64(1), wp.uint32(0))
+        ring.times[w, d, 0] = wp.int64(0)
+        ring.arrivals[w, d, 0] = _delay(timings, d, k0, k1, wp.int64(0))
+        ring.next_j[w, d] = wp.int64(1)
+        ring.next_t[w, d] = _interval(timings, d, k0, k1, wp.int64(1))
         if n >= 0:
             due[w, n] = 1
         return
-    if s != next_t[w, d]:
+    if s != ring.next_t[w, d]:
         if n >= 0:
             due[w, n] = 0
         return
-    j = next_j[w, d]
-    gap = s - times[w, d, wp.int32((j - wp.int64(1)) % wp.int64(ring))]
-    slot = wp.int32(j % wp.int64(ring))
-    times[w, d, slot] = s
-    arrivals[w, d, slot] = s + draw(setting[d, 3], setting[d, 4], setting[d, 5], values, cumulative, k0, k1, j,
-                                    wp.uint32(1))
-    next_j[w, d] = j + wp.int64(1)
-    next_t[w, d] = s + draw(setting[d, 0], setting[d, 1], setting[d, 2], values, cumulative, k0, k1,
-                            j + wp.int64(1), wp.uint32(0))
+    j = ring.next_j[w, d]
+    gap = s - ring.times[w, d, wp.int32((j - wp.int64(1)) % wp.int64(ring.ring))]
+    slot = wp.int32(j % wp.int64(ring.ring))
+    ring.times[w, d, slot] = s
+    ring.arrivals[w, d, slot] = s + _delay(timings, d, k0, k1, j)
+    ring.next_j[w, d] = j + wp.int64(1)
+    ring.next_t[w, d] = s + _interval(timings, d, k0, k1, j + wp.int64(1))
     if n >= 0:
         due[w, n] = wp.int32(gap)
 
 
 @wp.kernel
-def _windows(steps: wp.array[wp.int64], buffer: wp.array[wp.int32], ring: wp.int32, next_j: wp.array2d[wp.int64],
-             times: wp.array3d[wp.int64], arrivals: wp.array3d[wp.int64], windows: wp.array3d[wp.int64]):
+def _windows(
+    # In:
+    steps: wp.array[wp.int64], timings: DrawnTimings, ring: DrawnRing,
+    # Out:
+    windows: wp.array3d[wp.int64],
+):
     """Window entries buffer - 1, buffer - 2, ...: each the latest (arrival, time) delivered by the read's step
     before the entry after it; -1 once none is left (padding)."""
     w, d = wp.tid()
     read = steps[w]
-    last = next_j[w, d]
-    first = wp.max(last - wp.int64(ring), wp.int64(0))
+    last = ring.next_j[w, d]
+    first = wp.max(last - wp.int64(ring.ring), wp.int64(0))
     bound_a = read + wp.int64(1)  # entries are below (bound_a, bound_t), in (arrival, time) order
     bound_t = wp.int64(0)
-    b = buffer[d]
+    b = timings.buffer[d]
     for i in range(b):
         best_a = wp.int64(-1)
         best_t = wp.int64(-1)
         for k in range(wp.int32(last - first)):
-            slot = wp.int32((first + wp.int64(k)) % wp.int64(ring))
-            a = arrivals[w, d, slot]
-            t = times[w, d, slot]
+            slot = wp.int32((first + wp.int64(k)) % wp.int64(ring.ring))
+            a = ring.arrivals[w, d, slot]
+            t = ring.times[w, d, slot]
             if a <= read and (a < bound_a or (a == bound_a and t < bound_t)):
                 if a > best_a or (a == best_a and t > best_t):
                     best_a = a
@@ -141,15 +198,20 @@ def _windows(steps: wp.array[wp.int64], buffer: wp.array[wp.int32], ring: wp.int
 
 
 @wp.kernel
-def _gather(windows: wp.array3d[wp.int64], sensor: wp.array[wp.int32], entry: wp.array[wp.int32],
-            column: wp.array[wp.int32], rows: wp.int32, pad: wp.int32, history: wp.array3d[wp.float32],
-            out: wp.array2d[wp.float32]):
+def _gather(
+    # In:
+    windows: wp.array3d[wp.int64], positions: DrawnPositions, rows: wp.int32, pad: wp.int32,
+    history: wp.array3d[wp.float32],
+    # Out:
+    out: wp.array2d[wp.float32],
+):
     w, p = wp.tid()
-    t = windows[w, sensor[p], entry[p]]
+    t = windows[w, positions.sensor[p], positions.entry[p]]
+    column = positions.column[p]
     if t >= wp.int64(0):
-        out[w, p] = history[w, wp.int32(t % wp.int64(rows)), column[p]]
+        out[w, p] = history[w, wp.int32(t % wp.int64(rows)), column]
     elif pad == 1:
-        out[w, p] = history[w, 0, column[p]]  # the reset sample (with its noise)
+        out[w, p] = history[w, 0, column]  # the reset sample (with its noise)
     else:
         out[w, p] = wp.float32(0.0)
 
@@ -187,6 +249,21 @@ class DrawnView(NamedTuple):
     first: int
 
 
+class Reduction(NamedTuple):
+    """A block of gathered positions `first` + b * `width` + c ((`buffer`, `width`)) reduced by `aggregator`
+    into columns `at` .. `at` + `width` (`sensors._reduce`): the plan's `ReductionBlock`, or a drawn sensor's."""
+
+    first: int
+    buffer: int
+    width: int
+    aggregator: str
+    at: int
+
+
+def _i32(xs: object) -> wp.array:
+    return wp.array(np.asarray(xs, np.int32).reshape(-1), dtype=wp.int32)
+
+
 class DrawnSchedules:
     """The plan's drawn sensors over `plan.nsim` worlds on `device`. `key_slot`: per drawn sensor's name, its
     episode key's index in the engine's keys; `noisy`: its index among the noisy sensors (absent: clean)."""
@@ -197,20 +274,21 @@ class DrawnSchedules:
         self.names = [s.name for _, s in drawn]
         values: list[int] = []
         cumulative: list[float] = []
-        setting: list[list[int]] = []
+        intervals: list[tuple[int, int, int]] = []  # (kind, first, count) as `draw` reads them
+        delays: list[tuple[int, int, int]] = []
         buffers: list[int] = []
         rings: list[int] = []
         sensor: list[int] = []
         entry: list[int] = []
         column: list[int] = []
         self.views: list[DrawnView] = []
-        self.blocks: list[tuple[int, int, int, str, int]] = []  # (first position, buffer, width, aggregator, column)
+        self.blocks: list[Reduction] = []
         at = reduced = 0
         for d, (index, record) in enumerate(drawn):
             timing = record.timing
             assert isinstance(timing, DrawnTiming)
-            setting.append([*_setting(timing.interval, values, cumulative),
-                            *_setting(timing.delay, values, cumulative)])
+            intervals.append(_setting(timing.interval, values, cumulative))
+            delays.append(_setting(timing.delay, values, cumulative))
             buffers.append(timing.buffer)
             rings.append(ring_size(timing))
             lo, hi = record.columns
@@ -222,25 +300,28 @@ class DrawnSchedules:
             if record.aggregator is None:
                 self.views.append(DrawnView(index, "gathered", at))
             else:
-                self.blocks.append((at, timing.buffer, width, record.aggregator, reduced))
+                self.blocks.append(Reduction(at, timing.buffer, width, record.aggregator, reduced))
                 self.views.append(DrawnView(index, "reduced", reduced))
                 reduced += width
             at += timing.buffer * width
         n, m = plan.nsim, len(drawn)
-        i32 = lambda xs: wp.array(np.asarray(xs, np.int32).reshape(-1), dtype=wp.int32)  # noqa: E731
-        self.ring = max(rings)
         with wp.ScopedDevice(device):
-            self._key_slot = i32([key_slot[name] for name in self.names])
-            self._noisy = i32([noisy.get(name, -1) for name in self.names])
-            self._setting = wp.array(np.asarray(setting, np.int32).reshape(m, 6), dtype=wp.int32)
-            self._values = wp.array(np.asarray(values, np.int64), dtype=wp.int64)
-            self._cumulative = wp.array(np.asarray(cumulative, np.float64), dtype=wp.float64)
-            self._buffer = i32(buffers)
-            self._sensor, self._entry, self._column = i32(sensor), i32(entry), i32(column)
-            self.next_j = wp.zeros((n, m), dtype=wp.int64)
-            self.next_t = wp.zeros((n, m), dtype=wp.int64)
-            self.times = wp.zeros((n, m, self.ring), dtype=wp.int64)
-            self.arrivals = wp.zeros((n, m, self.ring), dtype=wp.int64)
+            self.timings = timings = DrawnTimings()
+            timings.key_slot = _i32([key_slot[name] for name in self.names])
+            timings.noisy = _i32([noisy.get(name, -1) for name in self.names])
+            timings.buffer = _i32(buffers)
+            timings.interval_kind, timings.interval_first, timings.interval_count = map(_i32, zip(*intervals))
+            timings.delay_kind, timings.delay_first, timings.delay_count = map(_i32, zip(*delays))
+            timings.values = wp.array(np.asarray(values, np.int64), dtype=wp.int64)
+            timings.cumulative = wp.array(np.asarray(cumulative, np.float64), dtype=wp.float64)
+            self.positions = positions = DrawnPositions()
+            positions.sensor, positions.entry, positions.column = _i32(sensor), _i32(entry), _i32(column)
+            self.ring = ring = DrawnRing()
+            ring.ring = max(rings)
+            ring.next_j = wp.zeros((n, m), dtype=wp.int64)
+            ring.next_t = wp.zeros((n, m), dtype=wp.int64)
+            ring.times = wp.zeros((n, m, ring.ring), dtype=wp.int64)
+            ring.arrivals = wp.zeros((n, m, ring.ring), dtype=wp.int64)
             self.windows = wp.zeros((n, m, max(buffers)), dtype=wp.int64)
             self.gathered = wp.zeros((n, at), dtype=wp.float32)
             self.reduced = wp.zeros((n, max(1, reduced)), dtype=wp.float32)
@@ -248,18 +329,15 @@ class DrawnSchedules:
     def record(self, steps: wp.array, mask: wp.array, keys: wp.array, due: wp.array) -> None:
         """After a physics step of the worlds of `mask`: each drawn sensor's sample at that step, if any
         (`due`, (world, noisy sensor), says so to the noise kernel); at step 0 the schedule restarts."""
-        wp.launch(_advance, dim=(self.plan.nsim, len(self.names)),
-                  inputs=[steps, mask, keys, self._key_slot, self._noisy, self._setting, self._values,
-                          self._cumulative, self.ring, self.next_j, self.next_t, self.times, self.arrivals, due],
-                  device=self.device)
+        wp.launch(_advance, dim=(self.plan.nsim, len(self.names)), inputs=[steps, mask, keys, self.timings],
+                  outputs=[self.ring, due], device=self.device)
 
     def read(self, steps: wp.array, history: wp.array) -> None:
         """Every drawn sensor's window at each world's step `steps`, its values into `gathered`."""
         n = self.plan.nsim
-        wp.launch(_windows, dim=(n, len(self.names)),
-                  inputs=[steps, self._buffer, self.ring, self.next_j, self.times, self.arrivals],
+        wp.launch(_windows, dim=(n, len(self.names)), inputs=[steps, self.timings, self.ring],
                   outputs=[self.windows], device=self.device)
-        wp.launch(_gather, dim=(n, self._column.shape[0]),
-                  inputs=[self.windows, self._sensor, self._entry, self._column, self.plan.rows,
-                          int(self.plan.pad_with_initial_value), history],
+        wp.launch(_gather, dim=(n, self.positions.column.shape[0]),
+                  inputs=[self.windows, self.positions, self.plan.rows, int(self.plan.pad_with_initial_value),
+                          history],
                   outputs=[self.gathered], device=self.device)

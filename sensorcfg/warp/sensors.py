@@ -17,47 +17,49 @@ noisy sensors' in `keys` (`key_names`).
 
 Values are float32 (MuJoCo Warp's); noise arithmetic runs in float64 on them, with the random numbers of
 `noise/streams.py` (`philox.value`), keyed by (sensor key, sample index, stage, lane, value) as on the CPU.
-The noise stages run here are `support.STAGES` (`STAGES` holds each one's kernel code); `support.refusals`
-refuses the others. What an episode draws at its reset (values, drawn parameters, misalign matrices) comes
-from the host's episode table, and misalign stages split a sensor's stages into segments (`warp.episode`).
+The noise stages run here are `support.STAGES` (`program.STAGES` holds each one's kernel code), their tables
+`program.NoiseTables` (`Sensors.noise`); `support.refusals` refuses the others. What an episode draws at its
+reset (values, drawn parameters, misalign matrices) comes from the host's episode table, and misalign stages
+split a sensor's stages into segments (`warp.episode`).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from typing import NamedTuple
 
 import numpy as np
 import warp as wp
 
-from ..plan import DrawnTiming, FixedTiming, NoiseProgram, NoiseStep, SuitePlan
-from .drawn import DrawnSchedules, largest_gap
-from .episode import PARAM_SLOTS, ParamSlot, Turns, TurnSlot, taken_at, turn
+from ..plan import DrawnTiming, SuitePlan
+from .drawn import DrawnSchedules, Reduction
+from .episode import Turns, turn
 from .philox import MODULE_OPTIONS, Ziggurat, value, ziggurat
-from .support import STAGES as _RUN
+from .program import STAGES, NoisePrograms, NoiseSteps, NoiseValues, noise_tables, taken_at
 
-__all__ = ["STAGES", "Sensors"]
+__all__ = ["STAGES", "NoiseMemory", "Sensors"]
 
-# stage type -> (code, the parameters filling slots 0..2 of `params`); a lowpass's slot 0 is computed (alpha)
-_KERNEL: Mapping[str, tuple[int, tuple[str, ...]]] = {
-    "gaussian": (0, ("mean", "std")),
-    "uniform": (1, ("low", "high")),
-    "clip": (2, ("min", "max")),
-    "quantize": (3, ("step",)),
-    "dropout": (4, ("p",)),
-    "outlier": (5, ("p", "scale")),
-    "lowpass": (6, ("cutoff",)),
-    "bias": (7, ()),  # the episode's drawn values (`Sensors.episode_slots`)
-    "scale": (8, ()),
-    "random_walk": (9, ("std", "correlation_time")),  # slots 0, 1: the walk's a and c per sample index
-    "misalign": (10, ()),  # ends a segment of the sensor's stages: `episode.turn` mixes its 3-vectors
-}
-STAGES: Mapping[str, tuple[int, tuple[str, ...]]] = {stage: _KERNEL[stage] for stage in _RUN}  # those it runs
-EPISODE_DRAWS = frozenset({"bias", "scale", "random_walk"})  # stages with values drawn at each reset
 wp.set_module_options(MODULE_OPTIONS)  # numpy's roundings in the noise arithmetic (no fused multiply-adds)
 
-_DROPOUT_MODES = {"hold": 0, "zero": 1, "nan": 2}
-_NO_BOUND = (-math.inf, math.inf)
+
+@wp.struct
+class NoiseMemory:
+    """What the noise keeps per world between samples: `state` and `walked` per (step, value) of
+    `NoiseSteps` (a dropout's held value, a lowpass's state, a random walk's value and its last sample index),
+    `work` per noise value (the values between a sensor's misalign segments)."""
+
+    state: wp.array3d[wp.float64]
+    walked: wp.array3d[wp.int64]
+    work: wp.array2d[wp.float64]
+
+
+class _FieldCopy(NamedTuple):
+    """What `record` copies of plan field `field`: its values at `positions` into history `columns`."""
+
+    field: str
+    columns: wp.array
+    positions: wp.array
 
 
 @wp.kernel
@@ -79,51 +81,51 @@ def _clip(x: wp.float64, low: wp.float64, high: wp.float64) -> wp.float64:
 
 
 @wp.kernel
-def _noise(steps: wp.array[wp.int64], mask: wp.array[wp.int32], rows: wp.int32, history: wp.array3d[wp.float32],
-           v_col: wp.array[wp.int32], v_sensor: wp.array[wp.int32], v_index: wp.array[wp.int32],
-           v_low: wp.array[wp.float64], v_high: wp.array[wp.float64],
-           s_taken: wp.array[wp.int32], s_period: wp.array[wp.int32], s_stride: wp.array[wp.int64],
-           s_first: wp.array[wp.int32], s_stop: wp.array[wp.int32], s_leveled: wp.array[wp.int32],
-           taken: wp.array[wp.int32], st_code: wp.array[wp.int32], st_tag: wp.array[wp.uint32],
-           st_mode: wp.array[wp.int32], st_per_value: wp.array[wp.int32], st_slot: wp.array[wp.int32],
-           params: wp.array3d[wp.float64], keys: wp.array3d[wp.uint64], level: wp.array[wp.float64],
-           drawn: wp.array2d[wp.float64], state: wp.array3d[wp.float64], walked: wp.array3d[wp.int64],
-           due: wp.array2d[wp.int32], alphas: wp.array3d[wp.float64], z: Ziggurat, segment: wp.int32,
-           s_turns: wp.array[wp.int32], st_drawn: wp.array[wp.int32], work: wp.array2d[wp.float64]):
+def _noise(
+    # In:
+    steps: wp.array[wp.int64], mask: wp.array[wp.int32], rows: wp.int32, segment: wp.int32,
+    values: NoiseValues, programs: NoisePrograms, stages: NoiseSteps, z: Ziggurat,
+    # In, per world: the episode's keys, noise level and drawn values; a drawn schedule's gaps (`due`)
+    keys: wp.array3d[wp.uint64], level: wp.array[wp.float64], drawn: wp.array2d[wp.float64],
+    due: wp.array2d[wp.int32],
+    # Out:
+    history: wp.array3d[wp.float32], memory: NoiseMemory,
+):
     w, i = wp.tid()
     if mask[w] == 0:
         return
     s = steps[w]
-    sensor = v_sensor[i]
-    if not taken_at(taken, s_taken, s_period, sensor, s) or segment > s_turns[sensor]:
+    sensor = values.sensor[i]
+    if not taken_at(programs, sensor, s) or segment > programs.turns[sensor]:
         return
     gap = due[w, sensor]  # a drawn schedule's (`warp.drawn`): 0 no sample, else steps since the last; fixed: -1
     if gap == 0:
         return
-    j = s // s_stride[sensor]
+    j = s // programs.stride[sensor]
     r = wp.int32(s % wp.int64(rows))
-    c = v_col[i]
-    v = v_index[i]
+    c = values.column[i]
+    v = values.index[i]
     k0 = keys[w, sensor, 0]
     k1 = keys[w, sensor, 1]
+    state = memory.state
     raw = wp.float64(history[w, r, c])
     x = raw
     if segment > 0:  # the values the previous segment left, turned by its misalign stage
-        x = work[w, i]
+        x = memory.work[w, i]
     at = wp.int32(0)  # the segment of stage k
-    for k in range(s_first[sensor], s_stop[sensor]):
-        code = st_code[k]
-        tag = st_tag[k]
+    for k in range(programs.first_step[sensor], programs.stop_step[sensor]):
+        code = stages.code[k]
+        tag = stages.tag[k]
         if code == 10:  # misalign: the segment ends (`episode.turn`)
             at = at + 1
             continue
         if at != segment:
             continue
-        p0 = params[k, 0, v]
-        p1 = params[k, 1, v]
-        if st_drawn[k] >= 0:  # parameters drawn per episode: this episode's (`episode.ParamSlot`)
-            p0 = drawn[w, st_drawn[k] + v]
-            p1 = drawn[w, st_drawn[k] + params.shape[2] + v]
+        p0 = stages.params[k, 0, v]
+        p1 = stages.params[k, 1, v]
+        if stages.drawn[k] >= 0:  # parameters drawn per episode: this episode's (`program.ParamSlot`)
+            p0 = drawn[w, stages.drawn[k] + v]
+            p1 = drawn[w, stages.drawn[k] + stages.params.shape[2] + v]
         if code == 0:  # gaussian: x + (z std + mean)
             x = x + (value(k0, k1, j, tag, v, True, z) * p1 + p0)
         elif code == 1:  # uniform: x + (u (high - low) + low); slot 1 holds high - low
@@ -133,8 +135,8 @@ def _noise(steps: wp.array[wp.int64], mask: wp.array[wp.int32], rows: wp.int32, 
         elif code == 3:  # quantize: rint(x / step) step
             x = wp.rint(x / p0) * p0
         elif code == 4:  # dropout: lane 0 uniforms, one per value or one per sample
-            u = value(k0, k1, j, tag, wp.where(st_per_value[k] == 1, v, 0), False, z)
-            mode = st_mode[k]
+            u = value(k0, k1, j, tag, wp.where(stages.per_value[k] == 1, v, 0), False, z)
+            mode = stages.mode[k]
             lost = u < p0
             if mode == 0:
                 if s == wp.int64(0):
@@ -152,29 +154,29 @@ def _noise(steps: wp.array[wp.int64], mask: wp.array[wp.int32], rows: wp.int32, 
                 state[w, k, v] = x
             else:
                 alpha = p0  # a cutoff drawn per episode: the episode's, for the constant interval (`support`
-                if gap > 0 and st_drawn[k] < 0:  # refuses it on a drawn one); a drawn schedule's fixed cutoff:
-                    alpha = alphas[k, gap, v]  # the coefficient of the gap since the last sample
+                if gap > 0 and stages.drawn[k] < 0:  # refuses it on a drawn one); a drawn schedule's fixed cutoff:
+                    alpha = stages.alphas[k, gap, v]  # the coefficient of the gap since the last sample
                 state[w, k, v] = state[w, k, v] + alpha * (x - state[w, k, v])
             x = state[w, k, v]
         elif code == 7:  # bias: the episode's value
-            x = x + drawn[w, st_slot[k] + v]
+            x = x + drawn[w, stages.slot[k] + v]
         elif code == 8:  # scale: the episode's gain
-            x = x * drawn[w, st_slot[k] + v]
+            x = x * drawn[w, stages.slot[k] + v]
         elif code == 9:  # random walk over every sample index up to j, from the episode's start at index 0
             if j == wp.int64(0):
-                state[w, k, v] = drawn[w, st_slot[k] + v]
+                state[w, k, v] = drawn[w, stages.slot[k] + v]
             else:
                 b = state[w, k, v]
-                for index in range(wp.int32(walked[w, k, v]) + 1, wp.int32(j) + 1):  # (`i` is this thread's value)
+                for index in range(wp.int32(memory.walked[w, k, v]) + 1, wp.int32(j) + 1):  # (`i`: this value)
                     b = b * p0 + value(k0, k1, wp.int64(index), tag, v, True, z) * p1
                 state[w, k, v] = b
-            walked[w, k, v] = j
+            memory.walked[w, k, v] = j
             x = x + state[w, k, v]
-    if segment < s_turns[sensor]:
-        work[w, i] = x
+    if segment < programs.turns[sensor]:
+        memory.work[w, i] = x
         return
-    if s_leveled[sensor] == 1 and level[w] != wp.float64(1.0):
-        x = _clip(raw + level[w] * (x - raw), v_low[i], v_high[i])
+    if programs.leveled[sensor] == 1 and level[w] != wp.float64(1.0):
+        x = _clip(raw + level[w] * (x - raw), values.low[i], values.high[i])
     history[w, r, c] = wp.float32(x)
 
 
@@ -295,39 +297,6 @@ def _reduce(gathered: wp.array2d[wp.float32], first: wp.int32, buffer: wp.int32,
 _AGGREGATOR_CODES = {"min": 0, "max": 1, "sum": 2, "mean": 3, "median": 4}
 
 
-def _stage_params(step: NoiseStep, size: int, interval: int, timestep: float) -> np.ndarray:
-    """Slots (3, size) of a stage's parameters, as the kernel reads them."""
-    out = np.zeros((3, size))
-    names = STAGES[step.stage][1]
-    for slot, name in enumerate(names):
-        param = step.param(name)
-        if param is not None:
-            out[slot] = param
-    if step.stage == "uniform":
-        out[1] = out[1] - out[0]  # high - low
-    if step.stage == "clip":
-        out[0] = np.where(step.param("min") is None, -np.inf, out[0])
-        out[1] = np.where(step.param("max") is None, np.inf, out[1])
-    if step.stage == "lowpass":  # every nominal sample is taken: `interval` steps apart
-        out[0] = -np.expm1(-(interval * timestep) * (2.0 * math.pi * out[0]))
-    if step.stage == "random_walk":  # `noise.stages.RandomWalk`'s coefficients for a sample index's time
-        out[:2] = _walk(step, size, interval * timestep)
-    return out
-
-
-def _walk(step: NoiseStep, size: int, dt: float) -> np.ndarray:
-    """A random walk's (a, c) per value for samples `dt` seconds apart, as `RandomWalk._coefficients` gives
-    them (a Brownian walk: a = 1, which multiplies exactly)."""
-    from ..noise.stages import Context, RandomWalk
-
-    std, tau = step.param("std"), step.param("correlation_time")
-    if std is None:
-        raise ValueError("a random walk's std is required (its config says so)")
-    walk = RandomWalk(Context((size,), np.dtype(np.float64), np.dtype(np.float64), dt), std, tau)
-    a, c = walk._coefficients(dt)
-    return np.stack([np.broadcast_to(1.0 if a is None else a, (size,)), np.broadcast_to(c, (size,))])
-
-
 class Sensors:
     """The plan's sensors over `plan.nsim` worlds on `device`. `bounds`: per noisy sensor name, the interval
     a leveled blend is clipped to (`noise/bounds.noisy_bounds`), or absent for none."""
@@ -339,7 +308,7 @@ class Sensors:
         with wp.ScopedDevice(device):
             self.history = wp.zeros((n, rows, width), dtype=wp.float32)
             self._fields = self._field_tables()
-            self._noise_tables(bounds, key_episodes)
+            self._noise_worlds(bounds, key_episodes)
             reads = plan.reads
             self._delta = wp.array(reads.delta.astype(np.int32), dtype=wp.int32)
             self._column = wp.array(reads.column.astype(np.int32), dtype=wp.int32)
@@ -354,7 +323,7 @@ class Sensors:
 
     # -- construction --------------------------------------------------------------------------------
 
-    def _field_tables(self) -> list[tuple[str, wp.array, wp.array]]:
+    def _field_tables(self) -> list[_FieldCopy]:
         out = []
         for field, _ in self.plan.fields:
             cols, pos = [], []
@@ -363,131 +332,43 @@ class Sensors:
                     first, stop = sensor.columns
                     cols.append(np.arange(first, stop))
                     pos.append(sensor.source.positions.ravel())
-            out.append((field, wp.array(np.concatenate(cols).astype(np.int32), dtype=wp.int32),
-                        wp.array(np.concatenate(pos).astype(np.int32), dtype=wp.int32)))
+            out.append(_FieldCopy(field, wp.array(np.concatenate(cols).astype(np.int32), dtype=wp.int32),
+                                 wp.array(np.concatenate(pos).astype(np.int32), dtype=wp.int32)))
         return out
 
-    def _noise_tables(self, bounds: Mapping[str, tuple[np.ndarray, np.ndarray]], key_episodes: int) -> None:
+    def _noise_worlds(self, bounds: Mapping[str, tuple[np.ndarray, np.ndarray]], key_episodes: int) -> None:
+        """The noise tables (`program.noise_tables`) and, per world, the episode keys, drawn values and memory."""
         plan = self.plan
-        noisy = [(c, s) for c, s in enumerate(plan.sensors) if s.noise is not None]
-        self.noisy_names = [s.name for _, s in noisy]
-        v_col: list[int] = []
-        v_sensor: list[int] = []
-        v_index: list[int] = []
-        v_low: list[float] = []
-        v_high: list[float] = []
-        s_taken: list[int] = []
-        s_period: list[int] = []
-        s_stride: list[int] = []
-        s_first: list[int] = []
-        s_stop: list[int] = []
-        s_leveled: list[int] = []
-        taken: list[int] = []
-        codes: list[int] = []
-        tags: list[int] = []
-        modes: list[int] = []
-        per_value: list[int] = []
-        params: list[np.ndarray] = []
-        slots: list[int] = []
-        self.episode_slots: list[tuple[int, int, int, int]] = []  # (noisy sensor, stream, first slot, values)
-        self.param_slots: list[ParamSlot] = []  # stages with parameters drawn per episode
-        self.turn_slots: list[TurnSlot] = []  # misalign stages
-        s_turns: list[int] = []
-        st_drawn: list[int] = []
-        nslot = 0
-        size = max([1, *(s.columns[1] - s.columns[0] for _, s in noisy)])
-        self.size = size
-        gaps = max([0, *(largest_gap(s.timing) for _, s in noisy if isinstance(s.timing, DrawnTiming))])
-        alphas: list[np.ndarray] = []  # per stage, a low-pass's coefficient per gap (drawn schedules)
-        for n, (_, sensor) in enumerate(noisy):
-            timing, program = sensor.timing, sensor.noise
-            assert isinstance(program, NoiseProgram)
-            first, stop = sensor.columns
-            low, high = bounds.get(sensor.name, _NO_BOUND)
-            v_col += range(first, stop)
-            v_sensor += [n] * (stop - first)
-            v_index += range(stop - first)
-            v_low += list(np.broadcast_to(np.asarray(low, np.float64), sensor.shape).ravel())
-            v_high += list(np.broadcast_to(np.asarray(high, np.float64), sensor.shape).ravel())
-            s_taken.append(len(taken))
-            if isinstance(timing, FixedTiming):
-                taken += timing.taken.astype(np.int32).tolist()
-                s_period.append(timing.period)
-            else:  # a drawn schedule: the steps it samples are `due`'s, per world
-                taken.append(1)
-                s_period.append(1)
-            s_stride.append(program.stride)
-            s_first.append(len(codes))
-            turns = 0
-            for step in program.steps:
-                codes.append(STAGES[step.stage][0])
-                tags.append(step.stream << 24)
-                options = dict(step.options)
-                modes.append(_DROPOUT_MODES.get(options.get("mode", "hold"), 0))
-                per_value.append(int(options.get("per") == "value"))
-                slots.append(nslot)
-                if step.stage in EPISODE_DRAWS:
-                    self.episode_slots.append((n, step.stream, nslot, stop - first))
-                    nslot += stop - first
-                st_drawn.append(nslot if step.drawn and STAGES[step.stage][1] else -1)
-                if st_drawn[-1] >= 0:
-                    self.param_slots.append(ParamSlot(n, step.stream, step, stop - first, program.stride, nslot))
-                    nslot += PARAM_SLOTS * size
-                if step.stage == "misalign":  # its 3-vectors: consecutive values (the shape's last axis)
-                    self.turn_slots.append(TurnSlot(n, step.stream, nslot, turns,
-                                                    tuple(range(len(v_col) - (stop - first), len(v_col), 3))))
-                    nslot += 9
-                    turns += 1
-                block = np.zeros((3, size))
-                block[:, :stop - first] = _stage_params(step, stop - first, program.stride, plan.timestep)
-                params.append(block)
-                table = np.zeros((gaps + 1, size))
-                if step.stage == "lowpass" and isinstance(timing, DrawnTiming):
-                    for gap in range(gaps + 1):
-                        table[gap, :stop - first] = _stage_params(step, stop - first, gap, plan.timestep)[0]
-                alphas.append(table)
-            s_stop.append(len(codes))
-            s_leveled.append(int(program.leveled))
-            s_turns.append(turns)
-        i32 = lambda xs: wp.array(np.asarray(xs, np.int32).reshape(-1), dtype=wp.int32)  # noqa: E731
-        f64 = lambda xs: wp.array(np.asarray(xs, np.float64).reshape(-1), dtype=wp.float64)  # noqa: E731
-        self._values = len(v_col)
-        self._tables = [i32(v_col), i32(v_sensor), i32(v_index), f64(v_low), f64(v_high), i32(s_taken),
-                        i32(s_period), wp.array(np.asarray(s_stride, np.int64), dtype=wp.int64), i32(s_first),
-                        i32(s_stop), i32(s_leveled), i32(taken), i32(codes),
-                        wp.array(np.asarray(tags, np.uint32), dtype=wp.uint32), i32(modes), i32(per_value),
-                        i32(slots), wp.array(np.asarray(params, np.float64).reshape(-1, 3, size), dtype=wp.float64)]
+        self.noise = noise = noise_tables(plan, bounds)
+        self.noisy_names = [s.name for s in plan.sensors if s.noise is not None]
         # the episode keys: the noisy sensors', then the clean drawn ones' (their schedules')
         clean = [s.name for s in plan.sensors if s.noise is None and isinstance(s.timing, DrawnTiming)]
         self.key_names = self.noisy_names + clean
         self.key_slots = {name: k for k, name in enumerate(self.key_names)}
         self.noisy_slots = {name: k for k, name in enumerate(self.noisy_names)}
-        nsim, nnoisy, nkeyed = plan.nsim, max(1, len(noisy)), max(1, len(self.key_names))
+        nsim, nnoisy, nkeyed = plan.nsim, max(1, len(self.noisy_names)), max(1, len(self.key_names))
         self.keys = wp.zeros((nsim, nkeyed, 2), dtype=wp.uint64)
         self.key_table = wp.zeros((nsim, key_episodes, nkeyed, 2), dtype=wp.uint64)
         self.due = wp.full((nsim, nnoisy), -1, dtype=wp.int32)
-        self._alphas = wp.array(np.asarray(alphas, np.float64).reshape(-1, gaps + 1, size), dtype=wp.float64) \
-            if alphas else wp.zeros((1, 1, 1), dtype=wp.float64)
         self.episodes = wp.zeros(nsim, dtype=wp.int32)
         self.level = wp.ones(nsim, dtype=wp.float64)
         self.next_level = wp.ones(1, dtype=wp.float64)
-        self.state = wp.zeros((nsim, max(1, len(codes)), size), dtype=wp.float64)
-        self.walked = wp.zeros((nsim, max(1, len(codes)), size), dtype=wp.int64)
-        self.episode_table = wp.zeros((nsim, key_episodes, max(1, nslot)), dtype=wp.float64)
-        self.drawn = wp.zeros((nsim, max(1, nslot)), dtype=wp.float64)
-        self._segments = 1 + max([0, *s_turns])  # noise launches per record: misalign stages split them
-        work = (nsim, len(v_col) if self._segments > 1 else 1)  # values between segments (float64)
-        self._episode = [i32(s_turns), i32(st_drawn), wp.zeros(work, dtype=wp.float64)]
-        self._turns = Turns(self.turn_slots, self.device)
+        self.episode_table = wp.zeros((nsim, key_episodes, max(1, noise.nslot)), dtype=wp.float64)
+        self.drawn = wp.zeros((nsim, max(1, noise.nslot)), dtype=wp.float64)
+        self.memory = NoiseMemory()
+        self.memory.state = wp.zeros((nsim, max(1, noise.nstep), noise.size), dtype=wp.float64)
+        self.memory.walked = wp.zeros((nsim, max(1, noise.nstep), noise.size), dtype=wp.int64)
+        self.memory.work = wp.zeros((nsim, noise.nvalue if noise.segments > 1 else 1), dtype=wp.float64)
+        self._turns = Turns(noise.turn_slots, self.device)
 
     def _outputs(self) -> dict[str, wp.array]:
         """Each sensor's output: a view of the gather (plain) or of the reduced blocks, (nworld, *output)."""
         plan, out = self.plan, {}
-        self._blocks = []
+        self._blocks: list[Reduction] = []
         at = 0
         for block in plan.reads.blocks:
             width = block.positions.size // block.buffer
-            self._blocks.append((int(block.positions[0]), block.buffer, width, _AGGREGATOR_CODES[block.aggregator], at))
+            self._blocks.append(Reduction(int(block.positions[0]), block.buffer, width, block.aggregator, at))
             for member in block.outputs:
                 sensor = plan.sensors[member.sensor]
                 out[sensor.name] = self._view(self.reduced, at + member.columns[0], sensor.output)
@@ -515,19 +396,20 @@ class Sensors:
         all worlds when None), then noise. `fields`: each plan field as an (nworld, size) float32 view."""
         mask = self.everyone if mask is None else mask
         n, rows = self.plan.nsim, self.plan.rows
-        for field, cols, pos in self._fields:
-            wp.launch(_gather, dim=(n, cols.shape[0]), inputs=[fields[field], cols, pos, steps, mask, rows],
+        for copy in self._fields:
+            wp.launch(_gather, dim=(n, copy.columns.shape[0]),
+                      inputs=[fields[copy.field], copy.columns, copy.positions, steps, mask, rows],
                       outputs=[self.history], device=self.device)
         if self._drawn is not None:
             self._drawn.record(steps, mask, self.keys, self.due)
-        for segment in range(self._segments if self._values else 0):
+        noise = self.noise
+        for segment in range(noise.segments if noise.nvalue else 0):
             if segment:  # the misalign stages ending the previous segment
-                turn(self._turns, segment - 1, steps, mask, [self._tables[i] for i in (5, 6, 11)], self.drawn,
-                     self._episode[-1])
-            wp.launch(_noise, dim=(n, self._values),
-                      inputs=[steps, mask, rows, self.history, *self._tables, self.keys, self.level, self.drawn,
-                              self.state, self.walked, self.due, self._alphas, self.z, segment, *self._episode],
-                      device=self.device)
+                turn(self._turns, segment - 1, steps, mask, noise.programs, self.drawn, self.memory.work)
+            wp.launch(_noise, dim=(n, noise.nvalue),
+                      inputs=[steps, mask, rows, segment, noise.values, noise.programs, noise.steps, self.z,
+                              self.keys, self.level, self.drawn, self.due],
+                      outputs=[self.history, self.memory], device=self.device)
 
     def reset(self, mask: wp.array, fields: Mapping[str, wp.array], steps: wp.array) -> None:
         """Start the masked worlds' episodes (their `steps` already 0 and `fields` their reset state)."""
@@ -540,7 +422,8 @@ class Sensors:
         wp.launch(_count_episode, dim=n, inputs=[mask, self.episodes], device=self.device)
         self.record(fields, steps, mask)
         wp.launch(_pad, dim=(n, self.plan.width),
-                  inputs=[mask, int(self.plan.pad_with_initial_value), self.plan.rows, self.history], device=self.device)
+                  inputs=[mask, int(self.plan.pad_with_initial_value), self.plan.rows, self.history],
+                  device=self.device)
 
     def set_keys(self, worlds: np.ndarray, keys: np.ndarray, values: np.ndarray) -> None:
         """The key tables of `worlds` (their rows of `key_table` and `episode_table`), from the host."""
@@ -559,13 +442,15 @@ class Sensors:
             wp.launch(_gather_reads, dim=(n, reads.column.size),
                       inputs=[steps, plan.rows, reads.cycle, plan.substeps, reads.nphase, self._delta,
                               self._column, self.history], outputs=[self.gathered], device=self.device)
-        for first, buffer, width, code, at in self._blocks:
-            wp.launch(_reduce, dim=(n, width), inputs=[self.gathered, first, buffer, width, code],
-                      outputs=[self.reduced, at], device=self.device)
+        for block in self._blocks:
+            self._reduce_block(self.gathered, block, self.reduced)
         if self._drawn is not None:
             self._drawn.read(steps, self.history)
-            for first, buffer, width, name, at in self._drawn.blocks:
-                wp.launch(_reduce, dim=(n, width), inputs=[self._drawn.gathered, first, buffer, width,
-                                                           _AGGREGATOR_CODES[name]],
-                          outputs=[self._drawn.reduced, at], device=self.device)
+            for block in self._drawn.blocks:
+                self._reduce_block(self._drawn.gathered, block, self._drawn.reduced)
         return self.outputs
+
+    def _reduce_block(self, gathered: wp.array, block: Reduction, out: wp.array) -> None:
+        wp.launch(_reduce, dim=(self.plan.nsim, block.width),
+                  inputs=[gathered, block.first, block.buffer, block.width, _AGGREGATOR_CODES[block.aggregator]],
+                  outputs=[out, block.at], device=self.device)
