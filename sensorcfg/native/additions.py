@@ -154,9 +154,33 @@ def _name(model: mujoco.MjModel, type_name: str, i: int) -> str:
 _JOINT_WORDS = {int(getattr(mujoco.mjtJoint, f"mjJNT_{t}")): t.lower() for t in ("FREE", "BALL", "SLIDE", "HINGE")}
 
 
+# MuJoCo 3.x computes no acceleration (`cacc`) for a body welded to the world: an accelerometer or framelinacc
+# there reads 0, where MuJoCo 4 and MuJoCo Warp read the body's acceleration minus gravity (+9.81 up at rest)
+_WELDED_ZERO = frozenset({"accelerometer", "framelinacc"})
+_BODY_OF = {"site": "site_bodyid", "geom": "geom_bodyid", "camera": "cam_bodyid"}
+
+
+def _welded_zero(model: mujoco.MjModel, row: NativeType, sel: Selection) -> str | None:
+    """An acceleration sensor on a body welded to the world, on a MuJoCo that reads it as 0."""
+    if row.kind not in _WELDED_ZERO or int(mujoco.__version__.split(".")[0]) >= 4:
+        return None
+    bodies = getattr(model, _BODY_OF[sel.type]) if sel.type in _BODY_OF else None
+    welded = [f"{sel.type}:{label}" for i, label in zip(sel.ids, sel.names)
+              if model.body_weldid[int(bodies[i]) if bodies is not None else i] == 0]
+    if not welded:
+        return None
+    more = f" (and {len(welded) - 3} more)" if len(welded) > 3 else ""
+    return (f"MuJoCo {mujoco.__version__} reads {_a(row.kind)} {row.kind} sensor on a body welded to the world as 0 "
+            f"(MuJoCo 4 and MuJoCo Warp read its acceleration minus gravity, +9.81 up at rest): "
+            f"{', '.join(welded[:3])}{more}; mount it on a moving body, or use MuJoCo >= 4")
+
+
 def _refusals(model: mujoco.MjModel, row: NativeType, sel: Selection) -> str | None:
     """What MuJoCo's compiler would refuse about the selected joints or tendons (`NativeType.joint_types`,
-    `limited`), said for the suite: None when nothing."""
+    `limited`), or what this MuJoCo would read wrong (`_welded_zero`), said for the suite: None when nothing."""
+    welded = _welded_zero(model, row, sel)
+    if welded:
+        return welded
     bad: list[str] = []
     need = ""
     if sel.type == "joint" and row.joint_types:

@@ -16,7 +16,8 @@ is MuJoCo's force sensor). Types that read no object (`clock`, `e_potential`, `e
 
 Signs and frames, as MuJoCo computes them (docs/recipes.md, "Signs and frames"; the config's field
 descriptions say the same to the schema): velocimeter and gyro read the site's velocity in the site's own
-frame; accelerometer the site's acceleration minus gravity in its frame (+9.81 up at rest); framexaxis /
+frame; accelerometer the site's acceleration minus gravity in its frame (+9.81 up at rest; MuJoCo 3.x reads it, and
+framelinacc, as 0 on a body welded to the world: refused there, `additions._welded_zero`); framexaxis /
 frameyaxis / framezaxis an axis of the element in the world frame, or in `frame:`'s; `gravity` (not a type
 of its own) the unit vector along the model's gravity in the element's frame, [0, 0, -1] upright. A contact
 sensor's force and torque are what the element (object 1) exerts on `with:` (object 2): in each contact's

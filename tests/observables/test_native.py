@@ -439,3 +439,26 @@ def test_a_suite_added_to_another_librarys_scene_edits_the_scene_itself() -> Non
     with pytest.raises(SuiteError, match=r"<string>:2:3: error: cameras: a suite added to another library's scene "
                                          r"cannot add cameras"):
         with_cameras._add_to(mujoco.MjSpec.from_file(TERRAIN))
+
+
+WELDED = """<mujoco><worldbody><body name="stand" pos="0 0 1"><geom size=".1"/><site name="fixed"/></body>
+<body name="free" pos="1 0 1"><freejoint/><geom size=".1"/><site name="moving"/></body></worldbody></mujoco>"""
+
+
+@pytest.mark.parametrize("kind", ["accelerometer", "framelinacc"])
+def test_an_acceleration_sensor_on_a_welded_body_reads_gravity_or_is_refused(kind: str, tmp_path: Path) -> None:
+    """MuJoCo 3.x reads an accelerometer (and framelinacc) on a body welded to the world as 0; MuJoCo 4 reads
+    +9.81 up at rest, as table.py says. On 3.x the suite says so at the element; a moving body is read."""
+    path = tmp_path / "welded.xml"
+    path.write_text(WELDED)
+    text = f"sensors:\n  still: {{kind: {kind}, element: site:fixed}}\n  free: {{kind: {kind}, element: body:free}}\n"
+    problems = sensorcfg.loads(text, file="f.yaml").check(str(path))
+    if MUJOCO4:
+        assert problems == []
+        env = sensorcfg.Environment(str(path), sensorcfg.loads(text), seed=0)
+        np.testing.assert_allclose(env.reset().observation["still"].ravel(), [0, 0, 9.81])
+    else:
+        lines = [p.format() for p in problems]
+        assert len(lines) == 1 and lines[0].startswith("f.yaml:2:"), lines
+        assert f"{kind} sensor on a body welded to the world as 0" in lines[0]
+        assert "site:fixed" in lines[0] and "MuJoCo >= 4" in lines[0]
