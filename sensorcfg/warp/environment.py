@@ -330,7 +330,7 @@ class WarpEnvironment(ControlLoop):
     def set_noise_level(self, level: float) -> None:
         """Scale every sensor's noise from each world's next episode on: 0 clean, 1 the suite's."""
         set_level(self._observables, level)  # validates `level` as the CPU engines do
-        self._sensors.next_level.fill_(float(level))
+        self._sensors.episodes.next_level.fill_(float(level))
 
     # -- episodes -------------------------------------------------------------------------------------
 
