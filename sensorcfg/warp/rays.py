@@ -76,7 +76,7 @@ def plan(bound: Bound, physics: object, nsim: int, substeps: int, pad: bool,
     suite_plan = compile_plan([cast(FixedChannel, e.channel) for e in fixed],
                               [cast(DrawnChannel, e.channel) for e in bound.drawn], sources, fields, nsim, substeps,
                               float(model.opt.timestep), pad)
-    return Bound(bound.entries, others, fixed, bound.drawn), suite_plan
+    return bound._replace(cameras=others, fixed=fixed), suite_plan
 
 
 @wp.struct
