@@ -488,7 +488,7 @@ class Sensors:
         wp.launch(_count_episode, dim=n, inputs=[mask], outputs=[episodes], device=self.device)
         self.record(fields, steps, mask)
         wp.launch(_pad, dim=(n, self.plan.width),
-                  inputs=[mask, int(self.plan.pad_with_initial_value), self.plan.rows, self.history],
+                  inputs=[mask, int(self.plan.pad_with_initial_value), self.plan.rows], outputs=[self.history],
                   device=self.device)
 
     def set_keys(self, worlds: np.ndarray, keys: np.ndarray, values: np.ndarray) -> None:
