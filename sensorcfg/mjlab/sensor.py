@@ -189,9 +189,9 @@ class SuiteSensor(Sensor[dict[str, torch.Tensor]]):
     def set_noise_level(self, level: float) -> None:
         """Scale every sensor's noise from each world's next episode on: 0 clean, 1 the suite's."""
         set_level(self._observables, level)
-        self.layer.sensors.next_level.fill_(float(level))
+        self.layer.sensors.episodes.next_level.fill_(float(level))
 
     @property
     def episodes(self) -> np.ndarray:
         """Per world, the episodes it started (a host copy)."""
-        return self.layer.sensors.episodes.numpy().astype(np.int64)
+        return self.layer.sensors.episodes.count.numpy().astype(np.int64)

@@ -35,7 +35,7 @@ from ..observables.camera import MODES
 from .camera_support import settings
 from .worlds import Worlds
 
-__all__ = ["Cameras", "background_depth", "render_substeps"]
+__all__ = ["CameraSchedule", "Cameras", "background_depth", "render_substeps"]
 
 
 def background_depth(model: mujoco.MjModel, camera: int) -> float:
@@ -60,6 +60,18 @@ def render_substeps(needed: np.ndarray, substeps: int) -> list[int]:
             if any(needed[(c * substeps + k) % period] for c in range(period // math.gcd(period, substeps)))]
 
 
+@wp.struct
+class CameraSchedule:
+    """A camera sensor's schedule (`runtime/schedule.Schedule`) as its kernels read it: a sample every
+    `interval` steps, read `delay` steps late, kept in a ring of `capacity` frames; `needed`: over its period,
+    the steps whose frame some read can see (`Schedule.needed_mask`)."""
+
+    needed: wp.array[wp.int32]
+    interval: wp.int64
+    delay: wp.int64
+    capacity: wp.int64
+
+
 @wp.func
 def _slot(sample: wp.int64, capacity: wp.int64) -> wp.int32:
     return wp.int32(((sample % capacity) + capacity) % capacity)
@@ -74,19 +86,26 @@ def _floor_div(a: wp.int64, b: wp.int64) -> wp.int64:
 
 
 @wp.func
-def _target(w: wp.int32, steps: wp.array[wp.int64], needed: wp.array[wp.int32], interval: wp.int64,
-            capacity: wp.int64) -> wp.int32:
+def _target(w: wp.int32, steps: wp.array[wp.int64], schedule: CameraSchedule) -> wp.int32:
     """The slot world w's frame at its current step goes to, or -1 when its schedule takes none there."""
     s = steps[w]
-    if needed[wp.int32(s % wp.int64(needed.shape[0]))] == 0:
+    if schedule.needed[wp.int32(s % wp.int64(schedule.needed.shape[0]))] == 0:
         return -1
-    return _slot(s / interval, capacity)
+    return _slot(s / schedule.interval, schedule.capacity)
+
+
+# The store kernels: world w's frame (pixel p) into its ring at its step (`reset` 0), or at a reset (1) into
+# slot 0 and, with `pad` (`pad_with_initial_value`), every other slot (else zeros there).
 
 
 @wp.kernel
-def _store_rgb(packed: wp.array2d[wp.uint32], steps: wp.array[wp.int64], mask: wp.array[wp.int32],
-               needed: wp.array[wp.int32], interval: wp.int64, capacity: wp.int64, reset: wp.int32, pad: wp.int32,
-               ring: wp.array3d[wp.uint8]):
+def _store_rgb(
+    # In:
+    packed: wp.array2d[wp.uint32], steps: wp.array[wp.int64], mask: wp.array[wp.int32], schedule: CameraSchedule,
+    reset: wp.int32, pad: wp.int32,
+    # Out:
+    ring: wp.array3d[wp.uint8],
+):
     w, p = wp.tid()
     if mask[w] == 0:
         return
@@ -95,13 +114,13 @@ def _store_rgb(packed: wp.array2d[wp.uint32], steps: wp.array[wp.int64], mask: w
     g = wp.uint8((v >> wp.uint32(8)) & wp.uint32(255))
     b = wp.uint8(v & wp.uint32(255))
     if reset == 0:
-        slot = _target(w, steps, needed, interval, capacity)
+        slot = _target(w, steps, schedule)
         if slot >= 0:
             ring[w, slot, 3 * p] = r
             ring[w, slot, 3 * p + 1] = g
             ring[w, slot, 3 * p + 2] = b
         return
-    for slot in range(wp.int32(capacity)):
+    for slot in range(wp.int32(schedule.capacity)):
         keep = slot == 0 or pad == 1
         ring[w, slot, 3 * p] = wp.where(keep, r, wp.uint8(0))
         ring[w, slot, 3 * p + 1] = wp.where(keep, g, wp.uint8(0))
@@ -109,9 +128,13 @@ def _store_rgb(packed: wp.array2d[wp.uint32], steps: wp.array[wp.int64], mask: w
 
 
 @wp.kernel
-def _store_depth(depth: wp.array2d[wp.float32], background: wp.float32, steps: wp.array[wp.int64],
-                 mask: wp.array[wp.int32], needed: wp.array[wp.int32], interval: wp.int64, capacity: wp.int64,
-                 reset: wp.int32, pad: wp.int32, ring: wp.array3d[wp.float32]):
+def _store_depth(
+    # In: the depths, and what a pixel that sees nothing reads (`background_depth`)
+    depth: wp.array2d[wp.float32], background: wp.float32, steps: wp.array[wp.int64], mask: wp.array[wp.int32],
+    schedule: CameraSchedule, reset: wp.int32, pad: wp.int32,
+    # Out:
+    ring: wp.array3d[wp.float32],
+):
     w, p = wp.tid()
     if mask[w] == 0:
         return
@@ -119,41 +142,49 @@ def _store_depth(depth: wp.array2d[wp.float32], background: wp.float32, steps: w
     if x <= wp.float32(0.0):  # the ray hit nothing nearer than the far plane
         x = background
     if reset == 0:
-        slot = _target(w, steps, needed, interval, capacity)
+        slot = _target(w, steps, schedule)
         if slot >= 0:
             ring[w, slot, p] = x
         return
-    for slot in range(wp.int32(capacity)):
+    for slot in range(wp.int32(schedule.capacity)):
         ring[w, slot, p] = wp.where(slot == 0 or pad == 1, x, wp.float32(0.0))
 
 
 @wp.kernel
-def _store_segmentation(seg: wp.array2d[wp.vec2i], steps: wp.array[wp.int64], mask: wp.array[wp.int32],
-                        needed: wp.array[wp.int32], interval: wp.int64, capacity: wp.int64, reset: wp.int32,
-                        pad: wp.int32, ring: wp.array3d[wp.int32]):
+def _store_segmentation(
+    # In:
+    seg: wp.array2d[wp.vec2i], steps: wp.array[wp.int64], mask: wp.array[wp.int32], schedule: CameraSchedule,
+    reset: wp.int32, pad: wp.int32,
+    # Out:
+    ring: wp.array3d[wp.int32],
+):
     w, p = wp.tid()
     if mask[w] == 0:
         return
     v = seg[w, p]
     if reset == 0:
-        slot = _target(w, steps, needed, interval, capacity)
+        slot = _target(w, steps, schedule)
         if slot >= 0:
             ring[w, slot, 2 * p] = v[0]
             ring[w, slot, 2 * p + 1] = v[1]
         return
-    for slot in range(wp.int32(capacity)):
+    for slot in range(wp.int32(schedule.capacity)):
         keep = slot == 0 or pad == 1
         ring[w, slot, 2 * p] = wp.where(keep, v[0], wp.int32(0))
         ring[w, slot, 2 * p + 1] = wp.where(keep, v[1], wp.int32(0))
 
 
 @wp.kernel
-def _read(ring: wp.array3d[Any], steps: wp.array[wp.int64], interval: wp.int64, delay: wp.int64,
-          capacity: wp.int64, out: wp.array3d[Any]):
+def _read(
+    # In:
+    ring: wp.array3d[Any], steps: wp.array[wp.int64], schedule: CameraSchedule,
+    # Out:
+    out: wp.array3d[Any],
+):
     """out[w, b]: slot b of the window of world w's read at its step (oldest first; padding below 0)."""
     w, b, i = wp.tid()
-    newest = _floor_div(steps[w] - delay, interval)
-    out[w, b, i] = ring[w, _slot(newest - wp.int64(out.shape[1] - 1 - b), capacity), i]
+    newest = _floor_div(steps[w] - schedule.delay, schedule.interval)
+    out[w, b, i] = ring[w, _slot(newest - wp.int64(out.shape[1] - 1 - b), schedule.capacity), i]
 
 
 _WP = {np.dtype(np.uint8): wp.uint8, np.dtype(np.float32): wp.float32, np.dtype(np.int32): wp.int32}
@@ -169,8 +200,6 @@ class _Camera:
         width, height = observable.width, observable.height
         channels, dtype, _, _ = MODES[self.mode]
         schedule = channel.schedule
-        self.interval, self.delay = wp.int64(schedule.interval), wp.int64(schedule.delay)
-        self.capacity = wp.int64(schedule.capacity)
         needed = schedule.needed_mask()
         self.substeps = frozenset(render_substeps(needed, substeps))
         self.background = background_depth(model, cam)
@@ -181,7 +210,9 @@ class _Camera:
             **settings(observable))
         self.pixels = width * height
         size = self.pixels * channels
-        self.needed = wp.array(needed.astype(np.int32), dtype=wp.int32)
+        self.schedule = timing = CameraSchedule()
+        timing.needed = wp.array(needed.astype(np.int32), dtype=wp.int32)
+        timing.interval, timing.delay, timing.capacity = schedule.interval, schedule.delay, schedule.capacity
         self.ring = wp.zeros((nworld, schedule.capacity, size), dtype=_WP[np.dtype(dtype)])
         self.out = wp.zeros((nworld, channel.buffer_size, size), dtype=_WP[np.dtype(dtype)])
         # the CPU camera's (nworld, [buffer,] height, width, channels) as Warp arrays have at most 4 axes:
@@ -207,16 +238,17 @@ class Cameras:
         m, d, n = self.worlds.model, self.worlds.data, self.worlds.nworld
         mjw.refit_bvh(m, d, camera.rc)
         mjw.render(m, d, camera.rc)
-        common = [self.worlds.steps, mask, camera.needed, camera.interval, camera.capacity, reset, self.pad]
-        rc = camera.rc
+        steps, rc, schedule = self.worlds.steps, camera.rc, camera.schedule
         if camera.mode == "rgb":
-            wp.launch(_store_rgb, dim=(n, camera.pixels), inputs=[rc.rgb_data, *common], outputs=[camera.ring])
+            wp.launch(_store_rgb, dim=(n, camera.pixels), inputs=[rc.rgb_data, steps, mask, schedule, reset, self.pad],
+                      outputs=[camera.ring])
         elif camera.mode == "depth":
-            wp.launch(_store_depth, dim=(n, camera.pixels), inputs=[rc.depth_data, camera.background, *common],
+            wp.launch(_store_depth, dim=(n, camera.pixels),
+                      inputs=[rc.depth_data, camera.background, steps, mask, schedule, reset, self.pad],
                       outputs=[camera.ring])
         else:
-            wp.launch(_store_segmentation, dim=(n, camera.pixels), inputs=[rc.seg_data, *common],
-                      outputs=[camera.ring])
+            wp.launch(_store_segmentation, dim=(n, camera.pixels),
+                      inputs=[rc.seg_data, steps, mask, schedule, reset, self.pad], outputs=[camera.ring])
 
     def record(self, substep: int) -> None:
         """After substep `substep` (1-based) of a control step: the frames the worlds' schedules take."""
@@ -236,8 +268,7 @@ class Cameras:
         steps, out = self.worlds.steps, {}
         with wp.ScopedDevice(self.worlds.device):
             for camera in self.cameras:
-                wp.launch(_read, dim=camera.out.shape,
-                          inputs=[camera.ring, steps, camera.interval, camera.delay, camera.capacity],
+                wp.launch(_read, dim=camera.out.shape, inputs=[camera.ring, steps, camera.schedule],
                           outputs=[camera.out])
                 out[camera.name] = camera.observation
         return out

@@ -38,8 +38,8 @@ import warp as wp
 from ..plan import DrawnSteps, DrawnTiming, SuitePlan
 from .philox import MODULE_OPTIONS, block, uniform
 
-__all__ = ["DrawnPositions", "DrawnRing", "DrawnSchedules", "DrawnTimings", "DrawnView", "Reduction", "draw",
-           "largest_gap", "ring_size"]
+__all__ = ["AGGREGATORS", "DrawnPositions", "DrawnRing", "DrawnSchedules", "DrawnTimings", "DrawnView", "Reduction",
+           "draw", "largest_gap", "reduction", "ring_size"]
 
 wp.set_module_options(MODULE_OPTIONS)
 
@@ -216,13 +216,22 @@ def _gather(
         out[w, p] = wp.float32(0.0)
 
 
-def _setting(steps: DrawnSteps, values: list[int], cumulative: list[float]) -> tuple[int, int, int]:
-    """A setting's (kind, first, count) in the tables `values` and `cumulative` (appended to)."""
+class _Setting(NamedTuple):
+    """A drawn interval's or delay's `DrawnSteps` as `draw` reads them: its `kind` code, and its values at
+    `first` .. `first + length` of the shared `values` and `cumulative` (`DrawnTimings`' `*_count`)."""
+
+    kind: int
+    first: int
+    length: int
+
+
+def _setting(steps: DrawnSteps, values: list[int], cumulative: list[float]) -> _Setting:
+    """A setting in the tables `values` and `cumulative` (appended to)."""
     kind = _KINDS[steps.kind] + int(steps.kind == "choice" and steps.weights.size > 0)
     first = len(values)
     values += [int(v) for v in steps.values]
     cumulative += np.cumsum(steps.weights).tolist() if kind == 3 else [0.0] * len(steps.values)
-    return kind, first, len(steps.values)
+    return _Setting(kind, first, len(steps.values))
 
 
 def _extreme(steps: DrawnSteps, largest: bool) -> int:
@@ -249,15 +258,28 @@ class DrawnView(NamedTuple):
     first: int
 
 
-class Reduction(NamedTuple):
-    """A block of gathered positions `first` + b * `width` + c ((`buffer`, `width`)) reduced by `aggregator`
-    into columns `at` .. `at` + `width` (`sensors._reduce`): the plan's `ReductionBlock`, or a drawn sensor's."""
+AGGREGATORS = {"min": 0, "max": 1, "sum": 2, "mean": 3, "median": 4}  # an aggregator -> `sensors._reduce`'s code
 
-    first: int
-    buffer: int
-    width: int
-    aggregator: str
-    at: int
+
+@wp.struct
+class Reduction:
+    """A block of gathered positions `first` + b * `width` + c ((`buffer`, `width`)) reduced by `aggregator`
+    (its `AGGREGATORS` code) into columns `at` .. `at` + `width` (`sensors._reduce`): the plan's
+    `ReductionBlock`, or a drawn sensor's."""
+
+    first: wp.int32
+    buffer: wp.int32
+    width: wp.int32
+    aggregator: wp.int32
+    at: wp.int32
+
+
+def reduction(first: int, buffer: int, width: int, aggregator: str, at: int) -> Reduction:
+    """The `Reduction` of a block (`aggregator` by name)."""
+    block = Reduction()
+    block.first, block.buffer, block.width, block.at = first, buffer, width, at
+    block.aggregator = AGGREGATORS[aggregator]
+    return block
 
 
 def _i32(xs: object) -> wp.array:
@@ -274,8 +296,8 @@ class DrawnSchedules:
         self.names = [s.name for _, s in drawn]
         values: list[int] = []
         cumulative: list[float] = []
-        intervals: list[tuple[int, int, int]] = []  # (kind, first, count) as `draw` reads them
-        delays: list[tuple[int, int, int]] = []
+        intervals: list[_Setting] = []
+        delays: list[_Setting] = []
         buffers: list[int] = []
         rings: list[int] = []
         sensor: list[int] = []
@@ -300,7 +322,7 @@ class DrawnSchedules:
             if record.aggregator is None:
                 self.views.append(DrawnView(index, "gathered", at))
             else:
-                self.blocks.append(Reduction(at, timing.buffer, width, record.aggregator, reduced))
+                self.blocks.append(reduction(at, timing.buffer, width, record.aggregator, reduced))
                 self.views.append(DrawnView(index, "reduced", reduced))
                 reduced += width
             at += timing.buffer * width
@@ -310,8 +332,12 @@ class DrawnSchedules:
             timings.key_slot = _i32([key_slot[name] for name in self.names])
             timings.noisy = _i32([noisy.get(name, -1) for name in self.names])
             timings.buffer = _i32(buffers)
-            timings.interval_kind, timings.interval_first, timings.interval_count = map(_i32, zip(*intervals))
-            timings.delay_kind, timings.delay_first, timings.delay_count = map(_i32, zip(*delays))
+            timings.interval_kind = _i32([s.kind for s in intervals])
+            timings.interval_first = _i32([s.first for s in intervals])
+            timings.interval_count = _i32([s.length for s in intervals])
+            timings.delay_kind = _i32([s.kind for s in delays])
+            timings.delay_first = _i32([s.first for s in delays])
+            timings.delay_count = _i32([s.length for s in delays])
             timings.values = wp.array(np.asarray(values, np.int64), dtype=wp.int64)
             timings.cumulative = wp.array(np.asarray(cumulative, np.float64), dtype=wp.float64)
             self.positions = positions = DrawnPositions()

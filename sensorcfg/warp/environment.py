@@ -80,21 +80,38 @@ class WarpTimeStep(NamedTuple):
 
 
 @wp.kernel
-def _control(actions: wp.array2d[wp.float32], restart: wp.array[wp.int32], ctrl: wp.array2d[wp.float32]):
+def _control(
+    # In:
+    actions: wp.array2d[wp.float32], restart: wp.array[wp.int32],
+    # Data out:
+    ctrl: wp.array2d[wp.float32],
+):
     w, a = wp.tid()
     if restart[w] == 0:
         ctrl[w, a] = actions[w, a]
 
 
 @wp.kernel
-def _to_float32(actions: wp.array2d[wp.float64], out: wp.array2d[wp.float32]):
+def _to_float32(
+    # In:
+    actions: wp.array2d[wp.float64],
+    # Out:
+    out: wp.array2d[wp.float32],
+):
     """float64 actions rounded to float32 (to nearest, as numpy's `astype(np.float32)` rounds a host array)."""
     w, a = wp.tid()
     out[w, a] = wp.float32(actions[w, a])
 
 
 @wp.kernel
-def _begin(needs_reset: wp.array[wp.int32], restart: wp.array[wp.int32], control_steps: wp.array[wp.int64]):
+def _begin(
+    # In:
+    needs_reset: wp.array[wp.int32],
+    # Out:
+    restart: wp.array[wp.int32],
+    # In and out:
+    control_steps: wp.array[wp.int64],
+):
     w = wp.tid()
     restart[w] = needs_reset[w]
     if needs_reset[w] == 1:
@@ -104,10 +121,16 @@ def _begin(needs_reset: wp.array[wp.int32], restart: wp.array[wp.int32], control
 
 
 @wp.kernel
-def _end(restart: wp.array[wp.int32], diverged: wp.array[bool], terminated: wp.array[bool], limit: wp.int64,
-         same_step: wp.int32, reward_in: wp.array[wp.float32], control_steps: wp.array[wp.int64],
-         needs_reset: wp.array[wp.int32], starting: wp.array[wp.int32], step_type: wp.array[wp.int32],
-         reward: wp.array[wp.float32], discount: wp.array[wp.float32]):
+def _end(
+    # In: per world, and the episode rules (`limit` control steps, 0: none; `same_step` autoreset)
+    restart: wp.array[wp.int32], diverged: wp.array[bool], terminated: wp.array[bool], limit: wp.int64,
+    same_step: wp.int32, reward_in: wp.array[wp.float32],
+    # In and out:
+    control_steps: wp.array[wp.int64],
+    # Out: the worlds to reset next step or now, and the step's TimeStep fields
+    needs_reset: wp.array[wp.int32], starting: wp.array[wp.int32], step_type: wp.array[wp.int32],
+    reward: wp.array[wp.float32], discount: wp.array[wp.float32],
+):
     """The step's types, rewards and discounts, and the worlds whose episode starts now (`starting`): those
     that needed a reset, and with `same_step` those whose episode this step ended (their time limit's count
     restarts: `control_steps` 0); without it, those are reset by the next step (`needs_reset`)."""
@@ -132,26 +155,46 @@ def _end(restart: wp.array[wp.int32], diverged: wp.array[bool], terminated: wp.a
 
 
 @wp.kernel
-def _ended(step_type: wp.array[wp.int32], discount: wp.array[wp.float32], by_time: int, out: wp.array[bool]):
+def _ended(
+    # In:
+    step_type: wp.array[wp.int32], discount: wp.array[wp.float32], by_time: int,
+    # Out:
+    out: wp.array[bool],
+):
     """LAST steps with discount 1 (`by_time`: truncations) or 0 (terminations)."""
     w = wp.tid()
     out[w] = step_type[w] == 2 and (discount[w] > wp.float32(0.0)) == (by_time == 1)
 
 
 @wp.kernel
-def _mask(ids: wp.array[wp.int32], mask: wp.array[wp.int32]):
+def _mask(
+    # In:
+    ids: wp.array[wp.int32],
+    # Out:
+    mask: wp.array[wp.int32],
+):
     mask[ids[wp.tid()]] = 1
 
 
 @wp.kernel
-def _any(mask: wp.array[wp.int32], out: wp.array[wp.int32]):
+def _any(
+    # In:
+    mask: wp.array[wp.int32],
+    # Out:
+    out: wp.array[wp.int32],
+):
     w = wp.tid()
     if mask[w] == 1:
         out[0] = 1
 
 
 @wp.kernel
-def _started(mask: wp.array[wp.int32], needs_reset: wp.array[wp.int32], control_steps: wp.array[wp.int64]):
+def _started(
+    # In:
+    mask: wp.array[wp.int32],
+    # Out:
+    needs_reset: wp.array[wp.int32], control_steps: wp.array[wp.int64],
+):
     w = wp.tid()
     if mask[w] == 1:
         needs_reset[w] = 0
@@ -330,7 +373,7 @@ class WarpEnvironment(ControlLoop):
     def set_noise_level(self, level: float) -> None:
         """Scale every sensor's noise from each world's next episode on: 0 clean, 1 the suite's."""
         set_level(self._observables, level)  # validates `level` as the CPU engines do
-        self._sensors.next_level.fill_(float(level))
+        self._sensors.episodes.next_level.fill_(float(level))
 
     # -- episodes -------------------------------------------------------------------------------------
 
@@ -413,7 +456,8 @@ class WarpEnvironment(ControlLoop):
         """The control step's device work, from the actions in `_actions` to the step types: no host copy, no
         allocation of its own, the same launches every step (so that it can be replayed as a CUDA graph)."""
         n, device = self._nworld, self.device
-        wp.launch(_begin, dim=n, inputs=[self._needs_reset, self._restarting, self._control_steps], device=device)
+        wp.launch(_begin, dim=n, inputs=[self._needs_reset], outputs=[self._restarting, self._control_steps],
+                  device=device)
         if self._model.nu:
             wp.launch(_control, dim=(n, self._model.nu), inputs=[self._actions, self._restarting],
                       outputs=[self._worlds.data.ctrl], device=device)

@@ -1,7 +1,7 @@
 """What a Warp world's noise draws per episode, and the `misalign` turn that mixes a sample's values.
 
 Everything drawn at a reset is drawn on the host by the CPU pipeline's own stages from the episode's keys
-(`episode_values`), into each world's row of the episode table (`Sensors.episode_table`, `key_episodes`
+(`episode_values`), into each world's row of the episode table (`Sensors.episodes.value_table`, `key_episodes`
 episodes ahead): a bias's or scale's values and a random walk's start (`NoiseTables.episode_slots`), the
 kernel parameters of a stage whose parameters are drawn per episode (`NoiseTables.param_slots`: slots 0 and 1
 of `program.stage_params` computed from the episode's values, read by the noise kernel instead of the fixed
@@ -125,10 +125,10 @@ def _parameters(slot: ParamSlot, stage: Any, timestep: float) -> np.ndarray:
 
 def episode_values(sensors: Sensors, pipelines: Mapping[str, Any], keys: np.ndarray) -> np.ndarray:
     """The values an episode keyed `keys` (one key per noisy sensor) draws at its reset, at their slots of
-    `sensors.drawn`: each noisy sensor's CPU pipeline is reset with its key, and what its stages drew is
+    `sensors.episodes.drawn`: each noisy sensor's CPU pipeline is reset with its key, and what its stages drew is
     read off them (the rules' one home stays `noise/`)."""
     tables: NoiseTables = sensors.noise
-    values = np.zeros(sensors.drawn.shape[1])
+    values = np.zeros(sensors.episodes.drawn.shape[1])
     size = tables.size
     wanted = ({s.sensor for s in tables.episode_slots} | {s.sensor for s in tables.param_slots}
               | {s.sensor for s in tables.turn_slots})

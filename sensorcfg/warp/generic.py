@@ -166,8 +166,9 @@ class Generics:
             return bound
         rank = {name: i for i, name in enumerate(order)}
         entries = sorted([*bound.entries, *mine], key=lambda e: rank[e.name])
-        return Bound(entries, bound.cameras, [*bound.fixed, *(e for e in mine if isinstance(e.channel, FixedChannel))],
-                     [*bound.drawn, *(e for e in mine if not isinstance(e.channel, FixedChannel))])
+        return bound._replace(entries=entries,
+                              fixed=[*bound.fixed, *(e for e in mine if isinstance(e.channel, FixedChannel))],
+                              drawn=[*bound.drawn, *(e for e in mine if not isinstance(e.channel, FixedChannel))])
 
     def run(self) -> None:
         """After a physics step (or a restart's forward): each callable's values into its own array."""

@@ -179,9 +179,9 @@ class EpisodeKeys:
         """Every world's stream from its random state (a test's own), its episodes counted from 0."""
         self._random_states = random_states
         self._keyed = np.zeros(self._nworld, np.int64)  # episodes whose keys are in the table, per world
-        self._table = np.zeros(self._sensors.key_table.shape, np.uint64)
-        self._values = np.zeros(self._sensors.episode_table.shape, np.float64)
-        wp.copy(self._sensors.episodes, wp.zeros(self._nworld, dtype=wp.int32, device=self._sensors.device))
+        self._table = np.zeros(self._sensors.episodes.key_table.shape, np.uint64)
+        self._values = np.zeros(self._sensors.episodes.value_table.shape, np.float64)
+        wp.copy(self._sensors.episodes.count, wp.zeros(self._nworld, dtype=wp.int32, device=self._sensors.device))
         self.top_up(np.zeros(self._nworld, np.int64))
 
     @property
@@ -195,7 +195,7 @@ class EpisodeKeys:
         sensors = self._sensors
         if not sensors.key_names:
             return
-        used = sensors.episodes.numpy().astype(np.int64) if used is None else used
+        used = sensors.episodes.count.numpy().astype(np.int64) if used is None else used
         table, values, size = self._table, self._values, self._size
         worlds = np.flatnonzero(self._keyed < used + size)
         for w in worlds.tolist():

@@ -187,8 +187,13 @@ def value(k0: wp.uint64, k1: wp.uint64, sample: wp.int64, tag: wp.uint32, v: wp.
 
 
 @wp.kernel
-def _numbers(keys: wp.array2d[wp.uint64], samples: wp.array[wp.int64], tag: wp.uint32,
-             size: wp.int32, is_normal: bool, z: Ziggurat, out: wp.array2d[wp.float64]):
+def _numbers(
+    # In: per draw, its key and sample index; the stage's and lane's `tag`, the values per sample
+    keys: wp.array2d[wp.uint64], samples: wp.array[wp.int64], tag: wp.uint32, size: wp.int32, is_normal: bool,
+    z: Ziggurat,
+    # Out:
+    out: wp.array2d[wp.float64],
+):
     i, q = wp.tid()
     c = counter(samples[i], tag, q, keys[i, 1])
     k = key(keys[i, 0])

@@ -76,11 +76,44 @@ def plan(bound: Bound, physics: object, nsim: int, substeps: int, pad: bool,
     suite_plan = compile_plan([cast(FixedChannel, e.channel) for e in fixed],
                               [cast(DrawnChannel, e.channel) for e in bound.drawn], sources, fields, nsim, substeps,
                               float(model.opt.timestep), pad)
-    return Bound(bound.entries, others, fixed, bound.drawn), suite_plan
+    return bound._replace(cameras=others, fixed=fixed), suite_plan
+
+
+@wp.struct
+class _ScanPattern:
+    """A height scan's rays as its kernels read them (`ScanConfig`): its frame's index among the bodies or sites
+    (`HeightScan.frame`), each ray's xy `offsets` in the pattern (`heightscan.pattern`), the height `above` the
+    frame its rays start, its `alignment` (`ALIGNMENTS`), and what a ray reads: `miss` beyond `max_distance`."""
+
+    frame: wp.int32
+    offsets: wp.array2d[wp.float64]
+    above: wp.float64
+    alignment: wp.int32
+    max_distance: wp.float64
+    miss: wp.float64
+
+
+@wp.struct
+class _ScanRays:
+    """Every world's rays of a scan as `mjw.rays` casts them, ray i of world w at column w * rays + i: their
+    starts `pnt` and directions `vec`, the bodies `exclude`d (in), the distance `dist` to what each meets (-1:
+    nothing), its geom `geomid` and `normal` (out)."""
+
+    pnt: wp.array2d[wp.vec3]
+    vec: wp.array2d[wp.vec3]
+    exclude: wp.array[wp.int32]
+    dist: wp.array2d[wp.float32]
+    geomid: wp.array2d[wp.int32]
+    normal: wp.array2d[wp.vec3]
 
 
 @wp.kernel
-def _due(steps: wp.array[wp.int64], taken: wp.array[wp.int32], due: wp.array[wp.int32]):
+def _due(
+    # In:
+    steps: wp.array[wp.int64], taken: wp.array[wp.int32],
+    # Out:
+    due: wp.array[wp.int32],
+):
     """due[0] = 1 where some world's schedule takes a sample at its step (`FixedTiming.taken`)."""
     w = wp.tid()
     if taken[wp.int32(steps[w] % wp.int64(taken.shape[0]))] == 1:
@@ -88,16 +121,21 @@ def _due(steps: wp.array[wp.int64], taken: wp.array[wp.int32], due: wp.array[wp.
 
 
 @wp.kernel
-def _starts(pos: wp.array2d[wp.float32], mat: wp.array2d[wp.float32], frame: wp.int32,
-            offsets: wp.array2d[wp.float64], above: wp.float64, alignment: wp.int32,
-            pnt: wp.array2d[wp.vec3], vec: wp.array2d[wp.vec3]):
+def _starts(
+    # In: the frames' poses (`xpos`/`xmat` or `site_xpos`/`site_xmat`)
+    pos: wp.array2d[wp.float32], mat: wp.array2d[wp.float32], pattern: _ScanPattern,
+    # Out: the rays' `pnt` and `vec`
+    rays: _ScanRays,
+):
     """Ray i of world w: its start and direction, as `heightscan.ray_starts` computes them (in float64 from
     the float32 pose, in its order of operations), at column w * rays + i."""
     w, i = wp.tid()
-    x = offsets[i, 0]
-    y = offsets[i, 1]
-    p = 3 * frame
-    r = 9 * frame
+    x = pattern.offsets[i, 0]
+    y = pattern.offsets[i, 1]
+    above = pattern.above
+    alignment = pattern.alignment
+    p = 3 * pattern.frame
+    r = 9 * pattern.frame
     px = wp.float64(pos[w, p])
     py = wp.float64(pos[w, p + 1])
     pz = wp.float64(pos[w, p + 2])
@@ -119,23 +157,26 @@ def _starts(pos: wp.array2d[wp.float32], mat: wp.array2d[wp.float32], frame: wp.
     else:  # world axes
         sx = px + x
         sy = py + y
-    k = w * offsets.shape[0] + i
-    pnt[0, k] = wp.vec3(wp.float32(sx), wp.float32(sy), wp.float32(sz))
-    vec[0, k] = d
+    k = w * pattern.offsets.shape[0] + i
+    rays.pnt[0, k] = wp.vec3(wp.float32(sx), wp.float32(sy), wp.float32(sz))
+    rays.vec[0, k] = d
 
 
 @wp.kernel
-def _heights(pos: wp.array2d[wp.float32], frame: wp.int32, pnt: wp.array2d[wp.vec3], vec: wp.array2d[wp.vec3],
-             dist: wp.array2d[wp.float32], max_distance: wp.float64, miss: wp.float64,
-             heights: wp.array2d[wp.float32]):
+def _heights(
+    # In: the frames' positions, and the rays cast
+    pos: wp.array2d[wp.float32], pattern: _ScanPattern, rays: _ScanRays,
+    # Out:
+    heights: wp.array2d[wp.float32],
+):
     """`origin_z - hit_z` per ray (`heightscan.heights`); `miss` where no terrain is met within reach."""
     w, i = wp.tid()
     k = w * heights.shape[1] + i
-    d = wp.float64(dist[0, k])
-    value = miss
-    if d >= wp.float64(0.0) and d <= max_distance:
-        hit_z = wp.float64(pnt[0, k][2]) + d * wp.float64(vec[0, k][2])
-        value = wp.float64(pos[w, 3 * frame + 2]) - hit_z
+    d = wp.float64(rays.dist[0, k])
+    value = pattern.miss
+    if d >= wp.float64(0.0) and d <= pattern.max_distance:
+        hit_z = wp.float64(rays.pnt[0, k][2]) + d * wp.float64(rays.vec[0, k][2])
+        value = wp.float64(pos[w, 3 * pattern.frame + 2]) - hit_z
     heights[w, i] = wp.float32(value)
 
 
@@ -144,23 +185,25 @@ class _Scan:
 
     def __init__(self, model: mujoco.MjModel, record: SensorRecord, observable: HeightScan, nworld: int):
         scan = observable.scan
-        self.frame, self.pos_field, self.mat_field = observable.frame(model)
+        frame, self.pos_field, self.mat_field = observable.frame(model)
         offsets = pattern(scan).reshape(-1, 2)
         nray = offsets.shape[0]
         assert isinstance(record.timing, FixedTiming) and nray == math.prod(record.shape)
         self.field = record.source.field
-        self.offsets = wp.array(offsets, dtype=wp.float64)
-        self.above, self.alignment = float(scan.above), ALIGNMENTS[scan.alignment]
-        self.max_distance, self.miss = float(scan.max_distance), float(observable.miss)
+        self.pattern = rule = _ScanPattern()
+        rule.frame, rule.offsets = frame, wp.array(offsets, dtype=wp.float64)
+        rule.above, rule.alignment = float(scan.above), ALIGNMENTS[scan.alignment]
+        rule.max_distance, rule.miss = float(scan.max_distance), float(observable.miss)
         self.geomgroup = _ALL_GROUPS if scan.geomgroup is None else \
             vec6(*(float(g in scan.geomgroup) for g in range(6)))
         self.taken = wp.array(record.timing.taken.astype(np.int32), dtype=wp.int32)
-        self.pnt = wp.zeros((1, nworld * nray), dtype=wp.vec3)
-        self.vec = wp.zeros((1, nworld * nray), dtype=wp.vec3)
-        self.dist = wp.full((1, nworld * nray), -1.0, dtype=wp.float32)
-        self.geomid = wp.zeros((1, nworld * nray), dtype=wp.int32)
-        self.normal = wp.zeros((1, nworld * nray), dtype=wp.vec3)
-        self.exclude = wp.full(nworld * nray, -1, dtype=wp.int32)  # no body excluded (only terrain is there)
+        self.rays = buffers = _ScanRays()
+        buffers.pnt = wp.zeros((1, nworld * nray), dtype=wp.vec3)
+        buffers.vec = wp.zeros((1, nworld * nray), dtype=wp.vec3)
+        buffers.exclude = wp.full(nworld * nray, -1, dtype=wp.int32)  # no body excluded (only terrain is there)
+        buffers.dist = wp.full((1, nworld * nray), -1.0, dtype=wp.float32)  # (no terrain: every ray misses)
+        buffers.geomid = wp.zeros((1, nworld * nray), dtype=wp.int32)
+        buffers.normal = wp.zeros((1, nworld * nray), dtype=wp.vec3)
         self.heights = wp.zeros((nworld, nray), dtype=wp.float32)
         self.due = wp.zeros(1, dtype=wp.int32)
 
@@ -203,11 +246,10 @@ class Scans:
         n, nray = self.nworld, scan.heights.shape[1]
         pos, mat = fields[scan.pos_field], fields[scan.mat_field]
         with wp.ScopedDevice(self.device):
-            wp.launch(_starts, dim=(n, nray), inputs=[pos, mat, scan.frame, scan.offsets, scan.above, scan.alignment],
-                      outputs=[scan.pnt, scan.vec])
+            rays = scan.rays
+            wp.launch(_starts, dim=(n, nray), inputs=[pos, mat, scan.pattern], outputs=[rays])
             if self._model is not None:
-                mjw.rays(self._model, self._data, scan.pnt, scan.vec, scan.geomgroup, True, scan.exclude, scan.dist,
-                         scan.geomid, scan.normal)
-            wp.launch(_heights, dim=(n, nray), inputs=[pos, scan.frame, scan.pnt, scan.vec, scan.dist,
-                                                       scan.max_distance, scan.miss], outputs=[scan.heights])
+                mjw.rays(self._model, self._data, rays.pnt, rays.vec, scan.geomgroup, True, rays.exclude, rays.dist,
+                         rays.geomid, rays.normal)
+            wp.launch(_heights, dim=(n, nray), inputs=[pos, scan.pattern, rays], outputs=[scan.heights])
 

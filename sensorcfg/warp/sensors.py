@@ -7,13 +7,14 @@ per world indexed by the world's own step: the row of step s is `s % rows` (the 
   the world's current step (`steps`, counted in integers since reset: never from MuJoCo Warp's float32
   `time`), then each noisy sensor's program runs on the samples its schedule takes at that step.
 - `reset(mask, fields)`: the masked worlds' reset sample (noisy as on the CPU), every other row filled with
-  the pad value, the episode's keys taken from `keys`, the noise level adopted.
+  the pad value, the episode's keys and reset draws taken from the tables ahead, the noise level adopted (each
+  world's episodes: `Sensors.episodes`, an `Episodes`).
 - `read()`: every read position gathered by the plan's read table for each world's phase, plain outputs
   as views of the gather, blocks reduced by their aggregator.
 
 Drawn intervals and delays (`DrawnTiming`) are `warp.drawn`'s: its kernel runs in `record` before the noise
 (which samples a drawn schedule takes there: `due`) and its windows in `read`; their episode keys follow the
-noisy sensors' in `keys` (`key_names`).
+noisy sensors' in `Episodes.keys` (`key_names`).
 
 Values are float32 (MuJoCo Warp's); noise arithmetic runs in float64 on them, with the random numbers of
 `noise/streams.py` (`philox.value`), keyed by (sensor key, sample index, stage, lane, value) as on the CPU.
@@ -27,18 +28,17 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import NamedTuple
 
 import numpy as np
 import warp as wp
 
 from ..plan import DrawnTiming, SuitePlan
-from .drawn import DrawnSchedules, Reduction
+from .drawn import DrawnSchedules, Reduction, reduction
 from .episode import Turns, turn
 from .philox import MODULE_OPTIONS, Ziggurat, value, ziggurat
 from .program import STAGES, NoisePrograms, NoiseSteps, NoiseValues, noise_tables, taken_at
 
-__all__ = ["STAGES", "NoiseMemory", "Sensors"]
+__all__ = ["STAGES", "Episodes", "FieldCopy", "NoiseMemory", "ReadTable", "Sensors"]
 
 wp.set_module_options(MODULE_OPTIONS)  # numpy's roundings in the noise arithmetic (no fused multiply-adds)
 
@@ -54,23 +54,55 @@ class NoiseMemory:
     work: wp.array2d[wp.float64]
 
 
-class _FieldCopy(NamedTuple):
-    """What `record` copies of plan field `field`: its values at `positions` into history `columns`."""
+@wp.struct
+class Episodes:
+    """Per world, its episodes: the `key_episodes` ahead whose keys and reset draws the host wrote (`set_keys`,
+    from `layer.EpisodeKeys`; episode e at row e % key_episodes), how many it started, and the running one's
+    keys, values drawn at its reset (at `NoiseTables`' slots) and noise level."""
 
-    field: str
-    columns: wp.array
-    positions: wp.array
+    key_table: wp.array4d[wp.uint64]  # (world, row, keyed sensor, 2): the keys of the episodes ahead
+    value_table: wp.array3d[wp.float64]  # (world, row, slot): what they draw at their resets (`warp.episode`)
+    count: wp.array[wp.int32]  # the episodes each world started (since the keys' `EpisodeKeys.start`)
+    keys: wp.array3d[wp.uint64]  # (world, keyed sensor, 2): the running episode's keys (`key_names`' order)
+    drawn: wp.array2d[wp.float64]  # (world, slot): what it drew at its reset
+    level: wp.array[wp.float64]  # its noise level
+    next_level: wp.array[wp.float64]  # (1,): the level the next episodes adopt (`set_noise_level`)
+
+
+@wp.struct
+class FieldCopy:
+    """What `record` copies of one plan field: its values at `positions` into history `columns`."""
+
+    columns: wp.array[wp.int32]
+    positions: wp.array[wp.int32]
+
+
+@wp.struct
+class ReadTable:
+    """The plan's `ReadTable` as the read kernel gathers it, with the plan's history `rows` and `substeps`:
+    per read position p, its history `column[p]` and the row offset `delta[q, p]` of each phase q."""
+
+    rows: wp.int32
+    substeps: wp.int32
+    cycle: wp.int32
+    nphase: wp.int32
+    delta: wp.array2d[wp.int32]
+    column: wp.array[wp.int32]
 
 
 @wp.kernel
-def _gather(field: wp.array2d[wp.float32], cols: wp.array[wp.int32], pos: wp.array[wp.int32],
-            steps: wp.array[wp.int64], mask: wp.array[wp.int32], rows: wp.int32,
-            history: wp.array3d[wp.float32]):
+def _gather(
+    # In:
+    field: wp.array2d[wp.float32], copy: FieldCopy, steps: wp.array[wp.int64], mask: wp.array[wp.int32],
+    rows: wp.int32,
+    # Out:
+    history: wp.array3d[wp.float32],
+):
     w, j = wp.tid()
     if mask[w] == 0:
         return
     r = wp.int32(steps[w] % wp.int64(rows))
-    history[w, r, cols[j]] = field[w, pos[j]]
+    history[w, r, copy.columns[j]] = field[w, copy.positions[j]]
 
 
 @wp.func
@@ -181,7 +213,12 @@ def _noise(
 
 
 @wp.kernel
-def _pad(mask: wp.array[wp.int32], pad: wp.int32, rows: wp.int32, history: wp.array3d[wp.float32]):
+def _pad(
+    # In:
+    mask: wp.array[wp.int32], pad: wp.int32, rows: wp.int32,
+    # In and out:
+    history: wp.array3d[wp.float32],
+):
     w, c = wp.tid()
     if mask[w] == 0:
         return
@@ -191,56 +228,76 @@ def _pad(mask: wp.array[wp.int32], pad: wp.int32, rows: wp.int32, history: wp.ar
 
 
 @wp.kernel
-def _scatter_keys(worlds: wp.array[wp.int32], keys: wp.array4d[wp.uint64], values: wp.array3d[wp.float64],
-                  key_table: wp.array4d[wp.uint64], episode_table: wp.array3d[wp.float64]):
+def _scatter_keys(
+    # In: per world of `worlds`, the keys and reset draws of its episodes ahead
+    worlds: wp.array[wp.int32], keys: wp.array4d[wp.uint64], values: wp.array3d[wp.float64],
+    # Out:
+    episodes: Episodes,
+):
     i, e = wp.tid()
     w = worlds[i]
     for n in range(keys.shape[2]):
-        key_table[w, e, n, 0] = keys[i, e, n, 0]
-        key_table[w, e, n, 1] = keys[i, e, n, 1]
+        episodes.key_table[w, e, n, 0] = keys[i, e, n, 0]
+        episodes.key_table[w, e, n, 1] = keys[i, e, n, 1]
     for v in range(values.shape[2]):
-        episode_table[w, e, v] = values[i, e, v]
+        episodes.value_table[w, e, v] = values[i, e, v]
 
 
 @wp.kernel
-def _start(mask: wp.array[wp.int32], episodes: wp.array[wp.int32], table: wp.array4d[wp.uint64],
-           keys: wp.array3d[wp.uint64], next_level: wp.array[wp.float64], level: wp.array[wp.float64]):
+def _start(
+    # In:
+    mask: wp.array[wp.int32],
+    # In and out: the running episode's keys and level, from the tables and `next_level`
+    episodes: Episodes,
+):
     w, n = wp.tid()
     if mask[w] == 0:
         return
-    e = episodes[w] % table.shape[1]
-    keys[w, n, 0] = table[w, e, n, 0]
-    keys[w, n, 1] = table[w, e, n, 1]
+    e = episodes.count[w] % episodes.key_table.shape[1]
+    episodes.keys[w, n, 0] = episodes.key_table[w, e, n, 0]
+    episodes.keys[w, n, 1] = episodes.key_table[w, e, n, 1]
     if n == 0:
-        level[w] = next_level[0]
+        episodes.level[w] = episodes.next_level[0]
 
 
 @wp.kernel
-def _start_drawn(mask: wp.array[wp.int32], episodes: wp.array[wp.int32], table: wp.array3d[wp.float64],
-                 drawn: wp.array2d[wp.float64]):
+def _start_drawn(
+    # In:
+    mask: wp.array[wp.int32],
+    # In and out: the running episode's drawn values, from the table
+    episodes: Episodes,
+):
     w, i = wp.tid()
     if mask[w] == 1:
-        drawn[w, i] = table[w, episodes[w] % table.shape[1], i]
+        episodes.drawn[w, i] = episodes.value_table[w, episodes.count[w] % episodes.value_table.shape[1], i]
 
 
 @wp.kernel
-def _count_episode(mask: wp.array[wp.int32], episodes: wp.array[wp.int32]):
+def _count_episode(
+    # In:
+    mask: wp.array[wp.int32],
+    # In and out: the count of episodes started
+    episodes: Episodes,
+):
     w = wp.tid()
     if mask[w] == 1:
-        episodes[w] = episodes[w] + 1
+        episodes.count[w] = episodes.count[w] + 1
 
 
 @wp.kernel
-def _gather_reads(steps: wp.array[wp.int64], rows: wp.int32, cycle: wp.int32, substeps: wp.int32, nphase: wp.int32,
-                  delta: wp.array2d[wp.int32], column: wp.array[wp.int32], history: wp.array3d[wp.float32],
-                  out: wp.array2d[wp.float32]):
+def _gather_reads(
+    # In:
+    steps: wp.array[wp.int64], reads: ReadTable, history: wp.array3d[wp.float32],
+    # Out:
+    out: wp.array2d[wp.float32],
+):
     w, p = wp.tid()
     s = steps[w]
-    q = nphase
+    q = reads.nphase
     if s > wp.int64(0):
-        q = wp.int32(s % wp.int64(cycle)) / substeps
-    r = wp.int32((s + wp.int64(delta[q, p])) % wp.int64(rows))
-    out[w, p] = history[w, r, column[p]]
+        q = wp.int32(s % wp.int64(reads.cycle)) / reads.substeps
+    r = wp.int32((s + wp.int64(reads.delta[q, p])) % wp.int64(reads.rows))
+    out[w, p] = history[w, r, reads.column[p]]
 
 
 @wp.func
@@ -249,11 +306,20 @@ def _smaller(a: wp.float32, b: wp.float32) -> bool:
 
 
 @wp.kernel
-def _reduce(gathered: wp.array2d[wp.float32], first: wp.int32, buffer: wp.int32, width: wp.int32,
-            aggregator: wp.int32, out: wp.array2d[wp.float32], at: wp.int32):
+def _reduce(
+    # In:
+    gathered: wp.array2d[wp.float32], block: Reduction,
+    # Out:
+    out: wp.array2d[wp.float32],
+):
     """One block: positions first + b * width + c form (buffer, width); 0 min, 1 max, 2 sum, 3 mean, 4 median
-    (the mean of the middle one or two; NaN wherever a NaN is, as numpy's)."""
+    (`drawn.AGGREGATORS`: the mean of the middle one or two; NaN wherever a NaN is, as numpy's), into columns
+    at + c."""
     w, c = wp.tid()
+    first = block.first
+    buffer = block.buffer
+    width = block.width
+    aggregator = block.aggregator
     nan = bool(False)
     total = wp.float64(0.0)
     low = gathered[w, first + c]
@@ -291,10 +357,7 @@ def _reduce(gathered: wp.array2d[wp.float32], first: wp.int32, buffer: wp.int32,
         result = middle / wp.float64(2.0)
     if nan:
         result = wp.float64(wp.nan)
-    out[w, at + c] = wp.float32(result)
-
-
-_AGGREGATOR_CODES = {"min": 0, "max": 1, "sum": 2, "mean": 3, "median": 4}
+    out[w, block.at + c] = wp.float32(result)
 
 
 class Sensors:
@@ -307,11 +370,13 @@ class Sensors:
         n, width, rows = plan.nsim, plan.width, plan.rows
         with wp.ScopedDevice(device):
             self.history = wp.zeros((n, rows, width), dtype=wp.float32)
-            self._fields = self._field_tables()
+            self._fields = self._field_copies()
             self._noise_worlds(bounds, key_episodes)
             reads = plan.reads
-            self._delta = wp.array(reads.delta.astype(np.int32), dtype=wp.int32)
-            self._column = wp.array(reads.column.astype(np.int32), dtype=wp.int32)
+            self._reads = table = ReadTable()
+            table.rows, table.substeps, table.cycle, table.nphase = plan.rows, plan.substeps, reads.cycle, reads.nphase
+            table.delta = wp.array(reads.delta.astype(np.int32), dtype=wp.int32)
+            table.column = wp.array(reads.column.astype(np.int32), dtype=wp.int32)
             self.gathered = wp.zeros((n, reads.column.size), dtype=wp.float32)
             reduced = sum(block.positions.size // block.buffer for block in reads.blocks)
             self.reduced = wp.zeros((n, reduced), dtype=wp.float32)
@@ -323,8 +388,9 @@ class Sensors:
 
     # -- construction --------------------------------------------------------------------------------
 
-    def _field_tables(self) -> list[_FieldCopy]:
-        out = []
+    def _field_copies(self) -> dict[str, FieldCopy]:
+        """Per plan field, what `record` copies of it."""
+        out = {}
         for field, _ in self.plan.fields:
             cols, pos = [], []
             for sensor in self.plan.sensors:
@@ -332,12 +398,13 @@ class Sensors:
                     first, stop = sensor.columns
                     cols.append(np.arange(first, stop))
                     pos.append(sensor.source.positions.ravel())
-            out.append(_FieldCopy(field, wp.array(np.concatenate(cols).astype(np.int32), dtype=wp.int32),
-                                 wp.array(np.concatenate(pos).astype(np.int32), dtype=wp.int32)))
+            out[field] = copy = FieldCopy()
+            copy.columns = wp.array(np.concatenate(cols).astype(np.int32), dtype=wp.int32)
+            copy.positions = wp.array(np.concatenate(pos).astype(np.int32), dtype=wp.int32)
         return out
 
     def _noise_worlds(self, bounds: Mapping[str, tuple[np.ndarray, np.ndarray]], key_episodes: int) -> None:
-        """The noise tables (`program.noise_tables`) and, per world, the episode keys, drawn values and memory."""
+        """The noise tables (`program.noise_tables`) and, per world, its episodes (`Episodes`) and memory."""
         plan = self.plan
         self.noise = noise = noise_tables(plan, bounds)
         self.noisy_names = [s.name for s in plan.sensors if s.noise is not None]
@@ -347,14 +414,15 @@ class Sensors:
         self.key_slots = {name: k for k, name in enumerate(self.key_names)}
         self.noisy_slots = {name: k for k, name in enumerate(self.noisy_names)}
         nsim, nnoisy, nkeyed = plan.nsim, max(1, len(self.noisy_names)), max(1, len(self.key_names))
-        self.keys = wp.zeros((nsim, nkeyed, 2), dtype=wp.uint64)
-        self.key_table = wp.zeros((nsim, key_episodes, nkeyed, 2), dtype=wp.uint64)
-        self.due = wp.full((nsim, nnoisy), -1, dtype=wp.int32)
-        self.episodes = wp.zeros(nsim, dtype=wp.int32)
-        self.level = wp.ones(nsim, dtype=wp.float64)
-        self.next_level = wp.ones(1, dtype=wp.float64)
-        self.episode_table = wp.zeros((nsim, key_episodes, max(1, noise.nslot)), dtype=wp.float64)
-        self.drawn = wp.zeros((nsim, max(1, noise.nslot)), dtype=wp.float64)
+        self.episodes = episodes = Episodes()
+        episodes.key_table = wp.zeros((nsim, key_episodes, nkeyed, 2), dtype=wp.uint64)
+        episodes.value_table = wp.zeros((nsim, key_episodes, max(1, noise.nslot)), dtype=wp.float64)
+        episodes.count = wp.zeros(nsim, dtype=wp.int32)
+        episodes.keys = wp.zeros((nsim, nkeyed, 2), dtype=wp.uint64)
+        episodes.drawn = wp.zeros((nsim, max(1, noise.nslot)), dtype=wp.float64)
+        episodes.level = wp.ones(nsim, dtype=wp.float64)
+        episodes.next_level = wp.ones(1, dtype=wp.float64)
+        self.due = wp.full((nsim, nnoisy), -1, dtype=wp.int32)  # per step: a drawn schedule's gaps (`warp.drawn`)
         self.memory = NoiseMemory()
         self.memory.state = wp.zeros((nsim, max(1, noise.nstep), noise.size), dtype=wp.float64)
         self.memory.walked = wp.zeros((nsim, max(1, noise.nstep), noise.size), dtype=wp.int64)
@@ -368,7 +436,7 @@ class Sensors:
         at = 0
         for block in plan.reads.blocks:
             width = block.positions.size // block.buffer
-            self._blocks.append(Reduction(int(block.positions[0]), block.buffer, width, block.aggregator, at))
+            self._blocks.append(reduction(int(block.positions[0]), block.buffer, width, block.aggregator, at))
             for member in block.outputs:
                 sensor = plan.sensors[member.sensor]
                 out[sensor.name] = self._view(self.reduced, at + member.columns[0], sensor.output)
@@ -396,52 +464,49 @@ class Sensors:
         all worlds when None), then noise. `fields`: each plan field as an (nworld, size) float32 view."""
         mask = self.everyone if mask is None else mask
         n, rows = self.plan.nsim, self.plan.rows
-        for copy in self._fields:
-            wp.launch(_gather, dim=(n, copy.columns.shape[0]),
-                      inputs=[fields[copy.field], copy.columns, copy.positions, steps, mask, rows],
+        for field, copy in self._fields.items():
+            wp.launch(_gather, dim=(n, copy.columns.shape[0]), inputs=[fields[field], copy, steps, mask, rows],
                       outputs=[self.history], device=self.device)
+        episodes = self.episodes
         if self._drawn is not None:
-            self._drawn.record(steps, mask, self.keys, self.due)
+            self._drawn.record(steps, mask, episodes.keys, self.due)
         noise = self.noise
         for segment in range(noise.segments if noise.nvalue else 0):
             if segment:  # the misalign stages ending the previous segment
-                turn(self._turns, segment - 1, steps, mask, noise.programs, self.drawn, self.memory.work)
+                turn(self._turns, segment - 1, steps, mask, noise.programs, episodes.drawn, self.memory.work)
             wp.launch(_noise, dim=(n, noise.nvalue),
                       inputs=[steps, mask, rows, segment, noise.values, noise.programs, noise.steps, self.z,
-                              self.keys, self.level, self.drawn, self.due],
+                              episodes.keys, episodes.level, episodes.drawn, self.due],
                       outputs=[self.history, self.memory], device=self.device)
 
     def reset(self, mask: wp.array, fields: Mapping[str, wp.array], steps: wp.array) -> None:
         """Start the masked worlds' episodes (their `steps` already 0 and `fields` their reset state)."""
-        n = self.plan.nsim
-        wp.launch(_start, dim=(n, self.keys.shape[1]),
-                  inputs=[mask, self.episodes, self.key_table, self.keys, self.next_level, self.level],
+        n, episodes = self.plan.nsim, self.episodes
+        wp.launch(_start, dim=(n, episodes.keys.shape[1]), inputs=[mask], outputs=[episodes], device=self.device)
+        wp.launch(_start_drawn, dim=(n, episodes.drawn.shape[1]), inputs=[mask], outputs=[episodes],
                   device=self.device)
-        wp.launch(_start_drawn, dim=(n, self.drawn.shape[1]), inputs=[mask, self.episodes, self.episode_table],
-                  outputs=[self.drawn], device=self.device)
-        wp.launch(_count_episode, dim=n, inputs=[mask, self.episodes], device=self.device)
+        wp.launch(_count_episode, dim=n, inputs=[mask], outputs=[episodes], device=self.device)
         self.record(fields, steps, mask)
         wp.launch(_pad, dim=(n, self.plan.width),
-                  inputs=[mask, int(self.plan.pad_with_initial_value), self.plan.rows, self.history],
+                  inputs=[mask, int(self.plan.pad_with_initial_value), self.plan.rows], outputs=[self.history],
                   device=self.device)
 
     def set_keys(self, worlds: np.ndarray, keys: np.ndarray, values: np.ndarray) -> None:
-        """The key tables of `worlds` (their rows of `key_table` and `episode_table`), from the host."""
+        """The episodes ahead of `worlds` (their rows of `Episodes.key_table` and `value_table`), from the host."""
         if worlds.size:
-            wp.launch(_scatter_keys, dim=(worlds.size, self.key_table.shape[1]),
+            wp.launch(_scatter_keys, dim=(worlds.size, self.episodes.key_table.shape[1]),
                       inputs=[wp.array(worlds.astype(np.int32), dtype=wp.int32, device=self.device),
                               wp.array(keys, dtype=wp.uint64, device=self.device),
                               wp.array(values, dtype=wp.float64, device=self.device)],
-                      outputs=[self.key_table, self.episode_table], device=self.device)
+                      outputs=[self.episodes], device=self.device)
 
     def read(self, steps: wp.array) -> dict[str, wp.array]:
         """Every sensor's read at each world's step `steps` (a multiple of the plan's substeps)."""
         plan, reads = self.plan, self.plan.reads
         n = plan.nsim
         if reads.column.size:
-            wp.launch(_gather_reads, dim=(n, reads.column.size),
-                      inputs=[steps, plan.rows, reads.cycle, plan.substeps, reads.nphase, self._delta,
-                              self._column, self.history], outputs=[self.gathered], device=self.device)
+            wp.launch(_gather_reads, dim=(n, reads.column.size), inputs=[steps, self._reads, self.history],
+                      outputs=[self.gathered], device=self.device)
         for block in self._blocks:
             self._reduce_block(self.gathered, block, self.reduced)
         if self._drawn is not None:
@@ -451,6 +516,5 @@ class Sensors:
         return self.outputs
 
     def _reduce_block(self, gathered: wp.array, block: Reduction, out: wp.array) -> None:
-        wp.launch(_reduce, dim=(self.plan.nsim, block.width),
-                  inputs=[gathered, block.first, block.buffer, block.width, _AGGREGATOR_CODES[block.aggregator]],
-                  outputs=[out, block.at], device=self.device)
+        wp.launch(_reduce, dim=(self.plan.nsim, block.width), inputs=[gathered, block], outputs=[out],
+                  device=self.device)

@@ -24,6 +24,8 @@ Conventions:
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import mujoco
 import mujoco_warp as mjw
 import numpy as np
@@ -32,7 +34,7 @@ import warp as wp
 from ..errors import UnsupportedError
 from .quiet import quiet_loads
 
-__all__ = ["KEYFRAME_STATE", "Worlds", "control_bounds", "default_sizes", "model_refusal", "put_model"]
+__all__ = ["KEYFRAME_STATE", "ControlBounds", "Worlds", "control_bounds", "default_sizes", "model_refusal", "put_model"]
 
 wp.set_module_options({"enable_backward": False})
 
@@ -50,8 +52,12 @@ def default_sizes(mjm: mujoco.MjModel, keyframe: int | None = None) -> tuple[int
 
 
 @wp.kernel
-def _select(mask: wp.array[wp.int32], selected: wp.array[bool], steps: wp.array[wp.int64],
-            diverged: wp.array[bool]):
+def _select(
+    # In:
+    mask: wp.array[wp.int32],
+    # Out: the worlds selected; their step counts and divergence cleared
+    selected: wp.array[bool], steps: wp.array[wp.int64], diverged: wp.array[bool],
+):
     """The worlds to reset (mask nonzero): their step counts and divergence cleared."""
     w = wp.tid()
     on = mask[w] != 0
@@ -62,8 +68,12 @@ def _select(mask: wp.array[wp.int32], selected: wp.array[bool], steps: wp.array[
 
 
 @wp.kernel
-def _select_bool(mask: wp.array[bool], selected: wp.array[bool], steps: wp.array[wp.int64],
-                 diverged: wp.array[bool]):
+def _select_bool(
+    # In:
+    mask: wp.array[bool],
+    # Out: as `_select`'s
+    selected: wp.array[bool], steps: wp.array[wp.int64], diverged: wp.array[bool],
+):
     w = wp.tid()
     on = mask[w]
     selected[w] = on
@@ -80,7 +90,12 @@ KEYFRAME_STATE = (("key_time", "time"), ("key_qpos", "qpos"), ("key_qvel", "qvel
 
 
 @wp.kernel
-def _keyframe(selected: wp.array[bool], row: wp.array[wp.float32], out: wp.array2d[wp.float32]):
+def _keyframe(
+    # In:
+    selected: wp.array[bool], row: wp.array[wp.float32],
+    # Out: the field's (nworld, values) view
+    out: wp.array2d[wp.float32],
+):
     """One field of a keyframe's state (`row`, float32 as MuJoCo Warp holds it) into the selected worlds
     (after `mjw.reset_data` cleared them)."""
     w, i = wp.tid()
@@ -94,16 +109,24 @@ def _values(array: wp.array, nworld: int) -> wp.array:
     return wp.array(ptr=array.ptr, dtype=wp.float32, shape=(nworld, size), device=array.device, copy=False)
 
 
-def _keyframe_rows(mjm: mujoco.MjModel, key: int, data: object, nworld: int) -> list[tuple[wp.array, wp.array]]:
-    """Keyframe `key`'s state as (row, Data view) pairs of its non-empty fields (read from `mjm`: MuJoCo Warp
-    3.11's Model holds no keyframes)."""
+class _KeyRow(NamedTuple):
+    """One non-empty field of a keyframe's state: its `row` (float32) and the Data `field` it restarts, as an
+    (nworld, values) view."""
+
+    row: wp.array
+    field: wp.array
+
+
+def _keyframe_rows(mjm: mujoco.MjModel, key: int, data: object, nworld: int) -> list[_KeyRow]:
+    """Keyframe `key`'s state, its non-empty fields (read from `mjm`: MuJoCo Warp 3.11's Model holds no
+    keyframes)."""
     out = []
     for key_field, field in KEYFRAME_STATE:
         if not hasattr(mjm, key_field):
             continue
         row = np.ravel(getattr(mjm, key_field)[key]).astype(np.float32)
         if row.size:
-            out.append((wp.array(row, dtype=wp.float32), _values(getattr(data, field), nworld)))
+            out.append(_KeyRow(wp.array(row, dtype=wp.float32), _values(getattr(data, field), nworld)))
     return out
 
 
@@ -113,13 +136,26 @@ def _bad(x: float) -> bool:
     return not (wp.abs(x) <= _MAX_VALUE)
 
 
+@wp.struct
+class ControlBounds:
+    """Each control's [low, high] as MuJoCo clamps it before its bad-control test (`control_bounds`)."""
+
+    low: wp.array[float]
+    high: wp.array[float]
+
+
 @wp.kernel
-def _count(qpos: wp.array2d[float], qvel: wp.array2d[float], qacc: wp.array2d[float], ctrl: wp.array2d[float],
-           ctrl_low: wp.array[float], ctrl_high: wp.array[float], steps: wp.array[wp.int64],
-           diverged: wp.array[bool]):
+def _count(
+    # Data in:
+    qpos: wp.array2d[float], qvel: wp.array2d[float], qacc: wp.array2d[float], ctrl: wp.array2d[float],
+    # In:
+    bounds: ControlBounds,
+    # In and out:
+    steps: wp.array[wp.int64], diverged: wp.array[bool],
+):
     """After one step: the world's step count advanced, and it is marked diverged if its state is bad or its
-    controls were (each clamped to [ctrl_low, ctrl_high] as MuJoCo clamps it: +-inf where it is not; none
-    checked where MuJoCo checks none, `ctrl_low` then empty)."""
+    controls were (each clamped to `bounds` as MuJoCo clamps it: +-inf where it is not; none checked where
+    MuJoCo checks none, `bounds` then empty)."""
     w = wp.tid()
     steps[w] = steps[w] + wp.int64(1)
     bad = diverged[w]
@@ -127,12 +163,12 @@ def _count(qpos: wp.array2d[float], qvel: wp.array2d[float], qacc: wp.array2d[fl
         bad = bad or _bad(qpos[w, i])
     for i in range(qvel.shape[1]):
         bad = bad or _bad(qvel[w, i]) or _bad(qacc[w, i])
-    for i in range(ctrl_low.shape[0]):
+    for i in range(bounds.low.shape[0]):
         c = ctrl[w, i]
-        if c < ctrl_low[i]:  # (mju_clip: a NaN compares false and stays NaN)
-            c = ctrl_low[i]
-        elif c > ctrl_high[i]:
-            c = ctrl_high[i]
+        if c < bounds.low[i]:  # (mju_clip: a NaN compares false and stays NaN)
+            c = bounds.low[i]
+        elif c > bounds.high[i]:
+            c = bounds.high[i]
         bad = bad or _bad(c)
     diverged[w] = bad
 
@@ -219,7 +255,9 @@ class Worlds:
         with wp.ScopedDevice(device):
             self.steps = wp.zeros(nworld, dtype=wp.int64)
             self.diverged = wp.zeros(nworld, dtype=bool)
-            self._ctrl_bounds = [wp.array(b, dtype=float) for b in control_bounds(mjm)]
+            low, high = control_bounds(mjm)
+            self._ctrl_bounds = bounds = ControlBounds()
+            bounds.low, bounds.high = wp.array(low, dtype=float), wp.array(high, dtype=float)
             self._selected = wp.zeros(nworld, dtype=bool)
             self._key_rows = [] if keyframe is None else _keyframe_rows(mjm, keyframe, data, nworld)
 
@@ -237,8 +275,8 @@ class Worlds:
 
     def count(self) -> None:
         """After one physics step of every world: the step counts advanced, divergence checked."""
-        wp.launch(_count, dim=self.nworld, inputs=[self.data.qpos, self.data.qvel, self.data.qacc, self.data.ctrl,
-                                                   *self._ctrl_bounds],
+        data = self.data
+        wp.launch(_count, dim=self.nworld, inputs=[data.qpos, data.qvel, data.qacc, data.ctrl, self._ctrl_bounds],
                   outputs=[self.steps, self.diverged], device=self.device)
 
     def forward(self) -> None:
@@ -257,8 +295,8 @@ class Worlds:
         with wp.ScopedDevice(self.device):
             self.restarted(mask)
             mjw.reset_data(self.model, self.data, self._selected)
-            for row, out in self._key_rows:
-                wp.launch(_keyframe, dim=out.shape, inputs=[self._selected, row], outputs=[out])
+            for key in self._key_rows:
+                wp.launch(_keyframe, dim=key.field.shape, inputs=[self._selected, key.row], outputs=[key.field])
 
     def restarted(self, mask: wp.array) -> None:
         """The worlds where `mask` ((nworld,) bool or int32) is set start again: step count 0, divergence cleared

@@ -98,8 +98,8 @@ def _run(device: str, nworld: int, substeps: int, trajectory: list[dict[str, np.
     """The sensor layer on `device` with key table `table` and episode table `values`, fed `trajectory` (per
     physics step, each field (nworld, size) float32): the reads at the reset and after each control step."""
     sensors, _ = _sensors(device, nworld, substeps)
-    sensors.key_table.assign(table)
-    sensors.episode_table.assign(values)
+    sensors.episodes.key_table.assign(table)
+    sensors.episodes.value_table.assign(values)
 
     def fields(k: int) -> dict[str, wp.array]:
         return {f: wp.array(v, dtype=wp.float32, device=device) for f, v in trajectory[k].items()}
@@ -124,8 +124,8 @@ def test_the_sensor_layer_reads_the_same_values_on_cuda_and_cpu() -> None:
     sizes = {f: np.ravel(getattr(data, f)).size for f, _ in layout.plan.fields}
     trajectory = [{f: rng.uniform(-1, 1, (nworld, n)).astype(np.float32) for f, n in sizes.items()}
                   for _ in range(nsteps)]
-    table = np.zeros(layout.key_table.shape, np.uint64)
-    values = np.zeros(layout.episode_table.shape)
+    table = np.zeros(layout.episodes.key_table.shape, np.uint64)
+    values = np.zeros(layout.episodes.value_table.shape)
     for w in range(nworld):
         table[w, 0], values[w, 0] = episode_keys(layout, pipelines, episode_entropy(np.random.RandomState(100 + w)))
     cpu, cuda = (_run(d, nworld, substeps, trajectory, table, values) for d in ("cpu", CUDA))

@@ -189,7 +189,7 @@ def test_keys_are_topped_up_over_many_short_episodes() -> None:
         if step.step_type.numpy()[0] == FIRST:
             firsts.append(step.observation["noisy"].numpy()[0].copy())
     assert len(firsts) >= 10 and len({f.tobytes() for f in firsts}) == len(firsts)
-    used = e._sensors.episodes.numpy()
+    used = e._sensors.episodes.count.numpy()
     assert (used >= 12).all() and (e._keys.keyed >= used).all()  # every episode started had its keys drawn
 
 
@@ -228,13 +228,13 @@ def test_misalign_and_parameters_drawn_per_episode_run_over_many_episodes() -> N
             continue
         assert step.step_type.numpy().tolist() == [FIRST, FIRST]
         raw = e.data.site_xpos.numpy()[:, site].astype(np.float64)
-        keys = e._sensors.keys.numpy()[:, e._sensors.noisy_names.index("turned")]
+        keys = e._sensors.episodes.keys.numpy()[:, e._sensors.noisy_names.index("turned")]
         got = step.observation["turned"].numpy()  # (world, buffer 1, 3)
         for w in range(2):
             cpu.reset(keys[w], 1)
             np.testing.assert_allclose(got[w, 0], cpu(raw[w], 0), rtol=1e-5, atol=1e-6, err_msg=f"world {w} step {t}")
             seen.add(got[w].tobytes())
-    assert len(seen) == 22 and (e._sensors.episodes.numpy() == 11).all()  # 11 episodes per world, each its own
+    assert len(seen) == 22 and (e._sensors.episodes.count.numpy() == 11).all()  # 11 episodes per world, each its own
 
 
 def test_a_noise_level_applies_from_each_worlds_next_episode() -> None:

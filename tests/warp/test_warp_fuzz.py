@@ -275,7 +275,7 @@ def replay(make: Callable[[], dict[str, Any]], model: mujoco.MjModel, options: d
             if t in levels:
                 for *_, obs in worlds:
                     set_level(obs, levels[t])
-                sensors.next_level.fill_(levels[t])
+                sensors.episodes.next_level.fill_(levels[t])
             chosen = restarts.get(t, [])
             running = [w for w in range(nworld) if w not in chosen]
             snapshots: list[list[mujoco.MjData]] = [[] for _ in range(substeps)]
@@ -315,8 +315,8 @@ def replay(make: Callable[[], dict[str, Any]], model: mujoco.MjModel, options: d
                 else:
                     np.testing.assert_allclose(got[name][w], value, rtol=1e-5, atol=1e-6,
                                                err_msg=f"world {w} control step {t} {name}")
-    assert not sensors.key_names or (keys.keyed >= sensors.episodes.numpy()).all()
-    return int(sensors.episodes.numpy().max())
+    assert not sensors.key_names or (keys.keyed >= sensors.episodes.count.numpy()).all()
+    return int(sensors.episodes.count.numpy().max())
 
 
 def run_seed(seed: int) -> int:

@@ -88,8 +88,8 @@ def replay(make: Callable[[], dict[str, Any]], model: mujoco.MjModel, nworld: in
     plain = {s.name for s in plan.sensors if s.noise is None and s.aggregator is None}
     # the CPU side: one Updater and MjData per world, seeded per world
     updaters, physicss = [], []
-    table = np.zeros(sensors.key_table.shape, np.uint64)
-    values = np.zeros(sensors.episode_table.shape)
+    table = np.zeros(sensors.episodes.key_table.shape, np.uint64)
+    values = np.zeros(sensors.episodes.value_table.shape)
     pipelines = {e.name: e.channel.noise for e in (*bound.fixed, *bound.drawn)}
     for w in range(nworld):
         p = Physics(model)
@@ -103,8 +103,8 @@ def replay(make: Callable[[], dict[str, Any]], model: mujoco.MjModel, nworld: in
                                                          episode_entropy(np.random.RandomState(100 * (e + 1) + w)))
         updaters.append(u)
         physicss.append(p)
-    sensors.key_table.assign(table)
-    sensors.episode_table.assign(values)
+    sensors.episodes.key_table.assign(table)
+    sensors.episodes.value_table.assign(values)
     steps = wp.zeros(nworld, dtype=wp.int64, device="cpu")
     age = np.zeros(nworld, np.int64)
     everyone = wp.ones(nworld, dtype=wp.int32, device="cpu")
