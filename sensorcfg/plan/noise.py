@@ -20,7 +20,7 @@ from ..noise.arithmetic import clip_bounds, lowpass_alpha, walk_coefficients, wi
 from ..noise.misalign import matrix as misalign_matrix
 from ..noise.misalign import rotation_draw
 from ..noise.redrawn import params_draw
-from ..noise.stages import start_draw, value_draw
+from ..noise.stages import Sum, start_draw, value_draw
 from ..noise.streams import ResetDraw, Streams, draw_episode
 from .records import DrawnTiming, FixedTiming, FloatArray, NoiseProgram, NoiseStep, UInt64Array, frozen
 
@@ -82,7 +82,9 @@ def _numbers(s: NoiseStep, size: int, stride: int, timestep: float, gaps: int) -
     kernel: dict[str, object] = {}
     draw: ResetDraw | None = None
     if s.stage == "gaussian":
-        kernel = {name: p[name] for name in ("mean", "std") if name in p}
+        kernel = {"std": p["std"]}
+        if np.any(p["mean"]):  # (`stages.Gaussian`: a centred one adds std z alone)
+            kernel["mean"] = p["mean"]
     elif s.stage == "uniform":
         kernel = {"low": p["low"], "width": width(p["low"], p["high"])}
     elif s.stage == "clip":
@@ -130,9 +132,11 @@ def program(pipeline: NoisePipeline | None, shape: tuple[int, ...], stride: int,
     if bounds is not None:
         bounds = (frozen(np.broadcast_to(np.asarray(bounds[0], np.float64), shape).ravel()),
                   frozen(np.broadcast_to(np.asarray(bounds[1], np.float64), shape).ravel()))
+    sums = tuple((min(p.stream for p in stage.parts), max(p.stream for p in stage.parts) + 1)
+                 for stage in pipeline.stages if isinstance(stage, Sum))  # adjacent additive steps (`pipeline._fuse`)
     return NoiseProgram(steps, int(stride), bool(pipeline.stateful), leveled,
                         all(s.stage in ADDITIVE and not s.drawn for s in steps), float(pipeline.timestep), gaps,
-                        bounds)
+                        bounds, sums)
 
 
 def redrawn(s: NoiseStep, values: FloatArray, noise: NoiseProgram) -> NoiseStep:

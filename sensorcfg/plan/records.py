@@ -106,16 +106,17 @@ class NoiseStep(NamedTuple):
     (misalign's `matrix`: 3 x 3); `options`: its word settings (dropout's `mode`, `per`); `drawn`: the
     parameters drawn per episode (their `params` hold the low end).
 
-    What an engine computes with: `kernel`, the stage's numbers made from `params` (per value unless said):
-    gaussian `mean`, `std`; uniform `low`, `width` (values low + width u); clip `low`, `high` (a missing limit
-    infinite); quantize `step`; dropout `p`; outlier `p`, `scale`; lowpass `alpha` (for samples `stride`
-    steps apart) and, on a drawn schedule, `alphas` (gaps + 1, values): row g for samples g steps apart;
-    random_walk `a`, `c` (b_j = a b_(j-1) + c z_j per sample index; a Brownian walk's a is 1); misalign
-    `matrix` (M, 3 x 3). `episode`: what the stage draws at each reset (`ResetDraw`, drawn by
-    `noise.streams.draw_episode`): a bias's or scale's values, a Gauss-Markov random walk's start, a
-    misalign's rotation vector (R M = `noise.misalign.matrix`); None for none. `redraw`: the parameters
-    `drawn` per episode (one value each, in that order), drawn first; `kernel` and `episode` then hold
-    those of the low ends, and `plan.noise.redrawn` makes the episode's."""
+    What an engine computes with: `kernel`, the stage's numbers made from `params` (per value unless
+    said): gaussian `std` and `mean` (absent when every mean is 0: std z alone); uniform `low`, `width`
+    (values low + width u); clip `low`, `high` (a missing limit infinite); quantize `step`; dropout `p`;
+    outlier `p`, `scale`; lowpass `alpha` (for samples `stride` steps apart) and, on a drawn schedule,
+    `alphas` (gaps + 1, values): row g for samples g steps apart; random_walk `a`, `c` (b_j = a b_(j-1) +
+    c z_j per sample index; a Brownian walk's a is 1); misalign `matrix` (M, 3 x 3). `episode`: what the
+    stage draws at each reset (`ResetDraw`, drawn by `noise.streams.draw_episode`): a bias's or scale's
+    values, a Gauss-Markov random walk's start, a misalign's rotation vector (R M =
+    `noise.misalign.matrix`); None for none. `redraw`: the parameters `drawn` per episode (one value each,
+    in that order), drawn first; `kernel` and `episode` then hold those of the low ends, and
+    `plan.noise.redrawn` makes the episode's (`plan.noise.episode` does both)."""
 
     stage: str
     stream: int
@@ -142,7 +143,9 @@ class NoiseProgram(NamedTuple):
     raw value (`noise/level.blend`: raw + level (noisy - raw), clipped to `bounds`, where level != 1), its
     stream `len(steps)`. `timestep`: seconds per physics step; `gaps`: the most steps between two samples
     of a drawn schedule (0 for a fixed one); `bounds`: (low, high) per value, what the noisy values keep
-    (`noise/bounds.noisy_bounds`), None for unbounded (or not leveled)."""
+    (`noise/bounds.noisy_bounds`), None for unbounded (or not leveled); `sums`: (first, stop) ranges of
+    adjacent additive steps (gaussian, uniform, outlier, bias without parameters drawn per episode) whose
+    terms are added up, in order, before the sum is added to the value: x + (a + b), not (x + a) + b."""
 
     steps: tuple[NoiseStep, ...]
     stride: int
@@ -152,6 +155,7 @@ class NoiseProgram(NamedTuple):
     timestep: float
     gaps: int
     bounds: tuple[FloatArray, FloatArray] | None
+    sums: tuple[tuple[int, int], ...]
 
 
 class SensorRecord(NamedTuple):

@@ -114,5 +114,7 @@ def episode_values(sensors: Sensors, keys: np.ndarray) -> np.ndarray:
         block[:, :param.values] = stage_params(drawn[param.sensor][param.stream].step, param.values)[:PARAM_SLOTS]
         values[param.slot:param.slot + PARAM_SLOTS * size] = block.ravel()
     for turning in tables.turn_slots:
-        values[turning.slot:turning.slot + 9] = np.ravel(drawn[turning.sensor][turning.stream].matrix)
+        matrix = drawn[turning.sensor][turning.stream].matrix
+        assert matrix is not None  # (a misalign step's)
+        values[turning.slot:turning.slot + 9] = matrix.ravel()
     return values

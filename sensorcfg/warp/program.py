@@ -265,6 +265,7 @@ def noise_tables(plan: SuitePlan) -> NoiseTables:
 def stage_params(step: NoiseStep, size: int) -> np.ndarray:
     """Slots (3, size) of a stage's kernel numbers (`NoiseStep.kernel`), as the kernel reads them."""
     out = np.zeros((3, size))
+    kernel = dict(step.kernel)
     for at, name in enumerate(STAGES[step.stage].params):
-        out[at] = step.number(name)
+        out[at] = kernel.get(name, 0.0)  # (a centred gaussian's mean: none)
     return out
