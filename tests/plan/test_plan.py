@@ -1,8 +1,10 @@
 """The suite plan (`sensorcfg.plan`): its records are complete and mean what docs/architecture.md says.
 
 `PlanExecutor` below is a second engine written only from the plan's records and documented conventions
-(no batch or runtime module): it runs noise-free fixed schedules on its own MjData and must read exactly
-what the single-simulation `Environment` reads.
+(`sensorcfg.plan`, `sensorcfg.draws` and `sensorcfg.noise.streams`, no batch, runtime or noise-stage module):
+it runs fixed and drawn schedules, every noise stage the Warp engine runs (parameters fixed or drawn per
+episode), the episodes' reset draws and noise levels on its own MjData, and must read exactly what the
+single-simulation Updater reads.
 """
 
 from __future__ import annotations
