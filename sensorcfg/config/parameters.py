@@ -41,9 +41,6 @@ class EpisodeUniform(BaseModel):
     def high(self) -> float:
         return self.uniform[1]
 
-    def draw(self, rng: Any) -> float:
-        return self.low + (self.high - self.low) * float(rng.random())
-
     def scaled(self, factor: float) -> EpisodeUniform:
         return EpisodeUniform(uniform=(self.low * factor, self.high * factor))
 

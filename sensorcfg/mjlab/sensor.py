@@ -108,7 +108,7 @@ class SuiteSensor(Sensor[dict[str, torch.Tensor]]):
                              bool(options.get("pad_with_initial_value", False)))
         self.worlds = Worlds.over(mj_model, model, data, data.qpos.device)
         self._layer = layer = SensorLayer(mj_model, observables, binding, self.worlds, self._key_episodes)
-        self._keys = EpisodeKeys(layer.sensors, layer.pipelines, self._key_episodes, self._offset)
+        self._keys = EpisodeKeys(layer.sensors, self._key_episodes, self._offset)
         self.seed_sequence = self._keys.seed(self.cfg.seed)
         self._n, self._substep = n, 0
         with wp.ScopedDevice(self.worlds.device):

@@ -2,16 +2,20 @@
 
 The per-sample pipeline (`stages`) calls them on one sample, the feature bank (`runtime.bank_noise`) on
 the gathered values of many sensors, the batch (`batch.noise`) on (simulations, ...) arrays; elementwise,
-so every path gives the same bits.
+so every path gives the same bits. The numbers a stage computes from its parameters before any sample
+(`width`, `clip_bounds`, `lowpass_alpha`, `walk_coefficients`) are written here too: the CPU stages and the
+suite plan's kernel numbers (`plan.noise`) both call them.
 """
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 
-__all__ = ["add", "multiply", "quantize", "clip", "walk", "lowpass", "dropout"]
+__all__ = ["add", "multiply", "quantize", "clip", "walk", "lowpass", "dropout", "width", "clip_bounds",
+           "lowpass_alpha", "walk_coefficients"]
 
 
 def add(src: np.ndarray, term: Any, dst: np.ndarray) -> None:
@@ -78,3 +82,30 @@ def dropout(src: np.ndarray, lost: Any, replacement: Any, dst: np.ndarray) -> No
     if dst is not src:
         np.copyto(dst, src)
     np.copyto(dst, replacement, where=lost)
+
+
+# -- numbers made from a stage's parameters, before any sample ---------------------------------------
+
+def width(low: Any, high: Any) -> Any:
+    """A uniform draw's width: its values are low + width u, u in [0, 1)."""
+    return np.subtract(high, low)
+
+
+def clip_bounds(low: Any, high: Any) -> tuple[Any, Any]:
+    """A clip's limits, a missing one infinite (no limit)."""
+    return (-np.inf if low is None else low), (np.inf if high is None else high)
+
+
+def lowpass_alpha(cutoff: Any, dt: float) -> Any:
+    """A low-pass's coefficient for samples `dt` seconds apart: 1 - exp(-2 pi cutoff dt) (float64)."""
+    return -np.expm1(-dt * np.multiply(2.0 * math.pi, cutoff))
+
+
+def walk_coefficients(std: Any, tau: Any, dt: float) -> tuple[Any, Any]:
+    """A random walk's (a, c) for sample indices `dt` seconds apart (float64): a = exp(-dt / tau), c = std
+    sqrt(1 - a^2) with a correlation time; a Brownian walk (tau None): a None (b_j = b_(j-1) + c z_j),
+    c = std sqrt(dt)."""
+    if tau is None:
+        return None, np.multiply(std, math.sqrt(dt))
+    a = np.exp(-dt / np.asarray(tau))
+    return a, np.multiply(std, np.sqrt(-np.expm1(-2.0 * dt / np.asarray(tau))))

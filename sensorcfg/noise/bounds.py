@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from . import stages as rt
+from .arithmetic import clip_bounds
 
 __all__ = ["noisy_bounds", "own_bounds"]
 
@@ -24,8 +25,7 @@ _UNBOUNDED: Interval = (-np.inf, np.inf)
 
 
 def _clip(stage: Any, lo: Any, hi: Any) -> Interval:
-    low = -np.inf if stage.low is None else stage.low
-    high = np.inf if stage.high is None else stage.high
+    low, high = clip_bounds(stage.low, stage.high)
     return np.clip(lo, low, high), np.clip(hi, low, high)
 
 

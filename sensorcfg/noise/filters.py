@@ -3,14 +3,13 @@ callable with its own random state. Numpy only."""
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
 from ..errors import Problem, SuiteError
-from .arithmetic import clip, lowpass, quantize
+from .arithmetic import clip, lowpass, lowpass_alpha, quantize
 from .base import Context, Stage, _Timed
 from .streams import Streams
 
@@ -27,8 +26,7 @@ class Lowpass(Stage):
     stateful = True
 
     def __init__(self, ctx: Context, cutoff: Any):
-        omega = np.multiply(2.0 * math.pi, cutoff)
-        self.alpha = _Timed(ctx, lambda dt: ctx.cast(-np.expm1(-dt * omega)))
+        self.alpha = _Timed(ctx, lambda dt: ctx.cast(lowpass_alpha(cutoff, dt)))
         self.state = np.zeros(ctx.shape, ctx.work)
         self.fresh = True
         self.last = 0

@@ -110,8 +110,13 @@ class LeveledPipeline(NoisePipeline):
         super().reset(key, stride)
         self._blend.level = self.next_level
         if self.next_level != 1.0 and not self._bounded:
-            self._blend.bounds = noisy_bounds(self._inner, self._own())
+            self._blend.bounds = self.blend_bounds()
             self._bounded = True
+
+    def blend_bounds(self) -> Interval | None:
+        """What the blend is kept within: the interval the stages' values keep (`noise.bounds`) given the
+        observable's own bounds (bound by now); None: unbounded. The suite plan records it too."""
+        return noisy_bounds(self._inner, self._own())
 
     def __call__(self, value: np.ndarray, step: int, out: np.ndarray | None = None) -> np.ndarray:
         self._blend.raw = value

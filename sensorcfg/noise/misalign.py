@@ -3,7 +3,8 @@
 Each 3-vector of the observation (its last axis) is mapped by a matrix: a fixed cross-axis matrix `M`
 (scale factors on the diagonal, cross-coupling off it), turned by a small rotation `R` drawn per episode
 (a rotation vector with independent N(0, std^2) components, in radians): the sensor reports R M x. With
-neither, nothing changes. `turn` is the one arithmetic: one simulation and a batch call it.
+neither, nothing changes. `turn` is the one arithmetic: one simulation and a batch call it; `rotation_draw`
+the rotation vector's draw, `matrix` the episode's R M from it (the suite plan's engines call them too).
 """
 
 from __future__ import annotations
@@ -13,8 +14,9 @@ from typing import Any
 import numpy as np
 
 from . import stages as rt
+from .streams import ResetDraw, draw_episode
 
-__all__ = ["Misalign", "rotation", "turn"]
+__all__ = ["Misalign", "matrix", "rotation", "rotation_draw", "turn"]
 
 
 def rotation(vector: np.ndarray) -> np.ndarray:
@@ -25,6 +27,16 @@ def rotation(vector: np.ndarray) -> np.ndarray:
     k = np.asarray(vector, float) / angle
     skew = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
     return np.eye(3) + np.sin(angle) * skew + (1 - np.cos(angle)) * skew @ skew
+
+
+def rotation_draw(stream: int, std: float | None) -> ResetDraw | None:
+    """The rotation vector drawn at each reset: 3 components std z (None without `std`: no rotation)."""
+    return None if std is None else ResetDraw(stream, 1, True, np.full(3, float(std)), None)
+
+
+def matrix(fixed: np.ndarray, vector: np.ndarray | None) -> np.ndarray:
+    """The episode's matrix R M: the rotation of `vector` (None: none) times the fixed matrix M."""
+    return np.array(fixed, np.float64) if vector is None else rotation(vector) @ fixed
 
 
 def turn(src: np.ndarray, matrix: np.ndarray, dst: np.ndarray) -> None:
@@ -51,14 +63,10 @@ class Misalign(rt.Stage):
         self.needs_rng = std is not None
         self.matrix = self.fixed.copy()
 
-    def reset(self, rng: Any, stride: int | None = None) -> None:
-        """`rng`: the stage's generator, or the sensor's counter-based streams (its per-episode part)."""
-        if hasattr(rng, "at"):
-            rng = rng.at(self.stream, 0, purpose=1)
-        if self.std is None or rng is None:
-            self.matrix = self.fixed.copy()
-        else:
-            self.matrix = rotation(self.std * rng.standard_normal(3)) @ self.fixed
+    def reset(self, streams: rt.Streams | None, stride: int) -> None:
+        """The sensor's counter-based streams: the rotation drawn from this stage's part (`rotation_draw`)."""
+        draw = rotation_draw(self.stream, self.std)
+        self.matrix = matrix(self.fixed, None if draw is None or streams is None else draw_episode(draw, streams))
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, step: int) -> None:
         turn(src, self.matrix, dst)

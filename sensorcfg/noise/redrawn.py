@@ -1,7 +1,8 @@
 """Noise parameters drawn per episode (`std: {uniform: [0.01, 0.03]}`): the stage is rebuilt at each reset.
 
-`Redrawn` holds a stage's config whose parameters are `EpisodeUniform` ranges; at reset it draws each one
-from its own generator (in the config's field order), builds the stage with those values and resets it
+`Redrawn` holds a stage's config whose parameters are `EpisodeUniform` ranges; at reset it draws them
+(`params_draw`: low + (high - low) u each, in the config's field order, from the stage's purpose-2 numbers),
+builds the stage with those values and resets it
 with a generator spawned from the same stream. A batch keeps one such stage per simulation (each taken
 from the template just reset with that simulation's stream), so simulation i equals one simulation.
 """
@@ -15,13 +16,21 @@ import numpy as np
 
 from ..config.noise import EpisodeUniform
 from . import stages as rt
+from .arithmetic import width
+from .streams import ResetDraw, draw_episode
 
-__all__ = ["Redrawn", "drawn_fields"]
+__all__ = ["Redrawn", "drawn_fields", "params_draw"]
 
 
 def drawn_fields(config: Any) -> dict[str, EpisodeUniform]:
     """The parameters of a stage config that are drawn per episode, in field order."""
     return {f: v for f in type(config).model_fields if isinstance(v := getattr(config, f), EpisodeUniform)}
+
+
+def params_draw(stream: int, ranges: list[EpisodeUniform]) -> ResetDraw:
+    """The parameters drawn at each reset, one per range (in field order): low + (high - low) u."""
+    lows = np.array([r.low for r in ranges], np.float64)
+    return ResetDraw(stream, 2, False, width(lows, np.array([r.high for r in ranges], np.float64)), lows)
 
 
 class Redrawn(rt.Stage):
@@ -37,20 +46,15 @@ class Redrawn(rt.Stage):
         self.inner = build(config.model_copy(update=self.values))
         self.stateful = bool(getattr(self.inner, "stateful", False))  # the sensor takes every sample if so
 
-    def reset(self, rng: Any, stride: int | None = None) -> None:
-        """`rng`: the stage's generator, or the sensor's counter-based streams (parameters drawn from a part
-        no stage uses; the rebuilt stage gets this stage's own part)."""
-        assert rng is not None
-        streams = rng if hasattr(rng, "at") else None
-        source = streams.at(self.stream, 0, purpose=2) if streams is not None else rng
-        self.values = {f: r.draw(source) for f, r in self.drawn.items()}
+    def reset(self, streams: rt.Streams | None, stride: int) -> None:
+        """The sensor's counter-based streams: parameters drawn from this stage's purpose-2 numbers, which no
+        stage uses; the rebuilt stage is reset with this stage's own part."""
+        assert streams is not None
+        drawn = draw_episode(params_draw(self.stream, list(self.drawn.values())), streams)
+        self.values = {f: float(v) for f, v in zip(self.drawn, drawn)}
         self.inner = self.build(self.config.model_copy(update=self.values))
-        inner: Any = self.inner  # either reset signature (see `reset`)
-        if streams is not None:
-            inner.stream = self.stream
-            inner.reset(streams, stride)
-            return
-        inner.reset(np.random.Generator(np.random.PCG64(rng.integers(0, 2**63))) if inner.needs_rng else None)
+        self.inner.stream = self.stream
+        self.inner.reset(streams, stride)
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, step: int) -> None:
         self.inner(src, dst, step)

@@ -32,13 +32,13 @@ from typing import Any, cast
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .arithmetic import add, dropout, multiply, walk
+from .arithmetic import add, dropout, multiply, walk, walk_coefficients, width
 from .base import Context, Stage, _Timed
 from .filters import Clip, Custom, Lowpass, Quantize
-from .streams import MAX_TERMS, Affine, Draw, Streams, numbers, stream_key
+from .streams import MAX_TERMS, Affine, Draw, ResetDraw, Streams, draw_episode, numbers, stream_key
 
 __all__ = ["Context", "Streams", "Stage", "Sum", "Gaussian", "Uniform", "Outlier", "EpisodeDraw", "RandomWalk",
-           "Lowpass", "Quantize", "Clip", "Dropout", "Custom", "stream_key"]
+           "Lowpass", "Quantize", "Clip", "Dropout", "Custom", "stream_key", "start_draw", "value_draw"]
 
 
 class _PerSample(Stage):
@@ -210,7 +210,7 @@ class Uniform(_Additive):
 
     def __init__(self, ctx: Context, low: ArrayLike, high: ArrayLike):
         super().__init__(ctx)
-        self.low, self.width = ctx.cast(low), ctx.cast(np.subtract(high, low))
+        self.low, self.width = ctx.cast(low), ctx.cast(width(low, high))
 
     def affine(self) -> list[Affine] | None:
         return _affine(self.ctx, self.width, self.low)
@@ -237,6 +237,22 @@ class Outlier(_Additive):
         return jump
 
 
+def _values(param: ArrayLike, shape: tuple[int, ...]) -> np.ndarray:
+    """A parameter broadcast to the values of one sample, raveled (float64)."""
+    return np.ascontiguousarray(np.broadcast_to(np.asarray(param, np.float64), shape)).ravel()
+
+
+def value_draw(stream: int, shape: tuple[int, ...], normal: tuple[Any, Any] | None,
+               uniform: tuple[Any, Any] | None) -> ResetDraw:
+    """A bias's or scale's values drawn at each reset (one per value of a sample of `shape`): mean + std z from
+    `normal` (mean, std), else low + (high - low) u from `uniform` (low, high)."""
+    if uniform is not None:
+        low, high = uniform
+        return ResetDraw(stream, 1, False, _values(width(low, high), shape), _values(low, shape))
+    mean, std = normal  # type: ignore[misc]
+    return ResetDraw(stream, 1, True, _values(std, shape), _values(mean, shape))
+
+
 class EpisodeDraw(Stage):
     """Bias (add) or scale (multiply): one draw per value at reset, from N(mean, std^2) or U(low, high)."""
 
@@ -246,20 +262,21 @@ class EpisodeDraw(Stage):
                  uniform: tuple[Any, Any] | None):
         self.ctx, self.op, self.normal, self.uniform = ctx, op, normal, uniform
         self.value = np.zeros(ctx.shape, ctx.work)
+        self.draw = value_draw(0, ctx.shape, normal, uniform)
 
     def reset(self, streams: Streams | None, stride: int) -> None:
         assert streams is not None
-        rng = streams.at(self.stream, 0, purpose=1)
-        if self.uniform is not None:
-            low, high = self.uniform
-            draw = low + (np.subtract(high, low)) * rng.random(self.ctx.shape)
-        else:
-            mean, std = self.normal  # type: ignore[misc]
-            draw = mean + std * rng.standard_normal(self.ctx.shape)
-        self.value[...] = draw
+        self.value[...] = draw_episode(self.draw._replace(stream=self.stream), streams).reshape(self.ctx.shape)
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, step: int) -> None:
         (add if self.op is np.add else multiply)(src, self.value, dst)
+
+
+def start_draw(stream: int, shape: tuple[int, ...], std: ArrayLike, tau: ArrayLike | None) -> ResetDraw | None:
+    """A random walk's start drawn at each reset: std z, its stationary distribution (a Gauss-Markov walk);
+    None for a Brownian walk (tau None), which starts at 0."""
+    return None if tau is None else ResetDraw(stream, 1, True, _values(std, shape), None)
+
 
 class RandomWalk(_Additive):
     """b_j = a b_(j-1) + c z_j over every sample index j, a = exp(-dt/tau), c = std sqrt(1 - a^2) with dt the
@@ -271,26 +288,23 @@ class RandomWalk(_Additive):
         self.start = np.zeros(ctx.shape, ctx.work)
         self.carry = np.zeros(ctx.shape, ctx.work)
         self.coef = _Timed(ctx, self._coefficients)
+        self.draw = start_draw(0, ctx.shape, std, tau)
         self.last = 0  # the newest block whose states `carry` ends
         self.newest = 0
 
     def _coefficients(self, dt: float) -> tuple[np.ndarray | None, np.ndarray]:
-        if self.tau is None:
-            return None, self.ctx.cast(np.multiply(self.std, math.sqrt(dt)))
-        a = np.exp(-dt / np.asarray(self.tau))
-        c = np.multiply(self.std, np.sqrt(-np.expm1(-2.0 * dt / np.asarray(self.tau))))
-        return self.ctx.cast(a), self.ctx.cast(c)
+        a, c = walk_coefficients(self.std, self.tau, dt)
+        return (None if a is None else self.ctx.cast(a)), self.ctx.cast(c)
 
     def shape(self, raw: list[np.ndarray], m: int) -> np.ndarray:
         return _fresh(raw[0], m, self.ctx)
 
     def reset(self, streams: Streams | None, stride: int) -> None:
         assert streams is not None
-        if self.tau is None:
+        if self.draw is None:
             self.start[...] = 0
         else:  # the stationary distribution
-            self.start[...] = np.multiply(self.std, streams.at(self.stream, 0, purpose=1).standard_normal(
-                self.ctx.shape))
+            self.start[...] = draw_episode(self.draw._replace(stream=self.stream), streams).reshape(self.ctx.shape)
         self.carry[...] = self.start
         self.last = -1
         self.newest = 0  # the latest step asked for (the per-sample path goes forward only)

@@ -22,8 +22,10 @@ additive noise, added to the values a read gathered or into its history).
 
 Planned schedules draw from the same numbers, under a schedule key (`runtime/drawn.py`).
 
-Per-episode draws (bias, scale, a random walk's start, a custom stage's seed, drawn parameters) come from
-numpy's Philox generator keyed by the same key (`Streams.at`), counter (0, purpose, 0, stage).
+Per-episode draws (bias, scale, a random walk's start, a misalign's rotation, drawn parameters, a custom
+stage's seed) come from numpy's Philox generator keyed by the same key (`Streams.at`), counter (0, purpose, 0,
+stage): each is a `ResetDraw` record (the suite plan holds them, `plan.records.NoiseStep.episode`), drawn by
+`draw_episode` alone, for every engine and the CPU stages.
 """
 
 from __future__ import annotations
@@ -34,11 +36,12 @@ from collections.abc import Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
+import numpy.typing as npt
 
 from .. import compiled
 
-__all__ = ["Affine", "Draw", "KERNEL", "Prepared", "Rows", "Streams", "Sum", "add_rows", "add_sums", "kernel_lanes",
-           "numbers", "philox", "prepare", "stream_key", "uniform_runs"]
+__all__ = ["Affine", "Draw", "KERNEL", "Prepared", "ResetDraw", "Rows", "Streams", "Sum", "add_rows", "add_sums",
+           "draw_episode", "kernel_lanes", "numbers", "philox", "prepare", "stream_key", "uniform_runs"]
 
 _M0, _M1 = np.uint64(0xD2511F53), np.uint64(0xCD9E8D57)  # Philox4x32 multipliers
 _W0, _W1 = np.uint32(0x9E3779B9), np.uint32(0xBB67AE85)  # its key schedule's increments
@@ -447,6 +450,32 @@ class Streams:
         self._state["state"]["key"] = self.key if key is None else key
         self.bitgen.state = self._state
         return self.generator
+
+
+class ResetDraw(NamedTuple):
+    """Numbers a stage draws at each reset: `scale.size` values of numpy's Philox generator keyed by the
+    sensor's episode key at counter (0, `purpose`, 0, `stream`) (`Streams.at`): standard normals
+    (`Generator.standard_normal`) when `normal`, else uniforms in [0, 1) (`Generator.random`, 53 bits), value
+    i mapped to `offset[i] + scale[i] x` (`scale[i] x` when `offset` is None). Purpose 1: a stage's own
+    values (a bias's or scale's, a random walk's start, a misalign's rotation vector); purpose 2: its
+    parameters drawn per episode, in field order."""
+
+    stream: int
+    purpose: int
+    normal: bool
+    scale: npt.NDArray[np.float64]  # (values,)
+    offset: npt.NDArray[np.float64] | None
+
+
+def draw_episode(draw: ResetDraw, streams: Streams) -> npt.NDArray[np.float64]:
+    """The values (scale.size,) float64 of `draw` for the episode key of `streams`: the one home of every
+    number drawn at a reset (the CPU stages and every engine call it)."""
+    rng = streams.at(draw.stream, 0, purpose=draw.purpose)
+    x = rng.standard_normal(draw.scale.size) if draw.normal else rng.random(draw.scale.size)
+    x *= draw.scale
+    if draw.offset is not None:
+        x += draw.offset
+    return x
 
 
 def stream_key(rng: np.random.Generator | np.random.RandomState) -> np.ndarray:

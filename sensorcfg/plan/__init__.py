@@ -5,8 +5,10 @@ says what each holds and what an engine must do with it.
 """
 
 from .compile import compile_plan
+from .noise import StepEpisode, episode, redrawn
 from .records import (DrawnSteps, DrawnTiming, FixedTiming, NoiseProgram, NoiseStep, PlainOutput, ReadTable,
-                      ReducedOutput, ReductionBlock, SensorRecord, Source, SuitePlan)
+                      ReducedOutput, ReductionBlock, ResetDraw, SensorRecord, Source, SuitePlan)
 
 __all__ = ["DrawnSteps", "DrawnTiming", "FixedTiming", "NoiseProgram", "NoiseStep", "PlainOutput", "ReadTable",
-           "ReducedOutput", "ReductionBlock", "SensorRecord", "Source", "SuitePlan", "compile_plan"]
+           "ReducedOutput", "ReductionBlock", "ResetDraw", "SensorRecord", "Source", "StepEpisode", "SuitePlan",
+           "compile_plan", "episode", "redrawn"]

@@ -50,8 +50,9 @@ def _record(channel: FixedChannel | DrawnChannel, source: Source, first: int) ->
     stride = channel.interval if isinstance(channel, FixedChannel) else channel.drawn.stride
     aggregator = None if channel.aggregator is None else str(getattr(channel.aggregator, "name"))
     output = channel.shape if aggregator is not None else channel.buffered_shape
+    timing = _timing(channel)
     return SensorRecord(channel.name, tuple(channel.shape), (first, first + size), tuple(output), aggregator,
-                        _timing(channel), program(channel.noise, tuple(channel.shape), stride),
+                        timing, program(channel.noise, tuple(channel.shape), stride, timing),
                         Source(source.field, frozen(source.positions, np.intp)))
 
 

@@ -1,18 +1,33 @@
-"""A sensor's noise pipeline as data (`NoiseProgram`): each configured stage's type, stream and parameters."""
+"""A sensor's noise pipeline as data (`NoiseProgram`): each configured stage's type, stream and parameters, its
+kernel-ready numbers and what it draws at each reset (`ResetDraw` records), and the level blend's bounds.
+
+The numbers come from the rules' one home in `noise/` (`noise.arithmetic`'s `width`, `clip_bounds`,
+`lowpass_alpha`, `walk_coefficients`; the draws' builders `stages.value_draw`, `stages.start_draw`,
+`misalign.rotation_draw`, `redrawn.params_draw`), which the CPU stages call too. `episode` is what an engine
+does with a program at a reset: every value drawn from the episode key (`noise.streams.draw_episode`), a step
+with parameters drawn per episode rebuilt with this episode's (`redrawn`).
+"""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
 from ..config.noise import EpisodeUniform, NoiseStage
-from .records import FloatArray, NoiseProgram, NoiseStep, frozen
+from ..noise.level import LeveledPipeline
+from ..noise.arithmetic import clip_bounds, lowpass_alpha, walk_coefficients, width
+from ..noise.misalign import matrix as misalign_matrix
+from ..noise.misalign import rotation_draw
+from ..noise.redrawn import params_draw
+from ..noise.stages import Sum, start_draw, value_draw
+from ..noise.streams import ResetDraw, Streams, draw_episode
+from .records import DrawnTiming, FixedTiming, FloatArray, NoiseProgram, NoiseStep, UInt64Array, frozen
 
 if TYPE_CHECKING:
     from ..noise.pipeline import NoisePipeline
 
-__all__ = ["ADDITIVE", "program"]
+__all__ = ["ADDITIVE", "StepEpisode", "episode", "program", "redrawn", "step"]
 
 ADDITIVE = frozenset({"gaussian", "uniform"})  # stages that only add numbers drawn per sample
 _WORDS = (str,)
@@ -27,7 +42,8 @@ def _param(value: object, shape: tuple[int, ...]) -> FloatArray:
 
 
 def step(config: NoiseStage, stream: int, shape: tuple[int, ...]) -> NoiseStep:
-    """One stage's config (a validated `config.noise` model) as a `NoiseStep`."""
+    """One stage's config (a validated `config.noise` model) as a `NoiseStep` of its parameters alone (no
+    kernel numbers nor draws: `program` adds them)."""
     params: list[tuple[str, FloatArray]] = []
     options: list[tuple[str, str]] = []
     drawn: list[str] = []
@@ -47,13 +63,113 @@ def step(config: NoiseStage, stream: int, shape: tuple[int, ...]) -> NoiseStep:
                 params.append((name, _param(value, shape)))
             except (TypeError, ValueError):  # a word list or a callable reference: not numeric
                 options.append((name, str(value)))
-    return NoiseStep(config.type, stream, tuple(params), tuple(options), tuple(drawn))
+    redraw = None
+    if drawn:
+        redraw = _frozen_draw(params_draw(stream, [getattr(config, name) for name in drawn]))
+    return NoiseStep(config.type, stream, tuple(params), tuple(options), tuple(drawn), (), None, redraw)
 
 
-def program(pipeline: NoisePipeline | None, shape: tuple[int, ...], stride: int) -> NoiseProgram | None:
+def _frozen_draw(draw: ResetDraw | None) -> ResetDraw | None:
+    if draw is None:
+        return None
+    return draw._replace(scale=frozen(draw.scale), offset=None if draw.offset is None else frozen(draw.offset))
+
+
+def _numbers(s: NoiseStep, size: int, stride: int, timestep: float, gaps: int) -> NoiseStep:
+    """`s` with its kernel numbers and its own draw at a reset, from its parameters (`noise.arithmetic` and the
+    draws' builders: what the CPU stage computes)."""
+    p = dict(s.params)
+    kernel: dict[str, object] = {}
+    draw: ResetDraw | None = None
+    if s.stage == "gaussian":
+        kernel = {"std": p["std"]}
+        if np.any(p["mean"]):  # (`stages.Gaussian`: a centred one adds std z alone)
+            kernel["mean"] = p["mean"]
+    elif s.stage == "uniform":
+        kernel = {"low": p["low"], "width": width(p["low"], p["high"])}
+    elif s.stage == "clip":
+        low, high = clip_bounds(p.get("min"), p.get("max"))
+        kernel = {"low": np.broadcast_to(low, (size,)), "high": np.broadcast_to(high, (size,))}
+    elif s.stage in ("quantize", "dropout", "outlier"):
+        kernel = {name: p[name] for name in ("step", "p", "scale") if name in p}
+    elif s.stage == "lowpass":
+        kernel = {"alpha": lowpass_alpha(p["cutoff"], stride * timestep)}
+        if gaps:
+            kernel["alphas"] = np.stack([lowpass_alpha(p["cutoff"], gap * timestep) for gap in range(gaps + 1)])
+    elif s.stage == "random_walk":
+        tau = p.get("correlation_time")
+        a, c = walk_coefficients(p["std"], tau, stride * timestep)
+        kernel = {"a": np.ones(size) if a is None else a, "c": c}
+        draw = start_draw(s.stream, (size,), p["std"], tau)
+    elif s.stage in ("bias", "scale"):
+        centre = 1.0 if s.stage == "scale" else 0.0  # `config.noise.ScaleStage`'s mean unless given
+        uniform = (p["low"], p["high"]) if "low" in p else None
+        draw = value_draw(s.stream, (size,), (p.get("mean", centre), p.get("std", 0.0)), uniform)
+    elif s.stage == "misalign":
+        kernel = {"matrix": p.get("matrix", np.eye(3))}
+        draw = rotation_draw(s.stream, None if "std" not in p else float(p["std"][0]))
+    numbers = tuple((name, frozen(np.asarray(value, np.float64))) for name, value in kernel.items())
+    return s._replace(kernel=numbers, episode=_frozen_draw(draw))
+
+
+def _gaps(timing: FixedTiming | DrawnTiming) -> int:
+    """The most steps between two samples of a drawn schedule (its largest interval); 0 for a fixed one."""
+    if isinstance(timing, FixedTiming):
+        return 0
+    return int(np.max(timing.interval.values))
+
+
+def program(pipeline: NoisePipeline | None, shape: tuple[int, ...], stride: int,
+            timing: FixedTiming | DrawnTiming) -> NoiseProgram | None:
     """The program of a sensor's pipeline (`noise.pipeline.NoisePipeline`, leveled or not), or None."""
     if pipeline is None:
         return None
-    steps = tuple(step(config, i, shape) for i, config in enumerate(pipeline.configs))
-    return NoiseProgram(steps, int(stride), bool(pipeline.stateful), hasattr(pipeline, "next_level"),
-                        all(s.stage in ADDITIVE and not s.drawn for s in steps))
+    size, gaps = int(np.prod(shape, dtype=np.int64)), _gaps(timing)
+    steps = tuple(_numbers(step(config, i, shape), size, int(stride), pipeline.timestep, gaps)
+                  for i, config in enumerate(pipeline.configs))
+    leveled = isinstance(pipeline, LeveledPipeline)
+    bounds = pipeline.blend_bounds() if isinstance(pipeline, LeveledPipeline) else None
+    if bounds is not None:
+        bounds = (frozen(np.broadcast_to(np.asarray(bounds[0], np.float64), shape).ravel()),
+                  frozen(np.broadcast_to(np.asarray(bounds[1], np.float64), shape).ravel()))
+    sums = tuple((min(p.stream for p in stage.parts), max(p.stream for p in stage.parts) + 1)
+                 for stage in pipeline.stages if isinstance(stage, Sum))  # adjacent additive steps (`pipeline._fuse`)
+    return NoiseProgram(steps, int(stride), bool(pipeline.stateful), leveled,
+                        all(s.stage in ADDITIVE and not s.drawn for s in steps), float(pipeline.timestep), gaps,
+                        bounds, sums)
+
+
+def redrawn(s: NoiseStep, values: FloatArray, noise: NoiseProgram) -> NoiseStep:
+    """Step `s` of program `noise` with its parameters drawn per episode set to `values` (one per name of
+    `s.drawn`, as `draw_episode(s.redraw, ...)` gives them), its kernel numbers and draw made from them."""
+    size = s.params[0][1].size if s.params else 1
+    update = {name: frozen(np.full(size, float(v))) for name, v in zip(s.drawn, values)}
+    params = tuple((name, update.get(name, value)) for name, value in s.params)
+    return _numbers(s._replace(params=params, drawn=(), redraw=None), size, noise.stride, noise.timestep, noise.gaps)
+
+
+class StepEpisode(NamedTuple):
+    """A step of a program in one episode: `step` with its parameters drawn per episode this episode's (its
+    kernel numbers made from them), `values` drawn at the reset (a bias's or scale's values, a random walk's
+    start; None for none) and `matrix` (a misalign's R M, 3 x 3; None for other stages)."""
+
+    step: NoiseStep
+    values: FloatArray | None
+    matrix: FloatArray | None
+
+
+def episode(noise: NoiseProgram, key: UInt64Array) -> tuple[StepEpisode, ...]:
+    """What program `noise` draws at the reset of an episode whose sensor key is `key` ((2,) uint64,
+    `draws.sensor_key`), step by step: the parameters drawn per episode first (`NoiseStep.redraw`), then the
+    step's own draw (`NoiseStep.episode`), each by `noise.streams.draw_episode`."""
+    streams = Streams(key)
+    out = []
+    for s in noise.steps:
+        if s.redraw is not None:
+            s = redrawn(s, draw_episode(s.redraw, streams), noise)
+        values = None if s.episode is None else draw_episode(s.episode, streams)
+        if s.stage == "misalign":
+            out.append(StepEpisode(s, None, misalign_matrix(s.number("matrix"), values)))
+        else:
+            out.append(StepEpisode(s, values, None))
+    return tuple(out)

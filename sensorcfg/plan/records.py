@@ -28,13 +28,16 @@ from typing import NamedTuple, TypeVar, overload
 import numpy as np
 import numpy.typing as npt
 
+from ..noise.streams import ResetDraw
+
 __all__ = ["BoolArray", "DrawnSteps", "DrawnTiming", "FixedTiming", "FloatArray", "IntArray", "NoiseProgram",
-           "NoiseStep", "PlainOutput", "ReadTable", "ReducedOutput", "ReductionBlock", "SensorRecord", "Source",
-           "SuitePlan", "frozen"]
+           "NoiseStep", "PlainOutput", "ReadTable", "ReducedOutput", "ReductionBlock", "ResetDraw", "SensorRecord",
+           "Source", "SuitePlan", "UInt64Array", "frozen"]
 
 IntArray = npt.NDArray[np.intp]
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
+UInt64Array = npt.NDArray[np.uint64]
 
 
 # quoted: numpy's scalar types take no parameters at run time
@@ -101,31 +104,58 @@ class NoiseStep(NamedTuple):
     part of the sensor's counter (`noise/streams.py`: stage << 24); `params`: each numeric parameter in the
     stage's own units (seconds, hertz, the sensor's units), broadcast to the sensor's values and raveled
     (misalign's `matrix`: 3 x 3); `options`: its word settings (dropout's `mode`, `per`); `drawn`: the
-    parameters drawn per episode (their `params` hold the low end; an engine that cannot draw them
-    refuses the stage)."""
+    parameters drawn per episode (their `params` hold the low end).
+
+    What an engine computes with: `kernel`, the stage's numbers made from `params` (per value unless
+    said): gaussian `std` and `mean` (absent when every mean is 0: std z alone); uniform `low`, `width`
+    (values low + width u); clip `low`, `high` (a missing limit infinite); quantize `step`; dropout `p`;
+    outlier `p`, `scale`; lowpass `alpha` (for samples `stride` steps apart) and, on a drawn schedule,
+    `alphas` (gaps + 1, values): row g for samples g steps apart; random_walk `a`, `c` (b_j = a b_(j-1) +
+    c z_j per sample index; a Brownian walk's a is 1); misalign `matrix` (M, 3 x 3). `episode`: what the
+    stage draws at each reset (`ResetDraw`, drawn by `noise.streams.draw_episode`): a bias's or scale's
+    values, a Gauss-Markov random walk's start, a misalign's rotation vector (R M =
+    `noise.misalign.matrix`); None for none. `redraw`: the parameters `drawn` per episode (one value each,
+    in that order), drawn first; `kernel` and `episode` then hold those of the low ends, and
+    `plan.noise.redrawn` makes the episode's (`plan.noise.episode` does both)."""
 
     stage: str
     stream: int
     params: tuple[tuple[str, FloatArray], ...]
     options: tuple[tuple[str, str], ...]
     drawn: tuple[str, ...]
+    kernel: tuple[tuple[str, FloatArray], ...]
+    episode: ResetDraw | None
+    redraw: ResetDraw | None
 
     def param(self, name: str) -> FloatArray | None:
         """The parameter `name`, or None when the stage's config leaves it unset."""
         return dict(self.params).get(name)
+
+    def number(self, name: str) -> FloatArray:
+        """The kernel number `name` (`kernel`)."""
+        return dict(self.kernel)[name]
 
 
 class NoiseProgram(NamedTuple):
     """A sensor's noise: its steps in order, applied to each sample taken. Sample j's numbers are keyed by
     the sensor's episode key and `j = step // stride` (`stride`: the interval of a constant schedule, else
     1). `stateful`: a step needs every nominal sample. `leveled`: a noise level blends the result with the
-    raw value (`noise/level.blend`), its stream `len(steps)`."""
+    raw value (`noise/level.blend`: raw + level (noisy - raw), clipped to `bounds`, where level != 1), its
+    stream `len(steps)`. `timestep`: seconds per physics step; `gaps`: the most steps between two samples
+    of a drawn schedule (0 for a fixed one); `bounds`: (low, high) per value, what the noisy values keep
+    (`noise/bounds.noisy_bounds`), None for unbounded (or not leveled); `sums`: (first, stop) ranges of
+    adjacent additive steps (gaussian, uniform, outlier, bias without parameters drawn per episode) whose
+    terms are added up, in order, before the sum is added to the value: x + (a + b), not (x + a) + b."""
 
     steps: tuple[NoiseStep, ...]
     stride: int
     stateful: bool
     leveled: bool
     additive: bool  # every step only adds numbers drawn per sample (gaussian, uniform)
+    timestep: float
+    gaps: int
+    bounds: tuple[FloatArray, FloatArray] | None
+    sums: tuple[tuple[int, int], ...]
 
 
 class SensorRecord(NamedTuple):

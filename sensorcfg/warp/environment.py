@@ -289,7 +289,7 @@ class WarpEnvironment(ControlLoop):
         self.device = wp.get_device(device)
         self._worlds = Worlds(self._model, self._nworld, self.device, self._keyframe, nconmax, njmax)
         layer = SensorLayer(self._model, observables, binding, self._worlds, key_episodes)
-        self._layer, self._keys = layer, EpisodeKeys(layer.sensors, layer.pipelines, key_episodes, self._offset)
+        self._layer, self._keys = layer, EpisodeKeys(layer.sensors, key_episodes, self._offset)
         self._spec, self._sensors, self._scans, self._cameras = layer.spec, layer.sensors, layer.scans, layer.cameras
         self._key_episodes = key_episodes
         self.seed(seed)

@@ -1,11 +1,12 @@
 """What a Warp world's noise draws per episode, and the `misalign` turn that mixes a sample's values.
 
-Everything drawn at a reset is drawn on the host by the CPU pipeline's own stages from the episode's keys
-(`episode_values`), into each world's row of the episode table (`Sensors.episodes.value_table`, `key_episodes`
-episodes ahead): a bias's or scale's values and a random walk's start (`NoiseTables.episode_slots`), the
-kernel parameters of a stage whose parameters are drawn per episode (`NoiseTables.param_slots`: slots 0 and 1
-of `program.stage_params` computed from the episode's values, read by the noise kernel instead of the fixed
-ones), and a misalign stage's matrix R M (`NoiseTables.turn_slots`, 3 x 3 row-major).
+Everything drawn at a reset is drawn on the host from the plan's records and the episode's keys
+(`episode_values`, by `plan.episode`: `noise.streams.draw_episode` of each step's `ResetDraw` records), into
+each world's row of the episode table (`Sensors.episodes.value_table`, `key_episodes` episodes ahead): a bias's or
+scale's values and a random walk's start (`NoiseTables.episode_slots`), the kernel parameters of a stage whose
+parameters are drawn per episode (`NoiseTables.param_slots`: slots 0 and 1 of `program.stage_params` of the
+episode's step, read by the noise kernel instead of the fixed ones), and a misalign stage's matrix R M
+(`NoiseTables.turn_slots`, 3 x 3 row-major).
 
 A misalign stage maps each 3-vector of a sample (consecutive values, the shape's last axis) by the episode's
 matrix, which the noise kernel's one thread per value cannot do: a sensor's stages run in segments split at
@@ -15,14 +16,14 @@ and `turn` applies each segment's misalign stages to `work`, as `noise.misalign.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 import warp as wp
 
+from ..plan import NoiseProgram, StepEpisode, episode
 from .philox import MODULE_OPTIONS
-from .program import PARAM_SLOTS, NoisePrograms, NoiseTables, ParamSlot, TurnSlot, stage_params, taken_at
+from .program import PARAM_SLOTS, NoisePrograms, NoiseTables, TurnSlot, stage_params, taken_at
 
 if TYPE_CHECKING:
     from .sensors import Sensors
@@ -91,58 +92,29 @@ def turn(turns: Turns, segment: int, steps: wp.array, mask: wp.array, programs: 
                                                                    drawn], outputs=[work], device=work.device)
 
 
-def _by_stream(pipeline: Any) -> dict[int, Any]:
-    """A (CPU) pipeline's stages that draw at reset, by stream: parts of a fused sum, drawn-parameter stages
-    (`noise.redrawn.Redrawn`) and misalign stages as they are."""
-    from ..noise.misalign import Misalign
-    from ..noise.redrawn import Redrawn
-    from ..noise.stages import EpisodeDraw, RandomWalk, Sum
-
-    out = {}
-    for stage in pipeline.stages:
-        for part in stage.parts if isinstance(stage, Sum) else [stage]:
-            if isinstance(part, (EpisodeDraw, RandomWalk, Redrawn, Misalign)):
-                out[part.stream] = part
-    return out
-
-
-def _drawn_at_reset(stage: Any) -> np.ndarray:
-    """A bias's or scale's values, or a random walk's start, of the episode just reset (`noise.stages`)."""
-    from ..noise.redrawn import Redrawn
-    from ..noise.stages import EpisodeDraw
-
-    inner: Any = stage.inner if isinstance(stage, Redrawn) else stage
-    return np.ravel(inner.value if isinstance(inner, EpisodeDraw) else inner.start)
-
-
-def _parameters(slot: ParamSlot, stage: Any, timestep: float) -> np.ndarray:
-    """The kernel parameters (slots 0 and 1) of a stage with the values its episode drew (`Redrawn.values`)."""
-    drawn = stage.values
-    params = tuple((name, np.full(slot.values, drawn[name]) if name in drawn else value)
-                   for name, value in slot.step.params)
-    return stage_params(slot.step._replace(params=params), slot.values, slot.interval, timestep)[:PARAM_SLOTS]
-
-
-def episode_values(sensors: Sensors, pipelines: Mapping[str, Any], keys: np.ndarray) -> np.ndarray:
+def episode_values(sensors: Sensors, keys: np.ndarray) -> np.ndarray:
     """The values an episode keyed `keys` (one key per noisy sensor) draws at its reset, at their slots of
-    `sensors.episodes.drawn`: each noisy sensor's CPU pipeline is reset with its key, and what its stages drew is
-    read off them (the rules' one home stays `noise/`)."""
+    `sensors.episodes.drawn`: each noisy sensor's program's draws (`plan.episode`, from the plan's records alone)."""
     tables: NoiseTables = sensors.noise
     values = np.zeros(sensors.episodes.drawn.shape[1])
     size = tables.size
     wanted = ({s.sensor for s in tables.episode_slots} | {s.sensor for s in tables.param_slots}
               | {s.sensor for s in tables.turn_slots})
-    stages: dict[int, dict[int, Any]] = {}
+    programs = [s.noise for s in sensors.plan.sensors if s.noise is not None]
+    drawn: dict[int, tuple[StepEpisode, ...]] = {}
     for n in sorted(wanted):
-        pipeline = pipelines[sensors.noisy_names[n]]
-        pipeline.reset(keys[n], pipeline.stride)
-        stages[n] = _by_stream(pipeline)
-    for drawn in tables.episode_slots:
-        values[drawn.slot:drawn.slot + drawn.values] = _drawn_at_reset(stages[drawn.sensor][drawn.stream])
-    for slot in tables.param_slots:
+        program = programs[n]
+        assert isinstance(program, NoiseProgram)
+        drawn[n] = episode(program, keys[n])
+    for slot in tables.episode_slots:
+        got = drawn[slot.sensor][slot.stream].values  # None: a Brownian walk, which starts at 0
+        values[slot.slot:slot.slot + slot.values] = 0.0 if got is None else got
+    for param in tables.param_slots:
         block = np.zeros((PARAM_SLOTS, size))
-        block[:, :slot.values] = _parameters(slot, stages[slot.sensor][slot.stream], sensors.plan.timestep)
-        values[slot.slot:slot.slot + PARAM_SLOTS * size] = block.ravel()
+        block[:, :param.values] = stage_params(drawn[param.sensor][param.stream].step, param.values)[:PARAM_SLOTS]
+        values[param.slot:param.slot + PARAM_SLOTS * size] = block.ravel()
     for turning in tables.turn_slots:
-        values[turning.slot:turning.slot + 9] = np.ravel(stages[turning.sensor][turning.stream].matrix)
+        matrix = drawn[turning.sensor][turning.stream].matrix
+        assert matrix is not None  # (a misalign step's)
+        values[turning.slot:turning.slot + 9] = matrix.ravel()
     return values

@@ -30,8 +30,6 @@ from ..batch.environment import root_seed, sim_seed
 from ..draws import episode_entropy, sensor_keys
 from ..env.environment import random_state_from
 from ..errors import Problem, SuiteError
-from ..noise.bounds import noisy_bounds
-from ..noise.level import own_bounds
 from ..physics import Physics
 from ..plan.bind import Bound, bind
 from ..runtime.updater import observation_spec
@@ -109,11 +107,7 @@ class SensorLayer:
                        **own}
         self.cameras = Cameras([(e.name, e.observable, e.channel) for e in bound.cameras], model, worlds, n, pad,
                                {e.name: tuple(self.spec[e.name].shape) for e in bound.cameras})
-        bounds = {e.name: b for e in (*bound.fixed, *bound.drawn) if e.channel.noise is not None
-                  for b in [noisy_bounds(getattr(e.channel.noise, "_inner", e.channel.noise), own_bounds(e.observable))]
-                  if b is not None}
-        self.sensors = Sensors(plan, self.device, key_episodes, bounds)
-        self.pipelines = {e.name: e.channel.noise for e in (*bound.fixed, *bound.drawn)}
+        self.sensors = Sensors(plan, self.device, key_episodes)
         self.names = list(self.spec)
 
     def _field_views(self, fields: list[str]) -> dict[str, wp.array]:
@@ -149,22 +143,22 @@ class SensorLayer:
         return {name: outputs[name] for name in self.names}
 
 
-def episode_keys(sensors: Sensors, pipelines: Mapping[str, Any], entropy: list[int]) -> tuple[np.ndarray, np.ndarray]:
+def episode_keys(sensors: Sensors, entropy: list[int]) -> tuple[np.ndarray, np.ndarray]:
     """An episode's keys of the noisy and drawn sensors (`Sensors.key_names`; `draws.sensor_keys`, as the CPU
-    engines key them) and what the noisy ones' stages draw at its reset (`episode.episode_values`), from the
+    engines key them) and what the noisy ones' programs draw at its reset (`episode.episode_values`), from the
     episode's entropy."""
     keys = sensor_keys(entropy, sensors.key_names)
-    return keys, episode_values(sensors, pipelines, keys)
+    return keys, episode_values(sensors, keys)
 
 
 class EpisodeKeys:
     """Each world's episode keys, drawn on the host in order from its random state as the CPU engines draw
     them (`BatchEnvironment`: world w of a process with `world_offset` o is simulation o + w), into the key
-    table of `sensors` (a layer's, with its noise `pipelines` by name) `key_episodes` episodes ahead; topped up
-    every `key_episodes // 4` control steps."""
+    table of `sensors` (a layer's) `key_episodes` episodes ahead; topped up every `key_episodes // 4` control
+    steps."""
 
-    def __init__(self, sensors: Sensors, pipelines: Mapping[str, Any], key_episodes: int, world_offset: int = 0):
-        self._sensors, self._pipelines = sensors, pipelines
+    def __init__(self, sensors: Sensors, key_episodes: int, world_offset: int = 0):
+        self._sensors = sensors
         self._size, self._offset, self._nworld = key_episodes, world_offset, sensors.plan.nsim
         self._steps = 0
 
@@ -201,8 +195,7 @@ class EpisodeKeys:
         for w in worlds.tolist():
             while self._keyed[w] < used[w] + size:
                 e = int(self._keyed[w]) % size
-                table[w, e], values[w, e] = episode_keys(sensors, self._pipelines,
-                                                         episode_entropy(self._random_states[w]))
+                table[w, e], values[w, e] = episode_keys(sensors, episode_entropy(self._random_states[w]))
                 self._keyed[w] += 1
         sensors.set_keys(worlds, table[worlds], values[worlds])
 

@@ -4,8 +4,8 @@ Three device structs, named after the plan's records (`sensorcfg.plan.records`),
 item: `NoiseValues` (each value of a noisy sensor: its history column, sensor, index and leveled bounds),
 `NoisePrograms` (each noisy sensor's `NoiseProgram` with its timing: which steps its schedule takes, its
 stride, its steps' range, whether leveled, its misalign segments) and `NoiseSteps` (each `NoiseStep`: its
-kernel code, stream tag, options and parameters). `NoiseTables` holds them with the host's slots of what an
-episode draws at its reset (`warp.episode`).
+kernel code, stream tag, options and the step's kernel numbers, `NoiseStep.kernel`, as the plan made them).
+`NoiseTables` holds them with the host's slots of what an episode draws at its reset (`warp.episode`).
 """
 
 from __future__ import annotations
@@ -18,8 +18,7 @@ from typing import NamedTuple
 import numpy as np
 import warp as wp
 
-from ..plan import DrawnTiming, FixedTiming, NoiseProgram, NoiseStep, SuitePlan
-from .drawn import largest_gap
+from ..plan import FixedTiming, NoiseProgram, NoiseStep, SuitePlan
 from .philox import MODULE_OPTIONS
 from .support import STAGES as _RUN
 
@@ -30,7 +29,8 @@ wp.set_module_options(MODULE_OPTIONS)  # numpy's roundings (no fused multiply-ad
 
 
 class _Kernel(NamedTuple):
-    """A stage type's kernel `code` and the `params` filling slots 0..2 of `NoiseSteps.params`."""
+    """A stage type's kernel `code` and the kernel numbers (`NoiseStep.kernel`) filling slots 0, 1 of
+    `NoiseSteps.params`."""
 
     code: int
     params: tuple[str, ...]
@@ -38,15 +38,15 @@ class _Kernel(NamedTuple):
 
 _KERNEL: Mapping[str, _Kernel] = {
     "gaussian": _Kernel(0, ("mean", "std")),
-    "uniform": _Kernel(1, ("low", "high")),
-    "clip": _Kernel(2, ("min", "max")),
+    "uniform": _Kernel(1, ("low", "width")),
+    "clip": _Kernel(2, ("low", "high")),
     "quantize": _Kernel(3, ("step",)),
     "dropout": _Kernel(4, ("p",)),
     "outlier": _Kernel(5, ("p", "scale")),
-    "lowpass": _Kernel(6, ("cutoff",)),  # slot 0 is computed: alpha
+    "lowpass": _Kernel(6, ("alpha",)),  # on a drawn schedule, `alphas` per gap (`NoiseSteps.alphas`)
     "bias": _Kernel(7, ()),  # the episode's drawn values (`NoiseTables.episode_slots`)
     "scale": _Kernel(8, ()),
-    "random_walk": _Kernel(9, ("std", "correlation_time")),  # slots 0, 1: the walk's a and c per sample index
+    "random_walk": _Kernel(9, ("a", "c")),  # per sample index
     "misalign": _Kernel(10, ()),  # ends a segment of the sensor's stages: `episode.turn` mixes its 3-vectors
 }
 STAGES: Mapping[str, _Kernel] = {stage: _KERNEL[stage] for stage in _RUN}  # those the engine runs
@@ -54,7 +54,6 @@ EPISODE_DRAWS = frozenset({"bias", "scale", "random_walk"})  # stages with value
 
 PARAM_SLOTS = 2  # the kernel parameters a stage reads (slots 0 and 1 of `stage_params`)
 _DROPOUT_MODES = {"hold": 0, "zero": 1, "nan": 2}
-_NO_BOUND = (-math.inf, math.inf)
 
 
 @wp.struct
@@ -106,14 +105,12 @@ class NoiseSteps:
 
 
 class ParamSlot(NamedTuple):
-    """A stage of noisy sensor `sensor` with parameters drawn per episode: its `stream`, the plan's `step`,
-    the sensor's `values` and `interval`; its episode's kernel parameters at `slot` (PARAM_SLOTS x `size`)."""
+    """A stage of noisy sensor `sensor` with parameters drawn per episode: its `stream`, the sensor's `values`;
+    its episode's kernel parameters at `slot` (PARAM_SLOTS x `size`)."""
 
     sensor: int
     stream: int
-    step: NoiseStep
     values: int
-    interval: int
     slot: int
 
 
@@ -165,12 +162,11 @@ def _f64(xs: object) -> wp.array:
     return wp.array(np.asarray(xs, np.float64).reshape(-1), dtype=wp.float64)
 
 
-def noise_tables(plan: SuitePlan, bounds: Mapping[str, tuple[np.ndarray, np.ndarray]]) -> NoiseTables:
-    """The noise tables of `plan`'s noisy sensors (in plan order) on the current device. `bounds`: per noisy
-    sensor name, the interval a leveled blend is clipped to, or absent for none."""
+def noise_tables(plan: SuitePlan) -> NoiseTables:
+    """The noise tables of `plan`'s noisy sensors (in plan order) on the current device."""
     noisy = [s for s in plan.sensors if s.noise is not None]
     size = max([1, *(s.columns[1] - s.columns[0] for s in noisy)])
-    gaps = max([0, *(largest_gap(s.timing) for s in noisy if isinstance(s.timing, DrawnTiming))])
+    gaps = max([0, *(s.noise.gaps for s in noisy if s.noise is not None)])
     v_column: list[int] = []
     v_sensor: list[int] = []
     v_index: list[int] = []
@@ -201,12 +197,12 @@ def noise_tables(plan: SuitePlan, bounds: Mapping[str, tuple[np.ndarray, np.ndar
         assert isinstance(program, NoiseProgram)
         first, stop = sensor.columns
         count = stop - first
-        low, high = bounds.get(sensor.name, _NO_BOUND)
+        low, high = (np.full(count, -math.inf), np.full(count, math.inf)) if program.bounds is None else program.bounds
         v_column += range(first, stop)
         v_sensor += [n] * count
         v_index += range(count)
-        v_low += list(np.broadcast_to(np.asarray(low, np.float64), sensor.shape).ravel())
-        v_high += list(np.broadcast_to(np.asarray(high, np.float64), sensor.shape).ravel())
+        v_low += low.tolist()
+        v_high += high.tolist()
         first_taken.append(len(taken))
         if isinstance(timing, FixedTiming):
             taken += timing.taken.astype(np.int32).tolist()
@@ -230,7 +226,7 @@ def noise_tables(plan: SuitePlan, bounds: Mapping[str, tuple[np.ndarray, np.ndar
                 nslot += count
             drawn.append(nslot if step.drawn and kernel.params else -1)
             if drawn[-1] >= 0:
-                param_slots.append(ParamSlot(n, step.stream, step, count, program.stride, nslot))
+                param_slots.append(ParamSlot(n, step.stream, count, nslot))
                 nslot += PARAM_SLOTS * size
             if step.stage == "misalign":  # its 3-vectors: consecutive values (the shape's last axis)
                 turn_slots.append(TurnSlot(n, step.stream, nslot, segment,
@@ -238,12 +234,12 @@ def noise_tables(plan: SuitePlan, bounds: Mapping[str, tuple[np.ndarray, np.ndar
                 nslot += 9
                 segment += 1
             block = np.zeros((3, size))
-            block[:, :count] = stage_params(step, count, program.stride, plan.timestep)
+            block[:, :count] = stage_params(step, count)
             params.append(block)
             table = np.zeros((gaps + 1, size))
-            if step.stage == "lowpass" and isinstance(timing, DrawnTiming):
-                for gap in range(gaps + 1):
-                    table[gap, :count] = stage_params(step, count, gap, plan.timestep)[0]
+            if "alphas" in dict(step.kernel):  # a lowpass on a drawn schedule: its coefficient per gap
+                per_gap = step.number("alphas")
+                table[:per_gap.shape[0], :count] = per_gap
             alphas.append(table)
         stop_step.append(len(code))
         leveled.append(int(program.leveled))
@@ -266,33 +262,10 @@ def noise_tables(plan: SuitePlan, bounds: Mapping[str, tuple[np.ndarray, np.ndar
                        tuple(episode_slots), tuple(param_slots), tuple(turn_slots))
 
 
-def stage_params(step: NoiseStep, size: int, interval: int, timestep: float) -> np.ndarray:
-    """Slots (3, size) of a stage's parameters, as the kernel reads them."""
+def stage_params(step: NoiseStep, size: int) -> np.ndarray:
+    """Slots (3, size) of a stage's kernel numbers (`NoiseStep.kernel`), as the kernel reads them."""
     out = np.zeros((3, size))
+    kernel = dict(step.kernel)
     for at, name in enumerate(STAGES[step.stage].params):
-        param = step.param(name)
-        if param is not None:
-            out[at] = param
-    if step.stage == "uniform":
-        out[1] = out[1] - out[0]  # high - low
-    if step.stage == "clip":
-        out[0] = np.where(step.param("min") is None, -np.inf, out[0])
-        out[1] = np.where(step.param("max") is None, np.inf, out[1])
-    if step.stage == "lowpass":  # every nominal sample is taken: `interval` steps apart
-        out[0] = -np.expm1(-(interval * timestep) * (2.0 * math.pi * out[0]))
-    if step.stage == "random_walk":  # `noise.stages.RandomWalk`'s coefficients for a sample index's time
-        out[:2] = _walk(step, size, interval * timestep)
+        out[at] = kernel.get(name, 0.0)  # (a centred gaussian's mean: none)
     return out
-
-
-def _walk(step: NoiseStep, size: int, dt: float) -> np.ndarray:
-    """A random walk's (a, c) per value for samples `dt` seconds apart, as `RandomWalk._coefficients` gives
-    them (a Brownian walk: a = 1, which multiplies exactly)."""
-    from ..noise.stages import Context, RandomWalk
-
-    std, tau = step.param("std"), step.param("correlation_time")
-    if std is None:
-        raise ValueError("a random walk's std is required (its config says so)")
-    walk = RandomWalk(Context((size,), np.dtype(np.float64), np.dtype(np.float64), dt), std, tau)
-    a, c = walk._coefficients(dt)
-    return np.stack([np.broadcast_to(1.0 if a is None else a, (size,)), np.broadcast_to(c, (size,))])

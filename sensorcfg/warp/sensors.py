@@ -361,17 +361,15 @@ def _reduce(
 
 
 class Sensors:
-    """The plan's sensors over `plan.nsim` worlds on `device`. `bounds`: per noisy sensor name, the interval
-    a leveled blend is clipped to (`noise/bounds.noisy_bounds`), or absent for none."""
+    """The plan's sensors over `plan.nsim` worlds on `device`, with `key_episodes` episodes of keys ahead."""
 
-    def __init__(self, plan: SuitePlan, device: wp.Device, key_episodes: int,
-                 bounds: Mapping[str, tuple[np.ndarray, np.ndarray]]):
+    def __init__(self, plan: SuitePlan, device: wp.Device, key_episodes: int):
         self.plan, self.device = plan, device
         n, width, rows = plan.nsim, plan.width, plan.rows
         with wp.ScopedDevice(device):
             self.history = wp.zeros((n, rows, width), dtype=wp.float32)
             self._fields = self._field_copies()
-            self._noise_worlds(bounds, key_episodes)
+            self._noise_worlds(key_episodes)
             reads = plan.reads
             self._reads = table = ReadTable()
             table.rows, table.substeps, table.cycle, table.nphase = plan.rows, plan.substeps, reads.cycle, reads.nphase
@@ -403,10 +401,10 @@ class Sensors:
             copy.positions = wp.array(np.concatenate(pos).astype(np.int32), dtype=wp.int32)
         return out
 
-    def _noise_worlds(self, bounds: Mapping[str, tuple[np.ndarray, np.ndarray]], key_episodes: int) -> None:
+    def _noise_worlds(self, key_episodes: int) -> None:
         """The noise tables (`program.noise_tables`) and, per world, its episodes (`Episodes`) and memory."""
         plan = self.plan
-        self.noise = noise = noise_tables(plan, bounds)
+        self.noise = noise = noise_tables(plan)
         self.noisy_names = [s.name for s in plan.sensors if s.noise is not None]
         # the episode keys: the noisy sensors', then the clean drawn ones' (their schedules')
         clean = [s.name for s in plan.sensors if s.noise is None and isinstance(s.timing, DrawnTiming)]

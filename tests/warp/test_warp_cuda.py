@@ -82,22 +82,20 @@ def _observables() -> dict[str, sensorcfg.Observable]:
     return out
 
 
-def _sensors(device: str, nworld: int, substeps: int) -> tuple[Sensors, dict]:
-    """The sensor layer on `device`, and the (CPU) noise pipelines that draw its episodes' values."""
+def _sensors(device: str, nworld: int, substeps: int) -> Sensors:
+    """The sensor layer on `device`."""
     model = mujoco.MjModel.from_xml_path(ROBOT)
     physics = Physics(model)
     mujoco.mj_forward(model, physics.data)
     bound = bind(_observables(), physics, substeps, False, False)
-    sensors = Sensors(plan_suite(bound, physics, bound.sources(), nworld, substeps, False), wp.get_device(device), 2,
-                      {})
-    return sensors, {e.name: e.channel.noise for e in (*bound.fixed, *bound.drawn)}
+    return Sensors(plan_suite(bound, physics, bound.sources(), nworld, substeps, False), wp.get_device(device), 2)
 
 
 def _run(device: str, nworld: int, substeps: int, trajectory: list[dict[str, np.ndarray]],
          table: np.ndarray, values: np.ndarray) -> list[dict[str, np.ndarray]]:
     """The sensor layer on `device` with key table `table` and episode table `values`, fed `trajectory` (per
     physics step, each field (nworld, size) float32): the reads at the reset and after each control step."""
-    sensors, _ = _sensors(device, nworld, substeps)
+    sensors = _sensors(device, nworld, substeps)
     sensors.episodes.key_table.assign(table)
     sensors.episodes.value_table.assign(values)
 
@@ -119,7 +117,7 @@ def test_the_sensor_layer_reads_the_same_values_on_cuda_and_cpu() -> None:
     nworld, substeps, nsteps = 64, 2, 41
     model = mujoco.MjModel.from_xml_path(ROBOT)
     data = mujoco.MjData(model)
-    layout, pipelines = _sensors("cpu", nworld, substeps)
+    layout = _sensors("cpu", nworld, substeps)
     rng = np.random.default_rng(0)
     sizes = {f: np.ravel(getattr(data, f)).size for f, _ in layout.plan.fields}
     trajectory = [{f: rng.uniform(-1, 1, (nworld, n)).astype(np.float32) for f, n in sizes.items()}
@@ -127,7 +125,7 @@ def test_the_sensor_layer_reads_the_same_values_on_cuda_and_cpu() -> None:
     table = np.zeros(layout.episodes.key_table.shape, np.uint64)
     values = np.zeros(layout.episodes.value_table.shape)
     for w in range(nworld):
-        table[w, 0], values[w, 0] = episode_keys(layout, pipelines, episode_entropy(np.random.RandomState(100 + w)))
+        table[w, 0], values[w, 0] = episode_keys(layout, episode_entropy(np.random.RandomState(100 + w)))
     cpu, cuda = (_run(d, nworld, substeps, trajectory, table, values) for d in ("cpu", CUDA))
     assert len(cpu) == len(cuda) == 1 + (nsteps - 1) // substeps
     for t, (a, b) in enumerate(zip(cpu, cuda)):

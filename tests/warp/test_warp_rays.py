@@ -107,15 +107,14 @@ def test_world_w_scans_what_the_updater_scans_on_the_same_trajectory() -> None:
     bound, plan = rays.plan(bind(make(), physics, substeps, False, False), physics, nworld, substeps, False)
     assert [s.name for s in plan.sensors] == ["pos", "grid", "ring", "level"]
     device = wp.get_device("cpu")
-    sensors = Sensors(plan, device, 2, {})
+    sensors = Sensors(plan, device, 2)
     scans = rays.Scans(model, plan, bound, device)
     names = sorted({f for f, _ in plan.fields if f not in scans.heights} | set(scans.pose_fields))
-    pipelines = {e.name: e.channel.noise for e in bound.fixed}
     table = np.zeros(sensors.episodes.key_table.shape, np.uint64)
     values = np.zeros(sensors.episodes.value_table.shape)
     for w in range(nworld):  # episode 0 seeded 100 + w, episode 1 (the restarted worlds') 200 + w
         for e, seed in enumerate((100 + w, 200 + w)):
-            table[w, e], values[w, e] = episode_keys(sensors, pipelines, episode_entropy(np.random.RandomState(seed)))
+            table[w, e], values[w, e] = episode_keys(sensors, episode_entropy(np.random.RandomState(seed)))
     sensors.episodes.key_table.assign(table)
     sensors.episodes.value_table.assign(values)
 

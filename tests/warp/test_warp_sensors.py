@@ -83,14 +83,13 @@ def replay(make: Callable[[], dict[str, Any]], model: mujoco.MjModel, nworld: in
     mujoco.mj_forward(model, physics.data)
     bound = bind(make(), physics, substeps, False, pad)
     plan = plan_suite(bound, physics, bound.sources(), nworld, substeps, pad)
-    sensors = Sensors(plan, wp.get_device("cpu"), 2, {})
+    sensors = Sensors(plan, wp.get_device("cpu"), 2)
     names = [f for f, _ in plan.fields]
     plain = {s.name for s in plan.sensors if s.noise is None and s.aggregator is None}
     # the CPU side: one Updater and MjData per world, seeded per world
     updaters, physicss = [], []
     table = np.zeros(sensors.episodes.key_table.shape, np.uint64)
     values = np.zeros(sensors.episodes.value_table.shape)
-    pipelines = {e.name: e.channel.noise for e in (*bound.fixed, *bound.drawn)}
     for w in range(nworld):
         p = Physics(model)
         mujoco.mj_resetData(model, p.data)
@@ -99,8 +98,8 @@ def replay(make: Callable[[], dict[str, Any]], model: mujoco.MjModel, nworld: in
         u.reset(p, np.random.RandomState(100 + w))
         if sensors.key_names:
             for e in range(2):  # the episodes' keys, as the Updater draws them from their random states
-                table[w, e], values[w, e] = episode_keys(sensors, pipelines,
-                                                         episode_entropy(np.random.RandomState(100 * (e + 1) + w)))
+                entropy = episode_entropy(np.random.RandomState(100 * (e + 1) + w))
+                table[w, e], values[w, e] = episode_keys(sensors, entropy)
         updaters.append(u)
         physicss.append(p)
     sensors.episodes.key_table.assign(table)
