@@ -31,8 +31,9 @@ from ..errors import Problem, SuiteError
 from ..noise import build_noise
 from ..noise.level import leveled
 from ..observables.generic import BatchedGeneric, OwnValues
-from ..plan.bind import Bound, Entry, _check_drawn
-from ..runtime.channels import FixedChannel, make_channel
+from ..plan.bind import Bound, _check_drawn
+from ..plan.bound import bind_sensor
+from ..plan.schedule import Schedule
 from .support import refusals
 from .worlds import Worlds
 
@@ -153,21 +154,19 @@ class Generics:
         mine = []
         for sensor in self._sensors:
             own = OwnValues(generic_field(sensor.name), sensor.size)
-            channel = make_channel(sensor.name, sensor.observable, own, np.random.RandomState(0), None, substeps,
-                                   strip, pad)
-            if channel.aggregator is not None and not (channel.builtin_aggregator and channel.has_buffer_dim):
+            entry = bind_sensor(sensor.name, sensor.observable, own, np.random.RandomState(0), None, substeps, strip)
+            if entry.aggregator is not None and not (entry.builtin_aggregator and entry.has_buffer_dim):
                 raise SuiteError(f"sensor {sensor.name!r}: its aggregator cannot be vectorised across worlds: use "
                                  "one of min, max, sum, mean, median on a buffer")
-            entry = Entry(sensor.name, sensor.observable, channel)
-            if not isinstance(channel, FixedChannel):
+            if not isinstance(entry.schedule, Schedule):
                 _check_drawn(entry)
             mine.append(entry)
         if not mine:
             return bound
         rank = {name: i for i, name in enumerate(order)}
         entries = sorted([*bound.entries, *mine], key=lambda e: rank[e.name])
-        return Bound(entries, bound.cameras, [*bound.fixed, *(e for e in mine if isinstance(e.channel, FixedChannel))],
-                     [*bound.drawn, *(e for e in mine if not isinstance(e.channel, FixedChannel))])
+        return Bound(entries, bound.cameras, [*bound.fixed, *(e for e in mine if isinstance(e.schedule, Schedule))],
+                     [*bound.drawn, *(e for e in mine if not isinstance(e.schedule, Schedule))])
 
     def run(self) -> None:
         """After a physics step (or a restart's forward): each callable's values into its own array."""

@@ -26,15 +26,14 @@ import mujoco
 import numpy as np
 import warp as wp
 
-from ..batch.environment import root_seed, sim_seed
-from ..draws import episode_entropy, sensor_keys
+from ..draws import episode_entropy, root_seed, sensor_keys, sim_seed
 from ..env.environment import random_state_from
 from ..errors import Problem, SuiteError
 from ..noise.bounds import noisy_bounds
 from ..noise.level import own_bounds
 from ..physics import Physics
 from ..plan.bind import Bound, bind
-from ..runtime.updater import observation_spec
+from ..plan.spec import observation_spec
 from .cameras import Cameras
 from .episode import episode_values
 from .generic import Generics, split
@@ -102,18 +101,19 @@ class SensorLayer:
         bound = self.generics.bind(bound, list(observables), physics, n, binding.strip, pad)
         bound, plan = scan_plan(bound, physics, worlds.nworld, n, pad,  # height scans read their own rays
                                 self.generics.sizes)
-        self.spec = {e.name: observation_spec(e.name, e.observable, e.channel) for e in bound.entries}
+        self.spec = {e.name: observation_spec(e.name, e.observable, e.buffered_shape, e.dtype, pad)
+                     for e in bound.entries}
         self.scans = Scans(model, plan, bound, self.device)
         own = {**self.scans.heights, **self.generics.values}
         self.fields = {**self._field_views([f for f, _ in plan.fields if f not in own] + self.scans.pose_fields),
                        **own}
-        self.cameras = Cameras([(e.name, e.observable, e.channel) for e in bound.cameras], model, worlds, n, pad,
+        self.cameras = Cameras([(e.name, e.observable, e) for e in bound.cameras], model, worlds, n, pad,
                                {e.name: tuple(self.spec[e.name].shape) for e in bound.cameras})
-        bounds = {e.name: b for e in (*bound.fixed, *bound.drawn) if e.channel.noise is not None
-                  for b in [noisy_bounds(getattr(e.channel.noise, "_inner", e.channel.noise), own_bounds(e.observable))]
+        bounds = {e.name: b for e in (*bound.fixed, *bound.drawn) if e.noise is not None
+                  for b in [noisy_bounds(getattr(e.noise, "_inner", e.noise), own_bounds(e.observable))]
                   if b is not None}
         self.sensors = Sensors(plan, self.device, key_episodes, bounds)
-        self.pipelines = {e.name: e.channel.noise for e in (*bound.fixed, *bound.drawn)}
+        self.pipelines = {e.name: e.noise for e in (*bound.fixed, *bound.drawn)}
         self.names = list(self.spec)
 
     def _field_views(self, fields: list[str]) -> dict[str, wp.array]:

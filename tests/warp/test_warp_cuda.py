@@ -90,7 +90,7 @@ def _sensors(device: str, nworld: int, substeps: int) -> tuple[Sensors, dict]:
     bound = bind(_observables(), physics, substeps, False, False)
     sensors = Sensors(plan_suite(bound, physics, bound.sources(), nworld, substeps, False), wp.get_device(device), 2,
                       {})
-    return sensors, {e.name: e.channel.noise for e in (*bound.fixed, *bound.drawn)}
+    return sensors, {e.name: e.noise for e in (*bound.fixed, *bound.drawn)}
 
 
 def _run(device: str, nworld: int, substeps: int, trajectory: list[dict[str, np.ndarray]],

@@ -39,7 +39,7 @@ wp = warp_or_skip()
 
 import sensorcfg  # noqa: E402
 from sensorcfg import assets  # noqa: E402
-from sensorcfg.batch.environment import root_seed, sim_seed  # noqa: E402
+from sensorcfg.draws import root_seed, sim_seed  # noqa: E402
 from sensorcfg.env.environment import random_state_from  # noqa: E402
 from sensorcfg.noise.bounds import noisy_bounds  # noqa: E402
 from sensorcfg.noise.level import leveled, own_bounds, set_level  # noqa: E402
@@ -235,13 +235,13 @@ def replay(make: Callable[[], dict[str, Any]], model: mujoco.MjModel, options: d
     refuse(bound, model)
     plan = plan_suite(bound, physics, bound.sources(), nworld, substeps, pad)
     entries = (*bound.fixed, *bound.drawn)
-    bounds = {e.name: b for e in entries if e.channel.noise is not None
-              for b in [noisy_bounds(getattr(e.channel.noise, "_inner", e.channel.noise), own_bounds(e.observable))]
+    bounds = {e.name: b for e in entries if e.noise is not None
+              for b in [noisy_bounds(getattr(e.noise, "_inner", e.noise), own_bounds(e.observable))]
               if b is not None}
     sensors = Sensors(plan, wp.get_device("cpu"), key_episodes, bounds)
     names = [f for f, _ in plan.fields]
     plain = {s.name for s in plan.sensors if s.noise is None and s.aggregator is None}
-    keys = EpisodeKeys(sensors, {e.name: e.channel.noise for e in entries}, key_episodes)
+    keys = EpisodeKeys(sensors, {e.name: e.noise for e in entries}, key_episodes)
     keys.start([np.random.RandomState(100 + w) for w in range(nworld)])
 
     def top_up() -> None:

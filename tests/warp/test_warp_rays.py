@@ -110,7 +110,7 @@ def test_world_w_scans_what_the_updater_scans_on_the_same_trajectory() -> None:
     sensors = Sensors(plan, device, 2, {})
     scans = rays.Scans(model, plan, bound, device)
     names = sorted({f for f, _ in plan.fields if f not in scans.heights} | set(scans.pose_fields))
-    pipelines = {e.name: e.channel.noise for e in bound.fixed}
+    pipelines = {e.name: e.noise for e in bound.fixed}
     table = np.zeros(sensors.key_table.shape, np.uint64)
     values = np.zeros(sensors.episode_table.shape)
     for w in range(nworld):  # episode 0 seeded 100 + w, episode 1 (the restarted worlds') 200 + w

@@ -90,7 +90,7 @@ def replay(make: Callable[[], dict[str, Any]], model: mujoco.MjModel, nworld: in
     updaters, physicss = [], []
     table = np.zeros(sensors.key_table.shape, np.uint64)
     values = np.zeros(sensors.episode_table.shape)
-    pipelines = {e.name: e.channel.noise for e in (*bound.fixed, *bound.drawn)}
+    pipelines = {e.name: e.noise for e in (*bound.fixed, *bound.drawn)}
     for w in range(nworld):
         p = Physics(model)
         mujoco.mj_resetData(model, p.data)
