@@ -17,7 +17,7 @@ import numpy as np
 from ..draws import episode_entropy, planned
 from ..errors import ArgumentError
 from ..plan.spec import observation_spec
-from .mujoco_structs import structs_of as raw_structs
+from ..mujoco_structs import structs_of as raw_structs
 from .bank import BankMember, FeatureBank, buffer_view, fields_of, qualifies
 from .channels import DrawnChannel, FixedChannel, RandomChannel, make_channel
 from .planned import DrawnBank, DrawnMember, joins
