@@ -77,7 +77,7 @@ class BatchUpdater:
             raise ArgumentError("BatchEnvironment needs a dict of observables (or a Suite); got "
                              f"{type(observables).__name__}")
         self.nsim, self.substeps, self.pad = int(nsim), int(substeps), bool(pad_with_initial_value)
-        bound = bind(observables, physics, self.substeps, bool(strip_singleton_buffer_dim), self.pad)
+        bound = bind(observables, physics, self.substeps, bool(strip_singleton_buffer_dim))
         self.names = [entry.name for entry in bound.entries]
         self._spec = {e.name: observation_spec(e.name, e.observable, e.buffered_shape, e.dtype, self.pad)
                       for e in bound.entries}

@@ -96,7 +96,7 @@ def check_per_simulation(entry: Entry) -> None:
         raise SuiteError(f"{'camera' if camera else 'height scan'} {name!r}: {per_simulation_refusal(camera, what)}")
 
 
-def bind(observables: Mapping[str, Observable], physics: Physics, substeps: int, strip: bool, pad: bool) -> Bound:
+def bind(observables: Mapping[str, Observable], physics: Physics, substeps: int, strip: bool) -> Bound:
     """Each enabled observable bound to `physics` (a single-simulation physics of the model), as the
     single-simulation Updater binds them; each simulation's episode later draws its own schedules and noise.
     Raises SuiteError for what a batch cannot run (a field MuJoCo computes on demand cannot be computed between

@@ -149,7 +149,7 @@ class Generics:
         leveled({name: observable})
         return [_problem(name, observable, key, message) for key, message in refusals(observable, None, model)]
 
-    def bind(self, bound: Bound, order: Sequence[str], physics: Any, substeps: int, strip: bool, pad: bool) -> Bound:
+    def bind(self, bound: Bound, order: Sequence[str], substeps: int, strip: bool) -> Bound:
         """`bound` with these sensors added as features of their own values (in `order`, the suite's)."""
         mine = []
         for sensor in self._sensors:

@@ -74,7 +74,7 @@ def bind_suite(model: mujoco.MjModel, observables: Mapping[str, Any], substeps: 
     physics = Physics(model)
     mujoco.mj_forward(model, physics.data)
     others, batched = split(observables)  # batched generic callables: called by `warp.generic`
-    bound = bind(others, physics, substeps, strip, pad)
+    bound = bind(others, physics, substeps, strip)
     refuse(bound, model)
     return Binding(bound, batched, physics, substeps, strip, pad)
 
@@ -98,7 +98,7 @@ class SensorLayer:
         bound, physics, n, pad = binding.bound, binding.physics, binding.substeps, binding.pad
         self.worlds, self.device, self.substeps = worlds, worlds.device, n
         self.generics = Generics(binding.batched, worlds, model)  # each called once: its shape
-        bound = self.generics.bind(bound, list(observables), physics, n, binding.strip, pad)
+        bound = self.generics.bind(bound, list(observables), n, binding.strip)
         bound, plan = scan_plan(bound, physics, worlds.nworld, n, pad,  # height scans read their own rays
                                 self.generics.sizes)
         self.spec = {e.name: observation_spec(e.name, e.observable, e.buffered_shape, e.dtype, pad)

@@ -231,7 +231,7 @@ def replay(make: Callable[[], dict[str, Any]], model: mujoco.MjModel, options: d
     physics = Physics(model)
     mujoco.mj_forward(model, physics.data)
     observables = make()
-    bound = bind(observables, physics, substeps, strip, pad)
+    bound = bind(observables, physics, substeps, strip)
     refuse(bound, model)
     plan = plan_suite(bound, physics, bound.sources(), nworld, substeps, pad)
     entries = (*bound.fixed, *bound.drawn)
