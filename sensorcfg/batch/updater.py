@@ -98,6 +98,8 @@ class BatchUpdater:
         self.history, self.flat, self.cols, self.rows = layout.history, layout.flat, layout.cols, layout.rows
         self.timelines = Timelines([(e.name, cast(Drawn, e.schedule)) for e in drawn], self.nsim, self.substeps,
                                    self.pad)
+        # per drawn-schedule sensor: its aggregator's name (None: none), sample shape and read shape
+        self._drawn_outputs = [(e.aggregator_name, e.shape, e.buffered_shape) for e in drawn]
         self.global_step = 0  # global physics steps
         self.age = np.zeros(self.nsim, np.int64)  # physics steps since each simulation's reset
         self.control_steps = np.zeros(self.nsim, np.int64)
@@ -300,16 +302,14 @@ class BatchUpdater:
         return {name: out[self.output_index[name]] for name in self.names}
 
     def _read_drawn(self, out: list[Any]) -> None:
-        for r, codes in enumerate(self.timelines.last):
+        for r, (codes, (aggregator, shape, buffered)) in enumerate(zip(self.timelines.last, self._drawn_outputs)):
             c = self.nfixed + r
-            sensor = self.sensors[c]
             values = self.flat.take(self.layout.drawn(c, codes, self.age, self.global_step))  # (nsim, buffer, width)
-            aggregator = sensor.aggregator_name
             if aggregator is not None:
                 reduced = reduce_stacked(aggregator, values.transpose(1, 0, 2))
-                out[c] = reduced.reshape(self.nsim, *sensor.shape)
+                out[c] = reduced.reshape(self.nsim, *shape)
             else:
-                out[c] = values.reshape(self.nsim, *sensor.buffered_shape)
+                out[c] = values.reshape(self.nsim, *buffered)
 
     # -- specs ------------------------------------------------------------------------------------
 
