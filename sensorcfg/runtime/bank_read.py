@@ -1,7 +1,7 @@
 """A feature bank's read of one phase (of the planned bank: any read, whose gathered rows change), compiled
 onto a work buffer of its own: a fixed number of numpy calls.
 
-`runtime.bank.read_layout` says which history positions each read gathers and how they are cut and reduced.
+`plan.layout.read_layout` says which history positions each read gathers and how they are cut and reduced.
 Compiled, a read is: one `take` from the history into the work buffer, which also stacks the windows of
 reductions of one family (`observables.aggregators.family`: sums, means and medians of one or two samples;
 maxima; minima) side by side, each padded to the family's longest buffer with a value that changes no
@@ -32,7 +32,7 @@ from ..observables.aggregators import AGGREGATORS, FAMILIES, Family, family
 from .bank_noise import Layer, ReadOp, ops_of
 
 if TYPE_CHECKING:
-    from .bank import GroupMember, PlainRead, ReadLayout, ReductionGroup
+    from ..plan.layout import GroupMember, PlainRead, ReadLayout, ReductionGroup
     from .read_kernel import KernelRead
 
 __all__ = ["PADS", "CompiledRead", "Reduction", "Step", "compile_read", "cut", "finish"]
@@ -216,7 +216,7 @@ def _families(groups: list[ReductionGroup]) -> tuple[dict[str, list[_Group]], li
     alone = []
     for g in groups:
         found = family(g.aggregator, *g.block)
-        group = _Group(np.arange(g.part.start, g.part.stop).reshape(g.block), g.members, g.reduce, found)
+        group = _Group(g.part.reshape(g.block), g.members, g.reduce, found)
         if found is None:
             alone.append(group)
         else:

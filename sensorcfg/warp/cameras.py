@@ -2,7 +2,7 @@
 
 Each camera sensor has its own render context (one camera, its image size and mode, the scene flags
 `camera_support.settings` follows) and a ring of frames per world laid out as the CPU batch's
-(`batch/camera.py`, `runtime/schedule.Schedule`): (nworld, capacity, height * width * channels) in the CPU
+(`batch/camera.py`, `plan/schedule.Schedule`): (nworld, capacity, height * width * channels) in the CPU
 camera's dtype (rgb uint8, depth float32 metres, segmentation int32 (object id, object type)); sample k of
 a world lives in slot `k % capacity`, and a read shows the slots of its window, as on the CPU.
 

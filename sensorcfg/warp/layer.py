@@ -26,13 +26,12 @@ import mujoco
 import numpy as np
 import warp as wp
 
-from ..batch.environment import root_seed, sim_seed
-from ..draws import episode_entropy, sensor_keys
+from ..draws import episode_entropy, root_seed, sensor_keys, sim_seed
 from ..env.environment import random_state_from
 from ..errors import Problem, SuiteError
 from ..physics import Physics
 from ..plan.bind import Bound, bind
-from ..runtime.updater import observation_spec
+from ..plan.spec import observation_spec
 from .cameras import Cameras
 from .episode import episode_values
 from .generic import Generics, split
@@ -73,7 +72,7 @@ def bind_suite(model: mujoco.MjModel, observables: Mapping[str, Any], substeps: 
     physics = Physics(model)
     mujoco.mj_forward(model, physics.data)
     others, batched = split(observables)  # batched generic callables: called by `warp.generic`
-    bound = bind(others, physics, substeps, strip, pad)
+    bound = bind(others, physics, substeps, strip)
     refuse(bound, model)
     return Binding(bound, batched, physics, substeps, strip, pad)
 
@@ -97,15 +96,16 @@ class SensorLayer:
         bound, physics, n, pad = binding.bound, binding.physics, binding.substeps, binding.pad
         self.worlds, self.device, self.substeps = worlds, worlds.device, n
         self.generics = Generics(binding.batched, worlds, model)  # each called once: its shape
-        bound = self.generics.bind(bound, list(observables), physics, n, binding.strip, pad)
+        bound = self.generics.bind(bound, list(observables), n, binding.strip)
         bound, plan = scan_plan(bound, physics, worlds.nworld, n, pad,  # height scans read their own rays
                                 self.generics.sizes)
-        self.spec = {e.name: observation_spec(e.name, e.observable, e.channel) for e in bound.entries}
+        self.spec = {e.name: observation_spec(e.name, e.observable, e.buffered_shape, e.dtype, pad)
+                     for e in bound.entries}
         self.scans = Scans(model, plan, bound, self.device)
         own = {**self.scans.heights, **self.generics.values}
         self.fields = {**self._field_views([f for f, _ in plan.fields if f not in own] + self.scans.pose_fields),
                        **own}
-        self.cameras = Cameras([(e.name, e.observable, e.channel) for e in bound.cameras], model, worlds, n, pad,
+        self.cameras = Cameras([(e.name, e.observable, e) for e in bound.cameras], model, worlds, n, pad,
                                {e.name: tuple(self.spec[e.name].shape) for e in bound.cameras})
         self.sensors = Sensors(plan, self.device, key_episodes)
         self.names = list(self.spec)
