@@ -33,11 +33,21 @@ from .bank_noise import Layer, ReadOp, ops_of
 
 if TYPE_CHECKING:
     from ..plan.layout import GroupMember, PlainRead, ReadLayout, ReductionGroup
-    from .read_kernel import KernelRead
 
-__all__ = ["PADS", "CompiledRead", "Reduction", "Step", "compile_read", "cut", "finish"]
+__all__ = ["PADS", "CompiledRead", "KernelRead", "Reduction", "Step", "compile_read", "cut", "finish"]
 
 PADS = [f.pad for f in FAMILIES.values()]  # what the families' blocks are padded with
+
+class KernelRead(NamedTuple):
+    """`run(index)`: the whole read, from the gather of history positions `index` to the divisions; the same
+    in two calls, `noised(index)` (the gather and the noise) then `reduced(index)` (the rest), for a read
+    that writes padding between them; `arrays`: what the program points to (kept alive with it)."""
+
+    run: Callable[[np.ndarray], None]
+    arrays: tuple[np.ndarray, ...]
+    nbytes: int  # of the program and the index arrays it made (the others are the bank's and the read's)
+    noised: Callable[[np.ndarray], None]
+    reduced: Callable[[np.ndarray], None]
 
 
 class Reduction(NamedTuple):

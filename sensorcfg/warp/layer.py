@@ -148,7 +148,7 @@ def episode_keys(sensors: Sensors, entropy: list[int]) -> tuple[np.ndarray, np.n
     engines key them) and what the noisy ones' programs draw at its reset (`episode.episode_values`), from the
     episode's entropy."""
     keys = sensor_keys(entropy, sensors.key_names)
-    return keys, episode_values(sensors, keys)
+    return keys, episode_values(sensors.plan, sensors.noise, keys)
 
 
 class EpisodeKeys:
