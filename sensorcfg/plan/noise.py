@@ -10,6 +10,7 @@ with parameters drawn per episode rebuilt with this episode's (`redrawn`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
@@ -75,41 +76,82 @@ def _frozen_draw(draw: ResetDraw | None) -> ResetDraw | None:
     return draw._replace(scale=frozen(draw.scale), offset=None if draw.offset is None else frozen(draw.offset))
 
 
-def _numbers(s: NoiseStep, size: int, stride: int, timestep: float, gaps: int) -> NoiseStep:
-    """`s` with its kernel numbers and its own draw at a reset, from its parameters (`noise.arithmetic` and the
-    draws' builders: what the CPU stage computes)."""
-    p = dict(s.params)
-    kernel: dict[str, object] = {}
-    draw: ResetDraw | None = None
-    if s.stage == "gaussian":
-        kernel = {"std": p["std"]}
-        if np.any(p["mean"]):  # (`stages.Gaussian`: a centred one adds std z alone)
-            kernel["mean"] = p["mean"]
-    elif s.stage == "uniform":
-        kernel = {"low": p["low"], "width": width(p["low"], p["high"])}
-    elif s.stage == "clip":
-        low, high = clip_bounds(p.get("min"), p.get("max"))
-        kernel = {"low": np.broadcast_to(low, (size,)), "high": np.broadcast_to(high, (size,))}
-    elif s.stage in ("quantize", "dropout", "outlier"):
-        kernel = {name: p[name] for name in ("step", "p", "scale") if name in p}
-    elif s.stage == "lowpass":
-        kernel = {"alpha": lowpass_alpha(p["cutoff"], stride * timestep)}
-        if gaps:
-            kernel["alphas"] = np.stack([lowpass_alpha(p["cutoff"], gap * timestep) for gap in range(gaps + 1)])
-    elif s.stage == "random_walk":
-        tau = p.get("correlation_time")
-        a, c = walk_coefficients(p["std"], tau, stride * timestep)
-        kernel = {"a": np.ones(size) if a is None else a, "c": c}
-        draw = start_draw(s.stream, (size,), p["std"], tau)
-    elif s.stage in ("bias", "scale"):
-        centre = 1.0 if s.stage == "scale" else 0.0  # `config.noise.ScaleStage`'s mean unless given
+class _At(NamedTuple):
+    """What a stage's kernel numbers depend on besides its parameters."""
+
+    stream: int
+    size: int  # values per sample
+    dt: float  # seconds between two nominal samples (stride x timestep)
+    timestep: float
+    gaps: int  # the most steps between two samples of a drawn schedule (0: fixed)
+
+
+_Numbers = tuple[dict[str, object], "ResetDraw | None"]  # kernel numbers by name, the draw at a reset
+
+
+def _gaussian(p: dict[str, FloatArray], at: _At) -> _Numbers:
+    mean = {"mean": p["mean"]} if np.any(p["mean"]) else {}  # (`stages.Gaussian`: a centred one adds std z alone)
+    return {"std": p["std"], **mean}, None
+
+
+def _clip(p: dict[str, FloatArray], at: _At) -> _Numbers:
+    low, high = clip_bounds(p.get("min"), p.get("max"))
+    return {"low": np.broadcast_to(low, (at.size,)), "high": np.broadcast_to(high, (at.size,))}, None
+
+
+def _lowpass(p: dict[str, FloatArray], at: _At) -> _Numbers:
+    alphas = {"alphas": np.stack([lowpass_alpha(p["cutoff"], gap * at.timestep) for gap in range(at.gaps + 1)])}
+    return {"alpha": lowpass_alpha(p["cutoff"], at.dt), **(alphas if at.gaps else {})}, None
+
+
+def _random_walk(p: dict[str, FloatArray], at: _At) -> _Numbers:
+    tau = p.get("correlation_time")
+    a, c = walk_coefficients(p["std"], tau, at.dt)
+    return {"a": np.ones(at.size) if a is None else a, "c": c}, start_draw(at.stream, (at.size,), p["std"], tau)
+
+
+def _drawn_value(centre: float) -> Callable[[dict[str, FloatArray], _At], _Numbers]:
+    """A bias's (centred on 0) or a scale's (on 1: `config.noise.ScaleStage`'s mean unless given) values."""
+    def numbers(p: dict[str, FloatArray], at: _At) -> _Numbers:
         uniform = (p["low"], p["high"]) if "low" in p else None
-        draw = value_draw(s.stream, (size,), (p.get("mean", centre), p.get("std", 0.0)), uniform)
-    elif s.stage == "misalign":
-        kernel = {"matrix": p.get("matrix", np.eye(3))}
-        draw = rotation_draw(s.stream, None if "std" not in p else float(p["std"][0]))
-    numbers = tuple((name, frozen(np.asarray(value, np.float64))) for name, value in kernel.items())
-    return s._replace(kernel=numbers, episode=_frozen_draw(draw))
+        return {}, value_draw(at.stream, (at.size,), (p.get("mean", centre), p.get("std", 0.0)), uniform)
+    return numbers
+
+
+def _misalign(p: dict[str, FloatArray], at: _At) -> _Numbers:
+    std = None if "std" not in p else float(p["std"][0])
+    return {"matrix": p.get("matrix", np.eye(3))}, rotation_draw(at.stream, std)
+
+
+def _named(*names: str) -> Callable[[dict[str, FloatArray], _At], _Numbers]:
+    """A stage whose kernel numbers are its parameters of these names, as they are."""
+    return lambda p, at: ({name: p[name] for name in names if name in p}, None)
+
+
+# per stage type: its kernel numbers and its draw at a reset, from its parameters (`noise.arithmetic` and the
+# draws' builders: what the CPU stage computes); `warp.support.STAGES` names each type the Warp engine runs
+_NUMBERS: dict[str, Callable[[dict[str, FloatArray], _At], _Numbers]] = {
+    "gaussian": _gaussian,
+    "uniform": lambda p, at: ({"low": p["low"], "width": width(p["low"], p["high"])}, None),
+    "clip": _clip,
+    "quantize": _named("step"),
+    "dropout": _named("p"),
+    "outlier": _named("p", "scale"),
+    "lowpass": _lowpass,
+    "random_walk": _random_walk,
+    "bias": _drawn_value(0.0),
+    "scale": _drawn_value(1.0),
+    "misalign": _misalign,
+}
+
+
+def _numbers(s: NoiseStep, size: int, stride: int, timestep: float, gaps: int) -> NoiseStep:
+    """`s` with its kernel numbers and its own draw at a reset (`_NUMBERS`; none for a stage without a row)."""
+    numbers = _NUMBERS.get(s.stage)
+    kernel, draw = ({}, None) if numbers is None else numbers(dict(s.params), _At(s.stream, size, stride * timestep,
+                                                                                    timestep, gaps))
+    frozen_kernel = tuple((name, frozen(np.asarray(value, np.float64))) for name, value in kernel.items())
+    return s._replace(kernel=frozen_kernel, episode=_frozen_draw(draw))
 
 
 def _gaps(timing: FixedTiming | DrawnTiming) -> int:
