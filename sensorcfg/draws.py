@@ -7,6 +7,8 @@
 - `drawer`: an interval or delay setting as an int or a validated zero-argument draw.
 - `episode_entropy` / `sensor_key`: each sensor's own noise streams per episode, keyed by a hash of the
   episode's random state and the sensor's name.
+- `root_seed` / `sim_seed`: a batch's seed, and simulation (or world) i's within it: every many-simulation
+  engine seeds its simulations so, and `Environment(seed=sim_seed(seed, i))` reproduces simulation i.
 
 The Updater, the batch and the dm_control adapter all call these; none restates them.
 """
@@ -23,10 +25,11 @@ from typing import Any, cast
 
 import numpy as np
 
-from .errors import SuiteError
+from .errors import ArgumentError, SuiteError
 
 __all__ = ["UniformSteps", "ChoiceSteps", "takes_random_state", "drawer", "episode_entropy", "sensor_key",
-           "sensor_keys", "as_draw", "planned", "DEFAULT_UPDATE_INTERVAL", "DEFAULT_DELAY", "DEFAULT_BUFFER_SIZE"]
+           "sensor_keys", "as_draw", "planned", "root_seed", "sim_seed", "DEFAULT_UPDATE_INTERVAL", "DEFAULT_DELAY",
+           "DEFAULT_BUFFER_SIZE"]
 
 DEFAULT_BUFFER_SIZE = 1
 DEFAULT_UPDATE_INTERVAL = 1
@@ -119,6 +122,24 @@ def episode_entropy(random_state: Any) -> list[int]:
     return [int(x) for x in random_state.randint(0, 2**32, size=4, dtype=np.uint64)]
 
 
+def root_seed(seed: int | np.random.SeedSequence | None) -> np.random.SeedSequence:
+    """A batch's root seed as a SeedSequence (an integer is its entropy: any non-negative integer)."""
+    if isinstance(seed, np.random.SeedSequence):
+        return seed
+    if not (seed is None or (isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and seed >= 0)):
+        raise ArgumentError(f"seed must be None, a non-negative integer or a numpy SeedSequence; got {seed!r}")
+    return np.random.SeedSequence(seed)
+
+
+def sim_seed(seed: int | np.random.SeedSequence | None, i: int) -> np.random.SeedSequence:
+    """Simulation i's seed in a batch seeded with `seed`: the SeedSequence child with spawn key i.
+
+    `Environment(model, suite, seed=sim_seed(seed, i))` reproduces simulation i of the batch.
+    """
+    root = root_seed(seed)
+    return np.random.SeedSequence(root.entropy, spawn_key=(*root.spawn_key, int(i)), pool_size=root.pool_size)
+
+
 def takes_random_state(value: Callable[..., Any]) -> bool:
     """Whether a schedule callable is given the episode's random_state.
 
@@ -164,7 +185,7 @@ def drawer(owner: str, attr: str, value: Any, default: int, random_state: Any) -
 
 
 def planned(interval: Any, delay: Any) -> bool:
-    """Whether a schedule follows the planned-schedule stream rule (`runtime/drawn.py`): sensorcfg's own draws
+    """Whether a schedule follows the planned-schedule stream rule (`plan/drawn.py`): sensorcfg's own draws
     (`{uniform}`, `{choice}`: UniformSteps, ChoiceSteps) giving valid values, with an int or another such
     draw for the other setting. Any other callable keeps dm_control's planning and draw order."""
     settings = [(interval or DEFAULT_UPDATE_INTERVAL, 1), (delay or DEFAULT_DELAY, 0)]

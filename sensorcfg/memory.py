@@ -8,18 +8,18 @@ A sensor's samples wait in one of three stores, by the path that runs it; the si
   more than one sample (so every window is one slice): cameras, height scans, callables, per-sample
   features (`runtime/channels.FixedChannel`, `batch/camera.py`);
 - a step-indexed history of `Schedule.wait + substeps + 1` rows (delay + buffer x interval), rounded up to a
-  multiple of every member's sampling period (`runtime/schedule.history_rows`, which the allocators call too):
+  multiple of every member's sampling period (`plan/schedule.history_rows`, which the allocators call too):
   the plain float64 features of an Updater or a batch, together (`runtime/bank.py`, `batch/layout.py`): its
   rows are its longest member's, its width every member's values, so one long delay lengthens every feature's
   rows, and intervals with a large common multiple lengthen it too;
-- a drawn schedule's rounds (`runtime/drawn.py`): `Drawn.span` and two planning rounds of steps, with each
+- a drawn schedule's rounds (`plan/drawn.py`): `Drawn.span` and two planning rounds of steps, with each
   read's window of sample indices, and the samples taken within them.
 
 A slot or row also costs a numpy view in the single-simulation paths (`ROW_BYTES`). A batch keeps each
 store for every simulation; its features (fixed or drawn schedules) share one flat history of
 (rows, nsim, width) float64 that its noise corrupts in place (`batch/layout.py`: a row per step, no views,
 no block of noise drawn ahead), and a drawn schedule's read windows for rounds of `ROUND_STEPS` steps
-(`batch/random_schedules.py`). Each figure is an upper bound: the paths a sensor does not take cost less.
+(`plan/drawn.ROUND_STEPS`). Each figure is an upper bound: the paths a sensor does not take cost less.
 """
 
 from __future__ import annotations
@@ -33,14 +33,11 @@ import mujoco
 import numpy as np
 
 from .config.limits import MAX_KEPT_BYTES
-from .batch.random_schedules import ROUND_STEPS, drawn_of
 from .draws import ChoiceSteps, UniformSteps
 from .observables.feature import Feature
 from .physics import Physics
-from .runtime.bank import noise_chunk
-from .runtime.drawn import Drawn, chunk_steps
-from .runtime.planned import drawn_bank_rows
-from .runtime.schedule import Schedule, history_rows
+from .plan.drawn import ROUND_STEPS, Drawn, chunk_steps, drawn_bank_rows, drawn_of
+from .plan.schedule import Schedule, history_rows, noise_chunk
 
 __all__ = ["Kept", "kept", "kept_problems"]
 
@@ -98,7 +95,7 @@ def kept(observable: Any, substeps: int, batch: bool = False) -> Kept | None:
     noisy = 2 if getattr(observable, "noise", None) is not None else 1  # the bank's noise: a second history
     drawn = isinstance(observable.update_interval, DRAWS) or isinstance(observable.delay, DRAWS)
     feature = isinstance(observable, Feature)
-    planned = drawn_of(observable, buffer, n, False)  # (sized by the largest values)
+    planned = drawn_of(observable.update_interval, observable.delay, buffer, n)  # (sized by the largest values)
     schedule = Schedule(longest, latest, buffer, n)
     if feature and batch:  # the batch's layout: a history row per step, of the values alone
         rows = steps = _history_rows([planned if drawn else schedule], n, batch, noisy > 1)

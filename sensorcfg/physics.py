@@ -10,7 +10,7 @@ import os
 
 import mujoco
 
-from .runtime.mujoco_structs import structs_of
+from .mujoco_structs import structs_of
 
 __all__ = ["Physics", "raw_structs", "read_model"]
 

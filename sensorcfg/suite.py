@@ -22,7 +22,7 @@ from .errors import ArgumentError, Problem, SuiteError, quote
 if TYPE_CHECKING:
     import mujoco
 
-    from .native.additions import Added
+    from .native.table import Added
     from .observables import Observable
 
 __all__ = ["Suite", "load", "loads"]

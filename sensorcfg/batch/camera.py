@@ -4,21 +4,21 @@ A frame needs the simulation's whole MjData as it was right after its physics st
 cameras is persistent (one MjData per simulation: memory grows with nsim) and a control step is split
 into one `rollout` per substep at which some camera samples. Each sampled frame costs one `get_data` and
 one render of that simulation: a Python loop over the simulations that sample it. Which steps sample is
-the single-simulation channel's periodic sampling pattern (`FixedChannel.needed_phases`), so a frame that no read can
+the schedule's periodic sampling pattern (`plan.schedule.Schedule.needed_mask`), so a frame that no read can
 see is never rendered; a camera sampling every step with a buffer of 1 renders once per control step.
 
-Frames wait in a per-simulation ring laid out as `FixedChannel`'s, read with one fancy index for all
-simulations. Noise runs per simulation too, through a copy of the sensor's own pipeline keyed as the
-single simulation keys it (`draws.sensor_key`) and at the level the sensor's pipeline is set to at each
-reset (`noise.level.follow`), so simulation i is that simulation's `Environment` to the bit. Corruptors,
-aggregators and drawn intervals or delays are rejected.
+Frames wait in a per-simulation ring laid out as the schedule's (`Schedule.slot`, as `FixedChannel`'s),
+read with one fancy index for all simulations. Noise runs per simulation too, through a copy of the sensor's
+own pipeline keyed as the single simulation keys it (`draws.sensor_key`) and at the level the sensor's
+pipeline is set to at each reset (`noise.level.follow`), so simulation i is that simulation's `Environment` to
+the bit. Corruptors, aggregators and drawn intervals or delays are rejected.
 """
 
 from __future__ import annotations
 
 import copy
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import mujoco
 import numpy as np
@@ -26,26 +26,25 @@ import numpy as np
 from ..draws import sensor_key
 from ..noise.level import follow
 from ..physics import Physics
-from ..runtime.channels import FixedChannel
+from ..plan.bind import Entry
+from ..plan.schedule import Schedule
 
 if TYPE_CHECKING:
     from mujoco.batch import Batch
-
-    from ..observables.base import Observable
 
 __all__ = ["BatchCameras"]
 
 
 class _Camera:
-    def __init__(self, channel: FixedChannel, render: Callable[[], np.ndarray], nsim: int,
-                 observable: Observable | None = None):
-        self.ch = channel
+    def __init__(self, sensor: Entry, render: Callable[[], np.ndarray], nsim: int):
+        self.sensor = sensor
+        self.schedule = cast(Schedule, sensor.schedule)  # (`plan.bind` refuses a drawn one)
         self.render = render
-        self.observable = observable  # one with `batch_reader` samples every due simulation in one call
+        self.observable = sensor.observable  # one with `batch_reader` samples every due simulation in one call
         self.many: Callable[[np.ndarray], np.ndarray] | None = None  # (`batch_reader`: simulations -> samples)
-        self.ring = np.zeros((nsim, channel.capacity, *channel.shape), channel.dtype)
-        self.noise = [copy.deepcopy(channel.noise) for _ in range(nsim)] if channel.noise is not None else None
-        self.needed = channel.schedule.needed_mask()
+        self.ring = np.zeros((nsim, self.schedule.capacity, *sensor.shape), sensor.dtype)
+        self.noise = [copy.deepcopy(sensor.noise) for _ in range(nsim)] if sensor.noise is not None else None
+        self.needed = self.schedule.needed_mask()
 
 
 def _noisy(camera: _Camera, i: int | np.integer, frame: np.ndarray, step: int) -> np.ndarray:
@@ -54,15 +53,14 @@ def _noisy(camera: _Camera, i: int | np.integer, frame: np.ndarray, step: int) -
 
 
 class BatchCameras:
-    """The camera observables of a batch (`entries`: (position, observable, channel) each)."""
+    """The camera observables of a batch (`entries`: (position, bound observable) each)."""
 
-    def __init__(self, entries: list[tuple[int, Observable, FixedChannel]], model: mujoco.MjModel, nsim: int,
-                 substeps: int, pad: bool):
+    def __init__(self, entries: list[tuple[int, Entry]], model: mujoco.MjModel, nsim: int, substeps: int, pad: bool):
         self.data = mujoco.MjData(model)  # each simulation's MjData is copied here to render it
         physics = Physics(model, self.data)
         self.nsim, self.substeps, self.pad = nsim, substeps, pad
-        self.positions = [position for position, _, _ in entries]
-        self.cameras = [_Camera(ch, obs.observation_callable(physics), nsim, obs) for _, obs, ch in entries]
+        self.positions = [position for position, _ in entries]
+        self.cameras = [_Camera(e, e.observable.observation_callable(physics), nsim) for _, e in entries]
         self.model = model
         self._batch: Batch | None = None
 
@@ -99,28 +97,29 @@ class BatchCameras:
         """Render the frames due after substep k (`age`: each simulation's steps since reset before this control
         step)."""
         for camera in self.cameras:
-            ch = camera.ch
+            schedule = camera.schedule
             due = np.flatnonzero(camera.needed[(age + k) % camera.needed.size] & active)
             if camera.many is not None and due.size:  # all due simulations at once (height scans)
                 frames = camera.many(due)
                 if camera.noise is None:
-                    camera.ring[due, ch.schedule.slot((age[due] + k) // ch.interval)] = frames
+                    camera.ring[due, schedule.slot((age[due] + k) // schedule.interval)] = frames
                     continue
                 for row, i in enumerate(due):
                     step = int(age[i]) + k
-                    camera.ring[i, ch.schedule.slot(step // ch.interval)] = _noisy(camera, i, frames[row], step)
+                    camera.ring[i, schedule.slot(step // schedule.interval)] = _noisy(camera, i, frames[row], step)
                 continue
             for i in due:  # one get_data and one render per simulation: the documented cost
                 step = int(age[i]) + k
-                camera.ring[i, ch.schedule.slot(step // ch.interval)] = _noisy(camera, i, self._frame(i, camera), step)
+                camera.ring[i, schedule.slot(step // schedule.interval)] = _noisy(camera, i, self._frame(i, camera),
+                                                                                   step)
 
     def reset_noise(self, i: int, entropy: list[int]) -> None:
         """Simulation i's new episode keys for the noisy sensors, as the Updater keys them, at the noise level
         its sensor's own pipeline is set to (`set_noise_level` sets that one only)."""
         for camera in self.cameras:
             if camera.noise is not None:
-                follow(camera.noise[i], camera.ch.noise)
-                camera.noise[i].reset(sensor_key(entropy, camera.ch.name), camera.ch.interval)
+                follow(camera.noise[i], camera.sensor.noise)
+                camera.noise[i].reset(sensor_key(entropy, camera.sensor.name), camera.schedule.interval)
 
     def reset(self, ids: np.ndarray) -> None:
         """The reset frames of simulations `ids` (rendered after their physics reset)."""
@@ -134,7 +133,7 @@ class BatchCameras:
         """Each camera's observation of every simulation into `out` at its position."""
         sims = np.arange(self.nsim)[:, None]
         for position, camera in zip(self.positions, self.cameras):
-            ch = camera.ch
-            start = ch.schedule.window_start(age)
-            window = camera.ring[sims, ch.schedule.slot(start[:, None] + np.arange(ch.buffer_size))]
-            out[position] = window if ch.has_buffer_dim else window[:, 0]
+            schedule = camera.schedule
+            start = schedule.window_start(age)
+            window = camera.ring[sims, schedule.slot(start[:, None] + np.arange(schedule.buffer))]
+            out[position] = window if camera.sensor.has_buffer_dim else window[:, 0]

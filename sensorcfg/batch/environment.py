@@ -71,6 +71,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..draws import root_seed, sim_seed
 from ..env.episode import autoreset_mode, chosen_ids, episode_end, truncated
 from ..env.environment import (_BAD_STATE, ControlLoop, ModelArg, action_spec, episode_timing, keyframe_index,
                                model_and_observables, model_source, random_state_from)
@@ -83,7 +84,7 @@ from .updater import BatchUpdater
 if TYPE_CHECKING:
     from mujoco.batch import Batch
 
-__all__ = ["BatchEnvironment", "BatchTimeStep", "sim_seed"]
+__all__ = ["BatchEnvironment", "BatchTimeStep"]
 
 BatchRewardFn = Callable[[Any], Any]  # mujoco.batch.Batch -> (nsim,) rewards
 BatchTerminationFn = Callable[[Any], Any]  # mujoco.batch.Batch -> (nsim,) bools
@@ -125,24 +126,6 @@ def _check_arguments(nsim: Any, nthread: Any, reward_fn: Any, termination_fn: An
         raise ArgumentError(f"nsim must be a positive integer (simulations), got {nsim!r}")
     if nthread is not None and (not isinstance(nthread, (int, np.integer)) or nthread < 0):
         raise ArgumentError(f"nthread must be a non-negative integer (0: every CPU), got {nthread!r}")
-
-
-def root_seed(seed: int | np.random.SeedSequence | None) -> np.random.SeedSequence:
-    """A batch's root seed as a SeedSequence (an integer is its entropy: any non-negative integer)."""
-    if isinstance(seed, np.random.SeedSequence):
-        return seed
-    if not (seed is None or (isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and seed >= 0)):
-        raise ArgumentError(f"seed must be None, a non-negative integer or a numpy SeedSequence; got {seed!r}")
-    return np.random.SeedSequence(seed)
-
-
-def sim_seed(seed: int | np.random.SeedSequence | None, i: int) -> np.random.SeedSequence:
-    """Simulation i's seed in a batch seeded with `seed`: the SeedSequence child with spawn key i.
-
-    `Environment(model, suite, seed=sim_seed(seed, i))` reproduces simulation i of the batch.
-    """
-    root = root_seed(seed)
-    return np.random.SeedSequence(root.entropy, spawn_key=(*root.spawn_key, int(i)), pool_size=root.pool_size)
 
 
 class BatchTimeStep(NamedTuple):

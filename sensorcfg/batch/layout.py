@@ -3,12 +3,12 @@
 One flat float64 store holds the history, then the records of the current control step, then the reset
 values. The history has one row per global physics step modulo `rows`, then a row of reset samples and a
 row of zeros; a row is (nsim, width), one column per observed value. Global rows make the copy of a
-control step the same for every simulation whatever its episode's age; a read shifts the bank's periodic
-read layout (`runtime.bank.read_layout`) by that age, per simulation.
+control step the same for every simulation whatever its episode's age; a read shifts the plan's periodic
+read table (`plan.layout.read_layout`, compiled into `ReadTable`) by that age, per simulation.
 
 A read takes the noise-free samples of its own control step straight from the records, so the history
-keeps only the samples that a later read needs (and every sample of channels whose noise is applied
-there, `noisy`, and of random-schedule channels). A control step is one `rollout` recording the fields the
+keeps only the samples that a later read needs (and every sample of sensors whose noise is applied
+there, `noisy`, and of drawn-schedule sensors). A control step is one `rollout` recording the fields the
 suite reads, or with cameras one per run of substeps up to a substep at which a camera may render
 (`segments`).
 """
@@ -16,15 +16,13 @@ suite reads, or with cameras one per run of substeps up to a substep at which a 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from typing import NamedTuple, cast
+from typing import NamedTuple
 
 import numpy as np
 
+from ..cache import DEFAULT_BUDGET, BoundedCache
 from ..plan import Source, SuitePlan
-from ..runtime.bank import GroupMember, PlainRead, ReductionGroup
-from ..runtime.cache import DEFAULT_BUDGET, BoundedCache
-from ..runtime.channels import DrawnChannel, FixedChannel, RandomChannel
+from ..plan.layout import GroupMember, PlainRead, ReductionGroup
 
 __all__ = ["Layout", "Segment", "Source"]  # Source: the plan's, re-exported
 
@@ -38,17 +36,18 @@ class Segment(NamedTuple):
 
 
 class Layout:
-    """Columns, store and gather positions for `channels` (fixed-schedule ones first) of nsim simulations."""
+    """Columns, store and gather positions for the sensors of a plan (fixed-schedule ones first) of nsim
+    simulations."""
 
-    def __init__(self, plan: SuitePlan, channels: Sequence[FixedChannel | RandomChannel | DrawnChannel],
-                 noisy: set[int], fields: dict[str, tuple[int, ...]], stops: set[int] | frozenset[int] = frozenset()):
-        """`plan`: the suite plan of `channels` (its sensors in the same order: fixed-schedule ones first);
-        `noisy`: the channels whose noise the batch applies in the history; `stops`: substeps after which a
-        rollout must return (cameras render there)."""
+    def __init__(self, plan: SuitePlan, noisy: set[int], fields: dict[str, tuple[int, ...]],
+                 stops: set[int] | frozenset[int] = frozenset()):
+        """`plan`: the suite plan of the batch's features (fixed-schedule ones first); `noisy`: the sensors whose
+        noise the batch applies in the history; `stops`: substeps after which a rollout must return (cameras
+        render there)."""
         self.plan = plan
-        self.channels, self.nfixed, self.nsim, self.substeps = channels, plan.nfixed, plan.nsim, plan.substeps
+        self.nfixed, self.nsim, self.substeps = plan.nfixed, plan.nsim, plan.substeps
         self.sources = [sensor.source for sensor in plan.sensors]
-        self.fixed = cast("list[FixedChannel]", channels[:plan.nfixed])
+        self.fixed = bool(plan.nfixed)  # some sensor has a fixed schedule: the read table is used
         self.cols = np.array([0, *(sensor.columns[1] for sensor in plan.sensors)], np.intp)
         self.width = plan.width
         self.rows = plan.rows  # a multiple of every period, longer than any wait
@@ -57,10 +56,10 @@ class Layout:
         self.cycle = plan.reads.cycle
         self.nphase = plan.reads.nphase
         # Columns read only from the history: noisy ones (corrupted there, at their samples) and those of
-        # random-schedule channels, which keep every substep (when they sample is per simulation).
+        # drawn-schedule sensors, which keep every substep (when they sample is per simulation).
         self.history_only = np.zeros(self.width, bool)
         self.always = np.zeros(self.width, bool)
-        for c in range(len(channels)):
+        for c in range(len(plan.sensors)):
             if c in noisy or c >= self.nfixed:
                 self.history_only[self.cols[c]:self.cols[c + 1]] = True
             if c >= self.nfixed:
@@ -313,7 +312,7 @@ class Layout:
         nsim, w, rows = self.nsim, self.width, self.rows
         step = codes - 1
         if ((codes > 1) & (age[:, None] - step >= rows)).any():
-            raise RuntimeError(f"a read of {self.channels[c].name!r} reaches further back than the batch's history "
+            raise RuntimeError(f"a read of {self.plan.sensors[c].name!r} reaches further back than the batch's history "
                                f"of {rows} steps (an internal sizing error)")
         start = (global_step - age)[:, None]  # each simulation's reset, in global steps
         row = np.where(codes == 0, rows + 1, np.where(codes == 1, rows, (start + step - 1) % rows))

@@ -1,34 +1,23 @@
 """Random intervals and delays across simulations: each simulation's schedule, planned in rounds.
 
-A channel with drawn intervals or delays decides when it samples and which samples a read sees from its
-draws alone, never from the values. The batch plans them with the single simulation's planner
-(`runtime/drawn.py`: the stream rule, each simulation's sensor key), vectorised across the simulations that
-start a round together, one round ahead. The per-step path only indexes the rings: which simulations
-sample at each substep, and which steps each read gathers, as codes (0: a zero fill, s + 1: the sample of
-step s since reset). Planning draws from counter-based streams, never from an episode's random state, so
+A sensor with drawn intervals or delays decides when it samples and which samples a read sees from its
+draws alone, never from the values. The batch plans them with the planner of the stream rule (`plan/drawn.py`:
+each simulation's sensor key), vectorised across the simulations that start a round together, one round ahead
+(rounds of at least `plan.drawn.ROUND_STEPS` steps). The per-step path only indexes the rings: which
+simulations sample at each substep, and which steps each read gathers, as codes (0: a zero fill, s + 1: the
+sample of step s since reset). Planning draws from counter-based streams, never from an episode's random state, so
 an episode that ends early needs no rewinding.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 
-from ..runtime.drawn import Drawn, Planner, Round, chunk_steps
+from ..plan.drawn import ROUND_STEPS, Drawn, Planner, Round, chunk_steps
 
-__all__ = ["ROUND_STEPS", "Timelines", "drawn_of"]
-
-# Steps per planning round across simulations, at least: a reset plans two rounds of every simulation it
-# starts, so a long round makes every reset slow; a round's fixed work does not grow with its length, so
-# short rounds cost the step loop little.
-ROUND_STEPS = 64
-
-
-def drawn_of(observable: Any, buffer: int, substeps: int, every_sample: bool) -> Drawn:
-    """A batch sensor's planned schedule (its interval and delay are ints or sensorcfg's draws)."""
-    return Drawn(observable.update_interval or 1, observable.delay or 0, buffer, substeps, every_sample)
+__all__ = ["Timelines"]
 
 
 class Timelines:

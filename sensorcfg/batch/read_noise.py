@@ -24,8 +24,8 @@ import numpy as np
 
 from ..noise.level import blend
 from ..noise.streams import Prepared, Rows, add_rows, prepare
-from ..runtime.channels import FixedChannel
-from ..runtime.schedule import newest_sample
+from ..plan.bind import Entry
+from ..plan.schedule import Schedule, newest_sample
 from .layout import Layout
 from .level import BatchedBlend
 from .noise import BatchPipeline, Fused
@@ -40,13 +40,12 @@ __all__ = ["ReadNoise", "added_as_read"]
 _MAX_READS_PER_SAMPLE = 1.5
 
 
-def added_as_read(pipeline: BatchPipeline, channel: FixedChannel) -> bool:
-    """Whether the batch adds the channel's noise as it reads: the pipeline only adds numbers, and reads show
-    each sample taken at most `_MAX_READS_PER_SAMPLE` times on average (per period of the schedule: slots
-    read over samples taken)."""
+def added_as_read(pipeline: BatchPipeline, schedule: Schedule) -> bool:
+    """Whether the batch adds a fixed-schedule sensor's noise as it reads: the pipeline only adds numbers, and
+    reads show each sample taken at most `_MAX_READS_PER_SAMPLE` times on average (per period of the schedule:
+    slots read over samples taken)."""
     if pipeline.additive is None:
         return False
-    schedule = channel.schedule
     shown = schedule.period // schedule.substeps * schedule.buffer
     return shown <= _MAX_READS_PER_SAMPLE * len(schedule.needed_phases())
 
@@ -81,8 +80,7 @@ class ReadNoise:
     Every sensor's (simulation, slot) pairs are laid end to end, so that a read computes all their sample
     indices in one pass; the keys, which change only at resets (`restart`), are kept in that order too."""
 
-    def __init__(self, pipelines: dict[int, BatchPipeline], channels: Sequence[FixedChannel], layout: Layout,
-                 pad: bool):
+    def __init__(self, pipelines: dict[int, BatchPipeline], sensors: Sequence[Entry], layout: Layout, pad: bool):
         self.pad = pad
         self.nsim = nsim = layout.nsim
         self.sensors: list[_Sensor] = []
@@ -93,7 +91,7 @@ class ReadNoise:
             if stage is None or stage.terms is None:  # `added_as_read` chose pipelines with one
                 raise RuntimeError(f"read noise of channel {c}: its pipeline is not a sum added as read "
                                    "(an internal error)")
-            schedule, size = channels[c].schedule, int(np.prod(channels[c].shape, dtype=np.int64))
+            schedule, size = cast(Schedule, sensors[c].schedule), int(np.prod(sensors[c].shape, dtype=np.int64))
             if pipeline.stride != schedule.interval:  # a fixed schedule's is: sample j's numbers are the j-th
                 raise RuntimeError(f"read noise of channel {c}: its noise stride is not its interval "
                                    "(an internal error)")

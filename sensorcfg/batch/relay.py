@@ -27,7 +27,7 @@ from typing import NamedTuple
 import mujoco
 import numpy as np
 
-from ..native.additions import Added
+from ..native.table import Added
 from ..selection import ADDED_PREFIX
 from ..plan import Source
 

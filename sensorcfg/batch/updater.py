@@ -9,7 +9,7 @@ A fixed-schedule sensor whose noise only adds numbers (gaussian and uniform stag
 reads (`batch.read_noise`) when its reads show each sample about once (`added_as_read`): its history keeps raw
 samples, as a noise-free sensor's. Other noise runs at each sample's own step on the simulations that sample
 then, in place in the history (`batch.noise`); random intervals and delays are planned per simulation by the
-single-simulation channel itself (`batch.random_schedules`). Scheduling, buffers and noise are the
+stream rule's planner (`batch.random_schedules`). Scheduling, buffers and noise are the
 single-simulation Updater's to the bit: the per-simulation state is its episode's age (`age`), random state,
 noise and random plans.
 
@@ -33,11 +33,12 @@ from .. import compiled
 from ..errors import ArgumentError
 from ..observables.aggregators import reduce_stacked
 from ..noise.streams import add_sums
-from ..runtime.cache import DEFAULT_BUDGET, BoundedCache
-from ..runtime.channels import DrawnChannel, FixedChannel
-from ..runtime.updater import observation_spec
+from ..cache import DEFAULT_BUDGET, BoundedCache
 from ..plan import SuitePlan
 from ..plan.bind import Bound, Entry, bind, plan_suite
+from ..plan.drawn import Drawn
+from ..plan.schedule import Schedule
+from ..plan.spec import observation_spec
 from .layout import Layout
 from .noise import BatchPipeline, prefetch
 from .read_noise import ReadNoise, added_as_read
@@ -49,10 +50,10 @@ __all__ = ["BatchUpdater"]
 _NOISY_ROWS_BUDGET = DEFAULT_BUDGET  # bytes of per-row noisy samples kept, at least (the history's size when more)
 
 
-def _camera_stops(ch: FixedChannel, substeps: int) -> set[int]:
+def _camera_stops(schedule: Schedule, substeps: int) -> set[int]:
     """The substeps (1..substeps) after which the camera may render: a rollout returns there."""
-    needed = set(ch.needed_phases())
-    period = ch.period()
+    needed = set(schedule.needed_phases())
+    period = schedule.period
     return {k for k in range(1, substeps + 1) for t in range(0, math.lcm(period, substeps), substeps)
             if (t + k) % period in needed}
 
@@ -76,17 +77,18 @@ class BatchUpdater:
             raise ArgumentError("BatchEnvironment needs a dict of observables (or a Suite); got "
                              f"{type(observables).__name__}")
         self.nsim, self.substeps, self.pad = int(nsim), int(substeps), bool(pad_with_initial_value)
-        bound = bind(observables, physics, self.substeps, bool(strip_singleton_buffer_dim), self.pad)
+        bound = bind(observables, physics, self.substeps, bool(strip_singleton_buffer_dim))
         self.names = [entry.name for entry in bound.entries]
-        self._spec = {e.name: observation_spec(e.name, e.observable, e.channel) for e in bound.entries}
+        self._spec = {e.name: observation_spec(e.name, e.observable, e.buffered_shape, e.dtype, self.pad)
+                      for e in bound.entries}
         cameras, fixed, drawn = bound.cameras, bound.fixed, bound.drawn
         ordered = fixed + drawn  # history columns: fixed channels first (the read table's), then drawn ones
-        self.fixed = [cast(FixedChannel, e.channel) for e in fixed]
+        self.fixed = fixed
         self.nfixed = len(fixed)
         self.output_index = {e.name: i for i, e in enumerate(ordered + cameras)}
         self.cameras = self._cameras(cameras, physics)  # the caller sets `cameras.batch`
         self.labels = [e.name for e in ordered]
-        self.channels = [e.channel for e in ordered]
+        self.sensors = ordered
         sources = bound.sources()
         self.sources = relayed(sources, relays) if relays else sources
         read = self._noise(ordered, cameras)
@@ -94,8 +96,10 @@ class BatchUpdater:
         self.read_noise = ReadNoise(read, self.fixed, layout, self.pad) if read else None
         self.reset_values = layout.reset_values
         self.history, self.flat, self.cols, self.rows = layout.history, layout.flat, layout.cols, layout.rows
-        self.timelines = Timelines([(e.name, cast(DrawnChannel, e.channel).drawn) for e in drawn], self.nsim,
-                                   self.substeps, self.pad)
+        self.timelines = Timelines([(e.name, cast(Drawn, e.schedule)) for e in drawn], self.nsim, self.substeps,
+                                   self.pad)
+        # per drawn-schedule sensor: its aggregator's name (None: none), sample shape and read shape
+        self._drawn_outputs = [(e.aggregator_name, e.shape, e.buffered_shape) for e in drawn]
         self.global_step = 0  # global physics steps
         self.age = np.zeros(self.nsim, np.int64)  # physics steps since each simulation's reset
         self.control_steps = np.zeros(self.nsim, np.int64)
@@ -106,13 +110,14 @@ class BatchUpdater:
     # -- construction -----------------------------------------------------------------------------
 
     def _noise(self, ordered: list[Entry], cameras: list[Entry]) -> dict[int, BatchPipeline]:
-        """Every noisy channel's pipeline (`noise`), and those corrupted in the history (`corrupted`); returns
-        the others: fixed channels whose noise only adds numbers, added as they are read (`batch.read_noise`)
-        where that draws fewer numbers."""
-        self.noise = {i: BatchPipeline(e.channel.noise, self.nsim, e.name)
-                      for i, e in enumerate(ordered) if e.channel.noise is not None}
-        self.noisy = bool(self.noise) or any(e.channel.noise is not None for e in cameras)  # as the Updater draws
-        read = {c: p for c, p in self.noise.items() if c < self.nfixed and added_as_read(p, self.fixed[c])}
+        """Every noisy sensor's pipeline (`noise`), and those corrupted in the history (`corrupted`); returns
+        the others: fixed-schedule sensors whose noise only adds numbers, added as they are read
+        (`batch.read_noise`) where that draws fewer numbers."""
+        self.noise = {i: BatchPipeline(e.noise, self.nsim, e.name)
+                      for i, e in enumerate(ordered) if e.noise is not None}
+        self.noisy = bool(self.noise) or any(e.noise is not None for e in cameras)  # as the Updater draws
+        read = {c: p for c, p in self.noise.items()
+                if c < self.nfixed and added_as_read(p, cast(Schedule, self.fixed[c].schedule))}
         self.corrupted = {c: p for c, p in self.noise.items() if c not in read}
         return read
 
@@ -120,8 +125,8 @@ class BatchUpdater:
         """The suite plan of the batch's features, and the store the rollouts record into and the history the
         reads gather from."""
         self.plan: SuitePlan = plan_suite(bound, physics, self.sources, self.nsim, self.substeps, self.pad)
-        stops = set().union(*(_camera_stops(cast(FixedChannel, e.channel), self.substeps) for e in bound.cameras))
-        return Layout(self.plan, self.channels, set(self.corrupted), dict(self.plan.fields), stops)
+        stops = set().union(*(_camera_stops(cast(Schedule, e.schedule), self.substeps) for e in bound.cameras))
+        return Layout(self.plan, set(self.corrupted), dict(self.plan.fields), stops)
 
     def _cameras(self, cameras: list[Entry], physics: Any) -> Any:
         """The cameras, rendered per simulation (`batch.camera`), or None."""
@@ -130,8 +135,8 @@ class BatchUpdater:
         from .camera import BatchCameras
 
         model = physics.model if not hasattr(physics.model, "ptr") else physics.model.ptr
-        return BatchCameras([(self.output_index[e.name], e.observable, cast(FixedChannel, e.channel)) for e in cameras],
-                            model, self.nsim, self.substeps, self.pad)
+        return BatchCameras([(self.output_index[e.name], e) for e in cameras], model, self.nsim, self.substeps,
+                            self.pad)
 
     # -- episodes ---------------------------------------------------------------------------------
 
@@ -154,8 +159,8 @@ class BatchUpdater:
         zeros = np.zeros(ids.size, np.int64)
         for c, pipeline in self.corrupted.items():
             lo, hi = self.cols[c], self.cols[c + 1]
-            ch = self.channels[c]
-            values[:, lo:hi] = pipeline(values[:, lo:hi].reshape(ids.size, *ch.shape), ids, zeros).reshape(ids.size, -1)
+            shape = self.sensors[c].shape
+            values[:, lo:hi] = pipeline(values[:, lo:hi].reshape(ids.size, *shape), ids, zeros).reshape(ids.size, -1)
         h = self.history
         h[:self.rows, ids] = values[None] if self.pad else 0.0
         h[(self.global_step - 1) % self.rows, ids] = values
@@ -245,7 +250,7 @@ class BatchUpdater:
         if not sims.size:
             return
         lo, hi = self.cols[c], self.cols[c + 1]
-        shape = self.channels[c].shape
+        shape = self.sensors[c].shape
         if sims.size == self.nsim:
             samples = row[:, lo:hi].reshape(self.nsim, *shape)  # a view: columns are contiguous in a row
             noisy = self.corrupted[c](samples, sims, steps, out=samples)
@@ -264,7 +269,7 @@ class BatchUpdater:
             for c in range(self.nfixed):
                 if c not in self.corrupted:
                     continue
-                needed = cast(FixedChannel, self.channels[c]).schedule.needed_mask()  # the first nfixed are fixed
+                needed = cast(Schedule, self.sensors[c].schedule).needed_mask()  # the first nfixed are fixed
                 for k in range(1, self.substeps + 1):
                     sims = np.flatnonzero(needed[(local + k) % needed.size])
                     if sims.size:
@@ -297,17 +302,14 @@ class BatchUpdater:
         return {name: out[self.output_index[name]] for name in self.names}
 
     def _read_drawn(self, out: list[Any]) -> None:
-        for r, codes in enumerate(self.timelines.last):
+        for r, (codes, (aggregator, shape, buffered)) in enumerate(zip(self.timelines.last, self._drawn_outputs)):
             c = self.nfixed + r
-            ch = self.channels[c]
             values = self.flat.take(self.layout.drawn(c, codes, self.age, self.global_step))  # (nsim, buffer, width)
-            if ch.aggregator is not None:
-                reduced = reduce_stacked(cast(Any, ch.aggregator).name, values.transpose(1, 0, 2))
-                out[c] = reduced.reshape(self.nsim, *ch.shape)
-            elif ch.has_buffer_dim:
-                out[c] = values.reshape(self.nsim, ch.buffer_size, *ch.shape)
+            if aggregator is not None:
+                reduced = reduce_stacked(aggregator, values.transpose(1, 0, 2))
+                out[c] = reduced.reshape(self.nsim, *shape)
             else:
-                out[c] = values.reshape(self.nsim, *ch.shape)
+                out[c] = values.reshape(self.nsim, *buffered)
 
     # -- specs ------------------------------------------------------------------------------------
 

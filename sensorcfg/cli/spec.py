@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 import json
 from collections.abc import Callable
-from typing import Any, cast
+from typing import Any
 
 from ..errors import printable
 from ..groups import layout
@@ -75,21 +75,22 @@ def build_spec(suite: Any, model_file: str, control_steps: int | None = None) ->
     importable_cwd()
     observables = suite.build(model)
     steps = control_steps or suite.updater_kwargs(model)["physics_steps_per_control_step"]
-    spec = observation_spec(observables, model, steps, strip=suite.options.strip_singleton_buffer_dim,
+    spec = observation_spec(observables, model, strip=suite.options.strip_singleton_buffer_dim,
                             pad=suite.options.pad_with_initial_value)
     rows = describe(suite, observables, spec, model)
     disabled = [name for name, o in observables.items() if not o.enabled]
     return Spec(suite, model_file, model, rows, disabled, steps)
 
 
-def observation_spec(observables: dict[str, Any], model: Any, steps: int, *, strip: bool, pad: bool) -> dict[str, Any]:
-    """The Updater's dm_env specs (its own `observation_spec` rule), from each observable's spec instead of a sample."""
+def observation_spec(observables: dict[str, Any], model: Any, *, strip: bool, pad: bool) -> dict[str, Any]:
+    """The engines' dm_env specs (their one rule, `plan.spec.observation_spec`), from each observable's spec instead
+    of a sample."""
     import mujoco
     import numpy as np
 
     from ..physics import Physics
-    from ..runtime.channels import Channel, ChannelSpec
-    from ..runtime.updater import observation_spec as one_spec
+    from ..plan.bound import buffered_shape
+    from ..plan.spec import observation_spec as one_spec
 
     physics = Physics(model)
     mujoco.mj_forward(model, physics.data)
@@ -104,9 +105,8 @@ def observation_spec(observables: dict[str, Any], model: Any, steps: int, *, str
             if sample_spec is None:
                 probe = np.asarray(sampler())
                 sample_spec = type("Probe", (), {"shape": probe.shape, "dtype": probe.dtype})
-        channel = Channel(ChannelSpec(name, lambda: None, None, tuple(sample_spec.shape), sample_spec.dtype,
-                                      obs.buffer_size or 1, strip, pad, steps, obs.aggregator, False, None))
-        out[name] = one_spec(name, obs, cast(Any, channel))  # a Channel has the buffered shape and dtype it reads
+        shape = buffered_shape(tuple(sample_spec.shape), obs.buffer_size or 1, strip)
+        out[name] = one_spec(name, obs, shape, np.dtype(sample_spec.dtype), pad)
     return out
 
 

@@ -121,8 +121,8 @@ def _replay(observables: dict[str, Any], physics_steps: int, substeps: int) -> d
 
 def _visible(sampled: np.ndarray, interval: int, delay: int, substeps: int, buffer: int) -> np.ndarray:
     """Whether sample k (taken at k * interval) is still among the newest `buffer` at its first read
-    (dm_control's semantics in closed form: `runtime.schedule`)."""
-    from ..runtime.schedule import Schedule
+    (dm_control's semantics in closed form: `plan.schedule`)."""
+    from ..plan.schedule import Schedule
 
     return Schedule(interval, delay, buffer, substeps).visible(sampled // interval)
 

@@ -8,7 +8,6 @@ writes the records into an `MjSpec`; `sensorcfg.native.bind` reads them back fro
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Callable
 from typing import Any, cast
 
@@ -19,27 +18,13 @@ from ..errors import SuiteError, did_you_mean
 from ..kinds import ELEMENT_TYPES, kinds_of
 from ..selection import ADDED_PREFIX, MAX_HINTS, Selection, select, split_selector
 from . import gravity
-from .table import NATIVE, OBJ, REDUCE, NativeType, available, data_fields
+from .table import NATIVE, OBJ, REDUCE, Added, NativeType, available, data_fields
 
-__all__ = ["Added", "native_row", "sensor_additions", "sensor_name"]
+__all__ = ["native_row", "sensor_additions", "sensor_name"]
 
 Report = Callable[[tuple[Any, ...], str], None]  # (path in the suite, message)
 
 
-@dataclasses.dataclass(frozen=True)
-class Added:
-    """One MuJoCo sensor a suite sensor adds for one of its elements (and the site it may need)."""
-
-    name: str  # the sensor's name in the model (and the added site's, when `site_body` is set)
-    sensor: str  # mjtSensor member without its prefix
-    objtype: str  # mjtObj member without its prefix
-    objname: str
-    reftype: str | None = None
-    refname: str | None = None
-    intprm: tuple[int, int, int] = (0, 0, 0)
-    cutoff: float = 0.0
-    site_body: int | None = None  # add a site named `name` at the frame of the body of this id, and read it
-    site_quat: tuple[float, float, float, float] | None = None  # that site's orientation in the body; None: none
 
 
 def sensor_name(suite_sensor: str, i: int) -> str:

@@ -31,7 +31,8 @@ from ..errors import SuiteError
 from ..kinds import ON_DEMAND
 from ..observables.feature import computed_by_model
 from ..selection import ADDED_PREFIX, split_selector
-from .additions import Added, native_row, sensor_additions
+from .additions import native_row, sensor_additions
+from .table import Added
 
 __all__ = ["Compiled", "HIDDEN_GROUP", "add_native", "compile_model", "native_names", "reads_on_demand",
            "MAX_REFUSALS", "NOT_COMPILED"]

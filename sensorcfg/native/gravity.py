@@ -16,13 +16,12 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import mujoco
 import numpy as np
 
-if TYPE_CHECKING:
-    from .additions import Added
+from .table import Added
 
 __all__ = ["KIND", "along_gravity", "gravity_quat"]
 

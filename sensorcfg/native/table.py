@@ -33,7 +33,7 @@ import dataclasses
 
 import mujoco
 
-__all__ = ["NATIVE", "NativeType", "OBJ", "available", "data_fields", "REDUCE"]
+__all__ = ["Added", "NATIVE", "NativeType", "OBJ", "available", "data_fields", "REDUCE"]
 
 # How a suite's element type is written in a sensor's objtype / reftype. A body is its frame (MuJoCo's
 # "xbody"): the frame a site added to the body sits at; `subtree*` sensors take MuJoCo's "body".
@@ -108,3 +108,18 @@ def data_fields(kind: str) -> tuple[str, ...]:
         return ()
     members = getattr(mujoco, enum[0]).__members__
     return tuple(m[len(enum[1]):].lower() for m in members if m.startswith(enum[1]))
+
+@dataclasses.dataclass(frozen=True)
+class Added:
+    """One MuJoCo sensor a suite sensor adds for one of its elements (and the site it may need)."""
+
+    name: str  # the sensor's name in the model (and the added site's, when `site_body` is set)
+    sensor: str  # mjtSensor member without its prefix
+    objtype: str  # mjtObj member without its prefix
+    objname: str
+    reftype: str | None = None
+    refname: str | None = None
+    intprm: tuple[int, int, int] = (0, 0, 0)
+    cutoff: float = 0.0
+    site_body: int | None = None  # add a site named `name` at the frame of the body of this id, and read it
+    site_quat: tuple[float, float, float, float] | None = None  # that site's orientation in the body; None: none

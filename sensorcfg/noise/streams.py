@@ -20,7 +20,7 @@ path without a compiler. `KERNEL` says which one runs; SENSORCFG_NUMPY_STREAMS=1
 `add_sums` adds sums of such numbers, scaled and shifted, into rows of a table in place (the batch's
 additive noise, added to the values a read gathered or into its history).
 
-Planned schedules draw from the same numbers, under a schedule key (`runtime/drawn.py`).
+Planned schedules draw from the same numbers, under a schedule key (`plan/drawn.py`).
 
 Per-episode draws (bias, scale, a random walk's start, a misalign's rotation, drawn parameters, a custom
 stage's seed) come from numpy's Philox generator keyed by the same key (`Streams.at`), counter (0, purpose, 0,

@@ -1,7 +1,7 @@
-"""Binding a suite's observables for an engine that runs many simulations: one channel per enabled
-observable (`runtime/channels.make_channel`, as the Updater binds them), checked for what such an engine
-cannot run, and sorted into fixed-schedule features, drawn-schedule features and per-simulation sensors
-(cameras, height scans)."""
+"""Binding a suite's observables for an engine that runs many simulations: one bound record per enabled
+observable (`plan.bound.bind_sensor`, as the Updater binds them), checked for what such an engine cannot run,
+and sorted into fixed-schedule features, drawn-schedule features and per-simulation sensors (cameras, height
+scans)."""
 
 from __future__ import annotations
 
@@ -16,24 +16,17 @@ from ..draws import DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, ChoiceSteps, Uniform
 from ..errors import SuiteError
 from ..observables.aggregators import AGGREGATORS
 from ..observables.feature import batch_on_demand_problem
-from ..runtime.bank import _reader, plain_refusal
-from ..runtime.channels import Channel, DrawnChannel, FixedChannel, RandomChannel, make_channel
+from .bound import Entry, Plain, bind_sensor, plain_refusal
 from .compile import compile_plan
+from .drawn import Drawn
 from .records import Source, SuitePlan
+from .schedule import Schedule
 
 if TYPE_CHECKING:
     from ..observables.base import Observable
     from ..physics import Physics
 
 __all__ = ["Bound", "Entry", "bind", "check_per_simulation", "check_plain", "per_simulation", "plan_suite"]
-
-
-class Entry(NamedTuple):
-    """An enabled observable, with its (single-simulation) channel."""
-
-    name: str
-    observable: Observable
-    channel: FixedChannel | RandomChannel | DrawnChannel
 
 
 class Bound(NamedTuple):
@@ -46,7 +39,7 @@ class Bound(NamedTuple):
 
     def sources(self) -> list[Source]:
         """Where each feature's values are (fixed-schedule ones first, then drawn ones)."""
-        return [Source(_reader(e.channel).field, _reader(e.channel).index) for e in (*self.fixed, *self.drawn)]
+        return [e.source for e in (*self.fixed, *self.drawn)]
 
 
 def _largest(label: str, attr: str, value: object, default: int) -> int:
@@ -68,7 +61,7 @@ def _check_drawn(entry: Entry) -> None:
     """A drawn schedule must say its largest values and follow the planned stream rule (`Drawn`)."""
     _largest(entry.name, "update_interval", entry.observable.update_interval, DEFAULT_UPDATE_INTERVAL)
     _largest(entry.name, "delay", entry.observable.delay, DEFAULT_DELAY)
-    if not isinstance(entry.channel, DrawnChannel):
+    if not isinstance(entry.schedule, Drawn):
         raise SuiteError(f"sensor {entry.name!r}: its drawn interval or delay can give values below the least "
                          "allowed (interval 1, delay 0 steps)")
 
@@ -78,7 +71,7 @@ def per_simulation(obs: Observable) -> bool:
     return hasattr(obs, "camera_id") or getattr(obs, "per_simulation", False)
 
 
-def check_plain(name: str, obs: Observable, ch: Channel) -> None:
+def check_plain(name: str, obs: Observable, ch: Plain) -> None:
     """A feature must be a plain float64 mjData feature with a built-in aggregator (or none)."""
     if getattr(obs, "corruptor", None) is not None:
         raise SuiteError(f"sensor {name!r}: {batch_refusal('corruptor')}")
@@ -92,38 +85,39 @@ def check_plain(name: str, obs: Observable, ch: Channel) -> None:
                          f"{', '.join(AGGREGATORS)} on a buffer (a custom callable would run per simulation)")
 
 
-def check_per_simulation(name: str, obs: Observable, ch: Channel) -> None:
+def check_per_simulation(entry: Entry) -> None:
     """Cameras and height scans run per simulation: no corruptor, aggregator or drawn schedule."""
+    name, obs = entry.name, entry.observable
     what = ("a corruptor" if getattr(obs, "corruptor", None) is not None
-            else "an aggregator" if ch.aggregator is not None
-            else "a drawn interval or delay" if not isinstance(ch, FixedChannel) else None)
+            else "an aggregator" if entry.aggregator is not None
+            else "a drawn interval or delay" if not isinstance(entry.schedule, Schedule) else None)
     if what:
         camera = hasattr(obs, "camera_id")
         raise SuiteError(f"{'camera' if camera else 'height scan'} {name!r}: {per_simulation_refusal(camera, what)}")
 
 
-def bind(observables: Mapping[str, Observable], physics: Physics, substeps: int, strip: bool, pad: bool) -> Bound:
-    """Each enabled observable bound to `physics` (a single-simulation physics of the model) with its channel,
-    as the single-simulation Updater binds them; each simulation's episode later draws its own schedules
-    and noise. Raises SuiteError for what a batch cannot run (a field MuJoCo computes on demand cannot be
-    computed between physics steps unless the model's sensors compute it)."""
+def bind(observables: Mapping[str, Observable], physics: Physics, substeps: int, strip: bool) -> Bound:
+    """Each enabled observable bound to `physics` (a single-simulation physics of the model), as the
+    single-simulation Updater binds them; each simulation's episode later draws its own schedules and noise.
+    Raises SuiteError for what a batch cannot run (a field MuJoCo computes on demand cannot be computed between
+    physics steps unless the model's sensors compute it)."""
     random_state = np.random.RandomState(0)
-    entries = [Entry(name, obs, make_channel(name, obs, physics, random_state, None, substeps, strip, pad))
+    entries = [bind_sensor(name, obs, physics, random_state, None, substeps, strip)
                for name, obs in observables.items() if obs.enabled]
     model = physics.model if not hasattr(physics.model, "ptr") else physics.model.ptr
     cameras = [e for e in entries if per_simulation(e.observable)]
     features = [e for e in entries if not per_simulation(e.observable)]
     for entry in cameras:
-        check_per_simulation(*entry)
+        check_per_simulation(entry)
     for entry in features:
-        check_plain(*entry)
-        problem = batch_on_demand_problem(model, _reader(entry.channel).field)
+        check_plain(entry.name, entry.observable, entry)
+        problem = batch_on_demand_problem(model, entry.source.field)
         if problem:
             raise SuiteError(f"sensor {entry.name!r}: {problem}")
-    drawn = [e for e in features if not isinstance(e.channel, FixedChannel)]
+    drawn = [e for e in features if not isinstance(e.schedule, Schedule)]
     for entry in drawn:
         _check_drawn(entry)
-    return Bound(entries, cameras, [e for e in features if isinstance(e.channel, FixedChannel)], drawn)
+    return Bound(entries, cameras, [e for e in features if isinstance(e.schedule, Schedule)], drawn)
 
 
 def _fields(physics: Physics, sources: list[Source]) -> dict[str, tuple[int, ...]]:
@@ -138,6 +132,5 @@ def _fields(physics: Physics, sources: list[Source]) -> dict[str, tuple[int, ...
 def plan_suite(bound: Bound, physics: Physics, sources: list[Source], nsim: int, substeps: int, pad: bool) -> SuitePlan:
     """The suite plan of bound features reading `sources` (`bound.sources()`, or relayed ones)."""
     model = physics.model if not hasattr(physics.model, "ptr") else physics.model.ptr
-    return compile_plan([cast(FixedChannel, e.channel) for e in bound.fixed],
-                        [cast(DrawnChannel, e.channel) for e in bound.drawn], sources, _fields(physics, sources),
-                        nsim, substeps, float(model.opt.timestep), pad)
+    return compile_plan(bound.fixed, bound.drawn, sources, _fields(physics, sources), nsim, substeps,
+                        float(model.opt.timestep), pad)

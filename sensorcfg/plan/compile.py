@@ -1,8 +1,9 @@
-"""Compiling a suite plan (`SuitePlan`) from bound channels: schedules, read tables, masks, noise programs.
+"""Compiling a suite plan (`SuitePlan`) from bound observables (`plan.bound.Entry`): schedules, read tables,
+masks, noise programs.
 
-One function per part; each reuses the rule's one home (`runtime/schedule.Schedule` for windows and taken
-samples and the history's rows, `runtime/bank.read_layout` for what a read gathers and how it is reduced,
-`runtime/drawn.Drawn` for drawn schedules' spans).
+One function per part; each reuses the rule's one home (`plan/schedule.Schedule` for windows and taken
+samples and the history's rows, `plan/layout.read_layout` for what a read gathers and how it is reduced,
+`plan/drawn.Drawn` for drawn schedules' spans).
 """
 
 from __future__ import annotations
@@ -13,13 +14,13 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from ..draws import ChoiceSteps, UniformSteps
-from ..runtime.bank import read_layout
-from ..runtime.channels import DrawnChannel, FixedChannel
-from ..runtime.drawn import Drawn
-from ..runtime.schedule import history_rows
+from .bound import Entry
+from .drawn import Drawn
+from .layout import Member, read_layout
 from .noise import program
 from .records import (BoolArray, DrawnSteps, DrawnTiming, FixedTiming, IntArray, PlainOutput, ReadTable,
                       ReducedOutput, ReductionBlock, SensorRecord, Source, SuitePlan, frozen)
+from .schedule import Schedule, history_rows
 
 __all__ = ["compile_plan"]
 
@@ -36,27 +37,42 @@ def _steps(setting: UniformSteps | ChoiceSteps | int | None, default: int) -> Dr
     return DrawnSteps("fixed", frozen([int(setting) if setting else default], np.intp), _NO_WEIGHTS)
 
 
-def _timing(channel: FixedChannel | DrawnChannel) -> FixedTiming | DrawnTiming:
-    if isinstance(channel, FixedChannel):
-        schedule = channel.schedule
-        return FixedTiming(channel.interval, channel.delay, schedule.buffer, schedule.period,
+def _fixed(sensor: Entry) -> Schedule:
+    """A fixed-schedule sensor's schedule (`compile_plan`'s callers sorted them so)."""
+    if not isinstance(sensor.schedule, Schedule):
+        raise TypeError(f"sensor {sensor.name!r} has no fixed schedule (an internal error)")
+    return sensor.schedule
+
+
+def _drawn(sensor: Entry) -> Drawn:
+    """A drawn-schedule sensor's planned schedule (`compile_plan`'s callers sorted them so)."""
+    if not isinstance(sensor.schedule, Drawn):
+        raise TypeError(f"sensor {sensor.name!r} has no planned drawn schedule (an internal error)")
+    return sensor.schedule
+
+
+def _timing(sensor: Entry) -> FixedTiming | DrawnTiming:
+    if isinstance(sensor.schedule, Schedule):
+        schedule = sensor.schedule
+        return FixedTiming(schedule.interval, schedule.delay, schedule.buffer, schedule.period,
                            frozen(schedule.needed_mask()), schedule.every_sample)
-    drawn: Drawn = channel.drawn
+    drawn = _drawn(sensor)
     return DrawnTiming(_steps(drawn.interval, 1), _steps(drawn.delay, 0), drawn.buffer, drawn.span)
 
 
-def _record(channel: FixedChannel | DrawnChannel, source: Source, first: int) -> SensorRecord:
-    size = math.prod(channel.shape)
-    stride = channel.interval if isinstance(channel, FixedChannel) else channel.drawn.stride
-    aggregator = None if channel.aggregator is None else str(getattr(channel.aggregator, "name"))
-    output = channel.shape if aggregator is not None else channel.buffered_shape
-    timing = _timing(channel)
-    return SensorRecord(channel.name, tuple(channel.shape), (first, first + size), tuple(output), aggregator,
-                        timing, program(channel.noise, tuple(channel.shape), stride, timing),
+def _record(sensor: Entry, source: Source, first: int) -> SensorRecord:
+    size = math.prod(sensor.shape)
+    schedule = sensor.schedule
+    stride = schedule.interval if isinstance(schedule, Schedule) else _drawn(sensor).stride
+    aggregator = sensor.aggregator_name
+    output = sensor.shape if aggregator is not None else sensor.buffered_shape
+    timing = _timing(sensor)
+    return SensorRecord(sensor.name, tuple(sensor.shape), (first, first + size), tuple(output), aggregator,
+                        timing, program(sensor.noise, tuple(sensor.shape), stride, timing),
                         Source(source.field, frozen(source.positions, np.intp)))
 
 
-def _read_table(fixed: Sequence[FixedChannel], cols: IntArray, rows: int, substeps: int,
+def _read_table(fixed: Sequence[Entry], cols: IntArray, rows: int, substeps: int,
                 cycle: int) -> ReadTable:
     """Per phase of a read, each read position's row offset (mod `rows`) and column, and the outputs."""
     nphase = cycle // substeps
@@ -65,14 +81,15 @@ def _read_table(fixed: Sequence[FixedChannel], cols: IntArray, rows: int, subste
         return ReadTable(cycle, nphase, empty, frozen(np.zeros(0, np.intp)), (), ())
     width = int(cols[len(fixed)])
     offsets = []
+    members = [Member(_fixed(e), e.aggregator_name, e.shape, e.buffered_shape) for e in fixed]
     for q in range(nphase):
-        layout = read_layout(list(fixed), cols[:len(fixed) + 1], rows, q * substeps)
+        layout = read_layout(members, cols[:len(fixed) + 1], rows, q * substeps)
         row, column = np.divmod(layout.gather, width)
         offsets.append((row - q * substeps) % rows)
     offset = np.stack(offsets)
     plain = tuple(PlainOutput(p.member, frozen(np.arange(p.part.start, p.part.stop), np.intp))
                   for p in layout.plain)
-    blocks = tuple(ReductionBlock(g.aggregator, g.block[0], frozen(np.arange(g.part.start, g.part.stop), np.intp),
+    blocks = tuple(ReductionBlock(g.aggregator, g.block[0], frozen(g.part, np.intp),
                                   tuple(ReducedOutput(m.member, (m.columns.start, m.columns.stop))
                                         for m in g.members))
                    for g in layout.groups)
@@ -80,35 +97,36 @@ def _read_table(fixed: Sequence[FixedChannel], cols: IntArray, rows: int, subste
                      plain, blocks)
 
 
-def _masks(fixed: Sequence[FixedChannel], cols: IntArray, width: int, nphase: int,
+def _masks(fixed: Sequence[Entry], cols: IntArray, width: int, nphase: int,
            substeps: int) -> tuple[BoolArray, BoolArray]:
     """(phase, substep, column): a sample is taken; it is shown by a later control step's read."""
     taken = np.zeros((nphase, substeps, width), bool)
     later = np.zeros((nphase, substeps, width), bool)
-    for c, channel in enumerate(fixed):
-        schedule, columns = channel.schedule, slice(int(cols[c]), int(cols[c + 1]))
+    for c, sensor in enumerate(fixed):
+        schedule, columns = _fixed(sensor), slice(int(cols[c]), int(cols[c + 1]))
         needed = schedule.needed_mask()
         for q in range(nphase):
             for k in range(1, substeps + 1):
                 step = q * substeps + k
                 taken[q, k - 1, columns] = needed[step % schedule.period]
-                later[q, k - 1, columns] = (step % channel.interval == 0 and
-                                            schedule.last_read(step // channel.interval) >= q * substeps + 2 * substeps)
+                later[q, k - 1, columns] = (step % schedule.interval == 0 and schedule.last_read(
+                    step // schedule.interval) >= q * substeps + 2 * substeps)
     return frozen(taken), frozen(later)
 
 
-def compile_plan(fixed: Sequence[FixedChannel], drawn: Sequence[DrawnChannel], sources: Sequence[Source],
+def compile_plan(fixed: Sequence[Entry], drawn: Sequence[Entry], sources: Sequence[Source],
                  fields: Mapping[str, tuple[int, ...]], nsim: int, substeps: int, timestep: float,
                  pad: bool) -> SuitePlan:
-    """The plan of bound channels (fixed-schedule ones, then drawn ones; `sources` in that order) for `nsim`
+    """The plan of bound observables (fixed-schedule ones, then drawn ones; `sources` in that order) for `nsim`
     simulations reading after every `substeps` physics steps of `timestep` seconds."""
-    channels: list[FixedChannel | DrawnChannel] = [*fixed, *drawn]
-    widths = [math.prod(ch.shape) for ch in channels]
+    sensors: list[Entry] = [*fixed, *drawn]
+    widths = [math.prod(e.shape) for e in sensors]
     cols = np.cumsum([0, *widths]).astype(np.intp)
-    period = math.lcm(substeps, *(ch.interval for ch in fixed))
-    rows = history_rows([ch.schedule for ch in fixed], substeps, reach=max([0, *(ch.drawn.span for ch in drawn)]))
-    sensors = tuple(_record(ch, source, int(cols[c])) for c, (ch, source) in enumerate(zip(channels, sources)))
+    schedules = [_fixed(e) for e in fixed]
+    period = math.lcm(substeps, *(s.interval for s in schedules))
+    rows = history_rows(schedules, substeps, reach=max([0, *(_drawn(e).span for e in drawn)]))
+    records = tuple(_record(e, source, int(cols[c])) for c, (e, source) in enumerate(zip(sensors, sources)))
     reads = _read_table(fixed, cols, rows, substeps, period)
     taken, later = _masks(fixed, cols, int(cols[-1]), reads.nphase, substeps)
-    return SuitePlan(int(nsim), int(substeps), float(timestep), bool(pad), sensors, len(fixed), int(cols[-1]), rows,
+    return SuitePlan(int(nsim), int(substeps), float(timestep), bool(pad), records, len(fixed), int(cols[-1]), rows,
                      reads, taken, later, tuple((f, tuple(shape)) for f, shape in fields.items()))

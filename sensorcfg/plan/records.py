@@ -64,7 +64,7 @@ class Source(NamedTuple):
 
 
 class FixedTiming(NamedTuple):
-    """A constant schedule, in physics steps (dm_control's semantics, `runtime/schedule.Schedule`):
+    """A constant schedule, in physics steps (dm_control's semantics, `plan/schedule.Schedule`):
     sample k is taken at step `k * interval` and delivered at `k * interval + delay`; a read shows the
     newest `buffer` delivered samples. `taken[step % period]`: a sample is taken at that step (samples no
     read can show are skipped, unless `every_sample`: stateful noise sees every nominal sample); the reset
@@ -79,7 +79,7 @@ class FixedTiming(NamedTuple):
 
 
 class DrawnSteps(NamedTuple):
-    """An interval or delay drawn by sensorcfg's stream rule (`runtime/drawn.py`): `kind` "uniform"
+    """An interval or delay drawn by sensorcfg's stream rule (`plan/drawn.py`): `kind` "uniform"
     (integers `values[0]..values[1]` inclusive), "choice" (one of `values`, with probabilities `weights`;
     equal when empty), or "fixed" (`values[0]`)."""
 

@@ -12,36 +12,27 @@ Semantics are those of `FixedChannel` (dm_control's): sample k is taken at step 
 from __future__ import annotations
 
 import ctypes
-import math
 from collections.abc import Callable, Hashable, Sequence
-from typing import TYPE_CHECKING, Any, NamedTuple, Protocol, TypeGuard, cast
+from typing import TYPE_CHECKING, Protocol, TypeGuard
 
 import numpy as np
 
-from ..observables.aggregators import AGGREGATORS, builtin, pairwise
-from .cache import BoundedCache
+from ..cache import BoundedCache
+from ..plan.bound import aggregator_name, field_reader, plain_refusal
+from ..plan.layout import Member, read_layout
+from ..plan.schedule import history_rows, noise_chunk
 from .bank_noise import BankNoise, Program, program
 from .bank_read import PADS, CompiledRead, compile_read, cut, finish
 from .channels import Channel, DrawnChannel, FixedChannel
 from .read_kernel import kernel_read, kernel_snapshot
-from .schedule import Schedule, history_rows
 
 if TYPE_CHECKING:
     from mujoco import MjData
 
-__all__ = ["FeatureBank", "BankMember", "bank_member", "plain_refusal", "qualifies", "GroupMember", "PlainRead",
-           "ReadLayout", "ReductionGroup", "buffer_view", "fields_of", "noise_chunk", "read_layout", "rebind_noise",
-           "reuse_key"]
+__all__ = ["FeatureBank", "BankMember", "bank_member", "laid_out", "qualifies", "buffer_view", "fields_of",
+           "rebind_noise", "reuse_key"]
 
 _READS_BUDGET = 4 << 20  # bytes of read layouts kept, at least (4 x the history's size when that is more)
-_CHUNK_STEPS = 1024  # physics steps of noise drawn at a time (rounded up to the sampling period): one Philox call each
-
-
-def noise_chunk(schedules: Sequence[Schedule], substeps: int) -> int:
-    """Steps of noise a bank draws at a time (and holds ahead in its history): `_CHUNK_STEPS` rounded up to
-    every sampling period."""
-    period = math.lcm(substeps, *(s.interval for s in schedules))
-    return period * -(-_CHUNK_STEPS // period)
 
 
 def buffer_view(data: MjData, fields: list[str]) -> tuple[np.ndarray, dict[str, int]] | None:
@@ -63,82 +54,14 @@ def buffer_view(data: MjData, fields: list[str]) -> tuple[np.ndarray, dict[str, 
     return raw, {f: (a.ctypes.data - lo) // 8 for f, a in arrays.items()}
 
 
-class _FieldReader(Protocol):
-    """The sampler of a bank member: a feature reader of values `index` of one mjData `field`."""
-
-    field: str
-    index: np.ndarray
-
-    def __call__(self) -> np.ndarray: ...
-
-
-class _Windowed(Protocol):
-    def window(self, read_step: int) -> np.ndarray: ...
-
-
-class LaidOut(Protocol):
-    """What `read_layout` reads of a member: a `FixedChannel`, or the drawn bank's stand-in for one
-    (`planned.DrawnBank`: window position p reads history row p)."""
-
-    @property
-    def interval(self) -> int: ...
-    @property
-    def schedule(self) -> _Windowed: ...
-    @property
-    def aggregator(self) -> Callable[[np.ndarray], Any] | None: ...
-    @property
-    def buffer_size(self) -> int: ...
-    @property
-    def buffered_shape(self) -> tuple[int, ...]: ...
-    @property
-    def shape(self) -> tuple[int, ...]: ...
-
-
-class PlainRead(NamedTuple):
-    """A member read without reduction: `gathered[part]` reshaped to `shape`."""
-
-    member: int
-    part: Any  # a slice of the gather (an index array in the batch's layout)
-    shape: tuple[int, ...]
-
-
-class GroupMember(NamedTuple):
-    """A member of a reduction group: columns `columns` of the reduced group, reshaped to `shape`."""
-
-    member: int
-    columns: slice
-    shape: tuple[int, ...]
-
-
-class ReductionGroup(NamedTuple):
-    """Members with one aggregator and buffer size: `gathered[part]` as (buffer, group width), reduced once."""
-
-    part: Any  # a slice of the gather (an index array in the batch's layout)
-    block: tuple[int, int]
-    members: list[GroupMember]
-    aggregator: str  # the built-in's name (`observables.aggregators`)
-
-    @property
-    def reduce(self) -> Callable[[np.ndarray], np.ndarray]:
-        """The built-in's reduction (`AGGREGATORS`)."""
-        return AGGREGATORS[self.aggregator].reduce
-
-
-class ReadLayout(NamedTuple):
-    """One `gather` index (row * width + column of the history) and how to cut and reduce what it gathers."""
-
-    gather: np.ndarray
-    groups: list[ReductionGroup]
-    plain: list[PlainRead]
-
-
 def fields_of(channels: Sequence[Channel]) -> list[str]:
     """The mjData fields that bank members read, sorted."""
-    return sorted({_reader(ch).field for ch in channels})
+    return sorted({field_reader(ch.sampler).field for ch in channels})
 
 
-def _reader(ch: Channel) -> _FieldReader:
-    return cast(_FieldReader, ch.sampler)  # `plain_refusal` made sure it is one
+def laid_out(ch: FixedChannel) -> Member:
+    """A fixed-schedule member as `read_layout` reads it."""
+    return Member(ch.schedule, aggregator_name(ch.aggregator), ch.shape, ch.buffered_shape)
 
 
 class SharedRead(Protocol):
@@ -192,7 +115,8 @@ class FeatureBank:
         self.cols = np.cumsum([0] + widths)
         self.width = int(self.cols[-1])
         self.source = np.concatenate(
-            [offsets[_reader(ch).field] + _reader(ch).index.ravel() for ch in channels]).astype(np.intp)
+            [offsets[field_reader(ch.sampler).field] + field_reader(ch.sampler).index.ravel()
+             for ch in channels]).astype(np.intp)
         programs = [program(ch.noise) for ch in channels]
         noisy = any(programs)
         # Noise is drawn a chunk ahead; the history then also holds a chunk (rows: a multiple of the chunk).
@@ -283,7 +207,7 @@ class FeatureBank:
         return self.channels[position].schedule.samples_taken(self.phases[position][2], step)
 
     def _compile(self, phase: int) -> CompiledRead:
-        layout = read_layout(self.channels, self.cols, self.rows, phase)
+        layout = read_layout([laid_out(ch) for ch in self.channels], self.cols, self.rows, phase)
         if self.noise is None:  # gather the families' blocks straight from the history
             compiled = compile_read(self.channels, layout, None, self.rows * self.width)
         else:
@@ -326,9 +250,9 @@ def reuse_key(channels: Sequence[Channel], data: MjData, substeps: int, pad: boo
     keep the bank (FeatureBank, planned.DrawnBank), with this episode's channels (`rebind_noise`)."""
     head: tuple[Hashable, ...] = (id(data), substeps, pad)
     return head + tuple(
-        (_reader(ch).field, _reader(ch).index.shape, _reader(ch).index.tobytes(), schedule, ch.buffer_size,
+        (reader.field, reader.index.shape, reader.index.tobytes(), schedule, ch.buffer_size,
          getattr(ch.aggregator, "name", None), ch.has_buffer_dim, id(ch.noise))
-        for ch, schedule in zip(channels, schedules))
+        for ch, schedule in zip(channels, schedules) for reader in [field_reader(ch.sampler)])
 
 
 def rebind_noise(noise: BankNoise | None, channels: Sequence[Channel]) -> None:
@@ -347,23 +271,6 @@ def _snapshot_rows(phases: list[tuple[int, int, list[int]]], rows: int) -> list[
     return snap
 
 
-def plain_refusal(ch: Channel) -> str | None:
-    """Why a channel cannot be read as a plain feature (its values gathered from mjData, reduced by a built-in
-    aggregator on a buffer or not at all), as a rule's key: "constant" (an mjModel field), "generic" (not a
-    feature reader), "dtype" (not float64), "aggregator" (a custom one, or none of a buffer); None when it can.
-    The one membership rule of the feature banks (`bank_member`) and the batch (`BatchUpdater`)."""
-    sampler = ch.sampler
-    struct = getattr(sampler, "struct", None)
-    if struct != "data" or not hasattr(sampler, "index"):
-        return "constant" if struct == "model" else "generic"
-    if ch.dtype != np.float64:
-        return "dtype"
-    if ch.aggregator is not None and not (ch.builtin_aggregator and ch.has_buffer_dim
-                                          and builtin(ch.aggregator) is not None):
-        return "aggregator"
-    return None
-
-
 def bank_member(ch: Channel, kind: type[FixedChannel] | type[DrawnChannel]) -> bool:
     """Whether a channel of schedule type `kind` can join a feature bank (`FeatureBank`, `planned.DrawnBank`):
     an uncorrupted plain feature (`plain_refusal`) whose noise (if any) the bank can apply. A field MuJoCo
@@ -375,52 +282,3 @@ def bank_member(ch: Channel, kind: type[FixedChannel] | type[DrawnChannel]) -> b
 def qualifies(ch: Channel) -> TypeGuard[FixedChannel]:
     """Whether a channel can join the fixed-schedule bank (`bank_member`)."""
     return bank_member(ch, FixedChannel)
-
-
-def _builtin_name(aggregator: Callable[[np.ndarray], Any]) -> str:
-    """A bank member's aggregator's name: a built-in, as `plain_refusal` made sure."""
-    found = builtin(aggregator)
-    if found is None:
-        raise ValueError(f"{aggregator!r} is not a built-in aggregator: it cannot reduce a bank's read")
-    return found.name
-
-
-def read_layout(channels: Sequence[LaidOut], cols: np.ndarray, rows: int, phase: int) -> ReadLayout:
-    """For reads at steps = phase (mod rows) of a step-indexed history of `rows` rows of `cols[-1]` values,
-    channel i in columns cols[i]:cols[i+1]: one flat gather index (row * width + column), and how to cut
-    and reduce it (`ReadLayout`).
-
-    Shared by `FeatureBank` and the batched bank of `sensorcfg.batch`.
-    """
-    width = int(cols[-1])
-    # per group key (aggregator, buffer, the member when it is reduced alone (else -1)); None: not reduced
-    blocks: dict[tuple[str, int, int] | None, list[tuple[int, np.ndarray]]] = {}
-    for i, ch in enumerate(channels):
-        steps = ch.interval * ch.schedule.window(phase)
-        block = (steps % rows)[:, None] * width + np.arange(cols[i], cols[i + 1])
-        key = None
-        if ch.aggregator is not None:
-            name = _builtin_name(ch.aggregator)
-            key = (name, ch.buffer_size, i if pairwise(name, int(cols[i + 1] - cols[i])) else -1)
-        blocks.setdefault(key, []).append((i, block))
-    parts: list[np.ndarray] = []
-    groups: list[ReductionGroup] = []
-    plain: list[PlainRead] = []
-    offset = 0
-    for key, entries in blocks.items():
-        if key is None:
-            for i, block in entries:
-                plain.append(PlainRead(i, slice(offset, offset + block.size), channels[i].buffered_shape))
-                parts.append(block.ravel())
-                offset += block.size
-            continue
-        stacked = np.concatenate([block for _, block in entries], axis=1)  # (buffer, group width)
-        members: list[GroupMember] = []
-        col = 0
-        for i, block in entries:
-            members.append(GroupMember(i, slice(col, col + block.shape[1]), channels[i].shape))
-            col += block.shape[1]
-        groups.append(ReductionGroup(slice(offset, offset + stacked.size), stacked.shape, members, key[0]))
-        parts.append(stacked.ravel())
-        offset += stacked.size
-    return ReadLayout(np.concatenate(parts).astype(np.intp), groups, plain)

@@ -1,7 +1,7 @@
 """A feature bank's read of one phase (of the planned bank: any read, whose gathered rows change), compiled
 onto a work buffer of its own: a fixed number of numpy calls.
 
-`runtime.bank.read_layout` says which history positions each read gathers and how they are cut and reduced.
+`plan.layout.read_layout` says which history positions each read gathers and how they are cut and reduced.
 Compiled, a read is: one `take` from the history into the work buffer, which also stacks the windows of
 reductions of one family (`observables.aggregators.family`: sums, means and medians of one or two samples;
 maxima; minima) side by side, each padded to the family's longest buffer with a value that changes no
@@ -32,12 +32,22 @@ from ..observables.aggregators import AGGREGATORS, FAMILIES, Family, family
 from .bank_noise import Layer, ReadOp, ops_of
 
 if TYPE_CHECKING:
-    from .bank import GroupMember, PlainRead, ReadLayout, ReductionGroup
-    from .read_kernel import KernelRead
+    from ..plan.layout import GroupMember, PlainRead, ReadLayout, ReductionGroup
 
-__all__ = ["PADS", "CompiledRead", "Reduction", "Step", "compile_read", "cut", "finish"]
+__all__ = ["PADS", "CompiledRead", "KernelRead", "Reduction", "Step", "compile_read", "cut", "finish"]
 
 PADS = [f.pad for f in FAMILIES.values()]  # what the families' blocks are padded with
+
+class KernelRead(NamedTuple):
+    """`run(index)`: the whole read, from the gather of history positions `index` to the divisions; the same
+    in two calls, `noised(index)` (the gather and the noise) then `reduced(index)` (the rest), for a read
+    that writes padding between them; `arrays`: what the program points to (kept alive with it)."""
+
+    run: Callable[[np.ndarray], None]
+    arrays: tuple[np.ndarray, ...]
+    nbytes: int  # of the program and the index arrays it made (the others are the bank's and the read's)
+    noised: Callable[[np.ndarray], None]
+    reduced: Callable[[np.ndarray], None]
 
 
 class Reduction(NamedTuple):
@@ -216,7 +226,7 @@ def _families(groups: list[ReductionGroup]) -> tuple[dict[str, list[_Group]], li
     alone = []
     for g in groups:
         found = family(g.aggregator, *g.block)
-        group = _Group(np.arange(g.part.start, g.part.stop).reshape(g.block), g.members, g.reduce, found)
+        group = _Group(g.part.reshape(g.block), g.members, g.reduce, found)
         if found is None:
             alone.append(group)
         else:

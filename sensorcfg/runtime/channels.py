@@ -15,30 +15,26 @@ dm_control does (the same draws, in the same order) and skips what it can prove 
 from __future__ import annotations
 
 import collections
-import dataclasses
-import numbers
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, NamedTuple, cast
 
 import numpy as np
 
-from ..draws import (DEFAULT_BUFFER_SIZE, DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, as_draw, drawer, planned,
-                     sensor_key)
-from ..errors import SuiteError
-from ..observables.aggregators import builtin
-from .drawn import Drawn, Planner, Round, chunk_steps
-from .schedule import Schedule, history_rows
+from ..draws import as_draw
+from ..plan.bound import Entry, bind_sensor, buffered_shape, every_sample, has_buffer_dim
+from ..plan.drawn import Drawn, Planner, Round, chunk_steps
+from ..plan.schedule import Schedule, history_rows
 
 if TYPE_CHECKING:
     from ..noise.pipeline import NoisePipeline
 
-__all__ = ["Channel", "ChannelSpec", "DrawnChannel", "FixedChannel", "RandomChannel", "make_channel"]
+__all__ = ["Channel", "ChannelSpec", "DrawnChannel", "FixedChannel", "RandomChannel", "channel_of", "make_channel"]
 
 Sampler = Callable[[], Any]
 
 
 class ChannelSpec(NamedTuple):
-    """What a channel is, apart from its schedule: built by `make_channel`, shared by every channel type."""
+    """What a channel is, apart from its schedule: built by `channel_of`, shared by every channel type."""
 
     name: str
     sampler: Sampler
@@ -65,15 +61,14 @@ class Channel:
         self.shape = tuple(spec.shape)
         self.dtype = np.dtype(spec.dtype)
         self.buffer_size = spec.buffer_size
-        self.has_buffer_dim = not (spec.strip and spec.buffer_size == 1)
-        self.buffered_shape = ((spec.buffer_size,) if self.has_buffer_dim else ()) + self.shape
+        self.has_buffer_dim = has_buffer_dim(spec.buffer_size, spec.strip)
+        self.buffered_shape = buffered_shape(self.shape, spec.buffer_size, spec.strip)
         self.pad = spec.pad
         self.substeps = spec.substeps
         self.aggregator = spec.aggregator
         self.builtin_aggregator = spec.builtin_aggregator
         self.noise = spec.noise
-        # stateful noise (low-pass, dropout holding, a custom callable) sees every sample of the schedule
-        self.every_sample = spec.noise is not None and bool(getattr(spec.noise, "stateful", False))
+        self.every_sample = every_sample(spec.noise)  # stateful noise sees every sample of the schedule
         self.samples = 0
 
     def value(self, step: int) -> Any:
@@ -259,7 +254,7 @@ class RandomChannel(Channel):
 
 class DrawnChannel(Channel):
     """Interval and/or delay drawn by sensorcfg's own draws: planned in rounds by the stream rule of
-    `runtime/drawn.py`, samples taken per sample by the channel's sampler (the per-sample path; plain
+    `plan/drawn.py`, samples taken per sample by the channel's sampler (the per-sample path; plain
     float64 features join `runtime/planned.DrawnBank` instead)."""
 
     def __init__(self, spec: ChannelSpec, *, drawn: Drawn, key: np.ndarray):
@@ -343,44 +338,23 @@ def _window_drops(window: list[tuple[int, int, int]], b: int, flight: list[int])
 def make_channel(label: str, observable: Any, physics: Any, random_state: np.random.RandomState | None,
                  entropy: list[int] | None, substeps: int, strip: bool,
                  pad: bool) -> FixedChannel | RandomChannel | DrawnChannel:
-    """Bind `observable` to `physics` and build its channel for an episode: the Updater's and the batch's one
-    way to turn an observable into a channel. `entropy` keys the sensor's noise streams (`draws.sensor_key`);
-    `random_state` is the episode's, given to the observable and to schedule callables that take it."""
-    try:
-        sampler = observable.observation_callable(physics, random_state)
-    except SuiteError as e:  # binding to the model (unknown element, camera, ...): say which observable
-        raise SuiteError([p if p.loc else dataclasses.replace(p, message=f"observable {label!r}: {p.message}")
-                          for p in e.problems]) from None
-    interval = drawer(label, "update_interval", observable.update_interval, DEFAULT_UPDATE_INTERVAL, random_state)
-    delay = drawer(label, "delay", observable.delay, DEFAULT_DELAY, random_state)
-    buffer_size = observable.buffer_size or DEFAULT_BUFFER_SIZE
-    if not isinstance(buffer_size, numbers.Integral) or isinstance(buffer_size, bool) or buffer_size < 1:
-        raise SuiteError(f"observable {label!r}: buffer_size must be a positive integer, got {buffer_size!r}")
-    spec = observable.array_spec
-    if spec is None:  # infer shape and dtype from one sample, as dm_control does
-        probe = np.asarray(sampler())
-        shape, dtype = probe.shape, probe.dtype
-    else:
-        shape, dtype = spec.shape, spec.dtype
-    noise = getattr(observable, "noise", None)
-    key = sensor_key(entropy or [], label)  # its noise streams and planned schedule
-    if noise is not None:  # sample j of a constant interval is the j-th nominal sample
-        noise.reset(key, 1 if callable(interval) else interval)
-    aggregator = observable.aggregator
-    channel = ChannelSpec(label, sampler, getattr(sampler, "read_into", None), tuple(shape), np.dtype(dtype),
-                          int(buffer_size), strip, pad, substeps, aggregator, builtin(aggregator) is not None,
-                          noise)
-    return _scheduled(channel, observable, interval, delay, key)
+    """Bind `observable` to `physics` (`plan.bound.bind_sensor`, every engine's one way) and build its channel
+    for an episode: the Updater's one way to turn an observable into a channel. `entropy` keys the sensor's
+    noise streams (`draws.sensor_key`); `random_state` is the episode's, given to the observable and to schedule
+    callables that take it."""
+    return channel_of(bind_sensor(label, observable, physics, random_state, entropy, substeps, strip), substeps, pad)
 
 
-def _scheduled(channel: ChannelSpec, observable: Any, interval: int | Callable[[], int],
-               delay: int | Callable[[], int], key: np.ndarray) -> FixedChannel | RandomChannel | DrawnChannel:
-    """The channel type of a schedule: sensorcfg's draws follow the planned stream rule (`runtime/drawn.py`),
-    other callables dm_control's planning, constants the closed form."""
-    if planned(observable.update_interval, observable.delay):
-        drawn = Drawn(observable.update_interval or DEFAULT_UPDATE_INTERVAL, observable.delay or DEFAULT_DELAY,
-                      channel.buffer_size, channel.substeps)
-        return DrawnChannel(channel, drawn=drawn, key=key)
-    if callable(interval) or callable(delay):
-        return RandomChannel(channel, interval=as_draw(interval), delay=as_draw(delay))
-    return FixedChannel(channel, interval=interval, delay=delay)
+def channel_of(sensor: Entry, substeps: int, pad: bool) -> FixedChannel | RandomChannel | DrawnChannel:
+    """The channel type of a bound observable's schedule: sensorcfg's draws follow the planned stream rule
+    (`plan/drawn.py`), other callables dm_control's planning, constants the closed form."""
+    sampler = sensor.sampler
+    spec = ChannelSpec(sensor.name, sampler, getattr(sampler, "read_into", None), sensor.shape, sensor.dtype,
+                       sensor.buffer_size, not sensor.has_buffer_dim, pad, substeps, sensor.aggregator,
+                       sensor.builtin_aggregator, sensor.noise)
+    schedule = sensor.schedule
+    if isinstance(schedule, Drawn):
+        return DrawnChannel(spec, drawn=schedule, key=sensor.key)
+    if schedule is None:
+        return RandomChannel(spec, interval=as_draw(sensor.interval), delay=as_draw(sensor.delay))
+    return FixedChannel(spec, interval=schedule.interval, delay=schedule.delay)

@@ -1,6 +1,6 @@
 """The feature bank of planned schedules: plain float64 features with drawn intervals or delays, together.
 
-Their samples are planned in rounds (`runtime/drawn.py`: every member in one Planner call, a round shortly
+Their samples are planned in rounds (`plan/drawn.py`: every member in one Planner call, a round shortly
 before it starts), so which steps snapshot and which history rows each read gathers are known before the
 steps run. Per step that some member samples, one `numpy.take` copies every member's values from MjData's
 main buffer into a step-indexed history; a read is compiled once (`bank_read.compile_read`; only the rows
@@ -13,22 +13,23 @@ built (`runtime/read_kernel.py`), except reads early in an episode, whose window
 from __future__ import annotations
 
 from collections.abc import Callable, Hashable, Sequence
-from typing import TYPE_CHECKING, Any, NamedTuple, TypeGuard, cast
+from typing import TYPE_CHECKING, NamedTuple, TypeGuard, cast
 
 import numpy as np
 
-from .bank import BankMember, _reader, bank_member, read_layout, rebind_noise, reuse_key
+from ..plan.bound import aggregator_name, field_reader
+from ..plan.drawn import BANK_LONG_ROUND, BANK_RESET_STEPS, Planner, Round, chunk_steps, drawn_bank_rows
+from ..plan.layout import Member, read_layout
+from .bank import BankMember, bank_member, rebind_noise, reuse_key
 from .bank_noise import BankNoise, Layer, Program, ReadOp, ops_of, program
 from .bank_read import compile_read, cut, finish
 from .channels import Channel, DrawnChannel
-from .drawn import Drawn, Planner, Round, chunk_steps
 from .read_kernel import kernel_read, kernel_snapshot
-from .schedule import history_rows
 
 if TYPE_CHECKING:
     from mujoco import MjData
 
-__all__ = ["DrawnBank", "DrawnMember", "drawn_bank_rows", "joins"]
+__all__ = ["DrawnBank", "DrawnMember", "joins"]
 
 
 def joins(ch: Channel) -> TypeGuard[DrawnChannel]:
@@ -37,36 +38,20 @@ def joins(ch: Channel) -> TypeGuard[DrawnChannel]:
 
 
 class _Window(NamedTuple):
-    """A stand-in for `read_layout`: window position p of a member reads history row p."""
+    """A member's schedule as `read_layout` reads it (`plan.layout.Windowed`): window position p of a member
+    reads history row p."""
 
     buffer: int
+    interval: int = 1
 
     def window(self, phase: int) -> np.ndarray:
         return np.arange(self.buffer)
-
-
-class _Member(NamedTuple):
-    """A member as `read_layout` reads it (`bank.LaidOut`): one window of its last `buffer_size` samples."""
-
-    interval: int
-    schedule: _Window
-    aggregator: Callable[[np.ndarray], Any] | None
-    buffer_size: int
-    buffered_shape: tuple[int, ...]
-    shape: tuple[int, ...]
 
 
 class DrawnMember(BankMember):
     """A member of the drawn-schedule bank in the Updater's layout (`BankMember`'s reads, of a `DrawnBank`)."""
 
     __slots__ = ()
-
-
-def drawn_bank_rows(schedules: list[Drawn], substeps: int) -> int:
-    """Rows of a `DrawnBank`'s history: `Drawn.span` steps back and a long round (`_LONG` chunks) planned
-    ahead, plus the chunk the reset plans (`schedule.history_rows`)."""
-    chunk = chunk_steps(schedules, substeps, _RESET_STEPS)
-    return history_rows([], substeps, reach=max(d.span for d in schedules) + _LONG * chunk + 1, ahead=chunk)
 
 
 class DrawnBank:
@@ -80,12 +65,13 @@ class DrawnBank:
         self.cols = np.cumsum([0] + [int(np.prod(ch.shape, dtype=int)) for ch in channels])
         self.width = int(self.cols[-1])
         self.source = np.concatenate(
-            [offsets[_reader(ch).field] + _reader(ch).index.ravel() for ch in channels]).astype(np.intp)
-        self.chunk = chunk_steps([ch.drawn for ch in channels], substeps, _RESET_STEPS)
-        # The reset plans one chunk (what its latency pays for), later rounds _LONG chunks each (a round costs
-        # a fixed part, numpy calls, and a part per step). The history holds a planned round ahead and `span`
-        # steps back.
-        self.length = _LONG * self.chunk
+            [offsets[field_reader(ch.sampler).field] + field_reader(ch.sampler).index.ravel()
+             for ch in channels]).astype(np.intp)
+        self.chunk = chunk_steps([ch.drawn for ch in channels], substeps, BANK_RESET_STEPS)
+        # The reset plans one chunk (what its latency pays for), later rounds BANK_LONG_ROUND chunks each (a
+        # round costs a fixed part, numpy calls, and a part per step). The history holds a planned round ahead
+        # and `span` steps back.
+        self.length = BANK_LONG_ROUND * self.chunk
         span = max(ch.drawn.span for ch in channels)
         self.rows = drawn_bank_rows([ch.drawn for ch in channels], substeps)
         # A round is planned this many steps before it starts: every sample its reads show is then still
@@ -120,7 +106,7 @@ class DrawnBank:
     def _compile(self, channels: list[DrawnChannel]) -> None:
         """A read compiled once (`bank_read`): only the rows it gathers change, each gathered value is
         (`entry`: its member's window entry in a round's windows, `column`)."""
-        stand_ins = [_Member(1, _Window(ch.buffer_size), ch.aggregator, ch.buffer_size, ch.buffered_shape, ch.shape)
+        stand_ins = [Member(_Window(ch.buffer_size), aggregator_name(ch.aggregator), ch.shape, ch.buffered_shape)
                      for ch in channels]
         layout = read_layout(stand_ins, self.cols, max(ch.buffer_size for ch in channels), 0)
         self.compiled = compile_read(stand_ins, layout, None, None)
@@ -326,5 +312,3 @@ def _new(steps: np.ndarray, before: np.ndarray) -> np.ndarray:
 
 _ZERO = np.zeros(1, np.intp)
 _KEY = 1 << 40  # member * _KEY + step: a sample taken, as one sortable number
-_RESET_STEPS = 512  # a chunk, at least: what a reset plans
-_LONG = 4  # chunks per round after the reset's

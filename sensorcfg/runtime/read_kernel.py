@@ -20,31 +20,21 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable, Sequence
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 
 from .. import compiled
 from .bank_noise import Layer
-from .bank_read import CompiledRead, Step
+from .bank_read import CompiledRead, KernelRead, Step
 
-__all__ = ["KernelRead", "kernel_read", "kernel_snapshot"]
+__all__ = ["kernel_read", "kernel_snapshot"]
 
 # the kernel's op codes (`_kernel.c`, `read`), by the name of the numpy step they stand for
 _CODES = {"gather": 1, "term": 2, "add": 3, "mul": 4, "quantize": 5, "clip": 6, "take": 7, "sum": 8, "max": 9,
           "min": 10, "divide": 11}
 
 
-class KernelRead(NamedTuple):
-    """`run(index)`: the whole read, from the gather of history positions `index` to the divisions; the same
-    in two calls, `noised(index)` (the gather and the noise) then `reduced(index)` (the rest), for a read
-    that writes padding between them; `arrays`: what the program points to (kept alive with it)."""
-
-    run: Callable[[np.ndarray], None]
-    arrays: tuple[np.ndarray, ...]
-    nbytes: int  # of the program and the index arrays it made (the others are the bank's and the read's)
-    noised: Callable[[np.ndarray], None]
-    reduced: Callable[[np.ndarray], None]
 
 
 class _Program:

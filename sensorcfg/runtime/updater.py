@@ -13,18 +13,16 @@ from collections.abc import Callable, Collection, Hashable, Mapping, Sequence
 from typing import Any, NamedTuple, Union, cast
 
 import numpy as np
-from dm_env import specs
 
 from ..draws import episode_entropy, planned
 from ..errors import ArgumentError
-from ..observables.aggregators import aggregated_bounds
-from ..noise.bounds import noisy_bounds, own_bounds
-from .mujoco_structs import structs_of as raw_structs
+from ..plan.spec import observation_spec
+from ..mujoco_structs import structs_of as raw_structs
 from .bank import BankMember, FeatureBank, buffer_view, fields_of, qualifies
 from .channels import DrawnChannel, FixedChannel, RandomChannel, make_channel
 from .planned import DrawnBank, DrawnMember, joins
 
-__all__ = ["Updater", "observation_spec", "shows_zeros"]
+__all__ = ["Updater"]
 
 _MAX_TABLE_PERIOD = 1 << 16
 
@@ -355,7 +353,8 @@ class Updater:
         dicts = list(self._observables) if self._nested else [self._observables]
         out = []
         for obs_dict, (kind, entries) in zip(dicts, self._layout):
-            out.append(kind((name, observation_spec(name, obs_dict[name], ch)) for name, ch in entries))
+            out.append(kind((name, observation_spec(name, obs_dict[name], ch.buffered_shape, ch.dtype, self._pad))
+                            for name, ch in entries))
         return type(self._observables)(out) if self._nested else out[0]
 
     def samples_taken(self) -> Any:
@@ -371,40 +370,3 @@ class Updater:
     def step_count(self) -> int:
         """Physics steps since the last reset."""
         return self._step
-
-
-def observation_spec(name: str, observable: Any, ch: _Reader) -> specs.Array:
-    """One observable's dm_env spec: its own, with the buffer axis and the aggregator applied; bounds kept
-    where the aggregator preserves them (the Updater's and the batch's `observation_spec`). The bounds hold
-    for every value a read can show: its noisy samples (`noise.bounds`), and the zeros a read shows before
-    its first samples are delivered (`shows_zeros`)."""
-    array_spec = observable.array_spec
-    aggregator = observable.aggregator
-    noise = getattr(observable, "noise", None)
-    own = own_bounds(observable)
-    bounds = noisy_bounds(noise, own)  # the bounds every noisy sample keeps (sensorcfg.noise.bounds)
-    if (bounds is not None and (np.any(np.greater(bounds[0], 0)) or np.any(np.less(bounds[1], 0)))
-            and shows_zeros(observable, bool(getattr(getattr(ch, "channel", ch), "pad")))):
-        bounds = (np.minimum(bounds[0], 0), np.maximum(bounds[1], 0))
-    if aggregator is None and array_spec is not None and noise is None and bounds is own:
-        return array_spec.replace(name=name, shape=ch.buffered_shape)
-    shape, dtype = ch.buffered_shape, ch.dtype
-    if aggregator is not None:
-        aggregated = np.asarray(aggregator(np.zeros(ch.buffered_shape, dtype=ch.dtype)))
-        shape, dtype = aggregated.shape, aggregated.dtype
-        bounds = aggregated_bounds(aggregator, bounds, ch.buffered_shape[0] if ch.buffered_shape else 1)
-    if bounds is not None:
-        return specs.BoundedArray(shape=shape, dtype=dtype, minimum=bounds[0], maximum=bounds[1], name=name)
-    return specs.Array(shape=shape, dtype=dtype, name=name)
-
-
-def shows_zeros(observable: Any, pad: bool) -> bool:
-    """Whether a read of `observable` can show the zeros its window is padded with (dm_control's padding):
-    without `pad_with_initial_value`, a buffer of more than one sample is padded until it fills, and a delay
-    that can be above 0 leaves the reads before the first delivery empty. (With it, the padding repeats the
-    first sample, noise included, which lies within the bounds already.)"""
-    if pad:
-        return False
-    delay = observable.delay or 0
-    largest = int(delay) if isinstance(delay, numbers.Integral) else getattr(delay, "largest", None)
-    return bool((observable.buffer_size or 1) > 1 or largest is None or largest > 0)

@@ -2,7 +2,7 @@
 
 Each camera sensor has its own render context (one camera, its image size and mode, the scene flags
 `camera_support.settings` follows) and a ring of frames per world laid out as the CPU batch's
-(`batch/camera.py`, `runtime/schedule.Schedule`): (nworld, capacity, height * width * channels) in the CPU
+(`batch/camera.py`, `plan/schedule.Schedule`): (nworld, capacity, height * width * channels) in the CPU
 camera's dtype (rgb uint8, depth float32 metres, segmentation int32 (object id, object type)); sample k of
 a world lives in slot `k % capacity`, and a read shows the slots of its window, as on the CPU.
 
@@ -40,7 +40,7 @@ __all__ = ["CameraEntry", "CameraSchedule", "Cameras", "background_depth", "rend
 
 class CameraEntry(NamedTuple):
     """A camera sensor as the suite binds it: its `name`, its `observable`, and its fixed schedule's numbers
-    (`runtime/schedule.Schedule`'s): a sample every `interval` steps, read `delay` steps late, `buffer` samples
+    (`plan/schedule.Schedule`'s): a sample every `interval` steps, read `delay` steps late, `buffer` samples
     a read; `capacity` ring slots; `needed`: over its period, the steps whose frame some read can see
     (`Schedule.needed_mask`)."""
 
@@ -77,7 +77,7 @@ def render_substeps(needed: np.ndarray, substeps: int) -> list[int]:
 
 @wp.struct
 class CameraSchedule:
-    """A camera sensor's schedule (`runtime/schedule.Schedule`) as its kernels read it: a sample every
+    """A camera sensor's schedule (`plan/schedule.Schedule`) as its kernels read it: a sample every
     `interval` steps, read `delay` steps late, kept in a ring of `capacity` frames; `needed`: over its period,
     the steps whose frame some read can see (`Schedule.needed_mask`)."""
 

@@ -1,4 +1,4 @@
-"""Drawn intervals and delays on a Warp device: `runtime/drawn.py`'s stream rule, per world, step by step.
+"""Drawn intervals and delays on a Warp device: `plan/drawn.py`'s stream rule, per world, step by step.
 
 Sample j of a drawn sensor (j = 0: the reset sample, at step 0) is taken at step t_j = I_1 + ... + I_j and
 delivered at a_j = t_j + D_j, where I_j and D_j are drawn from the uniform of sample j, stage 0, value 0,

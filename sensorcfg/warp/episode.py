@@ -16,17 +16,12 @@ and `turn` applies each segment's misalign stages to `work`, as `noise.misalign.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 import warp as wp
 
-from ..plan import NoiseProgram, StepEpisode, episode
+from ..plan import NoiseProgram, StepEpisode, SuitePlan, episode
 from .philox import MODULE_OPTIONS
 from .program import PARAM_SLOTS, NoisePrograms, NoiseTables, TurnSlot, stage_params, taken_at
-
-if TYPE_CHECKING:
-    from .sensors import Sensors
 
 __all__ = ["Turns", "episode_values", "turn"]
 
@@ -92,15 +87,15 @@ def turn(turns: Turns, segment: int, steps: wp.array, mask: wp.array, programs: 
                                                                    drawn], outputs=[work], device=work.device)
 
 
-def episode_values(sensors: Sensors, keys: np.ndarray) -> np.ndarray:
-    """The values an episode keyed `keys` (one key per noisy sensor) draws at its reset, at their slots of
-    `sensors.episodes.drawn`: each noisy sensor's program's draws (`plan.episode`, from the plan's records alone)."""
-    tables: NoiseTables = sensors.noise
-    values = np.zeros(sensors.episodes.drawn.shape[1])
+def episode_values(plan: SuitePlan, tables: NoiseTables, keys: np.ndarray) -> np.ndarray:
+    """The values an episode keyed `keys` (one key per noisy sensor of `plan`) draws at its reset, at their slots
+    of `tables` (`Sensors.episodes.drawn`): each noisy sensor's program's draws (`plan.episode`, from the plan's
+    records alone)."""
+    values = np.zeros(max(1, tables.nslot))
     size = tables.size
     wanted = ({s.sensor for s in tables.episode_slots} | {s.sensor for s in tables.param_slots}
               | {s.sensor for s in tables.turn_slots})
-    programs = [s.noise for s in sensors.plan.sensors if s.noise is not None]
+    programs = [s.noise for s in plan.sensors if s.noise is not None]
     drawn: dict[int, tuple[StepEpisode, ...]] = {}
     for n in sorted(wanted):
         program = programs[n]

@@ -31,8 +31,9 @@ from ..errors import Problem, SuiteError
 from ..noise import build_noise
 from ..noise.level import leveled
 from ..observables.generic import BatchedGeneric, OwnValues
-from ..plan.bind import Bound, Entry, _check_drawn
-from ..runtime.channels import FixedChannel, make_channel
+from ..plan.bind import Bound, _check_drawn
+from ..plan.bound import bind_sensor
+from ..plan.schedule import Schedule
 from .support import refusals
 from .worlds import Worlds
 
@@ -148,18 +149,16 @@ class Generics:
         leveled({name: observable})
         return [_problem(name, observable, key, message) for key, message in refusals(observable, None, model)]
 
-    def bind(self, bound: Bound, order: Sequence[str], physics: Any, substeps: int, strip: bool, pad: bool) -> Bound:
+    def bind(self, bound: Bound, order: Sequence[str], substeps: int, strip: bool) -> Bound:
         """`bound` with these sensors added as features of their own values (in `order`, the suite's)."""
         mine = []
         for sensor in self._sensors:
             own = OwnValues(generic_field(sensor.name), sensor.size)
-            channel = make_channel(sensor.name, sensor.observable, own, np.random.RandomState(0), None, substeps,
-                                   strip, pad)
-            if channel.aggregator is not None and not (channel.builtin_aggregator and channel.has_buffer_dim):
+            entry = bind_sensor(sensor.name, sensor.observable, own, np.random.RandomState(0), None, substeps, strip)
+            if entry.aggregator is not None and not (entry.builtin_aggregator and entry.has_buffer_dim):
                 raise SuiteError(f"sensor {sensor.name!r}: its aggregator cannot be vectorised across worlds: use "
                                  "one of min, max, sum, mean, median on a buffer")
-            entry = Entry(sensor.name, sensor.observable, channel)
-            if not isinstance(channel, FixedChannel):
+            if not isinstance(entry.schedule, Schedule):
                 _check_drawn(entry)
             mine.append(entry)
         if not mine:
@@ -167,8 +166,8 @@ class Generics:
         rank = {name: i for i, name in enumerate(order)}
         entries = sorted([*bound.entries, *mine], key=lambda e: rank[e.name])
         return bound._replace(entries=entries,
-                              fixed=[*bound.fixed, *(e for e in mine if isinstance(e.channel, FixedChannel))],
-                              drawn=[*bound.drawn, *(e for e in mine if not isinstance(e.channel, FixedChannel))])
+                              fixed=[*bound.fixed, *(e for e in mine if isinstance(e.schedule, Schedule))],
+                              drawn=[*bound.drawn, *(e for e in mine if not isinstance(e.schedule, Schedule))])
 
     def run(self) -> None:
         """After a physics step (or a restart's forward): each callable's values into its own array."""

@@ -26,14 +26,13 @@ import mujoco
 import numpy as np
 import warp as wp
 
-from ..batch.environment import root_seed, sim_seed
-from ..draws import episode_entropy, sensor_keys
+from ..draws import episode_entropy, root_seed, sensor_keys, sim_seed
 from ..env.environment import random_state_from
 from ..errors import Problem, SuiteError
 from ..physics import Physics
 from ..plan.bind import Bound, Entry, bind
-from ..runtime.channels import FixedChannel
-from ..runtime.updater import observation_spec
+from ..plan.schedule import Schedule
+from ..plan.spec import observation_spec
 from .cameras import CameraEntry, Cameras
 from .episode import episode_values
 from .generic import Generics, split
@@ -74,7 +73,7 @@ def bind_suite(model: mujoco.MjModel, observables: Mapping[str, Any], substeps: 
     physics = Physics(model)
     mujoco.mj_forward(model, physics.data)
     others, batched = split(observables)  # batched generic callables: called by `warp.generic`
-    bound = bind(others, physics, substeps, strip, pad)
+    bound = bind(others, physics, substeps, strip)
     refuse(bound, model)
     return Binding(bound, batched, physics, substeps, strip, pad)
 
@@ -91,8 +90,8 @@ def _flat(array: wp.array, nworld: int) -> wp.array:
 
 def _camera(entry: Entry) -> CameraEntry:
     """A bound camera as `Cameras` takes it: its observable and its schedule's numbers."""
-    assert isinstance(entry.channel, FixedChannel)  # (a camera's schedule is fixed: `bind.check_per_simulation`)
-    schedule = entry.channel.schedule
+    schedule = entry.schedule
+    assert isinstance(schedule, Schedule)  # (a camera's schedule is fixed: `bind.check_per_simulation`)
     return CameraEntry(entry.name, entry.observable, schedule.interval, schedule.delay, schedule.buffer,
                        schedule.capacity, schedule.needed_mask())
 
@@ -106,10 +105,11 @@ class SensorLayer:
         bound, physics, n, pad = binding.bound, binding.physics, binding.substeps, binding.pad
         self.worlds, self.device, self.substeps = worlds, worlds.device, n
         self.generics = Generics(binding.batched, worlds, model)  # each called once: its shape
-        bound = self.generics.bind(bound, list(observables), physics, n, binding.strip, pad)
+        bound = self.generics.bind(bound, list(observables), n, binding.strip)
         bound, plan = scan_plan(bound, physics, worlds.nworld, n, pad,  # height scans read their own rays
                                 self.generics.sizes)
-        self.spec = {e.name: observation_spec(e.name, e.observable, e.channel) for e in bound.entries}
+        self.spec = {e.name: observation_spec(e.name, e.observable, e.buffered_shape, e.dtype, pad)
+                     for e in bound.entries}
         self.scans = Scans(model, plan, bound, self.device)
         own = {**self.scans.heights, **self.generics.values}
         self.fields = {**self._field_views([f for f, _ in plan.fields if f not in own] + self.scans.pose_fields),
@@ -157,7 +157,7 @@ def episode_keys(sensors: Sensors, entropy: list[int]) -> tuple[np.ndarray, np.n
     engines key them) and what the noisy ones' programs draw at its reset (`episode.episode_values`), from the
     episode's entropy."""
     keys = sensor_keys(entropy, sensors.key_names)
-    return keys, episode_values(sensors, keys)
+    return keys, episode_values(sensors.plan, sensors.noise, keys)
 
 
 class EpisodeKeys:

@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import cast
 
 import mujoco
 import mujoco_warp as mjw
@@ -38,7 +37,6 @@ from ..physics import raw_structs
 from ..plan.bind import Bound, Entry
 from ..plan.compile import compile_plan
 from ..plan.records import FixedTiming, SensorRecord, Source, SuitePlan
-from ..runtime.channels import DrawnChannel, FixedChannel
 from .philox import MODULE_OPTIONS
 
 __all__ = ["Scans", "plan", "scan_field"]
@@ -64,7 +62,7 @@ def plan(bound: Bound, physics: object, nsim: int, substeps: int, pad: bool,
     others = [e for e in bound.cameras if not isinstance(e.observable, HeightScan)]
     sources = bound.sources()
     nfixed = len(bound.fixed)
-    own = [Source(scan_field(e.name), np.arange(math.prod(e.channel.shape))) for e in scans]
+    own = [Source(scan_field(e.name), np.arange(math.prod(e.shape))) for e in scans]
     sources = [*sources[:nfixed], *own, *sources[nfixed:]]
     model, data = raw_structs(physics)
     heights = {source.field: (source.positions.size,) for source in own} | {f: (n,) for f, n in (values or {}).items()}
@@ -73,9 +71,7 @@ def plan(bound: Bound, physics: object, nsim: int, substeps: int, pad: bool,
         fields.setdefault(source.field, heights[source.field] if source.field in heights
                           else tuple(getattr(data, source.field).shape))
     fixed: list[Entry] = [*bound.fixed, *scans]
-    suite_plan = compile_plan([cast(FixedChannel, e.channel) for e in fixed],
-                              [cast(DrawnChannel, e.channel) for e in bound.drawn], sources, fields, nsim, substeps,
-                              float(model.opt.timestep), pad)
+    suite_plan = compile_plan(fixed, bound.drawn, sources, fields, nsim, substeps, float(model.opt.timestep), pad)
     return bound._replace(cameras=others, fixed=fixed), suite_plan
 
 

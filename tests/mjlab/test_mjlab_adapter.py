@@ -22,7 +22,7 @@ import mjlab.rl  # noqa: E402,F401
 import torch  # noqa: E402
 
 import sensorcfg  # noqa: E402
-from sensorcfg.batch.environment import root_seed, sim_seed  # noqa: E402
+from sensorcfg.draws import root_seed, sim_seed  # noqa: E402
 from sensorcfg.env.environment import random_state_from  # noqa: E402
 from sensorcfg.errors import ArgumentError, SuiteError  # noqa: E402
 from sensorcfg.noise.level import leveled  # noqa: E402

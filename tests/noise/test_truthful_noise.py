@@ -3,7 +3,7 @@ other samples were taken (docs/noise.md).
 
 Property: for random sensors with every noise stage, each value a read shows is bit-identical whatever
 the buffer size and the aggregator of that sensor. Fixed schedules, so a window's sample indices are
-known in closed form (`runtime.schedule`); the bank (banked stages) and the per-sample path (low-pass,
+known in closed form (`plan.schedule`); the bank (banked stages) and the per-sample path (low-pass,
 dropout, custom) both run. The batch runs each simulation as the single Updater (tests/batch/test_batch.py).
 """
 
@@ -20,7 +20,7 @@ import sensorcfg
 from sensorcfg import assets
 from sensorcfg.noise import build_noise
 from sensorcfg.observables.aggregators import AGGREGATORS
-from sensorcfg.runtime.schedule import Schedule
+from sensorcfg.plan.schedule import Schedule
 
 MODEL = mujoco.MjModel.from_xml_path(str(assets.path("robot.xml")))
 

@@ -52,7 +52,7 @@ def fixed_suite(seed: int) -> dict[str, sensorcfg.Observable]:
 def plan_of(observables, model, nsim: int, substeps: int, pad: bool = False) -> SuitePlan:
     physics = Physics(model)
     mujoco.mj_forward(model, physics.data)
-    bound = bind(observables, physics, substeps, False, pad)
+    bound = bind(observables, physics, substeps, False)
     return plan_suite(bound, physics, bound.sources(), nsim, substeps, pad)
 
 

@@ -1,4 +1,4 @@
-"""Which channels the feature banks and the batch read as plain features: one rule (`bank.plain_refusal`)."""
+"""Which channels the feature banks and the batch read as plain features: one rule (`plan.bound.plain_refusal`)."""
 
 from __future__ import annotations
 
@@ -12,8 +12,9 @@ from sensorcfg.plan import bind as plan_bind
 from sensorcfg.plan.bind import check_plain
 from sensorcfg.draws import UniformSteps
 from sensorcfg.errors import SuiteError
+from sensorcfg.plan.bound import plain_refusal
 from sensorcfg.runtime import bank as bank_module
-from sensorcfg.runtime.bank import plain_refusal, qualifies
+from sensorcfg.runtime.bank import qualifies
 from sensorcfg.runtime.channels import make_channel
 from sensorcfg.runtime.planned import joins
 

@@ -2,7 +2,7 @@
 
 A 14-value sensor with buffer 1000 and delay 5000 steps keeps 0.67 MB of samples; buffer 20000 keeps
 2.2 MB. The Updater and the batch hold those samples once or twice, plus read layouts kept within a budget
-(`runtime.cache`), and stop growing once every phase has been read.
+(`sensorcfg.cache`), and stop growing once every phase has been read.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ import pytest
 
 import sensorcfg
 from sensorcfg import assets
-from sensorcfg.runtime.cache import DEFAULT_BUDGET
+from sensorcfg.cache import DEFAULT_BUDGET
 
 MODEL = mujoco.MjModel.from_xml_path(str(assets.path("robot.xml")))
 MB = 1 << 20

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from sensorcfg.draws import ChoiceSteps, UniformSteps
-from sensorcfg.runtime.drawn import Drawn, Planner
+from sensorcfg.plan.drawn import Drawn, Planner
 
 
 def _schedules(rng: np.random.Generator, count: int, substeps: int) -> list[Drawn]:

@@ -1,4 +1,4 @@
-"""`runtime.schedule`, the one home of a fixed schedule's arithmetic, against brute force.
+"""`plan.schedule`, the one home of a fixed schedule's arithmetic, against brute force.
 
 Brute force: sample k is delivered at `k * i + d`; the read at each multiple R of n sees the newest `b`
 samples delivered by R (fewer early on: padding). Everything `Schedule` computes in closed form is checked
@@ -12,7 +12,7 @@ import itertools
 import numpy as np
 import pytest
 
-from sensorcfg.runtime.schedule import Schedule, newest_sample
+from sensorcfg.plan.schedule import Schedule, newest_sample
 
 GRID = list(itertools.product(range(1, 9), range(0, 9), range(1, 7)))
 

@@ -15,7 +15,7 @@ import numpy as np
 from dm_env import specs
 
 from sensorcfg import Environment
-from sensorcfg.batch.environment import root_seed, sim_seed
+from sensorcfg.draws import root_seed, sim_seed
 
 __all__ = ["cpu_batch"]
 

@@ -87,7 +87,7 @@ def _sensors(device: str, nworld: int, substeps: int) -> Sensors:
     model = mujoco.MjModel.from_xml_path(ROBOT)
     physics = Physics(model)
     mujoco.mj_forward(model, physics.data)
-    bound = bind(_observables(), physics, substeps, False, False)
+    bound = bind(_observables(), physics, substeps, False)
     return Sensors(plan_suite(bound, physics, bound.sources(), nworld, substeps, False), wp.get_device(device), 2)
 
 

@@ -23,8 +23,8 @@ from sensorcfg.noise import streams  # noqa: E402
 from sensorcfg.physics import Physics  # noqa: E402
 from sensorcfg.plan import DrawnTiming, SensorRecord, Source, SuitePlan  # noqa: E402
 from sensorcfg.plan.compile import _steps  # noqa: E402
-from sensorcfg.runtime.drawn import Drawn, Planner  # noqa: E402
-from sensorcfg.runtime.schedule import history_rows  # noqa: E402
+from sensorcfg.plan.drawn import Drawn, Planner  # noqa: E402
+from sensorcfg.plan.schedule import history_rows  # noqa: E402
 from sensorcfg.warp.drawn import DrawnSchedules, DrawnSetting, DrawnTimings, _setting, draw  # noqa: E402
 from sensorcfg.warp.environment import WarpEnvironment  # noqa: E402
 from sensorcfg.warp.philox import MODULE_OPTIONS  # noqa: E402
@@ -90,7 +90,7 @@ SCHEDULES = [  # (interval, delay, buffer): delays long against intervals, large
 @pytest.mark.parametrize("substeps", [1, 3])
 def test_windows_are_the_planners_for_every_read(substeps: int) -> None:
     """Each read's window (the sample steps shown, -1 padding) of 48 worlds of random keys over 400 steps, for
-    each schedule of `SCHEDULES`, against `runtime.drawn.Planner`'s rounds (the CPU engines' rule)."""
+    each schedule of `SCHEDULES`, against `plan.drawn.Planner`'s rounds (the CPU engines' rule)."""
     nworld, length = 48, 400
     drawns = [Drawn(interval, delay, buffer, substeps) for interval, delay, buffer in SCHEDULES]
     timings = [DrawnTiming(_steps(d.interval, 1), _steps(d.delay, 0), d.buffer, d.span) for d in drawns]

@@ -120,7 +120,7 @@ def test_each_stage_with_drawn_parameters_and_each_misalign_on_one_two_and_three
         obs.reader(physics)
         obs.noise = build_noise([DRAWN[6], MISALIGN[2], DRAWN[7], MISALIGN[0]], (2, 3), np.float64, physics.timestep)
         out["walked"] = obs
-        obs = sensorcfg.Feature("qpos", ["joint:shoulder", "joint:elbow"])  # a leveled blend kept in bounds after a walk
+        obs = sensorcfg.Feature("qpos", ["joint:shoulder", "joint:elbow"])  # a blend kept in bounds after a walk
         obs.reader(physics)
         obs.noise = build_noise([DRAWN[7], {"type": "clip", "min": 0.5, "max": 0.6}], (2,), np.float64,
                                 physics.timestep)

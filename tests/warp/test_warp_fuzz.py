@@ -39,7 +39,7 @@ wp = warp_or_skip()
 
 import sensorcfg  # noqa: E402
 from sensorcfg import assets  # noqa: E402
-from sensorcfg.batch.environment import root_seed, sim_seed  # noqa: E402
+from sensorcfg.draws import root_seed, sim_seed  # noqa: E402
 from sensorcfg.env.environment import random_state_from  # noqa: E402
 from sensorcfg.noise.level import leveled, set_level  # noqa: E402
 from sensorcfg.physics import Physics  # noqa: E402
@@ -230,7 +230,7 @@ def replay(make: Callable[[], dict[str, Any]], model: mujoco.MjModel, options: d
     physics = Physics(model)
     mujoco.mj_forward(model, physics.data)
     observables = make()
-    bound = bind(observables, physics, substeps, strip, pad)
+    bound = bind(observables, physics, substeps, strip)
     refuse(bound, model)
     plan = plan_suite(bound, physics, bound.sources(), nworld, substeps, pad)
     sensors = Sensors(plan, wp.get_device("cpu"), key_episodes)

@@ -104,7 +104,7 @@ def test_world_w_scans_what_the_updater_scans_on_the_same_trajectory() -> None:
     nworld, substeps = 3, 1
     physics = Physics(model)
     mujoco.mj_forward(model, physics.data)
-    bound, plan = rays.plan(bind(make(), physics, substeps, False, False), physics, nworld, substeps, False)
+    bound, plan = rays.plan(bind(make(), physics, substeps, False), physics, nworld, substeps, False)
     assert [s.name for s in plan.sensors] == ["pos", "grid", "ring", "level"]
     device = wp.get_device("cpu")
     sensors = Sensors(plan, device, 2)

@@ -81,7 +81,7 @@ def replay(make: Callable[[], dict[str, Any]], model: mujoco.MjModel, nworld: in
     `resets`: control step -> the worlds that start a second episode after its physics (one each at most)."""
     physics = Physics(model)
     mujoco.mj_forward(model, physics.data)
-    bound = bind(make(), physics, substeps, False, pad)
+    bound = bind(make(), physics, substeps, False)
     plan = plan_suite(bound, physics, bound.sources(), nworld, substeps, pad)
     sensors = Sensors(plan, wp.get_device("cpu"), 2)
     names = [f for f, _ in plan.fields]

@@ -17,7 +17,9 @@ dm_control side effect of dropping (dm_control continues a plan from the last sa
 `Planner` plans one channel for a set of simulations in rounds of `chunk` steps, vectorised across them:
 round (E - chunk, E] draws the samples with times in it, and returns the window of every read in it and the
 samples to take. A sample is decided by the round of its first read, which is at most `delay + substeps - 1`
-steps later, so callers plan one round ahead (`chunk >= largest delay + substeps`).
+steps later, so callers plan one round ahead (`chunk >= largest delay + substeps`). How long the rounds are and
+how many rows a history of drawn schedules keeps (`chunk_steps`, `ROUND_STEPS`, `drawn_bank_rows`) are decided
+here too, for the engines that plan rounds and for the memory check that bounds them (`sensorcfg.memory`).
 """
 
 from __future__ import annotations
@@ -27,15 +29,27 @@ from collections.abc import Sequence
 from typing import NamedTuple
 
 import numpy as np
+import numpy.typing as npt
 
-from ..draws import ChoiceSteps, UniformSteps
+from ..draws import DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, ChoiceSteps, UniformSteps
 from ..noise import streams
+from .schedule import history_rows
 
-__all__ = ["Drawn", "Planner", "Round", "chunk_steps"]
+__all__ = ["BANK_LONG_ROUND", "BANK_RESET_STEPS", "Drawn", "Planner", "ROUND_STEPS", "Round", "chunk_steps",
+           "drawn_bank_rows", "drawn_of"]
 
-_MIN_CHUNK = 1024  # steps per planning round, at least
+_MIN_CHUNK = 1024  # steps per planning round, at least (a channel planned alone)
+# Steps per planning round across simulations, at least (the batch): a reset plans two rounds of every
+# simulation it starts, so a long round makes every reset slow; a round's fixed work does not grow with its
+# length, so short rounds cost the step loop little.
+ROUND_STEPS = 64
+BANK_RESET_STEPS = 512  # a drawn bank's chunk, at least: what its reset plans
+BANK_LONG_ROUND = 4  # a drawn bank's chunks per round after the reset's
 
 
+Ints = npt.NDArray[np.int64]  # steps, sample indices, simulations
+Keys = npt.NDArray[np.uint64]  # episode keys, (..., 2)
+Mask = npt.NDArray[np.bool_]
 Draw = UniformSteps | ChoiceSteps  # an interval or delay sensorcfg draws (`draws.planned`)
 Setting = int | Draw  # a planned schedule's interval or delay: a constant or a draw
 
@@ -66,6 +80,12 @@ class Drawn(NamedTuple):
         return 2 * dmax + self.buffer * imax + self.substeps + 1
 
 
+def drawn_of(interval: Setting | None, delay: Setting | None, buffer: int, substeps: int,
+             every_sample: bool = False) -> Drawn:
+    """The planned schedule of an observable's settings (`draws.planned` ones; None: the default)."""
+    return Drawn(interval or DEFAULT_UPDATE_INTERVAL, delay or DEFAULT_DELAY, buffer, substeps, every_sample)
+
+
 def chunk_steps(schedules: list[Drawn], substeps: int, least: int = _MIN_CHUNK) -> int:
     """Steps per planning round: a multiple of substeps and of every constant interval, at least `least` and
     at least the largest delay plus substeps (a sample is decided one round after its own). The rule does not
@@ -75,20 +95,27 @@ def chunk_steps(schedules: list[Drawn], substeps: int, least: int = _MIN_CHUNK) 
     return unit * -(-least // unit)
 
 
+def drawn_bank_rows(schedules: list[Drawn], substeps: int) -> int:
+    """Rows of a drawn-schedule bank's history (`runtime/planned.DrawnBank`): `Drawn.span` steps back and a long
+    round (`BANK_LONG_ROUND` chunks) planned ahead, plus the chunk the reset plans (`schedule.history_rows`)."""
+    chunk = chunk_steps(schedules, substeps, BANK_RESET_STEPS)
+    return history_rows([], substeps, reach=max(d.span for d in schedules) + BANK_LONG_ROUND * chunk + 1, ahead=chunk)
+
+
 class Round(NamedTuple):
     """What a planning round gives for simulations `sims`: `windows` (len(sims), reads, largest buffer) sample
     steps (-1: padding; a simulation with a smaller buffer reads the last `buffer` of them), and the samples
     to take, as (position in sims, step) pairs."""
 
-    windows: np.ndarray
-    take_sim: np.ndarray
-    take_step: np.ndarray
+    windows: Ints
+    take_sim: Ints
+    take_step: Ints
 
 
 _SCHEDULE = np.array([0, 1 << 63], np.uint64)  # xor of a sensor key that gives its schedule key
 
 
-def _drawn(setting: Draw, keys: np.ndarray, first: np.ndarray, counts: np.ndarray, lane: int) -> np.ndarray:
+def _drawn(setting: Draw, keys: Keys, first: Ints, counts: Ints, lane: int) -> Ints:
     """Draws of `setting` for samples first[s] .. first[s] + counts[s] - 1 of schedule keys `keys` (one per
     run, (len(first), 2)), run after run, from lane `lane`."""
     return np.asarray(setting.of_uniform(streams.uniform_runs(keys, first, counts, lane)), np.int64)
@@ -130,7 +157,7 @@ class Planner:
         self.end = np.full(nsim, -1, np.int64)
         self.flight = np.zeros((3, 0), np.int64)  # rows: simulation, time, arrival
 
-    def start(self, sims: np.ndarray, keys: np.ndarray | list[np.ndarray]) -> Round:
+    def start(self, sims: Ints, keys: Keys | list[Keys]) -> Round:
         """Episodes of simulations `sims` start (their sensor keys): the round of step 0 (the reset sample and
         read)."""
         self.keys[sims] = np.asarray(keys, np.uint64).reshape(-1, 2) ^ _SCHEDULE
@@ -144,7 +171,7 @@ class Planner:
         self.flight = self.flight[:, ~restarted[self.flight[0]]]
         return self._reset_round(sims)
 
-    def _reset_round(self, sims: np.ndarray) -> Round:
+    def _reset_round(self, sims: Ints) -> Round:
         """`round(sims, 0)` of simulations just started, in closed form: sample 0 is at step 0 and arrives
         after its delay D_0, so the reset read shows it when D_0 = 0 and padding before it; it is in flight
         otherwise; nothing is taken (tests/runtime/test_planner.py compares the two)."""
@@ -168,7 +195,7 @@ class Planner:
         self.tail[sims] = windows[:, 0]
         return Round(windows, np.zeros(0, np.intp), np.zeros(0, np.int64))
 
-    def _until(self, sims: np.ndarray, end: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _until(self, sims: Ints, end: Ints) -> tuple[Ints, Ints, Ints]:
         """The samples of `sims` with times <= end not planned before: (position in sims, time, delay)."""
         if not self.started[sims].all():
             raise RuntimeError("a planned schedule was used before its episode started")
@@ -184,8 +211,8 @@ class Planner:
         g, t, d = (np.concatenate(part) for part in zip(*parts))
         return g, t, d
 
-    def _samples(self, schedule: tuple[Setting, Setting], sims: np.ndarray, end: np.ndarray
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _samples(self, schedule: tuple[Setting, Setting], sims: Ints, end: Ints
+                 ) -> tuple[Ints, Ints, Ints]:
         """`_until` for simulations of one schedule (interval, delay)."""
         (interval, delay), first = schedule, self.next[sims]
         if not isinstance(interval, (UniformSteps, ChoiceSteps)):
@@ -215,7 +242,7 @@ class Planner:
              else _drawn(delay, self.keys[sims], first, counts, 1))  # g: sorted, j from first, counts per sim
         return g, t, d
 
-    def round(self, sims: np.ndarray, length: int) -> Round:
+    def round(self, sims: Ints, length: int) -> Round:
         """Plan the next `length` steps of simulations `sims` (0 after `start`: step 0 only)."""
         prev = self.end[sims]
         end = prev + (length if length else 1)
@@ -229,8 +256,8 @@ class Planner:
         self.end[sims] = end
         return Round(windows, *self._every(sims, new, sim, steps, length))
 
-    def _windows(self, sims: np.ndarray, g: np.ndarray, t: np.ndarray, a: np.ndarray, prev: np.ndarray,
-                 length: int) -> np.ndarray:
+    def _windows(self, sims: Ints, g: Ints, t: Ints, a: Ints, prev: Ints,
+                 length: int) -> Ints:
         """Each read's window of the delivered samples (g, t, a) of `sims` after their tails, which become
         the last `buffer` delivered."""
         b, n = self.buffer, self.substeps
@@ -250,20 +277,20 @@ class Planner:
         reads = first[:, None] + n * np.arange(max(1, length // n) if length else 1)
         k = (np.searchsorted(g * w1 + rel, (np.arange(m) * w1 - prev)[:, None] + reads, side="right")
              - dstart[:, None])
-        windows: np.ndarray = seq[(offset[:, None] + k)[..., None] + np.arange(b)]
+        windows: Ints = seq[(offset[:, None] + k)[..., None] + np.arange(b)]
         self.tail[sims] = seq[offset[:, None] + delivered[:, None] + np.arange(b)]
         return windows
 
-    def _mask(self, sims: np.ndarray) -> np.ndarray | None:
+    def _mask(self, sims: Ints) -> Mask | None:
         """Per simulation, the window entries whose samples it takes (None: all): not those before a smaller
         buffer's entries, none with stateful noise (it takes every sample instead)."""
         if self.uneven or self.every[sims].any():
-            mask: np.ndarray = self.reads[sims] & ~self.every[sims][:, None]
+            mask: Mask = self.reads[sims] & ~self.every[sims][:, None]
             return mask
         return None
 
-    def _every(self, sims: np.ndarray, new: tuple[np.ndarray, np.ndarray], sim: np.ndarray, steps: np.ndarray,
-               length: int) -> tuple[np.ndarray, np.ndarray]:
+    def _every(self, sims: Ints, new: tuple[Ints, Ints], sim: Ints, steps: Ints,
+               length: int) -> tuple[Ints, Ints]:
         """The samples to take: those shown, and every new one of a simulation with stateful noise."""
         every = self.every[sims]
         if length and every.any():
@@ -272,8 +299,8 @@ class Planner:
             sim, steps = np.concatenate((sim, g[pick])), np.concatenate((steps, t[pick]))
         return sim, steps
 
-    def _in_flight(self, sims: np.ndarray, end: np.ndarray, g: np.ndarray, t: np.ndarray,
-                   a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _in_flight(self, sims: Ints, end: Ints, g: Ints, t: Ints,
+                   a: Ints) -> tuple[Ints, Ints, Ints]:
         """The new samples of `sims` with their samples in flight: those that arrive by the round's end
         (the rest stay in flight)."""
         keep = self.flight
@@ -293,7 +320,7 @@ class Planner:
         return g[due], t[due], a[due]
 
 
-def _shown(windows: np.ndarray, floor: np.ndarray, mask: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+def _shown(windows: Ints, floor: Ints, mask: Mask | None) -> tuple[Ints, Ints]:
     """(simulation, step) of the entries some read of the round shows that are not yet decided (older than a
     round: decided by an earlier round), where `mask` (simulation, entry) allows."""
     shown = windows > floor[:, None, None]

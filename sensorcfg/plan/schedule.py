@@ -13,11 +13,11 @@ dm_control's semantics in closed form:
 - the pattern of visible samples repeats every `period = lcm(i, n)` steps;
 - samples wait in a ring of `capacity = b + ceil(d / i) + 1` slots: sample k lives in slot `k % capacity`.
 
-Every consumer calls this module: `FixedChannel`, the feature bank's read layouts and sample counts, the
-batch's store (what the history keeps), the batch's camera rings and the CLI's timing panels. How many rows a
-step-indexed history has (`history_rows`) is decided here too, for every history and for the memory check
-that bounds them. Functions
-that take a sample index or a step accept numpy integer arrays too.
+Every consumer calls this module, below the engines: the plan (`plan/compile.py`, `plan/layout.py`),
+`FixedChannel`, the feature bank's sample counts, the batch's store (what the history keeps), the cameras'
+rings and the CLI's timing panels. How many rows a step-indexed history has (`history_rows`, and the noise a
+bank draws ahead, `noise_chunk`) is decided here too, for every history and for the memory check that bounds
+them. Functions that take a sample index or a step accept numpy integer arrays too.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from typing import NamedTuple, TypeVar, overload
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["IntArray", "Schedule", "Steps", "history_rows", "newest_sample"]
+__all__ = ["IntArray", "NOISE_CHUNK_STEPS", "Schedule", "Steps", "history_rows", "newest_sample", "noise_chunk"]
 
 IntArray = NDArray[np.int64]  # sample indices or steps, many at once
 Steps = TypeVar("Steps", int, IntArray)  # one sample index or step, or an array of them
@@ -141,3 +141,13 @@ def history_rows(schedules: Sequence[Schedule], substeps: int, reach: int = 0, a
     unit = ahead or math.lcm(substeps, *(s.interval for s in schedules))
     steps = max(reach, substeps + 1, *(s.wait + substeps + 1 for s in schedules)) + ahead
     return unit * -(-steps // unit)
+
+
+NOISE_CHUNK_STEPS = 1024  # physics steps of noise a bank draws at a time (rounded up to the sampling period)
+
+
+def noise_chunk(schedules: Sequence[Schedule], substeps: int) -> int:
+    """Steps of noise a feature bank draws at a time (and holds ahead in its history, `history_rows`'s
+    `ahead`): `NOISE_CHUNK_STEPS` rounded up to every sampling period (one Philox call each)."""
+    period = math.lcm(substeps, *(s.interval for s in schedules))
+    return period * -(-NOISE_CHUNK_STEPS // period)
