@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 import mujoco
 import mujoco_warp as mjw
@@ -35,7 +35,22 @@ from ..observables.camera import MODES
 from .camera_support import settings
 from .worlds import Worlds
 
-__all__ = ["CameraSchedule", "Cameras", "background_depth", "render_substeps"]
+__all__ = ["CameraEntry", "CameraSchedule", "Cameras", "background_depth", "render_substeps"]
+
+
+class CameraEntry(NamedTuple):
+    """A camera sensor as the suite binds it: its `name`, its `observable`, and its fixed schedule's numbers
+    (`plan/schedule.Schedule`'s): a sample every `interval` steps, read `delay` steps late, `buffer` samples
+    a read; `capacity` ring slots; `needed`: over its period, the steps whose frame some read can see
+    (`Schedule.needed_mask`)."""
+
+    name: str
+    observable: Any
+    interval: int
+    delay: int
+    buffer: int
+    capacity: int
+    needed: np.ndarray
 
 
 def background_depth(model: mujoco.MjModel, camera: int) -> float:
@@ -62,7 +77,7 @@ def render_substeps(needed: np.ndarray, substeps: int) -> list[int]:
 
 @wp.struct
 class CameraSchedule:
-    """A camera sensor's schedule (`runtime/schedule.Schedule`) as its kernels read it: a sample every
+    """A camera sensor's schedule (`plan/schedule.Schedule`) as its kernels read it: a sample every
     `interval` steps, read `delay` steps late, kept in a ring of `capacity` frames; `needed`: over its period,
     the steps whose frame some read can see (`Schedule.needed_mask`)."""
 
@@ -193,14 +208,13 @@ _WP = {np.dtype(np.uint8): wp.uint8, np.dtype(np.float32): wp.float32, np.dtype(
 class _Camera:
     """One camera sensor: its render context, schedule tables, ring and read buffer."""
 
-    def __init__(self, name: str, observable: Any, channel: Any, model: mujoco.MjModel, nworld: int,
-                 substeps: int, shape: tuple[int, ...]):
-        self.name, self.mode = name, observable.mode
+    def __init__(self, entry: CameraEntry, model: mujoco.MjModel, nworld: int, substeps: int,
+                 shape: tuple[int, ...]):
+        observable, needed = entry.observable, entry.needed
+        self.name, self.mode = entry.name, observable.mode
         cam = observable.camera_id(model)
         width, height = observable.width, observable.height
         channels, dtype, _, _ = MODES[self.mode]
-        schedule = channel.schedule
-        needed = schedule.needed_mask()
         self.substeps = frozenset(render_substeps(needed, substeps))
         self.background = background_depth(model, cam)
         self.rc = mjw.create_render_context(
@@ -212,9 +226,9 @@ class _Camera:
         size = self.pixels * channels
         self.schedule = timing = CameraSchedule()
         timing.needed = wp.array(needed.astype(np.int32), dtype=wp.int32)
-        timing.interval, timing.delay, timing.capacity = schedule.interval, schedule.delay, schedule.capacity
-        self.ring = wp.zeros((nworld, schedule.capacity, size), dtype=_WP[np.dtype(dtype)])
-        self.out = wp.zeros((nworld, channel.buffer_size, size), dtype=_WP[np.dtype(dtype)])
+        timing.interval, timing.delay, timing.capacity = entry.interval, entry.delay, entry.capacity
+        self.ring = wp.zeros((nworld, entry.capacity, size), dtype=_WP[np.dtype(dtype)])
+        self.out = wp.zeros((nworld, entry.buffer, size), dtype=_WP[np.dtype(dtype)])
         # the CPU camera's (nworld, [buffer,] height, width, channels) as Warp arrays have at most 4 axes:
         # (nworld, [buffer,] height, width) of vectors of the channels, a view of `out`
         self.observation = wp.array(ptr=self.out.ptr, dtype=wp.types.vector(channels, _WP[np.dtype(dtype)]),
@@ -222,15 +236,15 @@ class _Camera:
 
 
 class Cameras:
-    """The camera sensors of a suite over `worlds` (`entries`: (name, observable, channel), in the suite's
-    order; `shapes`: each one's read shape per world, as the CPU engines give it)."""
+    """The camera sensors of a suite over `worlds` (`entries`, in the suite's order; `shapes`: each one's read
+    shape per world, as the CPU engines give it)."""
 
-    def __init__(self, entries: Sequence[tuple[str, Any, Any]], model: mujoco.MjModel, worlds: Worlds,
-                 substeps: int, pad: bool, shapes: Mapping[str, tuple[int, ...]]):
+    def __init__(self, entries: Sequence[CameraEntry], model: mujoco.MjModel, worlds: Worlds, substeps: int,
+                 pad: bool, shapes: Mapping[str, tuple[int, ...]]):
         self.worlds, self.pad = worlds, int(pad)
         n = worlds.nworld
         with wp.ScopedDevice(worlds.device):
-            self.cameras = [_Camera(name, obs, ch, model, n, substeps, shapes[name]) for name, obs, ch in entries]
+            self.cameras = [_Camera(entry, model, n, substeps, shapes[entry.name]) for entry in entries]
             self.everyone = wp.ones(n, dtype=wp.int32)
         self.names = [c.name for c in self.cameras]
 

@@ -38,8 +38,8 @@ import warp as wp
 from ..plan import DrawnSteps, DrawnTiming, SuitePlan
 from .philox import MODULE_OPTIONS, block, uniform
 
-__all__ = ["AGGREGATORS", "DrawnPositions", "DrawnRing", "DrawnSchedules", "DrawnTimings", "DrawnView", "Reduction",
-           "draw", "largest_gap", "reduction", "ring_size"]
+__all__ = ["AGGREGATORS", "DrawnPositions", "DrawnRing", "DrawnSchedules", "DrawnSetting", "DrawnTimings", "DrawnView",
+           "Reduction", "draw", "largest_gap", "reduction", "ring_size"]
 
 wp.set_module_options(MODULE_OPTIONS)
 
@@ -48,13 +48,43 @@ _LANE = wp.constant(wp.uint32(1 << 22))  # a lane's counter bits (stage 0)
 _KINDS = {"fixed": 0, "uniform": 1, "choice": 2}  # 3: a choice with weights
 
 
+@wp.struct
+class DrawnSetting:
+    """A drawn interval's or delay's `DrawnSteps` as `draw` reads it: its `kind` code (`_KINDS`; 3: a choice
+    with weights) and its values at `first` .. `first + count` of `DrawnTimings`' shared `values` and
+    `cumulative` (its cumulative weights)."""
+
+    kind: wp.int32
+    first: wp.int32
+    count: wp.int32
+
+
+@wp.struct
+class DrawnTimings:
+    """Per drawn sensor, its plan's `DrawnTiming` as the kernels read it: its episode key's index in the keys
+    (`key_slot`), its index among the noisy sensors (`noisy`, -1: clean), its `buffer`, and its `interval`'s
+    and `delay`'s `DrawnSetting` in the shared `values` and `cumulative`."""
+
+    key_slot: wp.array[wp.int32]
+    noisy: wp.array[wp.int32]
+    buffer: wp.array[wp.int32]
+    interval: wp.array[DrawnSetting]
+    delay: wp.array[DrawnSetting]
+    values: wp.array[wp.int64]
+    cumulative: wp.array[wp.float64]
+
+
 @wp.func
-def draw(kind: wp.int32, first: wp.int32, count: wp.int32, values: wp.array[wp.int64],
-         cumulative: wp.array[wp.float64], k0: wp.uint64, k1: wp.uint64, j: wp.int64, lane: wp.uint32) -> wp.int64:
-    """The draw of sample j, lane `lane`, of a setting (its `kind`, and `values[first:first + count]`,
-    `cumulative` its cumulative weights) under sensor key (k0, k1): `UniformSteps.of_uniform` (low + floor(u
-    n)) or `ChoiceSteps.of_uniform` (values[floor(u n)]; weighted: the first k with u < P_k) of the uniform u
-    of sample j, stage 0, value 0 under the schedule key (k0, k1 xor 2^63)."""
+def draw(setting: DrawnSetting, timings: DrawnTimings, k0: wp.uint64, k1: wp.uint64, j: wp.int64,
+         lane: wp.uint32) -> wp.int64:
+    """The draw of sample j, lane `lane`, of a `setting` (in `timings`' `values` and `cumulative`) under
+    sensor key (k0, k1): `UniformSteps.of_uniform` (low + floor(u n)) or `ChoiceSteps.of_uniform` (values[floor(u
+    n)]; weighted: the first k with u < P_k) of the uniform u of sample j, stage 0, value 0 under the schedule
+    key (k0, k1 xor 2^63)."""
+    kind = setting.kind
+    first = setting.first
+    count = setting.count
+    values = timings.values
     if kind == 0:
         return values[first]
     u = uniform(block(k0, k1 ^ _SCHEDULE, j, lane * _LANE, 0)[0])
@@ -65,28 +95,9 @@ def draw(kind: wp.int32, first: wp.int32, count: wp.int32, values: wp.array[wp.i
         return values[first + wp.int32(wp.floor(u * wp.float64(count)))]
     k = wp.int32(0)
     for i in range(count):  # numpy's searchsorted(cumulative, u, side="right"), at most the last value
-        if cumulative[first + i] <= u:
+        if timings.cumulative[first + i] <= u:
             k = k + 1
     return values[first + wp.min(k, count - 1)]
-
-
-@wp.struct
-class DrawnTimings:
-    """Per drawn sensor, its plan's `DrawnTiming` as the kernels read it: its episode key's index in the keys
-    (`key_slot`), its index among the noisy sensors (`noisy`, -1: clean), its `buffer`, and its interval's and
-    delay's `DrawnSteps` as `draw` reads them (kind, first, count) in the shared `values` and `cumulative`."""
-
-    key_slot: wp.array[wp.int32]
-    noisy: wp.array[wp.int32]
-    buffer: wp.array[wp.int32]
-    interval_kind: wp.array[wp.int32]
-    interval_first: wp.array[wp.int32]
-    interval_count: wp.array[wp.int32]
-    delay_kind: wp.array[wp.int32]
-    delay_first: wp.array[wp.int32]
-    delay_count: wp.array[wp.int32]
-    values: wp.array[wp.int64]
-    cumulative: wp.array[wp.float64]
 
 
 @wp.struct
@@ -114,15 +125,13 @@ class DrawnPositions:
 @wp.func
 def _interval(timings: DrawnTimings, d: wp.int32, k0: wp.uint64, k1: wp.uint64, j: wp.int64) -> wp.int64:
     """Drawn sensor d's interval before sample j (lane 0)."""
-    return draw(timings.interval_kind[d], timings.interval_first[d], timings.interval_count[d], timings.values,
-                timings.cumulative, k0, k1, j, wp.uint32(0))
+    return draw(timings.interval[d], timings, k0, k1, j, wp.uint32(0))
 
 
 @wp.func
 def _delay(timings: DrawnTimings, d: wp.int32, k0: wp.uint64, k1: wp.uint64, j: wp.int64) -> wp.int64:
     """Drawn sensor d's delay of sample j (lane 1)."""
-    return draw(timings.delay_kind[d], timings.delay_first[d], timings.delay_count[d], timings.values,
-                timings.cumulative, k0, k1, j, wp.uint32(1))
+    return draw(timings.delay[d], timings, k0, k1, j, wp.uint32(1))
 
 
 @wp.kernel
@@ -216,22 +225,14 @@ def _gather(
         out[w, p] = wp.float32(0.0)
 
 
-class _Setting(NamedTuple):
-    """A drawn interval's or delay's `DrawnSteps` as `draw` reads them: its `kind` code, and its values at
-    `first` .. `first + length` of the shared `values` and `cumulative` (`DrawnTimings`' `*_count`)."""
-
-    kind: int
-    first: int
-    length: int
-
-
-def _setting(steps: DrawnSteps, values: list[int], cumulative: list[float]) -> _Setting:
+def _setting(steps: DrawnSteps, values: list[int], cumulative: list[float]) -> DrawnSetting:
     """A setting in the tables `values` and `cumulative` (appended to)."""
-    kind = _KINDS[steps.kind] + int(steps.kind == "choice" and steps.weights.size > 0)
-    first = len(values)
+    setting = DrawnSetting()
+    setting.kind = kind = _KINDS[steps.kind] + int(steps.kind == "choice" and steps.weights.size > 0)
+    setting.first, setting.count = len(values), len(steps.values)
     values += [int(v) for v in steps.values]
     cumulative += np.cumsum(steps.weights).tolist() if kind == 3 else [0.0] * len(steps.values)
-    return _Setting(kind, first, len(steps.values))
+    return setting
 
 
 def _extreme(steps: DrawnSteps, largest: bool) -> int:
@@ -296,8 +297,8 @@ class DrawnSchedules:
         self.names = [s.name for _, s in drawn]
         values: list[int] = []
         cumulative: list[float] = []
-        intervals: list[_Setting] = []
-        delays: list[_Setting] = []
+        intervals: list[DrawnSetting] = []
+        delays: list[DrawnSetting] = []
         buffers: list[int] = []
         rings: list[int] = []
         sensor: list[int] = []
@@ -332,12 +333,8 @@ class DrawnSchedules:
             timings.key_slot = _i32([key_slot[name] for name in self.names])
             timings.noisy = _i32([noisy.get(name, -1) for name in self.names])
             timings.buffer = _i32(buffers)
-            timings.interval_kind = _i32([s.kind for s in intervals])
-            timings.interval_first = _i32([s.first for s in intervals])
-            timings.interval_count = _i32([s.length for s in intervals])
-            timings.delay_kind = _i32([s.kind for s in delays])
-            timings.delay_first = _i32([s.first for s in delays])
-            timings.delay_count = _i32([s.length for s in delays])
+            timings.interval = wp.array(intervals, dtype=DrawnSetting)
+            timings.delay = wp.array(delays, dtype=DrawnSetting)
             timings.values = wp.array(np.asarray(values, np.int64), dtype=wp.int64)
             timings.cumulative = wp.array(np.asarray(cumulative, np.float64), dtype=wp.float64)
             self.positions = positions = DrawnPositions()

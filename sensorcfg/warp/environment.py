@@ -79,6 +79,36 @@ class WarpTimeStep(NamedTuple):
         return out
 
 
+@wp.struct
+class EpisodeRules:
+    """When an episode ends and the next starts (`env.episode`): after `limit` control steps (0: no limit), and
+    with `same_step` (1) in the step that ended it, else (0) in the next."""
+
+    limit: wp.int64
+    same_step: wp.int32
+
+
+@wp.struct
+class EpisodeState:
+    """Per world, where its episode is: `needs_reset` (1: the next step restarts it), `restarting` (1: this step
+    restarts it), `starting` (1: its episode starts now, after this step's physics) and `control_steps` since
+    its reset (what the time limit counts)."""
+
+    needs_reset: wp.array[wp.int32]
+    restarting: wp.array[wp.int32]
+    starting: wp.array[wp.int32]
+    control_steps: wp.array[wp.int64]
+
+
+@wp.struct
+class StepFields:
+    """Per world, the control step's dm_env TimeStep fields (`WarpTimeStep`'s arrays)."""
+
+    step_type: wp.array[wp.int32]
+    reward: wp.array[wp.float32]
+    discount: wp.array[wp.float32]
+
+
 @wp.kernel
 def _control(
     # In:
@@ -105,53 +135,48 @@ def _to_float32(
 
 @wp.kernel
 def _begin(
-    # In:
-    needs_reset: wp.array[wp.int32],
-    # Out:
-    restart: wp.array[wp.int32],
-    # In and out:
-    control_steps: wp.array[wp.int64],
+    # In and out: `needs_reset` into `restarting`; `control_steps` advanced, or 0 where it restarts
+    episode: EpisodeState,
 ):
     w = wp.tid()
-    restart[w] = needs_reset[w]
-    if needs_reset[w] == 1:
-        control_steps[w] = wp.int64(0)
+    episode.restarting[w] = episode.needs_reset[w]
+    if episode.needs_reset[w] == 1:
+        episode.control_steps[w] = wp.int64(0)
     else:
-        control_steps[w] = control_steps[w] + wp.int64(1)
+        episode.control_steps[w] = episode.control_steps[w] + wp.int64(1)
 
 
 @wp.kernel
 def _end(
-    # In: per world, and the episode rules (`limit` control steps, 0: none; `same_step` autoreset)
-    restart: wp.array[wp.int32], diverged: wp.array[bool], terminated: wp.array[bool], limit: wp.int64,
-    same_step: wp.int32, reward_in: wp.array[wp.float32],
-    # In and out:
-    control_steps: wp.array[wp.int64],
-    # Out: the worlds to reset next step or now, and the step's TimeStep fields
-    needs_reset: wp.array[wp.int32], starting: wp.array[wp.int32], step_type: wp.array[wp.int32],
-    reward: wp.array[wp.float32], discount: wp.array[wp.float32],
+    # In: the episode rules, and per world this step's divergence, termination and reward
+    rules: EpisodeRules, diverged: wp.array[bool], terminated: wp.array[bool], reward_in: wp.array[wp.float32],
+    # In and out: `restarting` and `control_steps` in; `needs_reset`, `starting` (and `control_steps`) out
+    episode: EpisodeState,
+    # Out:
+    fields: StepFields,
 ):
     """The step's types, rewards and discounts, and the worlds whose episode starts now (`starting`): those
     that needed a reset, and with `same_step` those whose episode this step ended (their time limit's count
     restarts: `control_steps` 0); without it, those are reset by the next step (`needs_reset`)."""
     w = wp.tid()
-    if restart[w] == 1:
-        step_type[w] = 0
-        reward[w] = wp.float32(0.0)
-        discount[w] = wp.float32(1.0)
-        needs_reset[w] = 0
-        starting[w] = 1
+    if episode.restarting[w] == 1:
+        fields.step_type[w] = 0
+        fields.reward[w] = wp.float32(0.0)
+        fields.discount[w] = wp.float32(1.0)
+        episode.needs_reset[w] = 0
+        episode.starting[w] = 1
         return
+    limit = rules.limit
     terminal = diverged[w] or terminated[w]
-    last = terminal or (limit > wp.int64(0) and control_steps[w] >= limit)  # (`env.episode.episode_end`)
-    step_type[w] = wp.where(last, 2, 1)
-    reward[w] = reward_in[w]
-    discount[w] = wp.where(terminal, wp.float32(0.0), wp.float32(1.0))
-    now = last and same_step == 1
-    needs_reset[w] = wp.where(last and not now, 1, 0)
-    starting[w] = wp.where(now, 1, 0)
+    last = terminal or (limit > wp.int64(0) and episode.control_steps[w] >= limit)  # (`env.episode.episode_end`)
+    fields.step_type[w] = wp.where(last, 2, 1)
+    fields.reward[w] = reward_in[w]
+    fields.discount[w] = wp.where(terminal, wp.float32(0.0), wp.float32(1.0))
+    now = last and rules.same_step == 1
+    episode.needs_reset[w] = wp.where(last and not now, 1, 0)
+    episode.starting[w] = wp.where(now, 1, 0)
     if now:
-        control_steps[w] = wp.int64(0)
+        episode.control_steps[w] = wp.int64(0)
 
 
 @wp.kernel
@@ -192,13 +217,13 @@ def _any(
 def _started(
     # In:
     mask: wp.array[wp.int32],
-    # Out:
-    needs_reset: wp.array[wp.int32], control_steps: wp.array[wp.int64],
+    # Out: the masked worlds' `needs_reset` and `control_steps` 0
+    episode: EpisodeState,
 ):
     w = wp.tid()
     if mask[w] == 1:
-        needs_reset[w] = 0
-        control_steps[w] = wp.int64(0)
+        episode.needs_reset[w] = 0
+        episode.control_steps[w] = wp.int64(0)
 
 
 class WarpEnvironment(ControlLoop):
@@ -283,6 +308,8 @@ class WarpEnvironment(ControlLoop):
             options.get("physics_steps_per_control_step"))
         # (0: none; at most `MAX_CONTROL_STEPS`, an int64)
         self._limit = 0 if self._step_limit is None else int(self._step_limit)
+        self._rules = rules = EpisodeRules()
+        rules.limit, rules.same_step = self._limit, int(self._same_step)
         pad = bool(options.get("pad_with_initial_value", False))
         strip = bool(options.get("strip_singleton_buffer_dim", False))
         binding = bind_suite(self._model, observables, self._n, strip, pad)
@@ -296,14 +323,16 @@ class WarpEnvironment(ControlLoop):
         with wp.ScopedDevice(self.device):
             n = self._nworld
             self._actions = wp.zeros((n, self._model.nu), dtype=wp.float32)
-            self._needs_reset = wp.ones(n, dtype=wp.int32)
-            self._restarting = wp.zeros(n, dtype=wp.int32)
-            self._starting = wp.zeros(n, dtype=wp.int32)
+            self._episode = episode = EpisodeState()
+            episode.needs_reset = wp.ones(n, dtype=wp.int32)
+            episode.restarting = wp.zeros(n, dtype=wp.int32)
+            episode.starting = wp.zeros(n, dtype=wp.int32)
+            episode.control_steps = wp.zeros(n, dtype=wp.int64)
             self._diverged = wp.zeros(n, dtype=bool)
-            self._control_steps = wp.zeros(n, dtype=wp.int64)
-            self._step_type = wp.zeros(n, dtype=wp.int32)
-            self._reward = wp.zeros(n, dtype=wp.float32)
-            self._discount = wp.ones(n, dtype=wp.float32)
+            self._fields = fields = StepFields()
+            fields.step_type = wp.zeros(n, dtype=wp.int32)
+            fields.reward = wp.zeros(n, dtype=wp.float32)
+            fields.discount = wp.ones(n, dtype=wp.float32)
             self._no_reward = wp.zeros(n, dtype=wp.float32)
             self._no_termination = wp.zeros(n, dtype=bool)
             self._mask = wp.zeros(n, dtype=wp.int32)
@@ -331,8 +360,8 @@ class WarpEnvironment(ControlLoop):
     def seed(self, seed: int | np.random.SeedSequence | None) -> None:
         """Reseed every world (world w from `sim_seed(seed, world_offset + w)`); the next step resets them all."""
         self._seed = self._keys.seed(seed)
-        if hasattr(self, "_needs_reset"):
-            self._needs_reset.fill_(1)
+        if hasattr(self, "_episode"):
+            self._episode.needs_reset.fill_(1)
 
     # -- properties -----------------------------------------------------------------------------------
 
@@ -363,7 +392,7 @@ class WarpEnvironment(ControlLoop):
         """(nworld,) int64 on the device: control steps since each world's reset, what the time limit counts.
         Writable (a write moves that world's time limit, not its sensors' clocks): RSL-RL's
         `init_at_random_ep_len` staggers the first episodes so."""
-        return self._control_steps
+        return self._episode.control_steps
 
     @property
     def steps(self) -> wp.array:
@@ -398,7 +427,7 @@ class WarpEnvironment(ControlLoop):
         try:
             return self._reset(chosen)
         except BaseException:
-            self._needs_reset.fill_(1)
+            self._episode.needs_reset.fill_(1)
             raise
 
     def _reset(self, chosen: np.ndarray) -> WarpTimeStep:
@@ -409,14 +438,14 @@ class WarpEnvironment(ControlLoop):
                       outputs=[self._mask], device=self.device)
             self._keys.top_up()
             self._start_episodes(self._mask)
-            wp.launch(_started, dim=self._nworld, inputs=[self._mask], outputs=[self._needs_reset, self._control_steps],
-                      device=self.device)
+            wp.launch(_started, dim=self._nworld, inputs=[self._mask], outputs=[self._episode], device=self.device)
         step_type = np.full(self._nworld, _MID, np.int32)
         step_type[chosen] = _FIRST
-        self._step_type.assign(step_type)
-        self._reward.zero_()
-        self._discount.fill_(1.0)
-        return WarpTimeStep(self._step_type, self._reward, self._discount, self._observe())
+        fields = self._fields
+        fields.step_type.assign(step_type)
+        fields.reward.zero_()
+        fields.discount.fill_(1.0)
+        return WarpTimeStep(fields.step_type, fields.reward, fields.discount, self._observe())
 
     @quiet
     def step(self, actions: Any) -> WarpTimeStep:
@@ -434,10 +463,11 @@ class WarpEnvironment(ControlLoop):
         try:
             self._run_step()
         except BaseException:
-            self._needs_reset.fill_(1)
+            self._episode.needs_reset.fill_(1)
             raise
         self._keys.ahead()
-        return WarpTimeStep(self._step_type, self._reward, self._discount, self._observation)
+        fields = self._fields
+        return WarpTimeStep(fields.step_type, fields.reward, fields.discount, self._observation)
 
     def _run_step(self) -> None:
         """The control step's device work: replayed as the CUDA graph once captured (at the second step)."""
@@ -456,10 +486,9 @@ class WarpEnvironment(ControlLoop):
         """The control step's device work, from the actions in `_actions` to the step types: no host copy, no
         allocation of its own, the same launches every step (so that it can be replayed as a CUDA graph)."""
         n, device = self._nworld, self.device
-        wp.launch(_begin, dim=n, inputs=[self._needs_reset], outputs=[self._restarting, self._control_steps],
-                  device=device)
+        wp.launch(_begin, dim=n, inputs=[], outputs=[self._episode], device=device)
         if self._model.nu:
-            wp.launch(_control, dim=(n, self._model.nu), inputs=[self._actions, self._restarting],
+            wp.launch(_control, dim=(n, self._model.nu), inputs=[self._actions, self._episode.restarting],
                       outputs=[self._worlds.data.ctrl], device=device)
         for substep in range(1, self._n + 1):
             self._worlds.step(1)
@@ -469,11 +498,9 @@ class WarpEnvironment(ControlLoop):
         # every world's derived fields (a restarting world's are ignored: its step is FIRST)
         reward = self._reward_fn(self) if self._reward_fn is not None else self._no_reward
         terminated = self._termination_fn(self) if self._termination_fn is not None else self._no_termination
-        wp.launch(_end, dim=n, inputs=[self._restarting, self._diverged, terminated, wp.int64(self._limit),
-                                       wp.int32(self._same_step), reward],
-                  outputs=[self._control_steps, self._needs_reset, self._starting, self._step_type, self._reward,
-                           self._discount], device=device)
-        self._start_episodes(self._starting)  # those that needed a reset (same step: and those that just ended)
+        wp.launch(_end, dim=n, inputs=[self._rules, self._diverged, terminated, reward],
+                  outputs=[self._episode, self._fields], device=device)
+        self._start_episodes(self._episode.starting)  # those that needed a reset (same step: and those that just ended)
         self._observation = self._observe()
 
     def _set_actions(self, actions: Any) -> None:

@@ -30,9 +30,10 @@ from ..draws import episode_entropy, root_seed, sensor_keys, sim_seed
 from ..env.environment import random_state_from
 from ..errors import Problem, SuiteError
 from ..physics import Physics
-from ..plan.bind import Bound, bind
+from ..plan.bind import Bound, Entry, bind
+from ..plan.schedule import Schedule
 from ..plan.spec import observation_spec
-from .cameras import Cameras
+from .cameras import CameraEntry, Cameras
 from .episode import episode_values
 from .generic import Generics, split
 from .rays import Scans, plan as scan_plan
@@ -87,6 +88,14 @@ def _flat(array: wp.array, nworld: int) -> wp.array:
     return wp.array(ptr=array.ptr, dtype=wp.float32, shape=(nworld, size), device=array.device, copy=False)
 
 
+def _camera(entry: Entry) -> CameraEntry:
+    """A bound camera as `Cameras` takes it: its observable and its schedule's numbers."""
+    schedule = entry.schedule
+    assert isinstance(schedule, Schedule)  # (a camera's schedule is fixed: `bind.check_per_simulation`)
+    return CameraEntry(entry.name, entry.observable, schedule.interval, schedule.delay, schedule.buffer,
+                       schedule.capacity, schedule.needed_mask())
+
+
 class SensorLayer:
     """The sensors of `binding` (of `observables`, in their order) over `worlds`, with `key_episodes`
     episodes of keys ahead per world (`EpisodeKeys` fills them). `spec`: each observation's spec for one world."""
@@ -105,7 +114,7 @@ class SensorLayer:
         own = {**self.scans.heights, **self.generics.values}
         self.fields = {**self._field_views([f for f, _ in plan.fields if f not in own] + self.scans.pose_fields),
                        **own}
-        self.cameras = Cameras([(e.name, e.observable, e) for e in bound.cameras], model, worlds, n, pad,
+        self.cameras = Cameras([_camera(e) for e in bound.cameras], model, worlds, n, pad,
                                {e.name: tuple(self.spec[e.name].shape) for e in bound.cameras})
         self.sensors = Sensors(plan, self.device, key_episodes)
         self.names = list(self.spec)

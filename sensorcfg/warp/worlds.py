@@ -34,7 +34,8 @@ import warp as wp
 from ..errors import UnsupportedError
 from .quiet import quiet_loads
 
-__all__ = ["KEYFRAME_STATE", "ControlBounds", "Worlds", "control_bounds", "default_sizes", "model_refusal", "put_model"]
+__all__ = ["KEYFRAME_STATE", "ControlBounds", "WorldCounts", "Worlds", "control_bounds", "default_sizes",
+           "model_refusal", "put_model"]
 
 wp.set_module_options({"enable_backward": False})
 
@@ -51,20 +52,28 @@ def default_sizes(mjm: mujoco.MjModel, keyframe: int | None = None) -> tuple[int
     return max(64, 4 * data.ncon), max(128, 4 * data.nefc)
 
 
+@wp.struct
+class WorldCounts:
+    """Per world since its reset: its physics `steps` and whether it `diverged` (the module's conventions)."""
+
+    steps: wp.array[wp.int64]
+    diverged: wp.array[bool]
+
+
 @wp.kernel
 def _select(
     # In:
     mask: wp.array[wp.int32],
     # Out: the worlds selected; their step counts and divergence cleared
-    selected: wp.array[bool], steps: wp.array[wp.int64], diverged: wp.array[bool],
+    selected: wp.array[bool], counts: WorldCounts,
 ):
     """The worlds to reset (mask nonzero): their step counts and divergence cleared."""
     w = wp.tid()
     on = mask[w] != 0
     selected[w] = on
     if on:
-        steps[w] = wp.int64(0)
-        diverged[w] = False
+        counts.steps[w] = wp.int64(0)
+        counts.diverged[w] = False
 
 
 @wp.kernel
@@ -72,14 +81,14 @@ def _select_bool(
     # In:
     mask: wp.array[bool],
     # Out: as `_select`'s
-    selected: wp.array[bool], steps: wp.array[wp.int64], diverged: wp.array[bool],
+    selected: wp.array[bool], counts: WorldCounts,
 ):
     w = wp.tid()
     on = mask[w]
     selected[w] = on
     if on:
-        steps[w] = wp.int64(0)
-        diverged[w] = False
+        counts.steps[w] = wp.int64(0)
+        counts.diverged[w] = False
 
 
 # a keyframe's state: (MjModel's key field, the Data field it restarts); a field one MuJoCo lacks (MuJoCo 3.11 has
@@ -151,14 +160,14 @@ def _count(
     # In:
     bounds: ControlBounds,
     # In and out:
-    steps: wp.array[wp.int64], diverged: wp.array[bool],
+    counts: WorldCounts,
 ):
     """After one step: the world's step count advanced, and it is marked diverged if its state is bad or its
     controls were (each clamped to `bounds` as MuJoCo clamps it: +-inf where it is not; none checked where
     MuJoCo checks none, `bounds` then empty)."""
     w = wp.tid()
-    steps[w] = steps[w] + wp.int64(1)
-    bad = diverged[w]
+    counts.steps[w] = counts.steps[w] + wp.int64(1)
+    bad = counts.diverged[w]
     for i in range(qpos.shape[1]):
         bad = bad or _bad(qpos[w, i])
     for i in range(qvel.shape[1]):
@@ -170,7 +179,7 @@ def _count(
         elif c > bounds.high[i]:
             c = bounds.high[i]
         bad = bad or _bad(c)
-    diverged[w] = bad
+    counts.diverged[w] = bad
 
 
 def control_bounds(mjm: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
@@ -253,13 +262,24 @@ class Worlds:
                keyframe: int | None) -> None:
         self.device, self.nworld, self.keyframe, self.model, self.data = device, nworld, keyframe, model, data
         with wp.ScopedDevice(device):
-            self.steps = wp.zeros(nworld, dtype=wp.int64)
-            self.diverged = wp.zeros(nworld, dtype=bool)
+            self.counts = counts = WorldCounts()
+            counts.steps = wp.zeros(nworld, dtype=wp.int64)
+            counts.diverged = wp.zeros(nworld, dtype=bool)
             low, high = control_bounds(mjm)
             self._ctrl_bounds = bounds = ControlBounds()
             bounds.low, bounds.high = wp.array(low, dtype=float), wp.array(high, dtype=float)
             self._selected = wp.zeros(nworld, dtype=bool)
             self._key_rows = [] if keyframe is None else _keyframe_rows(mjm, keyframe, data, nworld)
+
+    @property
+    def steps(self) -> wp.array:
+        """(nworld,) int64: each world's physics steps since its reset (`counts.steps`)."""
+        return self.counts.steps
+
+    @property
+    def diverged(self) -> wp.array:
+        """(nworld,) bool: whether each world diverged since its reset (`counts.diverged`)."""
+        return self.counts.diverged
 
     @property
     def overflow(self) -> wp.array:
@@ -277,7 +297,7 @@ class Worlds:
         """After one physics step of every world: the step counts advanced, divergence checked."""
         data = self.data
         wp.launch(_count, dim=self.nworld, inputs=[data.qpos, data.qvel, data.qacc, data.ctrl, self._ctrl_bounds],
-                  outputs=[self.steps, self.diverged], device=self.device)
+                  outputs=[self.counts], device=self.device)
 
     def forward(self) -> None:
         """`mjw.forward` of every world: derived quantities (and sensors) of the current states, which a step's
@@ -302,8 +322,7 @@ class Worlds:
         """The worlds where `mask` ((nworld,) bool or int32) is set start again: step count 0, divergence cleared
         (their physics is reset by `reset`, or by the owner of `over`'s worlds)."""
         select = _select_bool if mask.dtype == wp.bool else _select
-        wp.launch(select, dim=self.nworld, inputs=[mask], outputs=[self._selected, self.steps, self.diverged],
-                  device=self.device)
+        wp.launch(select, dim=self.nworld, inputs=[mask], outputs=[self._selected, self.counts], device=self.device)
 
     def state(self, name: str) -> np.ndarray:
         """A host copy of one of `data`'s (nworld, ...) arrays, for tests and diagnostics (not per step)."""

@@ -25,7 +25,7 @@ from sensorcfg.plan import DrawnTiming, SensorRecord, Source, SuitePlan  # noqa:
 from sensorcfg.plan.compile import _steps  # noqa: E402
 from sensorcfg.plan.drawn import Drawn, Planner  # noqa: E402
 from sensorcfg.plan.schedule import history_rows  # noqa: E402
-from sensorcfg.warp.drawn import DrawnSchedules, _setting, draw  # noqa: E402
+from sensorcfg.warp.drawn import DrawnSchedules, DrawnSetting, DrawnTimings, _setting, draw  # noqa: E402
 from sensorcfg.warp.environment import WarpEnvironment  # noqa: E402
 from sensorcfg.warp.philox import MODULE_OPTIONS  # noqa: E402
 from test_warp_sensors import FEATURES, NOISE, ROBOT, replay  # noqa: E402
@@ -39,11 +39,10 @@ DEGENERATE = [UniformSteps(3, 3), ChoiceSteps((1, 2, 3), (0.0, 1.0, 0.0))]  # on
 
 
 @wp.kernel
-def _draws(kind: wp.int32, first: wp.int32, count: wp.int32, values: wp.array[wp.int64],
-           cumulative: wp.array[wp.float64], keys: wp.array2d[wp.uint64], samples: wp.array[wp.int64],
+def _draws(setting: DrawnSetting, timings: DrawnTimings, keys: wp.array2d[wp.uint64], samples: wp.array[wp.int64],
            lane: wp.uint32, out: wp.array[wp.int64]):
     i = wp.tid()
-    out[i] = draw(kind, first, count, values, cumulative, keys[i, 0], keys[i, 1], samples[i], lane)
+    out[i] = draw(setting, timings, keys[i, 0], keys[i, 1], samples[i], lane)
 
 
 @pytest.mark.parametrize("setting", SETTINGS, ids=repr)
@@ -58,12 +57,13 @@ def test_a_draw_is_numpys_bit_for_bit(setting: UniformSteps | ChoiceSteps, lane:
     expected = np.asarray(setting.of_uniform(streams.uniform_runs(schedule, samples, np.ones(m, np.int64), lane)))
     values: list[int] = []
     cumulative: list[float] = []
-    kind, first, count = _setting(_steps(setting, 0), values, cumulative)
+    drawn = _setting(_steps(setting, 0), values, cumulative)
+    timings = DrawnTimings()  # (only the shared values and cumulative weights `draw` reads)
+    timings.values = wp.array(np.asarray(values, np.int64), dtype=wp.int64, device="cpu")
+    timings.cumulative = wp.array(np.asarray(cumulative), dtype=wp.float64, device="cpu")
     out = wp.zeros(m, dtype=wp.int64, device="cpu")
-    wp.launch(_draws, dim=m, inputs=[kind, first, count, wp.array(np.asarray(values, np.int64), dtype=wp.int64),
-                                     wp.array(np.asarray(cumulative), dtype=wp.float64),
-                                     wp.array(keys, dtype=wp.uint64), wp.array(samples, dtype=wp.int64), lane],
-              outputs=[out], device="cpu")
+    wp.launch(_draws, dim=m, inputs=[drawn, timings, wp.array(keys, dtype=wp.uint64), wp.array(samples, dtype=wp.int64),
+                                     lane], outputs=[out], device="cpu")
     assert out.numpy().tolist() == expected.astype(np.int64).tolist()
     assert len(set(expected.tolist())) > 1 or setting in DEGENERATE
 
