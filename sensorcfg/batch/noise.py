@@ -34,7 +34,7 @@ from ..noise.level import Blend, Keep, LeveledPipeline
 from ..noise.misalign import Misalign
 from ..noise.redrawn import Redrawn
 from ..noise.streams import Affine, Draw, Sum, numbers
-from ..plan.noise import episode
+from ..plan.noise import episodes
 from ..plan.records import NoiseProgram
 from .batched import Batched, Episodes, Site
 from .level import BatchedBlend, BatchedKeep
@@ -366,8 +366,10 @@ class BatchPipeline:
 
     def start(self, ids: np.ndarray, keys: np.ndarray) -> None:
         """Start the episodes of simulations `ids` with their sensor keys (m, 2): what each draws at its reset
-        from its key (`plan.noise.episode`, where the program draws anything), at the sensor's level."""
-        drawn = [episode(self.program, key) for key in keys] if self._draws else []
+        from its key (`plan.noise.episodes`, where the program draws anything), at the sensor's level."""
+        if not ids.size:
+            return
+        drawn = episodes(self.program, keys) if self._draws else []
         for form in self.batched:
             form.start(ids, keys, drawn)
         if self._blend is not None and self._leveled is not None:
