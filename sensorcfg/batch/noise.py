@@ -1,7 +1,7 @@
 """Noise pipelines across simulations: one counter-based stream per (simulation, sensor), vectorised.
 
 The suite plan is the authority on each episode's start: at simulation i's reset its batched stages take
-what the sensor's program draws from i's sensor key (`plan.noise.episode`: bias and gain draws, a random
+what the sensor's program draws from i's sensor key (`plan.noise.episodes`: bias and gain draws, a random
 walk's start, parameters drawn per episode, a misalignment's matrix), and their kernel numbers (a walk's
 coefficients, a low-pass's, a misalignment's matrix, the level's bounds) from its steps. The sensor's
 single-simulation `NoisePipeline`, which other environments share, is never reset here. On the per-step
