@@ -3,7 +3,8 @@
 The batch runs a sensor's stages in place, so the raw samples are kept first (the pipeline's `Keep`) for
 the final `Blend`; both are rows of the table of batched stages (`batch.noise.BATCHED`). What a batch
 knows of its levels (each simulation's level, whether any is not 1, the raw samples of the call under way)
-lives in its own batched stages, never on the sensor's stages, which other batches and environments share.
+lives in its own batched stages, never on the sensor's stages, which other batches and environments share;
+the blend's bounds are the plan's (`NoiseProgram.bounds`).
 """
 
 from __future__ import annotations
@@ -14,22 +15,23 @@ from typing import Any
 import numpy as np
 
 from ..noise.level import Blend, Keep, blend
-from .batched import Batched
+from .batched import Batched, Site
 
 __all__ = ["BatchedKeep", "BatchedBlend"]
 
 
 class BatchedBlend(Batched[Blend]):
-    keyed = True
-
-    def __init__(self, template: Blend, nsim: int, stride: int):
-        super().__init__(template, nsim, stride)
+    def __init__(self, template: Blend, site: Site, nsim: int):
+        super().__init__(template, site, nsim)
         self.levels = np.ones(nsim)
         self.active = False  # some simulation's level is not 1
         self.raw: np.ndarray | None = None  # the raw samples of the call under way (kept by `BatchedKeep`)
+        bounds = site.program.bounds
+        self.bounds = None if bounds is None else (bounds[0].reshape(site.shape), bounds[1].reshape(site.shape))
 
-    def load(self, i: int | np.ndarray, stage: Blend) -> None:
-        self.levels[i] = stage.level
+    def set_level(self, ids: np.ndarray, level: float) -> None:
+        """The level of the episodes of simulations `ids`, which start now."""
+        self.levels[ids] = level
         self.active = bool(np.any(self.levels != 1.0))
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
@@ -39,14 +41,12 @@ class BatchedBlend(Batched[Blend]):
                 np.copyto(dst, src)
             return
         level = self.levels[sims].reshape((len(sims),) + (1,) * (src.ndim - 1))
-        blend(raw, src, level, dst, self.template.bounds)
+        blend(raw, src, level, dst, self.bounds)
 
 
 class BatchedKeep(Batched[Keep]):
-    keyed = True
-
-    def __init__(self, template: Keep, nsim: int, stride: int):
-        super().__init__(template, nsim, stride)
+    def __init__(self, template: Keep, site: Site, nsim: int):
+        super().__init__(template, site, nsim)
         self.blend: BatchedBlend  # the pipeline's batched blend (`link`)
 
     def link(self, batched: Sequence[Batched[Any]]) -> None:

@@ -1,14 +1,15 @@
 """Noise pipelines across simulations: one counter-based stream per (simulation, sensor), vectorised.
 
-A sensor's single-simulation `NoisePipeline` stays the authority on randomness: at simulation i's reset it
-is reset with that simulation's sensor stream, and what the reset decided (the episode key of the
-counter-based numbers, bias and gain draws, a random walk's start) is kept for simulation i. On the
-per-step path a batched stage applies to the simulations that sample at this step, all at once, with the
-stages' own array arithmetic (`noise.stages`). Per-sample numbers are counter-based (`noise.streams`): a
-function of simulation i's episode key and the sample's index, so each control step draws those of the
-samples taken, of every sensor and simulation, in one call (`prefetch`), and sample j of simulation i gets
-exactly the numbers the single simulation gives it. A reset whose stages draw nothing per episode starts
-every simulation at once (`BatchPipeline.start`).
+The suite plan is the authority on each episode's start: at simulation i's reset its batched stages take
+what the sensor's program draws from i's sensor key (`plan.noise.episodes`: bias and gain draws, a random
+walk's start, parameters drawn per episode, a misalignment's matrix), and their kernel numbers (a walk's
+coefficients, a low-pass's, a misalignment's matrix, the level's bounds) from its steps. The sensor's
+single-simulation `NoisePipeline`, which other environments share, is never reset here. On the per-step
+path a batched stage applies to the simulations that sample at this step, all at once, with the stages'
+own array arithmetic (`noise.stages`). Per-sample numbers are counter-based (`noise.streams`): a function of
+simulation i's episode key and the sample's index, so each control step draws those of the samples taken,
+of every sensor and simulation, in one call (`prefetch`), and sample j of simulation i gets exactly the
+numbers the single simulation gives it.
 Stateful stages (random walk, low-pass, dropout with hold) keep their state as (nsim, ...) arrays.
 
 A stage type without a batched form here (a custom callable) makes `BatchPipeline` raise before stepping.
@@ -28,11 +29,14 @@ from ..checks import batch_refusal
 from ..errors import SuiteError
 from ..noise import arithmetic as ar
 from ..noise import stages as rt
-from ..noise.level import Blend, Keep
+from ..noise.arithmetic import lowpass_alpha
+from ..noise.level import Blend, Keep, LeveledPipeline
 from ..noise.misalign import Misalign
 from ..noise.redrawn import Redrawn
 from ..noise.streams import Affine, Draw, Sum, numbers
-from .batched import Batched
+from ..plan.noise import episodes
+from ..plan.records import NoiseProgram
+from .batched import Batched, Episodes, Site
 from .level import BatchedBlend, BatchedKeep
 from .misalign import BatchedMisalign
 from .redrawn import BatchedRedrawn
@@ -51,8 +55,6 @@ _BLOCK_BYTES = 8 << 20  # a random walk's stored states per stage, across simula
 class _Stateless(Batched[rt.Stage]):
     """Elementwise stages (quantize, clip): the single-simulation stage broadcasts over the leading axis."""
 
-    keyed = True
-
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
         self.template(src, dst, 0)
 
@@ -61,17 +63,13 @@ class _Drawn(Batched[P], Generic[P]):
     """Per-sample numbers: each call draws those of the samples taken, of every simulation at once (the
     counter-based numbers are a function of the simulation's episode key and the sample index only)."""
 
-    keyed = True
-
-    def __init__(self, template: P, nsim: int, stride: int):
-        super().__init__(template, nsim, stride)
+    def __init__(self, template: P, site: Site, nsim: int):
+        super().__init__(template, site, nsim)
         self.keys = np.zeros((nsim, 2), np.uint64)
         self.ready: deque[np.ndarray] = deque()  # rows drawn ahead (`prefetch`), in the order of the calls
 
-    def load(self, i: int | np.ndarray, stage: P) -> None:
-        if stage.streams is None:
-            raise RuntimeError("a batched stage loaded from a stage that was not reset with its streams")
-        self.keys[i] = stage.streams.key
+    def start(self, ids: np.ndarray, keys: np.ndarray, drawn: Episodes) -> None:
+        self.keys[ids] = keys
         self.ready.clear()
 
     def draws(self, sims: np.ndarray, steps: np.ndarray) -> list[Draw]:
@@ -90,23 +88,19 @@ class _Drawn(Batched[P], Generic[P]):
 class _Additive(_Drawn[A], Generic[A]):
     """White noise, outliers, and the fused sum of additive stages: one addition per sample."""
 
-    def __init__(self, template: A, nsim: int, stride: int):
-        super().__init__(template, nsim, stride)
-        self.values: list[np.ndarray] = []  # per bias part of a sum: each simulation's draw
-        if isinstance(template, rt.Sum):
-            self.values = [np.zeros((nsim, *p.value.shape), p.value.dtype)
-                           for p in template.parts if isinstance(p, rt.EpisodeDraw)]
-        self.keyed = type(self).keyed and not self.values
+    def __init__(self, template: A, site: Site, nsim: int):
+        super().__init__(template, site, nsim)
+        # per bias part of a sum: its step, and each simulation's draw
+        self.biases = [at for at, p in zip(site.at, getattr(template, "parts", ())) if isinstance(p, rt.EpisodeDraw)]
+        self.values = [np.zeros((nsim, *site.shape)) for _ in self.biases]
         # numbers x scale (+ offset), added up: added in place in one pass (`streams.add_sums`) where nothing
         # per episode joins
         self.terms: list[Affine] | None = None if self.values else template.affine()
 
-    def load(self, i: int | np.ndarray, stage: A) -> None:
-        super().load(i, stage)
-        if self.values and isinstance(stage, rt.Sum):
-            drawn = [p.value for p in stage.parts if isinstance(p, rt.EpisodeDraw)]
-            for values, value in zip(self.values, drawn):
-                values[i] = value
+    def start(self, ids: np.ndarray, keys: np.ndarray, drawn: Episodes) -> None:
+        super().start(ids, keys, drawn)
+        for values, at in zip(self.values, self.biases):
+            values[ids] = self.site.values(drawn, at)
 
     def shape(self, sims: np.ndarray, raw: list[np.ndarray]) -> np.ndarray:
         if self.values and isinstance(self.template, rt.Sum):  # (values: a sum's bias parts)
@@ -123,25 +117,26 @@ Fused = _Additive[rt._Additive]  # a pipeline's one additive stage (a fused sum)
 class _RandomWalk(_Additive[rt.RandomWalk]):
     """The walk's states over every index, one part of `sub` indices at a time per simulation (walked
     together): part p holds indices [p sub, (p + 1) sub); sub is the block unless that would exceed
-    `_BLOCK_BYTES` across simulations."""
+    `_BLOCK_BYTES` across simulations. Its coefficients are the step's kernel numbers (a Brownian walk's a:
+    None, b_j = b_(j-1) + c z_j), its start the step's draw at each reset (0 for a Brownian walk)."""
 
-    keyed = False
-
-    def __init__(self, template: rt.RandomWalk, nsim: int, stride: int):
-        super().__init__(template, nsim, stride)
-        self.carry = np.zeros((nsim, *template.carry.shape), template.carry.dtype)
+    def __init__(self, template: rt.RandomWalk, site: Site, nsim: int):
+        super().__init__(template, site, nsim)
+        self.carry = np.zeros((nsim, *site.shape))
+        self.a = None if site.step.param("correlation_time") is None else site.number("a")
+        self.c = site.number("c")
         sub = template.ctx.block
-        per_sample = 8 * max(1, math.prod(template.ctx.shape)) * nsim
+        per_sample = 8 * max(1, math.prod(site.shape)) * nsim
         while sub > 1 and sub * per_sample > _BLOCK_BYTES:
             sub //= 2
         self.sub = sub
         self.part = np.full(nsim, -1, np.int64)  # the part each simulation holds
         self.rows: np.ndarray | None = None  # (nsim, sub, *shape)
 
-    def load(self, i: int | np.ndarray, stage: rt.RandomWalk) -> None:
-        super().load(i, stage)
-        self.carry[i] = stage.start
-        self.part[i] = -1
+    def start(self, ids: np.ndarray, keys: np.ndarray, drawn: Episodes) -> None:
+        super().start(ids, keys, drawn)
+        self.carry[ids] = 0.0 if self.site.step.episode is None else self.site.values(drawn)
+        self.part[ids] = -1
 
     def take(self, sims: np.ndarray, steps: np.ndarray) -> np.ndarray:
         """The walk's states at `steps`, (m, ...): the start at sample 0, else from the held parts (walking
@@ -165,11 +160,12 @@ class _RandomWalk(_Additive[rt.RandomWalk]):
 
     def draw(self, sims: np.ndarray, parts: np.ndarray) -> np.ndarray:
         """Walk each simulation from its held part to `parts` (every part in between, in order)."""
-        a, c = self.template.coef(self.stride)
+        a, c = self.a, self.c
         held = self.part[sims]
         if (parts < held).any():
             raise ValueError("a batched random walk was asked for an earlier sample")
-        out = np.empty((sims.size, self.sub, *self.template.ctx.shape), self.template.ctx.work)
+        shape = self.site.shape
+        out = np.empty((sims.size, self.sub, *shape))
         at = held + 1
         offsets = np.arange(self.sub)
         while True:
@@ -178,7 +174,7 @@ class _RandomWalk(_Additive[rt.RandomWalk]):
                 return out
             samples = (at[moving, None] * self.sub + offsets).ravel()
             z = self.template.numbers(samples, np.repeat(self.keys[sims[moving]], self.sub, axis=0))
-            z = z.reshape(moving.size, self.sub, *self.template.ctx.shape)
+            z = z.reshape(moving.size, self.sub, *shape)
             carry = self.carry[sims[moving]]
             for first in (True, False):  # the episode's first part starts at the drawn start itself
                 rows = np.flatnonzero((at[moving] == 0) == first)
@@ -194,15 +190,16 @@ class _RandomWalk(_Additive[rt.RandomWalk]):
 class _Episode(Batched[rt.EpisodeDraw]):
     """Bias or scale: each simulation's per-episode draw."""
 
-    def __init__(self, template: rt.EpisodeDraw, nsim: int, stride: int):
-        super().__init__(template, nsim, stride)
-        self.values = np.zeros((nsim, *template.value.shape), template.value.dtype)
+    def __init__(self, template: rt.EpisodeDraw, site: Site, nsim: int):
+        super().__init__(template, site, nsim)
+        self.values = np.zeros((nsim, *site.shape))
+        self.apply = ar.multiply if site.step.stage == "scale" else ar.add
 
-    def load(self, i: int | np.ndarray, stage: rt.EpisodeDraw) -> None:
-        self.values[i] = stage.value
+    def start(self, ids: np.ndarray, keys: np.ndarray, drawn: Episodes) -> None:
+        self.values[ids] = self.site.values(drawn)
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
-        (ar.add if self.template.op is np.add else ar.multiply)(src, self.values[sims], dst)
+        self.apply(src, self.values[sims], dst)
 
 
 def _by_gap(gaps: np.ndarray) -> list[tuple[int, np.ndarray]]:
@@ -213,18 +210,28 @@ def _by_gap(gaps: np.ndarray) -> list[tuple[int, np.ndarray]]:
 
 
 class _Lowpass(Batched[rt.Lowpass]):
-    keyed = True
+    """The filter's coefficient per gap between samples: the step's kernel numbers (`alpha` for samples a
+    stride apart, `alphas` per gap of a drawn schedule); another gap's from its cutoff (`lowpass_alpha`)."""
 
-    def __init__(self, template: rt.Lowpass, nsim: int, stride: int):
-        super().__init__(template, nsim, stride)
-        self.state = np.zeros((nsim, *template.state.shape), template.state.dtype)
+    def __init__(self, template: rt.Lowpass, site: Site, nsim: int):
+        super().__init__(template, site, nsim)
+        self.state = np.zeros((nsim, *site.shape))
         self.fresh = np.ones(nsim, bool)
         self.last = np.zeros(nsim, np.int64)
+        kernel = dict(site.step.kernel)
+        self.alphas = {gap: row.reshape(site.shape) for gap, row in enumerate(kernel.get("alphas", ()))}
+        self.alphas[self.stride] = site.number("alpha")
 
-    def load(self, i: int | np.ndarray, stage: rt.Lowpass) -> None:
-        self.fresh[i] = stage.fresh
-        self.state[i] = stage.state
-        self.last[i] = stage.last
+    def alpha(self, gap: int) -> np.ndarray:
+        alpha = self.alphas.get(gap)
+        if alpha is None:
+            program = self.site.program
+            cutoff = self.site.step.param("cutoff")
+            alpha = self.alphas[gap] = np.reshape(lowpass_alpha(cutoff, gap * program.timestep), self.site.shape)
+        return alpha
+
+    def start(self, ids: np.ndarray, keys: np.ndarray, drawn: Episodes) -> None:
+        self.fresh[ids] = True  # (the state and the last sample's step are set at its first sample)
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
         state = self.state[sims]
@@ -236,7 +243,7 @@ class _Lowpass(Batched[rt.Lowpass]):
         for gap, at in _by_gap(gaps[moving]):
             rows = moving[at]
             s, d = state[rows], np.empty_like(state[rows])
-            ar.lowpass(s, src[rows], self.template.alpha(gap), d)
+            ar.lowpass(s, src[rows], self.alpha(gap), d)
             state[rows] = s
         self.state[sims] = state
         self.fresh[sims] = False
@@ -245,18 +252,16 @@ class _Lowpass(Batched[rt.Lowpass]):
 
 
 class _Dropout(_Drawn[rt.Dropout]):
-    def __init__(self, template: rt.Dropout, nsim: int, stride: int):
-        super().__init__(template, nsim, stride)
+    def __init__(self, template: rt.Dropout, site: Site, nsim: int):
+        super().__init__(template, site, nsim)
         self.per_value = template.per_value
         self.fill = template.fill
-        self.held = None if template.held is None else np.zeros((nsim, *template.held.shape), template.held.dtype)
+        self.held = None if template.held is None else np.zeros((nsim, *site.shape))
         self.fresh = np.ones(nsim, bool)
 
-    def load(self, i: int | np.ndarray, stage: rt.Dropout) -> None:
-        super().load(i, stage)
-        self.fresh[i] = stage.fresh
-        if self.held is not None:
-            self.held[i] = stage.held
+    def start(self, ids: np.ndarray, keys: np.ndarray, drawn: Episodes) -> None:
+        super().start(ids, keys, drawn)
+        self.fresh[ids] = True  # (the held values are set at its first sample, which is always delivered)
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
         lost = self.take(sims, steps)
@@ -275,7 +280,7 @@ class _Dropout(_Drawn[rt.Dropout]):
 
 
 # One row per runtime stage type (`sensorcfg.noise.stages`); a stage type missing here cannot be batched.
-BATCHED: Mapping[type, Callable[[Any, int, int], Batched[Any]]] = types.MappingProxyType({
+BATCHED: Mapping[type, Callable[[Any, Site, int], Batched[Any]]] = types.MappingProxyType({
     rt.Gaussian: _Additive,
     rt.Uniform: _Additive,
     rt.Outlier: _Additive,
@@ -293,29 +298,40 @@ BATCHED: Mapping[type, Callable[[Any, int, int], Batched[Any]]] = types.MappingP
 })
 
 
-class BatchPipeline:
-    """A sensor's noise pipeline for nsim simulations (`stride`: its constant interval, 1 when drawn)."""
+def _steps(stage: rt.Stage) -> tuple[int, ...]:
+    """The positions in its program of the steps a runtime stage runs: a fused sum's parts', none for the noise
+    level's stages (`Keep`, `Blend`), else its own (its stream)."""
+    if isinstance(stage, rt.Sum):
+        return tuple(part.stream for part in stage.parts)
+    return () if isinstance(stage, (Keep, Blend)) else (stage.stream,)
 
-    def __init__(self, pipeline: NoisePipeline, nsim: int, sensor: str):
-        self.pipeline = pipeline
-        self.stride = stride = pipeline.stride  # as the single-simulation Updater reset it
+
+class BatchPipeline:
+    """A sensor's noise pipeline for nsim simulations: its runtime stages (`pipeline`, the sensor's own, whose
+    arithmetic the batched forms call and which the batch never resets) and its plan (`program`: each
+    episode's start, kernel numbers, `stride`: its constant interval, 1 when drawn)."""
+
+    def __init__(self, pipeline: NoisePipeline, program: NoiseProgram, nsim: int, sensor: str):
+        self.program = program
+        self.stride = program.stride
         if np.dtype(pipeline.dtype) != np.float64:
             raise SuiteError(f"sensor {sensor!r}: its noise cannot be vectorised across simulations: the batch runs "
                              f"noise on float64 values, the observation is {np.dtype(pipeline.dtype)}")
-        stages = tuple(pipeline.stages)  # the pipeline's runtime stages (after fusing)
+        shape = tuple(pipeline.shape)
         batched = []
-        for stage in stages:
+        for stage in pipeline.stages:  # the pipeline's runtime stages (after fusing)
             make = BATCHED.get(type(stage))
             if make is None:
                 what = getattr(stage, "name", None)
                 raise SuiteError(f"sensor {sensor!r}: " + batch_refusal(
                     "noise stage", kind=type(stage).__name__.lower(), detail=f" ({what})" if what else ""))
-            batched.append(make(stage, nsim, stride))
+            batched.append(make(stage, Site(program, _steps(stage), shape), nsim))
         for form in batched:
             form.link(batched)
-        self.stages = stages
         self.batched = batched
-        self.shape = tuple(pipeline.shape)
+        # the sensor's level setting (`noise.level.set_level`), read at each reset; None without a level
+        self._leveled = pipeline if isinstance(pipeline, LeveledPipeline) else None
+        self._draws = any(s.episode is not None or s.redraw is not None for s in program.steps)
         # a pipeline that only adds numbers x scale (+ offset), but for the noise level's stages (which pass
         # values through while every simulation is at level 1): applied in place by `streams.add_sums`
         core = [b for b in batched if not isinstance(b.template, (Keep, Blend))]
@@ -348,25 +364,16 @@ class BatchPipeline:
             raise RuntimeError("BatchPipeline.sum of a pipeline that is not a fused sum (the caller checks `fused`)")
         return Sum(stage.draws(sims, steps), stage.terms, table, lo, sims)
 
-    def reset(self, i: int, key: np.ndarray) -> None:
-        """Start simulation i's episode with its sensor key (as the Updater resets a pipeline)."""
-        self.pipeline.reset(key, self.stride)
-        for stage, batched in zip(self.stages, self.batched):
-            batched.load(i, stage)
-
     def start(self, ids: np.ndarray, keys: np.ndarray) -> None:
-        """Start the episodes of simulations `ids` with their sensor keys (m, 2): at once when no stage
-        draws at reset (the pipeline, reset once, gives every episode's start but the keys), else one
-        simulation after another."""
-        if not all(batched.keyed for batched in self.batched):
-            for i, key in zip(ids.tolist(), keys):
-                self.reset(i, key)
+        """Start the episodes of simulations `ids` with their sensor keys (m, 2): what each draws at its reset
+        from its key (`plan.noise.episodes`, where the program draws anything), at the sensor's level."""
+        if not ids.size:
             return
-        self.pipeline.reset(keys[-1], self.stride)
-        for stage, batched in zip(self.stages, self.batched):
-            batched.load(ids, stage)
-            if isinstance(batched, _Drawn):
-                batched.keys[ids] = keys
+        drawn = episodes(self.program, keys) if self._draws else []
+        for form in self.batched:
+            form.start(ids, keys, drawn)
+        if self._blend is not None and self._leveled is not None:
+            self._blend.set_level(ids, self._leveled.next_level)
 
     def __call__(self, value: np.ndarray, sims: np.ndarray, steps: np.ndarray,
                  out: np.ndarray | None = None) -> np.ndarray:

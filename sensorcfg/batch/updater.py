@@ -34,7 +34,7 @@ from ..errors import ArgumentError
 from ..observables.aggregators import reduce_stacked
 from ..noise.streams import add_sums
 from ..cache import DEFAULT_BUDGET, BoundedCache
-from ..plan import SuitePlan
+from ..plan import NoiseProgram, SuitePlan
 from ..plan.bind import Bound, Entry, bind, plan_suite
 from ..plan.drawn import Drawn
 from ..plan.schedule import Schedule
@@ -91,8 +91,10 @@ class BatchUpdater:
         self.sensors = ordered
         sources = bound.sources()
         self.sources = relayed(sources, relays) if relays else sources
+        # the suite plan of the batch's features: their noise programs, and the reads' table
+        self.plan: SuitePlan = plan_suite(bound, physics, self.sources, self.nsim, self.substeps, self.pad)
         read = self._noise(ordered, cameras)
-        layout = self.layout = self._layout(physics, bound)
+        layout = self.layout = self._layout(bound)
         self.read_noise = ReadNoise(read, self.fixed, layout, self.pad) if read else None
         self.reset_values = layout.reset_values
         self.history, self.flat, self.cols, self.rows = layout.history, layout.flat, layout.cols, layout.rows
@@ -113,7 +115,8 @@ class BatchUpdater:
         """Every noisy sensor's pipeline (`noise`), and those corrupted in the history (`corrupted`); returns
         the others: fixed-schedule sensors whose noise only adds numbers, added as they are read
         (`batch.read_noise`) where that draws fewer numbers."""
-        self.noise = {i: BatchPipeline(e.noise, self.nsim, e.name)
+        programs = [sensor.noise for sensor in self.plan.sensors]  # (in the order of `ordered`)
+        self.noise = {i: BatchPipeline(e.noise, cast(NoiseProgram, programs[i]), self.nsim, e.name)
                       for i, e in enumerate(ordered) if e.noise is not None}
         self.noisy = bool(self.noise) or any(e.noise is not None for e in cameras)  # as the Updater draws
         read = {c: p for c, p in self.noise.items()
@@ -121,10 +124,8 @@ class BatchUpdater:
         self.corrupted = {c: p for c, p in self.noise.items() if c not in read}
         return read
 
-    def _layout(self, physics: Any, bound: Bound) -> Layout:
-        """The suite plan of the batch's features, and the store the rollouts record into and the history the
-        reads gather from."""
-        self.plan: SuitePlan = plan_suite(bound, physics, self.sources, self.nsim, self.substeps, self.pad)
+    def _layout(self, bound: Bound) -> Layout:
+        """The store the rollouts record into and the history the reads gather from."""
         stops = set().union(*(_camera_stops(cast(Schedule, e.schedule), self.substeps) for e in bound.cameras))
         return Layout(self.plan, set(self.corrupted), dict(self.plan.fields), stops)
 

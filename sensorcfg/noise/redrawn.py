@@ -3,8 +3,8 @@
 `Redrawn` holds a stage's config whose parameters are `EpisodeUniform` ranges; at reset it draws them
 (`params_draw`: low + (high - low) u each, in the config's field order, from the stage's purpose-2 numbers),
 builds the stage with those values and resets it
-with a generator spawned from the same stream. A batch keeps one such stage per simulation (each taken
-from the template just reset with that simulation's stream), so simulation i equals one simulation.
+with a generator spawned from the same stream (`rebuilt`). A batch keeps one such stage per simulation, rebuilt
+with the values its plan draws for that simulation, so simulation i equals one simulation.
 """
 
 from __future__ import annotations
@@ -52,9 +52,15 @@ class Redrawn(rt.Stage):
         assert streams is not None
         drawn = draw_episode(params_draw(self.stream, list(self.drawn.values())), streams)
         self.values = {f: float(v) for f, v in zip(self.drawn, drawn)}
-        self.inner = self.build(self.config.model_copy(update=self.values))
-        self.inner.stream = self.stream
-        self.inner.reset(streams, stride)
+        self.inner = self.rebuilt(self.values, streams, stride)
+
+    def rebuilt(self, values: dict[str, float], streams: rt.Streams, stride: int) -> rt.Stage:
+        """The stage built with parameters `values` (one per drawn field), reset for the episode of `streams`
+        (with this stage's part of them)."""
+        inner = self.build(self.config.model_copy(update=values))
+        inner.stream = self.stream
+        inner.reset(streams, stride)
+        return inner
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, step: int) -> None:
         self.inner(src, dst, step)

@@ -28,7 +28,7 @@ from .records import DrawnTiming, FixedTiming, FloatArray, NoiseProgram, NoiseSt
 if TYPE_CHECKING:
     from ..noise.pipeline import NoisePipeline
 
-__all__ = ["ADDITIVE", "StepEpisode", "episode", "program", "redrawn", "step"]
+__all__ = ["ADDITIVE", "StepEpisode", "episode", "episodes", "program", "redrawn", "step"]
 
 ADDITIVE = frozenset({"gaussian", "uniform"})  # stages that only add numbers drawn per sample
 _WORDS = (str,)
@@ -204,7 +204,23 @@ def episode(noise: NoiseProgram, key: UInt64Array) -> tuple[StepEpisode, ...]:
     """What program `noise` draws at the reset of an episode whose sensor key is `key` ((2,) uint64,
     `draws.sensor_key`), step by step: the parameters drawn per episode first (`NoiseStep.redraw`), then the
     step's own draw (`NoiseStep.episode`), each by `noise.streams.draw_episode`."""
-    streams = Streams(key)
+    return _episode(noise, Streams(key))
+
+
+def episodes(noise: NoiseProgram, keys: UInt64Array) -> list[tuple[StepEpisode, ...]]:
+    """`episode` of each key of `keys` (m, 2): the episodes of many simulations reset at once (one generator,
+    rekeyed for each)."""
+    if not len(keys):
+        return []
+    streams = Streams(keys[0])
+    out = []
+    for key in keys:
+        streams.rekey(key)
+        out.append(_episode(noise, streams))
+    return out
+
+
+def _episode(noise: NoiseProgram, streams: Streams) -> tuple[StepEpisode, ...]:
     out = []
     for s in noise.steps:
         if s.redraw is not None:

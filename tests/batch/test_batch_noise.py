@@ -75,3 +75,47 @@ def test_noisy_samples_are_kept_within_their_budget() -> None:
     for g, w in zip(got, want):
         for name in w:
             np.testing.assert_array_equal(g[name], w[name], err_msg=name)
+
+
+SHARED = ("options: {control_interval: 2}\nsensors:\n"
+          "  q: {kind: qvel, element: joint:hip_f, noise: [{type: bias, std: 0.1}, {type: gaussian, std: 0.01},\n"
+          "      {type: random_walk, std: 0.05, correlation_time: 0.1}, {type: lowpass, cutoff: 20Hz}]}\n"
+          "  v: {kind: xpos, element: body:base, noise: [{type: scale, low: 0.9, high: 1.1},\n"
+          "      {type: misalign, std: 2deg}, {type: dropout, p: 0.2, mode: hold}]}\n"
+          "  w: {kind: qpos, element: joint:hip_r, interval: 2,\n"
+          "      noise: [{type: gaussian, std: {uniform: [0.01, 0.05]}}]}\n")
+
+
+def _steps(env: sensorcfg.Environment, actions: np.ndarray, between=lambda: None) -> list[dict[str, np.ndarray]]:
+    out = [env.reset().observation]
+    for a in actions:
+        between()
+        out.append(env.step(a).observation)
+    return out
+
+
+@needs_batch
+def test_a_batch_never_resets_the_pipelines_of_its_observables(monkeypatch) -> None:
+    """A batch's episodes start from its plan (`plan.noise.episode`), not from the observables' own pipelines: an
+    Environment sharing the observables with a batch that resets and steps reads what an Environment of its own
+    reads, and the batch's resets and steps reset no pipeline."""
+    observables = sensorcfg.loads(SHARED).build(TERRAIN)
+    shared = sensorcfg.Environment(TERRAIN, observables, seed=3)
+    batch = sensorcfg.BatchEnvironment(TERRAIN, observables, 3, seed=5)
+    actions = np.random.default_rng(0).uniform(-1, 1, (8, *shared.action_spec().shape))
+    batch_actions = np.zeros(batch.action_spec().shape)
+    batch.reset()
+    got = _steps(shared, actions, lambda: (batch.reset(np.array([0, 2])), batch.step(batch_actions)))
+    want = _steps(sensorcfg.Environment(TERRAIN, sensorcfg.loads(SHARED).build(TERRAIN), seed=3), actions)
+    for g, w in zip(got, want):
+        for name in w:
+            np.testing.assert_array_equal(g[name], w[name], err_msg=name)
+
+    from sensorcfg.noise.pipeline import NoisePipeline
+
+    resets: list[NoisePipeline] = []
+    monkeypatch.setattr(NoisePipeline, "reset", lambda self, *args, **kwargs: resets.append(self))
+    batch.reset()
+    batch.step(batch_actions)
+    batch.reset(np.array([1]))
+    assert not resets

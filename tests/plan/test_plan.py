@@ -422,3 +422,23 @@ def test_an_engine_written_from_the_plan_reads_noisy_suites_as_the_updater_does(
             physics.data.ctrl[:] = a
             updater.control_step(lambda: mujoco.mj_step(model, physics.data))
             expected, got = updater.get_observation(), executor.control_step(a)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_many_episodes_drawn_at_once_are_each_keys_episode(seed: int) -> None:
+    """`plan.noise.episodes` (a batch's reset of many simulations, one generator rekeyed) draws what `episode`
+    draws for each key alone."""
+    from sensorcfg.plan.noise import episodes
+
+    plan = plan_of(noisy_suite(seed), mujoco.MjModel.from_xml_path(ROBOT), 3, 2)
+    keys = np.array([draws.sensor_key([seed, i], "s") for i in range(3)], np.uint64)
+    for sensor in plan.sensors:
+        program = sensor.noise
+        assert program is not None
+        for got, key in zip(episodes(program, keys), keys, strict=True):
+            for g, w in zip(got, episode(program, key), strict=True):
+                for part in ("params", "kernel"):  # the step of this episode (parameters drawn per episode)
+                    assert [(n, v.tobytes()) for n, v in getattr(g.step, part)] == \
+                        [(n, v.tobytes()) for n, v in getattr(w.step, part)]
+                for a, b in ((g.values, w.values), (g.matrix, w.matrix)):
+                    assert (a is None) == (b is None) and (a is None or a.tobytes() == b.tobytes())
