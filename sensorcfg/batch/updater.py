@@ -34,7 +34,7 @@ from ..errors import ArgumentError
 from ..observables.aggregators import reduce_stacked
 from ..noise.streams import add_sums
 from ..cache import DEFAULT_BUDGET, BoundedCache
-from ..plan import NoiseProgram, SuitePlan
+from ..plan import FixedTiming, NoiseProgram, SuitePlan
 from ..plan.bind import Bound, Entry, bind, plan_suite
 from ..plan.drawn import Drawn
 from ..plan.schedule import Schedule
@@ -270,7 +270,7 @@ class BatchUpdater:
             for c in range(self.nfixed):
                 if c not in self.corrupted:
                     continue
-                needed = cast(Schedule, self.sensors[c].schedule).needed_mask()  # the first nfixed are fixed
+                needed = cast(FixedTiming, self.plan.sensors[c].timing).taken  # the first nfixed are fixed
                 for k in range(1, self.substeps + 1):
                     sims = np.flatnonzero(needed[(local + k) % needed.size])
                     if sims.size:
