@@ -17,14 +17,13 @@ A simulation whose episode has a noise level other than 1 blends the result with
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from typing import NamedTuple, cast
 
 import numpy as np
 
 from ..noise.level import blend
 from ..noise.streams import Prepared, Rows, add_rows, prepare
-from ..plan.bind import Entry
+from ..plan.records import FixedTiming
 from ..plan.schedule import Schedule, newest_sample
 from .layout import Layout
 from .level import BatchedBlend
@@ -40,14 +39,14 @@ __all__ = ["ReadNoise", "added_as_read"]
 _MAX_READS_PER_SAMPLE = 1.5
 
 
-def added_as_read(pipeline: BatchPipeline, schedule: Schedule) -> bool:
-    """Whether the batch adds a fixed-schedule sensor's noise as it reads: the pipeline only adds numbers, and
-    reads show each sample taken at most `_MAX_READS_PER_SAMPLE` times on average (per period of the schedule:
-    slots read over samples taken)."""
+def added_as_read(pipeline: BatchPipeline, timing: FixedTiming, substeps: int) -> bool:
+    """Whether the batch adds a fixed-schedule sensor's noise as it reads (every `substeps` steps): the pipeline
+    only adds numbers, and reads show each sample taken at most `_MAX_READS_PER_SAMPLE` times on average (per
+    period of the plan's `timing`: slots read over samples taken)."""
     if pipeline.additive is None:
         return False
-    shown = schedule.period // schedule.substeps * schedule.buffer
-    return shown <= _MAX_READS_PER_SAMPLE * len(schedule.needed_phases())
+    shown = timing.period // substeps * timing.buffer
+    return shown <= _MAX_READS_PER_SAMPLE * int(np.count_nonzero(timing.taken))
 
 
 class _Sensor(NamedTuple):
@@ -80,8 +79,11 @@ class ReadNoise:
     Every sensor's (simulation, slot) pairs are laid end to end, so that a read computes all their sample
     indices in one pass; the keys, which change only at resets (`restart`), are kept in that order too."""
 
-    def __init__(self, pipelines: dict[int, BatchPipeline], sensors: Sequence[Entry], layout: Layout, pad: bool):
-        self.pad = pad
+    def __init__(self, pipelines: dict[int, BatchPipeline], layout: Layout):
+        """`pipelines`: fixed channel -> its batch pipeline, read by `layout` (its plan's sensors, their timing
+        and shape, and `pad_with_initial_value`)."""
+        plan = layout.plan
+        self.pad = plan.pad_with_initial_value
         self.nsim = nsim = layout.nsim
         self.sensors: list[_Sensor] = []
         columns: list[tuple[np.ndarray, ...]] = []
@@ -91,7 +93,9 @@ class ReadNoise:
             if stage is None or stage.terms is None:  # `added_as_read` chose pipelines with one
                 raise RuntimeError(f"read noise of channel {c}: its pipeline is not a sum added as read "
                                    "(an internal error)")
-            schedule, size = cast(Schedule, sensors[c].schedule), int(np.prod(sensors[c].shape, dtype=np.int64))
+            record = plan.sensors[c]
+            schedule = Schedule.of(cast(FixedTiming, record.timing), plan.substeps)  # (its windows)
+            size = int(np.prod(record.shape, dtype=np.int64))
             if pipeline.stride != schedule.interval:  # a fixed schedule's is: sample j's numbers are the j-th
                 raise RuntimeError(f"read noise of channel {c}: its noise stride is not its interval "
                                    "(an internal error)")

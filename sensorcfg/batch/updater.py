@@ -83,19 +83,17 @@ class BatchUpdater:
                       for e in bound.entries}
         cameras, fixed, drawn = bound.cameras, bound.fixed, bound.drawn
         ordered = fixed + drawn  # history columns: fixed channels first (the read table's), then drawn ones
-        self.fixed = fixed
         self.nfixed = len(fixed)
         self.output_index = {e.name: i for i, e in enumerate(ordered + cameras)}
         self.cameras = self._cameras(cameras, physics)  # the caller sets `cameras.batch`
-        self.labels = [e.name for e in ordered]
-        self.sensors = ordered
         sources = bound.sources()
         self.sources = relayed(sources, relays) if relays else sources
         # the suite plan of the batch's features: their noise programs, and the reads' table
         self.plan: SuitePlan = plan_suite(bound, physics, self.sources, self.nsim, self.substeps, self.pad)
+        self.labels = [sensor.name for sensor in self.plan.sensors]  # (the history's columns, in order)
         read = self._noise(ordered, cameras)
         layout = self.layout = self._layout(bound)
-        self.read_noise = ReadNoise(read, self.fixed, layout, self.pad) if read else None
+        self.read_noise = ReadNoise(read, layout) if read else None
         self.reset_values = layout.reset_values
         self.history, self.flat, self.cols, self.rows = layout.history, layout.flat, layout.cols, layout.rows
         self.timelines = Timelines([(e.name, cast(Drawn, e.schedule)) for e in drawn], self.nsim, self.substeps,
@@ -119,8 +117,9 @@ class BatchUpdater:
         self.noise = {i: BatchPipeline(e.noise, cast(NoiseProgram, programs[i]), self.nsim, e.name)
                       for i, e in enumerate(ordered) if e.noise is not None}
         self.noisy = bool(self.noise) or any(e.noise is not None for e in cameras)  # as the Updater draws
+        timings = [sensor.timing for sensor in self.plan.sensors]
         read = {c: p for c, p in self.noise.items()
-                if c < self.nfixed and added_as_read(p, cast(Schedule, self.fixed[c].schedule))}
+                if c < self.nfixed and added_as_read(p, cast(FixedTiming, timings[c]), self.substeps)}
         self.corrupted = {c: p for c, p in self.noise.items() if c not in read}
         return read
 
@@ -160,7 +159,7 @@ class BatchUpdater:
         zeros = np.zeros(ids.size, np.int64)
         for c, pipeline in self.corrupted.items():
             lo, hi = self.cols[c], self.cols[c + 1]
-            shape = self.sensors[c].shape
+            shape = self.plan.sensors[c].shape
             values[:, lo:hi] = pipeline(values[:, lo:hi].reshape(ids.size, *shape), ids, zeros).reshape(ids.size, -1)
         h = self.history
         h[:self.rows, ids] = values[None] if self.pad else 0.0
@@ -251,7 +250,7 @@ class BatchUpdater:
         if not sims.size:
             return
         lo, hi = self.cols[c], self.cols[c + 1]
-        shape = self.sensors[c].shape
+        shape = self.plan.sensors[c].shape
         if sims.size == self.nsim:
             samples = row[:, lo:hi].reshape(self.nsim, *shape)  # a view: columns are contiguous in a row
             noisy = self.corrupted[c](samples, sims, steps, out=samples)
@@ -285,7 +284,7 @@ class BatchUpdater:
         out: list[Any] = [None] * len(self.output_index)
         if self.cameras is not None:
             self.cameras.read(self.age, out)
-        if self.fixed:
+        if self.nfixed:
             layout = self.layout
             # one take of every value read (positions are valid by construction), then views
             values = compiled.take(self.flat, layout.gathers(self.global_step % self.rows, self.age))

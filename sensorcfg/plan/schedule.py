@@ -24,10 +24,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import NamedTuple, TypeVar, overload
+from typing import TYPE_CHECKING, NamedTuple, TypeVar, overload
 
 import numpy as np
 from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    from .records import FixedTiming
 
 __all__ = ["IntArray", "NOISE_CHUNK_STEPS", "Schedule", "Steps", "history_rows", "newest_sample", "noise_chunk"]
 
@@ -54,6 +57,12 @@ class Schedule(NamedTuple):
     buffer: int
     substeps: int
     every_sample: bool = False  # stateful noise: every sample of the nominal schedule is taken
+
+    @classmethod
+    def of(cls, timing: FixedTiming, substeps: int) -> Schedule:
+        """The schedule of a plan's `FixedTiming` read every `substeps` steps: what an engine executing the
+        plan calls for a rule the record does not hold (windows, newest samples)."""
+        return cls(timing.interval, timing.delay, timing.buffer, substeps, timing.every_sample)
 
     @property
     def period(self) -> int:
