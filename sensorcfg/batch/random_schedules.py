@@ -11,10 +11,11 @@ an episode that ends early needs no rewinding.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from typing import cast
 
 import numpy as np
 
+from ..plan import DrawnTiming, SuitePlan
 from ..plan.drawn import ROUND_STEPS, Drawn, Planner, Round, chunk_steps
 
 __all__ = ["Timelines"]
@@ -23,14 +24,17 @@ __all__ = ["Timelines"]
 class Timelines:
     """The random-schedule channels of a batch: per simulation, sample times and read windows."""
 
-    def __init__(self, specs: Sequence[tuple[str, Drawn]], nsim: int, substeps: int, pad: bool):
-        """`specs`: (label, planned schedule) of each random-schedule channel, in history order."""
-        self.specs = list(specs)
-        self.nsim, self.substeps, self.pad = nsim, substeps, pad
-        drawn = [d for _, d in self.specs]
+    def __init__(self, plan: SuitePlan):
+        """The drawn-schedule sensors of `plan` (after its fixed ones, in history order), planned from their
+        `DrawnTiming` records; `labels`: their names (which key their schedules)."""
+        records = plan.sensors[plan.nfixed:]
+        self.labels = [record.name for record in records]
+        nsim, substeps = plan.nsim, plan.substeps
+        self.nsim, self.substeps, self.pad = nsim, substeps, plan.pad_with_initial_value
+        drawn = [Drawn.of(cast(DrawnTiming, record.timing), substeps) for record in records]
         self.chunk = chunk_steps(drawn, substeps, ROUND_STEPS) if drawn else substeps
         self.slots = 3 * self.chunk // substeps  # control steps held by the rings: two rounds ahead
-        nc = len(self.specs)
+        nc = len(drawn)
         self.taken = np.zeros((nsim, self.slots, nc, substeps), bool)  # [sim, control step, channel, substep]
         self.windows = [np.zeros((nsim, self.slots, d.buffer), np.int64) for d in drawn]
         self.last = [np.zeros((nsim, d.buffer), np.int64) for d in drawn]  # the latest reads' codes

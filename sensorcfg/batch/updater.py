@@ -36,7 +36,6 @@ from ..noise.streams import add_sums
 from ..cache import DEFAULT_BUDGET, BoundedCache
 from ..plan import FixedTiming, NoiseProgram, SuitePlan
 from ..plan.bind import Bound, Entry, bind, plan_suite
-from ..plan.drawn import Drawn
 from ..plan.schedule import Schedule
 from ..plan.spec import observation_spec
 from .layout import Layout
@@ -96,10 +95,9 @@ class BatchUpdater:
         self.read_noise = ReadNoise(read, layout) if read else None
         self.reset_values = layout.reset_values
         self.history, self.flat, self.cols, self.rows = layout.history, layout.flat, layout.cols, layout.rows
-        self.timelines = Timelines([(e.name, cast(Drawn, e.schedule)) for e in drawn], self.nsim, self.substeps,
-                                   self.pad)
-        # per drawn-schedule sensor: its aggregator's name (None: none), sample shape and read shape
-        self._drawn_outputs = [(e.aggregator_name, e.shape, e.buffered_shape) for e in drawn]
+        self.timelines = Timelines(self.plan)
+        # per drawn-schedule sensor: its aggregator's name (None: none) and its read's shape
+        self._drawn_outputs = [(s.aggregator, s.output) for s in self.plan.sensors[self.nfixed:]]
         self.global_step = 0  # global physics steps
         self.age = np.zeros(self.nsim, np.int64)  # physics steps since each simulation's reset
         self.control_steps = np.zeros(self.nsim, np.int64)
@@ -177,7 +175,7 @@ class BatchUpdater:
         """Each simulation's draws at reset, in the Updater's order; returns the noisy channels' keys
         (channel, simulation, 2), in the order of `self.noise`."""
         labels = [self.labels[c] for c in self.noise]
-        planned = [label for label, _ in self.timelines.specs]
+        planned = self.timelines.labels
         keys = np.zeros((len(labels) + len(planned), ids.size, 2), np.uint64)  # noise's, then schedules'
         for m, i in enumerate(ids.tolist()):
             entropy = episode_entropy(random_states[i]) if self.noisy or planned else None
@@ -193,7 +191,7 @@ class BatchUpdater:
 
     def prepare(self, active: np.ndarray) -> None:
         """Before a control step: plan random schedules ahead for the simulations about to step."""
-        if self.timelines.specs:
+        if self.timelines.labels:
             self.timelines.ensure(np.flatnonzero(active), self.control_steps)
 
     def update(self, active: np.ndarray) -> None:
@@ -222,14 +220,14 @@ class BatchUpdater:
         else:
             self.age[active] += substeps
             self.control_steps[active] += 1
-        if self.timelines.specs:
+        if self.timelines.labels:
             self.timelines.advance(np.flatnonzero(active))
 
     def _noise_calls(self, history_row: int, active: np.ndarray,
                      everyone: bool) -> list[tuple[int, int, np.ndarray, np.ndarray]]:
         """(substep k, channel, sims, steps) of this control step's noisy samples, in order."""
         noisy = self._noisy_samples(history_row)
-        taken = self.timelines.taken_now() if self.timelines.specs else None
+        taken = self.timelines.taken_now() if self.timelines.labels else None
         calls = []
         for k in range(1, self.substeps + 1):
             for c, sims in noisy[k - 1]:
@@ -237,7 +235,7 @@ class BatchUpdater:
                     sims = sims[active[sims]]
                 if sims.size:
                     calls.append((k, c, sims, self.age[sims] + k))
-            for r in range(len(self.timelines.specs)):
+            for r in range(len(self.timelines.labels)):
                 c = self.nfixed + r
                 if c in self.corrupted:
                     sims = np.flatnonzero(cast(np.ndarray, taken)[:, r, k - 1] & active)
@@ -297,19 +295,17 @@ class BatchUpdater:
                 reduced = reduce_stacked(group.aggregator, window)
                 for i, sub, shape in group.members:
                     out[i] = reduced[:, sub].reshape(self.nsim, *shape)
-        if self.timelines.specs:
+        if self.timelines.labels:
             self._read_drawn(out)
         return {name: out[self.output_index[name]] for name in self.names}
 
     def _read_drawn(self, out: list[Any]) -> None:
-        for r, (codes, (aggregator, shape, buffered)) in enumerate(zip(self.timelines.last, self._drawn_outputs)):
+        for r, (codes, (aggregator, output)) in enumerate(zip(self.timelines.last, self._drawn_outputs)):
             c = self.nfixed + r
             values = self.flat.take(self.layout.drawn(c, codes, self.age, self.global_step))  # (nsim, buffer, width)
             if aggregator is not None:
-                reduced = reduce_stacked(aggregator, values.transpose(1, 0, 2))
-                out[c] = reduced.reshape(self.nsim, *shape)
-            else:
-                out[c] = values.reshape(self.nsim, *buffered)
+                values = reduce_stacked(aggregator, values.transpose(1, 0, 2))
+            out[c] = values.reshape(self.nsim, *output)
 
     # -- specs ------------------------------------------------------------------------------------
 

@@ -57,7 +57,8 @@ def _timing(sensor: Entry) -> FixedTiming | DrawnTiming:
         return FixedTiming(schedule.interval, schedule.delay, schedule.buffer, schedule.period,
                            frozen(schedule.needed_mask()), schedule.every_sample)
     drawn = _drawn(sensor)
-    return DrawnTiming(_steps(drawn.interval, 1), _steps(drawn.delay, 0), drawn.buffer, drawn.span)
+    return DrawnTiming(_steps(drawn.interval, 1), _steps(drawn.delay, 0), drawn.buffer, drawn.span,
+                       drawn.every_sample)
 
 
 def _record(sensor: Entry, source: Source, first: int) -> SensorRecord:

@@ -25,8 +25,8 @@ here too, for the engines that plan rounds and for the memory check that bounds 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from typing import NamedTuple
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -34,6 +34,9 @@ import numpy.typing as npt
 from ..draws import DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, ChoiceSteps, UniformSteps
 from ..noise import streams
 from .schedule import history_rows
+
+if TYPE_CHECKING:
+    from .records import DrawnSteps, DrawnTiming
 
 __all__ = ["BANK_LONG_ROUND", "BANK_RESET_STEPS", "Drawn", "Planner", "ROUND_STEPS", "Round", "chunk_steps",
            "drawn_bank_rows", "drawn_of"]
@@ -58,6 +61,18 @@ def _largest(value: Setting) -> int:
     return int(value.largest) if isinstance(value, (UniformSteps, ChoiceSteps)) else int(value)
 
 
+def _ints(steps: DrawnSteps) -> tuple[int, ...]:
+    return tuple(int(v) for v in steps.values)
+
+
+# a plan's `DrawnSteps` as the draw it records, by kind
+_SETTINGS: dict[str, Callable[[DrawnSteps], Setting]] = {
+    "uniform": lambda steps: UniformSteps(*_ints(steps)),
+    "choice": lambda steps: ChoiceSteps(_ints(steps), tuple(float(w) for w in steps.weights) or None),
+    "fixed": lambda steps: _ints(steps)[0],
+}
+
+
 class Drawn(NamedTuple):
     """A planned schedule: interval and delay (an int, or a draw with `block` and `largest`), in steps."""
 
@@ -66,6 +81,13 @@ class Drawn(NamedTuple):
     buffer: int
     substeps: int
     every_sample: bool = False  # stateful noise: every sample of the schedule is taken
+
+    @classmethod
+    def of(cls, timing: DrawnTiming, substeps: int) -> Drawn:
+        """The planned schedule of a plan's `DrawnTiming` read every `substeps` steps (what an engine executing
+        the plan plans with: `Planner`)."""
+        return cls(_SETTINGS[timing.interval.kind](timing.interval), _SETTINGS[timing.delay.kind](timing.delay),
+                   timing.buffer, substeps, timing.every_sample)
 
     @property
     def stride(self) -> int:

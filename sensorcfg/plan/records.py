@@ -90,12 +90,15 @@ class DrawnSteps(NamedTuple):
 
 class DrawnTiming(NamedTuple):
     """A drawn schedule: its interval and delay rules, its buffer, and `span`: the most steps a sample may
-    wait before the last read that shows it (what the history must keep)."""
+    wait before the last read that shows it (what the history must keep). Samples no read shows are skipped,
+    unless `every_sample` (stateful noise sees every sample); `plan.drawn.Drawn.of` makes the planner's
+    schedule of it."""
 
     interval: DrawnSteps
     delay: DrawnSteps
     buffer: int
     span: int
+    every_sample: bool = False
 
 
 class NoiseStep(NamedTuple):

@@ -442,3 +442,24 @@ def test_many_episodes_drawn_at_once_are_each_keys_episode(seed: int) -> None:
                         [(n, v.tobytes()) for n, v in getattr(w.step, part)]
                 for a, b in ((g.values, w.values), (g.matrix, w.matrix)):
                     assert (a is None) == (b is None) and (a is None or a.tobytes() == b.tobytes())
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_records_timing_gives_back_the_schedule_it_was_compiled_from(seed: int) -> None:
+    """`Schedule.of` and `Drawn.of` (what an engine executing the plan calls the schedule rules with) make, from a
+    sensor's `FixedTiming` or `DrawnTiming`, the bound observable's own schedule: every drawn kind, stateful
+    noise included."""
+    from sensorcfg.plan.drawn import Drawn
+    from sensorcfg.plan.schedule import Schedule
+
+    model = mujoco.MjModel.from_xml_path(ROBOT)
+    substeps = 1 + seed % 3
+    physics = Physics(model)
+    mujoco.mj_forward(model, physics.data)
+    bound = bind(noisy_suite(seed), physics, substeps, False)
+    plan = plan_suite(bound, physics, bound.sources(), 2, substeps, False)
+    for entry, record in zip([*bound.fixed, *bound.drawn], plan.sensors):
+        timing = record.timing
+        remade = (Schedule.of(timing, substeps) if isinstance(timing, FixedTiming) else Drawn.of(timing, substeps))
+        assert remade == entry.schedule and type(remade) is type(entry.schedule), entry.name
+        assert remade.every_sample == (record.noise is not None and record.noise.stateful), entry.name
