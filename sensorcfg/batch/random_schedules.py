@@ -5,8 +5,8 @@ draws alone, never from the values. The batch plans them from the plan's `DrawnT
 the stream rule (`plan/drawn.py`, `Drawn.of`: each simulation's sensor key), vectorised across the simulations
 that start a round together, one round ahead (rounds of at least `plan.drawn.ROUND_STEPS` steps). The
 per-step path only indexes the rings: which simulations sample at each substep, and which steps each read
-gathers, as codes (0: a zero fill, s + 1: the sample of step s since reset). Planning draws from counter-based streams, never from an episode's random state, so
-an episode that ends early needs no rewinding.
+gathers, as codes (0: a zero fill, s + 1: the sample of step s since reset). Planning draws from
+counter-based streams, never from an episode's random state, so an episode that ends early needs no rewinding.
 """
 
 from __future__ import annotations
