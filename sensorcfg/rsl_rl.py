@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from .env.episode import MAX_CONTROL_STEPS, truncated
+from .loop.episode import MAX_CONTROL_STEPS, truncated
 from .errors import ArgumentError, install_hint
 
 try:

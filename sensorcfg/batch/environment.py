@@ -72,10 +72,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..draws import root_seed, sim_seed
-from ..env.episode import autoreset_mode, chosen_ids, episode_end, truncated
-from ..env.environment import (_BAD_STATE, ControlLoop, ModelArg, action_spec, episode_timing, keyframe_index,
-                               model_and_observables, model_source, random_state_from)
 from ..errors import ArgumentError, SuiteError, UnsupportedError
+from ..loop.control import ControlLoop, action_spec, episode_timing, keyframe_index, random_state_from
+from ..loop.episode import BAD_STATE, autoreset_mode, chosen_ids, episode_end, truncated
+from ..loop.model import ModelArg, model_and_observables, model_source
 from ..noise.level import leveled, set_level
 from ..physics import Physics
 from . import relay
@@ -89,7 +89,7 @@ __all__ = ["BatchEnvironment", "BatchTimeStep"]
 BatchRewardFn = Callable[[Any], Any]  # mujoco.batch.Batch -> (nsim,) rewards
 BatchTerminationFn = Callable[[Any], Any]  # mujoco.batch.Batch -> (nsim,) bools
 
-_BAD_INDEX = np.array([int(w) for w in _BAD_STATE])
+_BAD_INDEX = np.array([int(w) for w in BAD_STATE])
 _FIRST: int = int(dm_env.StepType.FIRST)
 _MID: int = int(dm_env.StepType.MID)
 _LAST: int = int(dm_env.StepType.LAST)

@@ -134,7 +134,7 @@ class _Built:
 
 def control_steps(suite: Any, model: Any, settings: Settings) -> int:
     """Physics steps per control step: --substeps, --control-timestep, else the suite's control_interval."""
-    from ..env.environment import steps_per_control_step
+    from ..loop.control import steps_per_control_step
     from ..errors import ArgumentError
 
     if settings.substeps is None and settings.control_timestep is None:

@@ -30,7 +30,8 @@ import torch
 import warp as wp
 from mjlab.sensor import Sensor, SensorCfg
 
-from ..env.environment import episode_timing, model_and_observables
+from ..loop.control import episode_timing
+from ..loop.model import model_and_observables
 from ..errors import ArgumentError, Problem, SuiteError
 from ..groups import Group, layout
 from ..noise.level import leveled, set_level

@@ -34,10 +34,10 @@ import numpy as np
 import warp as wp
 from dm_env import specs
 
-from ..env.episode import autoreset_mode, chosen_ids
-from ..env.environment import (ControlLoop, ModelArg, action_spec, episode_timing, keyframe_index,
-                               model_and_observables, model_source)
 from ..errors import ArgumentError
+from ..loop.control import ControlLoop, action_spec, episode_timing, keyframe_index
+from ..loop.episode import autoreset_mode, chosen_ids
+from ..loop.model import ModelArg, model_and_observables, model_source
 from ..noise.level import leveled, set_level
 from .layer import EpisodeKeys, SensorLayer, bind_suite
 from .philox import MODULE_OPTIONS
@@ -64,7 +64,7 @@ class WarpTimeStep(NamedTuple):
 
     def truncated(self) -> wp.array:
         """(nworld,) bool, on the device: the worlds whose episode this step ended at the time limit (LAST,
-        discount 1; `env.episode.truncated`)."""
+        discount 1; `loop.episode.truncated`)."""
         return self._ended(True)
 
     def terminated(self) -> wp.array:
@@ -81,7 +81,7 @@ class WarpTimeStep(NamedTuple):
 
 @wp.struct
 class EpisodeRules:
-    """When an episode ends and the next starts (`env.episode`): after `limit` control steps (0: no limit), and
+    """When an episode ends and the next starts (`loop.episode`): after `limit` control steps (0: no limit), and
     with `same_step` (1) in the step that ended it, else (0) in the next."""
 
     limit: wp.int64
@@ -168,7 +168,7 @@ def _end(
         return
     limit = rules.limit
     terminal = diverged[w] or terminated[w]
-    last = terminal or (limit > wp.int64(0) and episode.control_steps[w] >= limit)  # (`env.episode.episode_end`)
+    last = terminal or (limit > wp.int64(0) and episode.control_steps[w] >= limit)  # (`loop.episode.episode_end`)
     fields.step_type[w] = wp.where(last, 2, 1)
     fields.reward[w] = reward_in[w]
     fields.discount[w] = wp.where(terminal, wp.float32(0.0), wp.float32(1.0))

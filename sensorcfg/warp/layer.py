@@ -27,7 +27,7 @@ import numpy as np
 import warp as wp
 
 from ..draws import episode_entropy, root_seed, sensor_keys, sim_seed
-from ..env.environment import random_state_from
+from ..loop.control import random_state_from
 from ..errors import Problem, SuiteError
 from ..physics import Physics
 from ..plan.bind import Bound, Entry, bind

@@ -10,7 +10,7 @@ Conventions:
 - `diverged[w]` (bool) is set once a step leaves world w's qpos, qvel or qacc bad or ran on a bad control,
   and stays set until the world is reset: MuJoCo's test (`mju_isBad`: NaN, or beyond +-`mujoco.mjMAXVAL`; a
   control as MuJoCo applies it, clamped to its `ctrlrange` where ctrl-limited unless clamping is disabled,
-  a NaN staying NaN), whose warnings the CPU engines read as divergence (`env.episode`). Unlike
+  a NaN staying NaN), whose warnings the CPU engines read as divergence (`loop.episode`). Unlike
   `mujoco.mj_step` (whose checks reset a diverged world, or zero its bad controls, and warn), MuJoCo Warp
   goes on with such numbers (`ctrl` keeps what was written): the caller decides what a diverged world's
   readings are.

@@ -12,7 +12,7 @@ import pytest
 import sensorcfg
 from sensorcfg import assets
 from sensorcfg.batch.environment import BatchEnvironment
-from sensorcfg.env.episode import truncated
+from sensorcfg.loop.episode import truncated
 from test_batch import needs_batch
 
 ROBOT = str(assets.path("robot.xml"))

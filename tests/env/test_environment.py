@@ -105,9 +105,9 @@ LIMITS = [  # (time_limit, control steps of 0.01 s or the message of the Argumen
 
 @pytest.mark.parametrize("time_limit, expected", LIMITS)
 def test_a_time_limit_is_whole_control_steps_none_or_an_argument_error(time_limit, expected):
-    """One rule for every environment (`env.episode.step_limit`): inf or None is no limit; what no engine's step
+    """One rule for every environment (`loop.episode.step_limit`): inf or None is no limit; what no engine's step
     counter holds, or what is not positive seconds, is an ArgumentError saying what fits."""
-    from sensorcfg.env.episode import step_limit
+    from sensorcfg.loop.episode import step_limit
 
     envs = [lambda: sensorcfg.Environment(ROBOT, proprio(), control_timestep=0.01, time_limit=time_limit)]
     if MUJOCO4:

@@ -1,10 +1,10 @@
-"""The one episode-end rule that Environment and BatchEnvironment share (`env.episode`)."""
+"""The one episode-end rule that Environment and BatchEnvironment share (`loop.episode`)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from sensorcfg.env.episode import episode_end
+from sensorcfg.loop.episode import episode_end
 
 
 def test_termination_before_truncation_before_going_on():

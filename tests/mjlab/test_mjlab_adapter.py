@@ -23,7 +23,7 @@ import torch  # noqa: E402
 
 import sensorcfg  # noqa: E402
 from sensorcfg.draws import root_seed, sim_seed  # noqa: E402
-from sensorcfg.env.environment import random_state_from  # noqa: E402
+from sensorcfg.loop.control import random_state_from  # noqa: E402
 from sensorcfg.errors import ArgumentError, SuiteError  # noqa: E402
 from sensorcfg.noise.level import leveled  # noqa: E402
 from sensorcfg.physics import Physics  # noqa: E402

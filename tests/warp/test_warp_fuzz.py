@@ -40,7 +40,7 @@ wp = warp_or_skip()
 import sensorcfg  # noqa: E402
 from sensorcfg import assets  # noqa: E402
 from sensorcfg.draws import root_seed, sim_seed  # noqa: E402
-from sensorcfg.env.environment import random_state_from  # noqa: E402
+from sensorcfg.loop.control import random_state_from  # noqa: E402
 from sensorcfg.noise.level import leveled, set_level  # noqa: E402
 from sensorcfg.physics import Physics  # noqa: E402
 from sensorcfg.plan.bind import bind, plan_suite  # noqa: E402

@@ -9,7 +9,8 @@ per world).
 Diverged is MuJoCo's bad-state test (`mju_isBad`: NaN, or beyond +-`mujoco.mjMAXVAL`, 1e10) on qpos, qvel,
 qacc, or a control as the step applies it (clamped to its `ctrlrange` where the actuator is ctrl-limited,
 unless `<flag clampctrl="disable"/>`; NaN stays NaN): `mj_step` counts a warning for each, which the CPU
-engines read; MuJoCo Warp counts none, and `warp.worlds` makes the same test on the device.
+engines read (the counters `BAD_STATE` names); MuJoCo Warp counts none, and `warp.worlds` makes the same test on
+the device.
 
 The time limit is `time_limit` seconds as a whole number of control steps (`step_limit`): None or inf for no
 limit; at most `MAX_CONTROL_STEPS`, the most every engine's int64 step counter holds.
@@ -20,16 +21,22 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import mujoco
 import numpy as np
 
 from ..config.units import timestep_problem
 from ..errors import ArgumentError
 
-__all__ = ["AUTORESETS", "MAX_CONTROL_STEPS", "autoreset_mode", "chosen_ids", "episode_end", "step_limit", "timed",
-           "truncated"]
+__all__ = ["AUTORESETS", "BAD_SPAN", "BAD_STATE", "MAX_CONTROL_STEPS", "autoreset_mode", "chosen_ids", "episode_end",
+           "step_limit", "timed", "truncated"]
 
 MAX_CONTROL_STEPS = 2**63 - 1  # int64: the control steps of an episode every engine counts
 _LAST = 2  # dm_env.StepType.LAST
+# MuJoCo's warnings that count a bad state (the CPU engines' divergence test: a change of these counts)
+BAD_STATE = np.array([int(getattr(mujoco.mjtWarning, f"mjWARN_BAD{w}")) for w in ("QPOS", "QVEL", "QACC", "CTRL")])
+# adjacent in MuJoCo's enum (3..6): a slice of the counters is then a live view, compared as bytes
+BAD_SPAN = (slice(int(BAD_STATE.min()), int(BAD_STATE.max()) + 1)
+            if np.array_equal(BAD_STATE, np.arange(BAD_STATE.min(), BAD_STATE.max() + 1)) else None)
 
 # When a many-simulation engine starts the episode after one that ended (Gymnasium's names for the two modes):
 # "next_step": the next step does (dm_env's rule: it returns FIRST and ignores that simulation's action);
