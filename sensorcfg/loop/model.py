@@ -18,7 +18,7 @@ from ..physics import read_model
 __all__ = ["ModelArg", "load_model", "model_and_observables", "model_source"]
 
 
-def load_model(model: mujoco.MjModel | str | os.PathLike) -> mujoco.MjModel:
+def load_model(model: mujoco.MjModel | str | os.PathLike[str]) -> mujoco.MjModel:
     """An MjModel, or one loaded from an MJCF (or MJB) path (or a `package://` or `menagerie://` name, as in
     a suite's `model:`) with a clear error."""
     if isinstance(model, mujoco.MjModel):
@@ -32,7 +32,7 @@ def load_model(model: mujoco.MjModel | str | os.PathLike) -> mujoco.MjModel:
         raise SuiteError(f"{path}: MuJoCo could not load the model: {e}") from None
 
 
-def _model_file(model: str | os.PathLike) -> str:
+def _model_file(model: str | os.PathLike[str]) -> str:
     try:
         return model_file(model)
     except ValueError as e:
