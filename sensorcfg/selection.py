@@ -28,6 +28,7 @@ from typing import NamedTuple
 
 import mujoco
 
+from .config.tables import GLOB_CHARS
 from .errors import Problem, SuiteError, did_you_mean
 from .kinds import ELEMENT_TYPES, read_type
 
@@ -37,8 +38,6 @@ __all__ = ["Selection", "Resolved", "select", "resolve", "split_selector", "elem
 ID_PREFIX = "#"  # `joint:#0`: an element by id; also the label of an unnamed element
 ADDED_PREFIX = "sensorcfg:"  # the start of the name of every element sensorcfg adds to a model
 MAX_HINTS = 20  # misses of one resolution that get a "did you mean" (each scans the model's names)
-
-_GLOB_CHARS = frozenset("*?[")
 
 
 def added_by_sensorcfg(name: str) -> bool:
@@ -302,7 +301,7 @@ def resolve(model: mujoco.MjModel, element: str | Sequence[str],
         try:
             type_name, pattern = split_selector(text)
             types.add(type_name if kind is None else read_type(type_name, kind))
-            if _GLOB_CHARS & set(pattern):
+            if GLOB_CHARS & set(pattern):
                 batched = True
                 matched = r.glob(type_name, pattern)
                 if roots is not None:

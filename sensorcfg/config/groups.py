@@ -17,11 +17,9 @@ from ..errors import Problem, did_you_mean
 from .locate import problem_at
 from .models import SensorConfig
 from .source import Doc
-from .tables import IMAGE_KINDS
+from .tables import GLOB_CHARS, IMAGE_KINDS
 
 __all__ = ["resolve_groups"]
-
-_GLOB_CHARS = frozenset("*?[")
 
 
 def _refusal(name: str, cfg: SensorConfig) -> str | None:
@@ -44,7 +42,7 @@ def resolve_groups(groups: Mapping[str, tuple[str, ...]], sensors: Mapping[str, 
         before = len(problems)
         for i, entry in enumerate(entries):
             here = ("groups", group, i)
-            if _GLOB_CHARS & set(entry):
+            if GLOB_CHARS & set(entry):
                 matched = [n for n in sensors if fnmatch.fnmatchcase(n, entry) and n not in members
                            and _refusal(n, sensors[n]) is None]
                 if not matched:

@@ -9,9 +9,10 @@ from __future__ import annotations
 
 from ..observables.aggregators import AGGREGATORS
 
-__all__ = ["IMAGE_KINDS", "GENERIC_KIND", "HEIGHTSCAN_KIND", "NATIVE_KINDS", "aggregator_names"]
+__all__ = ["GLOB_CHARS", "IMAGE_KINDS", "GENERIC_KIND", "HEIGHTSCAN_KIND", "NATIVE_KINDS", "aggregator_names"]
 
 IMAGE_KINDS: tuple[str, ...] = ("rgb", "depth", "segmentation")  # == tuple(camera.MODES), tested
+GLOB_CHARS = frozenset("*?[")  # a name holding one of these is a pattern (fnmatch's): element selectors, groups
 GENERIC_KIND = "generic"
 HEIGHTSCAN_KIND = "heightscan"
 # MuJoCo sensor types a suite adds to the model: the rows of `sensorcfg.native.table.NATIVE` (tested).
