@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-from ..plan import NoiseProgram, StepEpisode, SuitePlan, episode
+from ..plan import NoiseProgram, SuitePlan, episode
 from .philox import MODULE_OPTIONS
 from .program import PARAM_SLOTS, NoisePrograms, NoiseTables, TurnSlot, stage_params, taken_at
 
@@ -95,12 +95,8 @@ def episode_values(plan: SuitePlan, tables: NoiseTables, keys: np.ndarray) -> np
     size = tables.size
     wanted = ({s.sensor for s in tables.episode_slots} | {s.sensor for s in tables.param_slots}
               | {s.sensor for s in tables.turn_slots})
-    programs = [s.noise for s in plan.sensors if s.noise is not None]
-    drawn: dict[int, tuple[StepEpisode, ...]] = {}
-    for n in sorted(wanted):
-        program = programs[n]
-        assert isinstance(program, NoiseProgram)
-        drawn[n] = episode(program, keys[n])
+    programs: list[NoiseProgram] = [s.noise for s in plan.sensors if s.noise is not None]
+    drawn = {n: episode(programs[n], keys[n]) for n in sorted(wanted)}
     for slot in tables.episode_slots:
         got = drawn[slot.sensor][slot.stream].values  # None: a Brownian walk, which starts at 0
         values[slot.slot:slot.slot + slot.values] = 0.0 if got is None else got
