@@ -85,8 +85,8 @@ def philox(counter: Sequence[np.ndarray], key: Sequence[np.ndarray]) -> list[np.
 class Draw(NamedTuple):
     """The per-sample numbers of one stage and lane for m samples: `size` values each."""
 
-    keys: np.ndarray  # (m, 2) uint64: each sample's episode key (its sensor's, its simulation's)
-    samples: np.ndarray  # (m,) sample indices
+    keys: npt.NDArray[np.uint64]  # (m, 2): each sample's episode key (its sensor's, its simulation's)
+    samples: npt.NDArray[np.int64]  # (m,) sample indices
     stage: int
     lane: int
     size: int
@@ -271,8 +271,8 @@ MAX_TERMS = 8  # terms of one sum the kernel adds in one pass (`add_sums`); a lo
 class Affine(NamedTuple):
     """A per-sample term linear in its draw's numbers x: x scale (+ offset), each (size,) float64."""
 
-    scale: np.ndarray
-    offset: np.ndarray | None
+    scale: npt.NDArray[np.float64]
+    offset: npt.NDArray[np.float64] | None
 
 
 class Sum(NamedTuple):

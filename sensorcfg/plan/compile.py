@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -18,11 +19,14 @@ from .bound import Entry
 from .drawn import Drawn
 from .layout import Member, read_layout
 from .noise import program
-from .records import (BoolArray, DrawnSteps, DrawnTiming, FixedTiming, IntArray, PlainOutput, ReadTable,
-                      ReducedOutput, ReductionBlock, SensorRecord, Source, SuitePlan, frozen)
+from .records import (BoolArray, DrawnSteps, DrawnTiming, FixedTiming, IntArray, NoiseProgram, PlainOutput,
+                      ReadTable, ReducedOutput, ReductionBlock, SensorRecord, Source, SuitePlan, frozen)
 from .schedule import Schedule, history_rows
 
-__all__ = ["compile_plan"]
+if TYPE_CHECKING:
+    from ..noise.pipeline import NoisePipeline
+
+__all__ = ["compile_plan", "noise_program", "timing_of"]
 
 
 _NO_WEIGHTS = frozen(np.zeros(0))
@@ -51,25 +55,30 @@ def _drawn(sensor: Entry) -> Drawn:
     return sensor.schedule
 
 
-def _timing(sensor: Entry) -> FixedTiming | DrawnTiming:
-    if isinstance(sensor.schedule, Schedule):
-        schedule = sensor.schedule
+def timing_of(schedule: Schedule | Drawn) -> FixedTiming | DrawnTiming:
+    """A bound schedule's record in the plan."""
+    if isinstance(schedule, Schedule):
         return FixedTiming(schedule.interval, schedule.delay, schedule.buffer, schedule.period,
                            frozen(schedule.needed_mask()), schedule.every_sample)
-    drawn = _drawn(sensor)
-    return DrawnTiming(_steps(drawn.interval, 1), _steps(drawn.delay, 0), drawn.buffer, drawn.span,
-                       drawn.every_sample)
+    return DrawnTiming(_steps(schedule.interval, 1), _steps(schedule.delay, 0), schedule.buffer, schedule.span,
+                       schedule.every_sample)
+
+
+def noise_program(noise: NoisePipeline | None, shape: tuple[int, ...],
+                  schedule: Schedule | Drawn) -> NoiseProgram | None:
+    """A bound sensor's noise program (`plan.noise.program`): sample j is taken at step j x its schedule's stride
+    (a fixed schedule's interval, a drawn one's `Drawn.stride`)."""
+    stride = schedule.interval if isinstance(schedule, Schedule) else schedule.stride
+    return program(noise, tuple(shape), stride, timing_of(schedule))
 
 
 def _record(sensor: Entry, source: Source, first: int) -> SensorRecord:
     size = math.prod(sensor.shape)
-    schedule = sensor.schedule
-    stride = schedule.interval if isinstance(schedule, Schedule) else _drawn(sensor).stride
+    schedule = sensor.schedule if isinstance(sensor.schedule, Schedule) else _drawn(sensor)
     aggregator = sensor.aggregator_name
     output = sensor.shape if aggregator is not None else sensor.buffered_shape
-    timing = _timing(sensor)
     return SensorRecord(sensor.name, tuple(sensor.shape), (first, first + size), tuple(output), aggregator,
-                        timing, program(sensor.noise, tuple(sensor.shape), stride, timing),
+                        timing_of(schedule), noise_program(sensor.noise, tuple(sensor.shape), schedule),
                         Source(source.field, frozen(source.positions, np.intp)))
 
 

@@ -13,15 +13,16 @@ from __future__ import annotations
 
 import ctypes
 from collections.abc import Callable, Hashable, Sequence
-from typing import TYPE_CHECKING, Protocol, TypeGuard
+from typing import TYPE_CHECKING, Protocol, TypeGuard, cast
 
 import numpy as np
 
 from ..cache import BoundedCache
 from ..plan.bound import aggregator_name, field_reader, plain_refusal
 from ..plan.layout import Member, read_layout
+from ..plan.records import NoiseProgram
 from ..plan.schedule import history_rows, noise_chunk
-from .bank_noise import BankNoise, Program, program
+from .bank_noise import BankNoise, program, program_of
 from .bank_read import PADS, CompiledRead, compile_read, cut, finish
 from .channels import Channel, DrawnChannel, FixedChannel
 from .read_kernel import kernel_read, kernel_snapshot
@@ -30,7 +31,7 @@ if TYPE_CHECKING:
     from mujoco import MjData
 
 __all__ = ["FeatureBank", "BankMember", "bank_member", "laid_out", "qualifies", "buffer_view", "fields_of",
-           "rebind_noise", "reuse_key"]
+           "reuse_key"]
 
 _READS_BUDGET = 4 << 20  # bytes of read layouts kept, at least (4 x the history's size when that is more)
 
@@ -117,8 +118,8 @@ class FeatureBank:
         self.source = np.concatenate(
             [offsets[field_reader(ch.sampler).field] + field_reader(ch.sampler).index.ravel()
              for ch in channels]).astype(np.intp)
-        programs = [program(ch.noise) for ch in channels]
-        noisy = any(programs)
+        noises = [program_of(ch.noise, ch.shape, ch.schedule) for ch in channels]
+        noisy = any(noise is not None and noise.steps for noise in noises)
         # Noise is drawn a chunk ahead; the history then also holds a chunk (rows: a multiple of the chunk).
         schedules = [ch.schedule for ch in channels]
         self.chunk = noise_chunk(schedules, substeps) if noisy else 0
@@ -133,14 +134,14 @@ class FeatureBank:
         # read layouts per phase, and early reads' padded positions per step: kept within a byte budget
         self._gathers = BoundedCache(max(_READS_BUDGET, 4 * self.history.nbytes))
         self._early = BoundedCache(_READS_BUDGET // 4)
-        self.noise = self._noise(programs) if noisy else None
+        self.noise = self._noise(noises) if noisy else None
         self.pad_values = np.zeros(self.width)
 
-    def _noise(self, programs: list[Program | None]) -> BankNoise:
+    def _noise(self, noises: list[NoiseProgram | None]) -> BankNoise:
         """The members' noise, drawn a chunk ahead: each member's sample steps within one chunk."""
         in_chunk = [np.array(sorted(p + m for p in phases for m in range(0, self.chunk, period)), np.intp)
                     for period, _, phases in self.phases]
-        return BankNoise(self.channels, [ops or () for ops in programs], self.cols, self.rows, self.chunk, in_chunk)
+        return BankNoise(self.channels, noises, self.cols, self.rows, self.chunk, in_chunk)
 
     @staticmethod
     def key(channels: list[FixedChannel], data: MjData, substeps: int, pad: bool) -> tuple[Hashable, ...]:
@@ -150,7 +151,6 @@ class FeatureBank:
     def rebind(self, channels: list[FixedChannel]) -> None:
         """Take this episode's channels (same settings as the ones the bank was built for)."""
         self.channels = channels
-        rebind_noise(self.noise, channels)
 
     def members(self) -> list[BankMember]:
         return [BankMember(self, i, ch) for i, ch in enumerate(self.channels)]
@@ -174,7 +174,7 @@ class FeatureBank:
         else:
             self.history[1:] = 0.0
         if self.noise is not None:
-            self.noise.start()
+            self.noise.start([ch.key for ch in self.channels])
             if self.pad:  # padding repeats the first sample as delivered: with its noise
                 first = np.arange(self.width)
                 self.pad_values = self.history[0].copy()
@@ -247,18 +247,12 @@ class FeatureBank:
 def reuse_key(channels: Sequence[Channel], data: MjData, substeps: int, pad: bool,
               schedules: Sequence[Hashable]) -> tuple[Hashable, ...]:
     """What a bank's layout depends on (`schedules`: each member's schedule settings): equal keys let a reset
-    keep the bank (FeatureBank, planned.DrawnBank), with this episode's channels (`rebind_noise`)."""
+    keep the bank (FeatureBank, planned.DrawnBank), with this episode's channels (their keys)."""
     head: tuple[Hashable, ...] = (id(data), substeps, pad)
     return head + tuple(
         (reader.field, reader.index.shape, reader.index.tobytes(), schedule, ch.buffer_size,
          getattr(ch.aggregator, "name", None), ch.has_buffer_dim, id(ch.noise))
         for ch, schedule in zip(channels, schedules) for reader in [field_reader(ch.sampler)])
-
-
-def rebind_noise(noise: BankNoise | None, channels: Sequence[Channel]) -> None:
-    """A kept bank's noise takes this episode's channels' stages (the same pipelines, reset for it)."""
-    if noise is not None:
-        noise.programs = [program(ch.noise) or () for ch in channels]  # members qualify: never None
 
 
 def _snapshot_rows(phases: list[tuple[int, int, list[int]]], rows: int) -> list[bool]:
@@ -275,8 +269,14 @@ def bank_member(ch: Channel, kind: type[FixedChannel] | type[DrawnChannel]) -> b
     """Whether a channel of schedule type `kind` can join a feature bank (`FeatureBank`, `planned.DrawnBank`):
     an uncorrupted plain feature (`plain_refusal`) whose noise (if any) the bank can apply. A field MuJoCo
     computes on demand (`compute`) is read by its own reader, which fills it first."""
-    return (isinstance(ch, kind) and plain_refusal(ch) is None and getattr(ch.sampler, "compute", None) is None
-            and program(ch.noise) is not None)
+    if not (isinstance(ch, kind) and plain_refusal(ch) is None and getattr(ch.sampler, "compute", None) is None):
+        return False
+    if ch.noise is None:
+        return True
+    schedule = ch.schedule if isinstance(ch, FixedChannel) else cast(DrawnChannel, ch).drawn
+    size = int(np.prod(ch.shape, dtype=np.int64))
+    return (np.dtype(ch.noise.dtype) == np.float64
+            and program(program_of(ch.noise, ch.shape, schedule), size) is not None)
 
 
 def qualifies(ch: Channel) -> TypeGuard[FixedChannel]:

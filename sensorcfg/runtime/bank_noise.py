@@ -1,65 +1,93 @@
-"""Noise for the feature bank: the same numbers as each sensor's own pipeline, applied in a few array ops.
+"""Noise for the feature bank: each sensor's noise program (`plan.noise`), applied in a few array ops.
 
-A noise pipeline whose stages are additive noise (gaussian, uniform, outlier, bias), a random walk (a drift
+A noise program whose steps are additive noise (gaussian, uniform, outlier, bias), a random walk (a drift
 that does not depend on the signal), a per-episode gain, quantisation or clipping can run inside the bank.
-Every `chunk` steps (the planned bank: with each round, for the samples it takes) the bank asks each
-sensor's own stages for the per-sample terms of that sensor's samples (counter-based: the same numbers the
-per-sample path uses for those samples) and writes them into "noise fields" laid out like the bank's
-history. A read then runs a program compiled with its layout (`read_program`): stage q of every pipeline
-at once, in order, with the stages' own array arithmetic (`noise.arithmetic`), on views of the read's work
-buffer where the values are contiguous; a term is added to every gathered value at once when the others'
-noise fields hold -0.0 there (adding -0.0 changes no value). Sensors whose pipelines hold lowpass,
-dropout or custom stages stay on the per-sample path.
+Every `chunk` steps (the planned bank: with each round, for the samples it takes) the bank draws the
+per-sample terms of each sensor's samples from the program alone (`plan.terms`: counter-based, the numbers
+the per-sample path uses for those samples) and writes them into "noise fields" laid out like the bank's
+history; what a program draws at a reset (a bias's or gain's values, a random walk's start) comes from the
+sensor's episode key (`plan.noise.episode`). A read then runs a program compiled with its layout
+(`read_program`): stage q of every sensor at once, in order, with the stages' array arithmetic
+(`noise.arithmetic`), on views of the read's work buffer where the values are contiguous; a term is added
+to every gathered value at once when the others' noise fields hold -0.0 there (adding -0.0 changes no
+value). Sensors whose programs hold lowpass, dropout, misalign, custom stages, parameters drawn per episode
+or a noise level stay on the per-sample path.
 
 Bit-identity with the per-sample pipeline is the contract (the tests compare both paths).
 """
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Callable, Collection, Sequence
-from typing import TYPE_CHECKING, Any, NamedTuple, Protocol, cast
+from typing import TYPE_CHECKING, Any, NamedTuple, Protocol, Union, cast
 
 import numpy as np
 
 from ..noise import arithmetic as ar
-from ..noise import stages as rt
-from ..noise.streams import KERNEL, Affine, Draw, Sum, add_sums, numbers
+from ..noise.base import block_size
+from ..noise.streams import KERNEL, Draw, Sum, add_sums, numbers
+from ..plan import terms as tm
+from ..plan.compile import noise_program
+from ..plan.noise import episode
+from ..plan.records import NoiseProgram, NoiseStep
 
 if TYPE_CHECKING:
     from ..noise.pipeline import NoisePipeline
+    from ..plan.drawn import Drawn
+    from ..plan.schedule import Schedule
 
 __all__ = ["BankNoise", "Layer", "ReadOp", "ops_of", "program"]
 
-Program = tuple[tuple[str, Any], ...]  # (kind, stage) pairs
+Op = Union[tm.Term, NoiseStep]  # a term's steps, or the step an elementwise op runs
+Program = tuple[tuple[str, Op], ...]  # (kind, op) pairs
 ReadOp = Callable[[np.ndarray], None]  # op(the gathered values' history positions): in place, on its work buffer
 
-# What the bank does with each runtime stage type: "term" stages add a per-sample row (white noise,
-# outliers, their sums, a random walk's state: drawn a chunk ahead into a noise field); an episode draw
+# What the bank does with each stage type of a program: "term" steps add a per-sample row (white noise,
+# outliers, their fused sums, a random walk's state: drawn a chunk ahead into a noise field); an episode draw
 # adds or multiplies; quantize and clip are elementwise. A type missing here keeps its sensor per sample.
-_KINDS: dict[type, Callable[[Any], str]] = {
-    rt.Gaussian: lambda stage: "term",
-    rt.Uniform: lambda stage: "term",
-    rt.Outlier: lambda stage: "term",
-    rt.Sum: lambda stage: "term",
-    rt.RandomWalk: lambda stage: "term",
-    rt.EpisodeDraw: lambda stage: "add" if stage.op is np.add else "mul",
-    rt.Quantize: lambda stage: "quantize",
-    rt.Clip: lambda stage: "clip",
+_KINDS: dict[str, str] = {
+    "gaussian": "term",
+    "uniform": "term",
+    "outlier": "term",
+    "random_walk": "term",
+    "bias": "add",
+    "scale": "mul",
+    "quantize": "quantize",
+    "clip": "clip",
 }
+# each pipeline's program, per (shape, schedule): built once per pipeline, which a suite's resets keep
+_PROGRAMS: weakref.WeakKeyDictionary[Any, dict[Any, NoiseProgram | None]] = weakref.WeakKeyDictionary()
 
 
-def program(pipeline: NoisePipeline | None) -> Program | None:
-    """The pipeline as (kind, stage) pairs the bank can run, () for no noise, None when it cannot."""
-    if pipeline is None:
-        return ()
-    if np.dtype(pipeline.dtype) != np.float64:
+def program_of(noise: NoisePipeline | None, shape: tuple[int, ...],
+               schedule: Schedule | Drawn) -> NoiseProgram | None:
+    """A channel's noise program (`plan.compile.noise_program`), kept with its pipeline."""
+    if noise is None:
         return None
-    ops: list[tuple[str, Any]] = []
-    for stage in pipeline.stages:
-        kind = _KINDS.get(type(stage))
-        if kind is None:
+    programs = _PROGRAMS.setdefault(noise, {})
+    key = (shape, schedule)
+    if key not in programs:
+        programs[key] = noise_program(noise, shape, schedule)
+    return programs[key]
+
+
+def program(noise: NoiseProgram | None, size: int) -> Program | None:
+    """A program as the (kind, op) pairs the bank can run, () for no noise, None when it cannot (`_KINDS`)."""
+    if noise is None:
+        return ()
+    if noise.leveled:
+        return None
+    ops: list[tuple[str, Op]] = []
+    q = 0
+    while q < len(noise.steps):
+        term = tm.term_of(noise, q, size)
+        step = noise.steps[q]
+        kind = "term" if len(term.steps) > 1 else _KINDS.get(step.stage)
+        if kind is None or any(s.drawn for s in term.steps):
             return None
-        ops.append((kind(stage), stage))
+        ops.append((kind, term if kind == "term" else step))
+        q += len(term.steps)
     return tuple(ops)
 
 
@@ -72,23 +100,73 @@ class _Sampled(Protocol):
     def interval(self) -> int: ...
 
 
+class _Walk:
+    """A random walk term of one member in one episode: b_j = a b_(j-1) + c z_j over every sample index j, a
+    block of indices at a time and in order (`noise.base.block_size`), from the episode's start (the step's
+    draw at reset; 0 for a Brownian walk, whose a is None)."""
+
+    def __init__(self, term: tm.Term, key: np.ndarray, start: np.ndarray | None):
+        step = term.steps[0]
+        self.term, self.key = term, key[None]
+        self.a = None if step.param("correlation_time") is None else step.number("a")
+        self.c = step.number("c")
+        self.block = block_size(term.size)
+        self.carry = np.zeros(term.size) if start is None else np.array(start, np.float64)
+        self.last = -1  # the newest block walked
+        self.block_id = -1
+        self.rows = np.zeros((0, term.size))
+
+    def _block_rows(self, block: int) -> np.ndarray:
+        states = self.rows
+        while self.last < block:  # every index is walked, whether or not its samples are taken
+            self.last += 1
+            samples = np.arange(self.last * self.block, (self.last + 1) * self.block)
+            z = tm.values(self.term, numbers(tm.draws(self.term, samples, np.repeat(self.key, len(samples), 0))),
+                          len(samples))
+            states = ar.walk(self.carry, z, self.a, self.c, self.last == 0)
+        return states
+
+    def rows_at(self, indices: np.ndarray) -> np.ndarray:
+        """The walk's states at sample indices `indices` (increasing), (len, size)."""
+        first, last = int(indices[0]) // self.block, int(indices[-1]) // self.block
+        blocks = []
+        for block in range(first, last + 1):
+            if block != self.block_id:
+                if block <= self.last:
+                    raise ValueError(f"the bank's random walk was asked for block {block} after {self.last}")
+                self.rows = self._block_rows(block)
+                self.block_id = block
+            blocks.append(self.rows)
+        stacked = blocks[0] if len(blocks) == 1 else np.concatenate(blocks)
+        rows: np.ndarray = stacked[indices - first * self.block]
+        return rows
+
+
 class BankNoise:
     """Noise fields and per-group programs for the noisy members of a bank."""
 
-    def __init__(self, channels: Sequence[_Sampled], programs: list[Program], cols: np.ndarray,
+    def __init__(self, channels: Sequence[_Sampled], noises: Sequence[NoiseProgram | None], cols: np.ndarray,
                  rows: int, chunk: int, sample_offsets: list[np.ndarray]):
+        """`noises`: each member's noise program (None: none); each one the bank can run (`program`)."""
         self.width = int(cols[-1])
         self.rows, self.chunk, self.cols = rows, chunk, cols
         self.shapes = [ch.shape for ch in channels]
         self.strides = [ch.interval for ch in channels]  # sample j of member i is taken at step j * stride
         self.offsets = sample_offsets  # per member: its sample steps within one chunk, relative
         self.places, self.first, self.first_places = self._layout(sample_offsets)
+        self.noises = list(noises)
+        programs = [program(noise, int(cols[i + 1] - cols[i])) for i, noise in enumerate(noises)]
+        if any(ops is None for ops in programs):
+            raise ValueError("a bank member's noise the bank cannot run (an internal error: `program` decides)")
+        self.programs = cast(list[Program], programs)
         groups: dict[tuple[str, ...], list[int]] = {}
-        for i, ops in enumerate(programs):
+        for i, ops in enumerate(self.programs):
             if ops:
                 groups.setdefault(tuple(kind for kind, _ in ops), []).append(i)
-        self.programs = programs
-        self.affines: dict[tuple[int, int], tuple[Any, list[Affine] | None]] = {}  # (member, term): (stage, affine)
+        self.affines = {(i, j): tm.affine(term) if KERNEL == "compiled" and term.steps[0].stage != "random_walk"
+                        else None for i, ops in enumerate(self.programs)
+                        for j, term in enumerate(op for kind, op in ops if kind == "term")
+                        if isinstance(term, tm.Term)}
         self.groups = [(signature, members) for signature, members in groups.items()]
         self.nfields = max((sig.count("term") for sig, _ in self.groups), default=0)
         # -0.0 where nothing is drawn: adding it changes no value, so a read may add a whole field row
@@ -100,31 +178,50 @@ class BankNoise:
             per_op: list[Any] = []
             for q, kind in enumerate(signature):
                 if kind == "quantize":
-                    per_op.append((self._full(members, q, lambda s: s.step, np.nan),))
+                    per_op.append((self._full(members, q, "step"),))
                 elif kind == "clip":
-                    per_op.append((self._full(members, q, lambda s: s.low, -np.inf),
-                                   self._full(members, q, lambda s: s.high, np.inf)))
+                    per_op.append((self._full(members, q, "low"), self._full(members, q, "high")))
                 else:  # add / mul: this episode's draws, filled at `start`; term: a noise field
                     per_op.append((np.zeros(self.width),) if kind in ("add", "mul") else ())
             self.params.append(per_op)
+        # this episode's: each member's key, its terms' bias values and random walks
+        self.keys = [np.zeros((1, 2), np.uint64) for _ in self.programs]
+        self.biases: dict[tuple[int, int], list[np.ndarray]] = {}
+        self.walkers: dict[tuple[int, int], _Walk] = {}
 
-    def _full(self, members: list[int], q: int, get: Any, missing: float) -> np.ndarray:
-        full = np.full(self.width, missing)
+    def _full(self, members: list[int], q: int, name: str) -> np.ndarray:
+        """Kernel number `name` of op q of every member, at the members' columns (NaN elsewhere)."""
+        full = np.full(self.width, np.nan)
         for i in members:
-            value = get(self.programs[i][q][1])
-            full[self.cols[i]:self.cols[i + 1]] = missing if value is None else np.broadcast_to(
-                value, self.shapes[i]).ravel()
+            full[self.cols[i]:self.cols[i + 1]] = cast(NoiseStep, self.programs[i][q][1]).number(name)
         return full
 
     # -- per episode and per chunk ----------------------------------------------------------------
 
-    def start(self, fill: bool = True) -> None:
-        """After the pipelines' reset: this episode's draws, and (with `fill`) the first chunk of noise."""
+    def start(self, keys: Sequence[np.ndarray], fill: bool = True) -> None:
+        """Start an episode with each member's sensor key (`keys`): its draws at the reset (`plan.noise.episode`),
+        and (with `fill`) the first chunk of noise."""
+        self.biases.clear()
+        self.walkers.clear()
+        drawn = {}
+        for i, (noise, ops) in enumerate(zip(self.noises, self.programs)):
+            if not ops or noise is None:
+                continue
+            self.keys[i] = np.asarray(keys[i], np.uint64).reshape(1, 2)
+            drawn[i] = episode(noise, self.keys[i][0])
+            for j, term in enumerate(op for kind, op in ops if kind == "term"):
+                term = cast(tm.Term, term)
+                if term.steps[0].stage == "random_walk":
+                    self.walkers[(i, j)] = _Walk(term, self.keys[i][0], drawn[i][term.first].values)
+                else:
+                    self.biases[(i, j)] = [cast(np.ndarray, drawn[i][s.stream].values) for s in term.steps
+                                           if s.stage == "bias"]
         for (signature, members), per_op in zip(self.groups, self.params):
             for q, kind in enumerate(signature):
                 if kind in ("add", "mul"):
                     for i in members:
-                        per_op[q][0][self.cols[i]:self.cols[i + 1]] = self.programs[i][q][1].value.ravel()
+                        step = cast(NoiseStep, self.programs[i][q][1])
+                        per_op[q][0][self.cols[i]:self.cols[i + 1]] = drawn[i][step.stream].values
         if fill:
             self.fill(0)
 
@@ -143,7 +240,8 @@ class BankNoise:
 
     def walks(self, i: int) -> bool:
         """Whether member i's noise has a random walk (its states are computed over every index, in order)."""
-        return any(isinstance(stage, rt.RandomWalk) for _, stage in self.programs[i])
+        return any(kind == "term" and cast(tm.Term, op).steps[0].stage == "random_walk"
+                   for kind, op in self.programs[i])
 
     def fill(self, step: int, members: Collection[int] | None = None) -> None:
         """Write the per-sample terms of every noisy member's (of `members`) samples in steps [step, step +
@@ -165,45 +263,36 @@ class BankNoise:
     def _write(self, items: list[tuple[int, np.ndarray, np.ndarray]]) -> None:
         """(member, sample steps, where each sample's values start in a noise field (flat)): the numbers of
         those samples only, of every member, from one Philox call (`streams.numbers`); a random walk walks
-        every index (`rows_at`). Where the kernel is built, a term linear in its numbers (`affine`) is written
-        by it straight into its field (`add_sums`, the same roundings as the stage's `shape`)."""
-        jobs: list[tuple[Any, int, np.ndarray, int, int]] = []
+        every index (`_Walk.rows_at`). Where the kernel is built, a term linear in its numbers (`plan.terms.affine`)
+        is written by it straight into its field (`add_sums`, the same roundings as `plan.terms.values`)."""
+        jobs: list[tuple[tm.Term, list[np.ndarray], int, np.ndarray, int, int]] = []
         draws: list[Draw] = []
         sums: list[Sum] = []
         for i, steps, starts in items:
             indices = steps // self.strides[i]
-            terms = [stage for kind, stage in self.programs[i] if kind == "term"]
+            terms = [cast(tm.Term, op) for kind, op in self.programs[i] if kind == "term"]
             places = None  # every value's flat position, where some term needs them
-            for j, stage in enumerate(terms):
-                affine = self._affine(i, j, stage)
+            for j, term in enumerate(terms):
+                affine = self.affines[(i, j)]
                 if affine is None and places is None:
                     places = (starts[:, None] + np.arange(self.cols[i + 1] - self.cols[i])).ravel()
-                if isinstance(stage, rt.RandomWalk):
-                    self.flat_fields[j].put(places, stage.rows_at(indices))
+                walk = self.walkers.get((i, j))
+                if walk is not None:
+                    self.flat_fields[j].put(places, walk.rows_at(indices))
                     continue
-                drawn = stage.draws(indices, np.repeat(stage.streams.keys, len(indices), axis=0))
+                drawn = tm.draws(term, indices, np.repeat(self.keys[i], len(indices), axis=0))
                 if affine is not None:  # (a sample's values are contiguous in the field)
                     sums.append(Sum(drawn, affine, self.flat_fields[j], 0, starts))
                     continue
-                jobs.append((stage, j, cast(np.ndarray, places), len(draws), len(drawn)))
+                jobs.append((term, self.biases.get((i, j), []), j, cast(np.ndarray, places), len(draws), len(drawn)))
                 draws.extend(drawn)
         if sums:
             add_sums(sums, accumulate=False)
         if not draws:
             return
         raw = numbers(draws)
-        for stage, j, places, at, count in jobs:
-            self.flat_fields[j].put(places, stage.shape(raw[at:at + count], len(places) // stage.size))
-
-    def _affine(self, i: int, j: int, stage: Any) -> list[Affine] | None:
-        """Term j of member i as affine terms of its numbers, when the kernel writes it (cached per stage; a
-        random walk's rows are its states, not its numbers)."""
-        if KERNEL != "compiled" or isinstance(stage, rt.RandomWalk):
-            return None
-        cached = self.affines.get((i, j))
-        if cached is None or cached[0] is not stage:
-            cached = self.affines[(i, j)] = (stage, stage.affine())
-        return cached[1]
+        for term, biases, j, places, at, count in jobs:
+            self.flat_fields[j].put(places, tm.values(term, raw[at:at + count], len(places) // term.size, biases))
 
     # -- reads ------------------------------------------------------------------------------------
 

@@ -48,6 +48,7 @@ class ChannelSpec(NamedTuple):
     aggregator: Callable[[np.ndarray], Any] | None
     builtin_aggregator: bool
     noise: NoisePipeline | None
+    key: np.ndarray  # the sensor's episode key (`draws.sensor_key`): its noise streams and drawn schedule
 
 
 class Channel:
@@ -68,6 +69,7 @@ class Channel:
         self.aggregator = spec.aggregator
         self.builtin_aggregator = spec.builtin_aggregator
         self.noise = spec.noise
+        self.key = spec.key
         self.every_sample = every_sample(spec.noise)  # stateful noise sees every sample of the schedule
         self.samples = 0
 
@@ -257,10 +259,9 @@ class DrawnChannel(Channel):
     `plan/drawn.py`, samples taken per sample by the channel's sampler (the per-sample path; plain
     float64 features join `runtime/planned.DrawnBank` instead)."""
 
-    def __init__(self, spec: ChannelSpec, *, drawn: Drawn, key: np.ndarray):
+    def __init__(self, spec: ChannelSpec, *, drawn: Drawn):
         super().__init__(spec)
         self.drawn = drawn._replace(every_sample=self.every_sample)
-        self.key = key
         self.chunk = self.rows = 0  # the per-sample path's round and history lengths, set at `start`
         self.fill: Any = None
         # the per-sample path's rounds and samples, made at `start` (a channel the bank runs needs none)
@@ -351,10 +352,10 @@ def channel_of(sensor: Entry, substeps: int, pad: bool) -> FixedChannel | Random
     sampler = sensor.sampler
     spec = ChannelSpec(sensor.name, sampler, getattr(sampler, "read_into", None), sensor.shape, sensor.dtype,
                        sensor.buffer_size, not sensor.has_buffer_dim, pad, substeps, sensor.aggregator,
-                       sensor.builtin_aggregator, sensor.noise)
+                       sensor.builtin_aggregator, sensor.noise, sensor.key)
     schedule = sensor.schedule
     if isinstance(schedule, Drawn):
-        return DrawnChannel(spec, drawn=schedule, key=sensor.key)
+        return DrawnChannel(spec, drawn=schedule)
     if schedule is None:
         return RandomChannel(spec, interval=as_draw(sensor.interval), delay=as_draw(sensor.delay))
     return FixedChannel(spec, interval=schedule.interval, delay=schedule.delay)

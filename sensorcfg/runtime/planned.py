@@ -20,8 +20,9 @@ import numpy as np
 from ..plan.bound import aggregator_name, field_reader
 from ..plan.drawn import BANK_LONG_ROUND, BANK_RESET_STEPS, Planner, Round, chunk_steps, drawn_bank_rows
 from ..plan.layout import Member, read_layout
-from .bank import BankMember, bank_member, rebind_noise, reuse_key
-from .bank_noise import BankNoise, Layer, Program, ReadOp, ops_of, program
+from ..plan.records import NoiseProgram
+from .bank import BankMember, bank_member, reuse_key
+from .bank_noise import BankNoise, Layer, ReadOp, ops_of, program_of
 from .bank_read import compile_read, cut, finish
 from .channels import Channel, DrawnChannel
 from .read_kernel import kernel_read, kernel_snapshot
@@ -95,7 +96,7 @@ class DrawnBank:
         self.gather_rows, self.slots = list(self.gathers), slots  # (row views: a read indexes a list)
         self.pads: dict[int, np.ndarray] = {}  # read slot -> its gathered values before the reset sample
         self.pad_values = np.zeros(self.width)
-        self._noise([program(ch.noise) or () for ch in channels])
+        self._noise([program_of(ch.noise, ch.shape, ch.drawn) for ch in channels])
         self.kernel = kernel_read(self.compiled, self.noise_layers, self.flat)  # the read in one call, where built
         self.run = None if self.kernel is None else self.kernel.run
         self._read_step = -1
@@ -118,7 +119,7 @@ class DrawnBank:
         self.column = template % self.width
         self.entry_member, self.entry_slot = np.divmod(entry, self.planner.buffer)
 
-    def _noise(self, programs: list[Program]) -> None:
+    def _noise(self, noises: list[NoiseProgram | None]) -> None:
         """The members' noise (`BankNoise`), drawn with the rounds for the samples they take (random walks a
         chunk at a time), and the read's noise program."""
         self.noise: BankNoise | None = None
@@ -126,11 +127,12 @@ class DrawnBank:
         self.noise_layers: list[Layer] = []
         self.walkers: set[int] = set()
         self.drawing: list[int] = []  # noisy members drawn per sample taken
-        if not any(programs):
+        if not any(noise is not None and noise.steps for noise in noises):
             return
         strides = [_Stride(ch.shape, ch.drawn.stride) for ch in self.channels]
         offsets_in_chunk = [np.arange(0, self.chunk, s.interval, dtype=np.intp) for s in strides]
-        self.noise = BankNoise(strides, programs, self.cols, self.rows, self.chunk, offsets_in_chunk)
+        self.noise = BankNoise(strides, noises, self.cols, self.rows, self.chunk, offsets_in_chunk)
+        programs = self.noise.programs
         walks = [self.noise.walks(i) for i in range(len(programs))]
         self.walkers = {i for i, ops in enumerate(programs) if ops and walks[i]}
         self.drawing = [i for i, ops in enumerate(programs) if ops and not walks[i]]
@@ -145,7 +147,6 @@ class DrawnBank:
     def rebind(self, channels: list[DrawnChannel]) -> None:
         """Take this episode's channels (same settings as the ones the bank was built for)."""
         self.channels = channels
-        rebind_noise(self.noise, channels)
 
     def members(self) -> list[DrawnMember]:
         return [DrawnMember(self, i, ch) for i, ch in enumerate(self.channels)]
@@ -159,7 +160,8 @@ class DrawnBank:
         self.recent = []
         self.raw.take(self.source, None, self.history[0], "clip")
         if self.noise is not None:
-            self.noise.start(fill=False)  # noise with the rounds' samples (the reset sample's with the first)
+            # noise with the rounds' samples (the reset sample's with the first)
+            self.noise.start([ch.key for ch in self.channels], fill=False)
             self.noise.fill(0, self.walkers)  # (random walks a chunk at a time)
         self.pads.clear()
         self._store(self.planner.start(self.members_, [ch.key for ch in self.channels]), 0, 0)

@@ -1,0 +1,141 @@
+"""The per-sample numbers of a noise program's additive steps, from the program alone: what a term draws for a
+sample (`noise.streams.Draw` records), the values it makes of them, and those values as affine terms where they
+are (for `streams.add_sums`). A term is one step, or a fused run of adjacent additive steps (`NoiseProgram.sums`:
+their values added up first, x + (a + b)).
+
+The CPU stages (`noise.stages`) are the reference these are held to, bit for bit: the same numbers (stream =
+the step's position, lane, value), the same float64 roundings in the same order (`gaussian`: z std, + mean
+unless centred; `uniform`: u width + low; `outlier`: scale z where u < p, else 0; `random_walk`: the normals
+its walk is made of; a bias: its episode's values).
+"""
+
+from __future__ import annotations
+
+import types
+from collections.abc import Mapping, Sequence
+from typing import NamedTuple
+
+import numpy as np
+import numpy.typing as npt
+
+from ..noise.streams import MAX_TERMS, Affine, Draw
+from .records import FloatArray, NoiseProgram, NoiseStep, UInt64Array
+
+__all__ = ["LANES", "Term", "affine", "draws", "term_of", "terms", "values"]
+
+# per stage type drawing per-sample numbers: per lane, normals (True) or uniforms in [0, 1)
+LANES: Mapping[str, tuple[bool, ...]] = types.MappingProxyType({
+    "gaussian": (True,),
+    "uniform": (False,),
+    "outlier": (False, True),  # hits, jumps
+    "random_walk": (True,),
+    "dropout": (False,),
+})
+_SUMMED = frozenset({"gaussian", "uniform", "outlier", "bias"})  # steps a fused run may hold
+
+
+class Term(NamedTuple):
+    """An additive term of a sensor's program: its steps (one, or a fused run) and values per sample."""
+
+    steps: tuple[NoiseStep, ...]
+    size: int
+
+    @property
+    def first(self) -> int:
+        """The position of its first step in the program."""
+        return self.steps[0].stream
+
+
+def term_of(program: NoiseProgram, first: int, size: int) -> Term:
+    """The term that starts at step `first`: its fused run (`program.sums`), or the step alone."""
+    stop = dict(program.sums).get(first, first + 1)
+    return Term(program.steps[first:stop], size)
+
+
+def terms(program: NoiseProgram, size: int) -> list[tuple[int, Term | None]]:
+    """(position, term) of each stage as the CPU pipeline runs it: a fused run is one term, a step outside any
+    run a term of its own when it is additive (None for the others, which are not terms)."""
+    out: list[tuple[int, Term | None]] = []
+    q = 0
+    while q < len(program.steps):
+        term = term_of(program, q, size)
+        fused = len(term.steps) > 1
+        out.append((q, term if fused or program.steps[q].stage in _SUMMED - {"bias"} else None))
+        q += len(term.steps)
+    return out
+
+
+def _sizes(step: NoiseStep, size: int) -> tuple[int, ...]:
+    """Values per sample of each lane (a dropout of whole samples draws one)."""
+    per_value = dict(step.options).get("per") == "value"
+    return tuple(1 if step.stage == "dropout" and not per_value else size for _ in LANES[step.stage])
+
+
+def draws(term: Term, samples: npt.NDArray[np.int64], keys: UInt64Array) -> list[Draw]:
+    """What `values` needs for samples `samples` of episode keys `keys` (m, 2), lane by lane, step by step."""
+    return [Draw(keys, samples, s.stream, lane, n, normal)
+            for s in term.steps if s.stage in LANES
+            for lane, (n, normal) in enumerate(zip(_sizes(s, term.size), LANES[s.stage]))]
+
+
+def _fresh(raw: FloatArray, m: int, size: int) -> FloatArray:
+    return np.array(raw.reshape(m, size), dtype=np.float64)
+
+
+def _one(step: NoiseStep, raw: Sequence[FloatArray], m: int, size: int) -> FloatArray:
+    """One drawing step's values (m, size) from its lanes' numbers."""
+    stage = step.stage
+    if stage == "gaussian":
+        z = _fresh(raw[0], m, size)
+        z *= step.number("std")
+        if "mean" in dict(step.kernel):  # (a centred gaussian adds std z alone)
+            z += step.number("mean")
+        return z
+    if stage == "uniform":
+        u = _fresh(raw[0], m, size)
+        u *= step.number("width")
+        u += step.number("low")
+        return u
+    if stage == "outlier":
+        hit = raw[0].reshape(m, size) < step.number("p")
+        jump = _fresh(raw[1], m, size)
+        jump *= step.number("scale")
+        jump[~hit] = 0
+        return jump
+    return _fresh(raw[0], m, size)  # a random walk's normals
+
+
+def values(term: Term, raw: Sequence[FloatArray], m: int, episode: Sequence[FloatArray] = ()) -> FloatArray:
+    """The term's values of m samples (m, size) from the numbers `draws` gave (`raw`, lane by lane); `episode`:
+    its bias steps' values this episode (each (size,) or per sample (m, size)), in order."""
+    total: FloatArray | None = None
+    biases = iter(episode)
+    at = 0
+    for s in term.steps:
+        if s.stage in LANES:
+            lanes = len(LANES[s.stage])
+            part = _one(s, raw[at:at + lanes], m, term.size)
+            at += lanes
+        else:
+            part = np.asarray(next(biases))
+        if total is None:  # the first step's values (a fresh array), or zeros plus the first bias
+            total = part if s.stage in LANES else np.zeros((m, term.size)) + part
+        else:
+            total += part
+    if total is None:
+        raise ValueError("a term without steps (an internal error)")
+    return total
+
+
+def affine(term: Term) -> list[Affine] | None:
+    """The term as numbers x scale (+ offset), lane by lane, added up (`streams.add_sums`): gaussian and uniform
+    steps only, at most `MAX_TERMS` of them; else None."""
+    out = []
+    for s in term.steps:
+        if s.stage == "gaussian":
+            out.append(Affine(s.number("std"), s.number("mean") if "mean" in dict(s.kernel) else None))
+        elif s.stage == "uniform":
+            out.append(Affine(s.number("width"), s.number("low")))
+        else:
+            return None
+    return out if len(out) <= MAX_TERMS else None
