@@ -105,10 +105,6 @@ class _PerSample(Stage):
             self.block_id = block
         return self.rows[j]
 
-    def rows_at(self, indices: np.ndarray) -> np.ndarray:
-        """The rows of samples `indices` (increasing), (len, *shape): the bank draws a chunk ahead."""
-        return self.numbers(indices)
-
 
 class _Additive(_PerSample):
     """Adds a fresh array per sample (gaussian, uniform, outlier, their sums, a random walk's state)."""
@@ -320,19 +316,6 @@ class RandomWalk(_Additive):
             self.last += 1
             states = walk(self.carry, super().block_rows(self.last), a, c, self.last == 0)
         return states
-
-    def rows_at(self, indices: np.ndarray) -> np.ndarray:
-        """Every block from the first index's to the last's is walked, in order (a walk needs them all)."""
-        size = self.ctx.block
-        first, last = int(indices[0]) // size, int(indices[-1]) // size
-        blocks = []
-        for block in range(first, last + 1):
-            if block != self.block_id:
-                self.rows = self.block_rows(block)
-                self.block_id = block
-            blocks.append(np.asarray(self.rows))
-        stacked = blocks[0] if len(blocks) == 1 else np.concatenate(blocks)
-        return stacked[indices - first * size]
 
     def row(self, step: int) -> np.ndarray:
         if step < self.newest:

@@ -31,7 +31,7 @@ LANES: Mapping[str, tuple[bool, ...]] = types.MappingProxyType({
     "random_walk": (True,),
     "dropout": (False,),
 })
-_SUMMED = frozenset({"gaussian", "uniform", "outlier", "bias"})  # steps a fused run may hold
+_TERMS = frozenset({"gaussian", "uniform", "outlier", "random_walk"})  # steps that are terms alone
 
 
 class Term(NamedTuple):
@@ -60,7 +60,7 @@ def terms(program: NoiseProgram, size: int) -> list[tuple[int, Term | None]]:
     while q < len(program.steps):
         term = term_of(program, q, size)
         fused = len(term.steps) > 1
-        out.append((q, term if fused or program.steps[q].stage in _SUMMED - {"bias"} else None))
+        out.append((q, term if fused or program.steps[q].stage in _TERMS else None))
         q += len(term.steps)
     return out
 

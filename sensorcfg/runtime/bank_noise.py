@@ -43,14 +43,11 @@ Op = Union[tm.Term, NoiseStep]  # a term's steps, or the step an elementwise op 
 Program = tuple[tuple[str, Op], ...]  # (kind, op) pairs
 ReadOp = Callable[[np.ndarray], None]  # op(the gathered values' history positions): in place, on its work buffer
 
-# What the bank does with each stage type of a program: "term" steps add a per-sample row (white noise,
-# outliers, their fused sums, a random walk's state: drawn a chunk ahead into a noise field); an episode draw
-# adds or multiplies; quantize and clip are elementwise. A type missing here keeps its sensor per sample.
-_KINDS: dict[str, str] = {
-    "gaussian": "term",
-    "uniform": "term",
-    "outlier": "term",
-    "random_walk": "term",
+# What the bank does with each step of a program: a term (`plan.terms.terms`: white noise, outliers, their fused
+# sums, a random walk's state) adds a per-sample row, drawn a chunk ahead into a noise field; and by stage type
+# here, an episode draw adds or multiplies, quantize and clip are elementwise. Any other keeps its sensor per
+# sample.
+_KINDS: dict[str, str] = {  # (the steps that are terms: `plan.terms.terms`)
     "bias": "add",
     "scale": "mul",
     "quantize": "quantize",
@@ -79,15 +76,12 @@ def program(noise: NoiseProgram | None, size: int) -> Program | None:
     if noise.leveled:
         return None
     ops: list[tuple[str, Op]] = []
-    q = 0
-    while q < len(noise.steps):
-        term = tm.term_of(noise, q, size)
+    for q, term in tm.terms(noise, size):
         step = noise.steps[q]
-        kind = "term" if len(term.steps) > 1 else _KINDS.get(step.stage)
-        if kind is None or any(s.drawn for s in term.steps):
+        kind = "term" if term is not None else _KINDS.get(step.stage)
+        if kind is None or any(s.drawn for s in (term.steps if term is not None else (step,))):
             return None
-        ops.append((kind, term if kind == "term" else step))
-        q += len(term.steps)
+        ops.append((kind, term if term is not None else step))
     return tuple(ops)
 
 
