@@ -1,18 +1,22 @@
-"""Noise pipelines across simulations: one counter-based stream per (simulation, sensor), vectorised.
+"""Noise programs across simulations: a sensor's `NoiseProgram` (the suite plan's) run on nsim simulations at once.
 
-The suite plan is the authority on each episode's start: at simulation i's reset its batched stages take
-what the sensor's program draws from i's sensor key (`plan.noise.episodes`: bias and gain draws, a random
-walk's start, parameters drawn per episode, a misalignment's matrix), and their kernel numbers (a walk's
-coefficients, a low-pass's, a misalignment's matrix, the level's bounds) from its steps. The sensor's
-single-simulation `NoisePipeline`, which other environments share, is never reset here. On the per-step
-path a batched stage applies to the simulations that sample at this step, all at once, with the stages'
-own array arithmetic (`noise.stages`). Per-sample numbers are counter-based (`noise.streams`): a function of
-simulation i's episode key and the sample's index, so each control step draws those of the samples taken,
-of every sensor and simulation, in one call (`prefetch`), and sample j of simulation i gets exactly the
-numbers the single simulation gives it.
-Stateful stages (random walk, low-pass, dropout with hold) keep their state as (nsim, ...) arrays.
+The program is all the batch reads of a sensor's noise. Each step's stage name picks its batched form (`BATCHED`),
+which computes with the step's kernel numbers, parameters and options and the program's `stride`, `sums`
+(adjacent additive steps fused: their terms added up first, x + (a + b)), `leveled`, `bounds`, `timestep` and
+`gaps`, through the rules' one home: `noise.arithmetic` (and `noise.misalign.turn`, `noise.level.blend`) for the
+arithmetic, `noise.streams` for the numbers. The sensor's single-simulation `NoisePipeline`, which other
+environments share, is neither called nor reset here.
 
-A stage type without a batched form here (a custom callable) makes `BatchPipeline` raise before stepping.
+At simulation i's reset the forms take what the program draws from i's sensor key (`plan.noise.episodes`: bias
+and gain values, a random walk's start, a misalignment's matrix; a step with parameters drawn per episode
+takes that episode's step, `StepEpisode.step`, and computes with its kernel numbers, one row per simulation).
+On the per-step path a form applies to the simulations that sample at this step, all at once. Per-sample
+numbers are counter-based (`noise.streams`): a function of simulation i's episode key and the sample's index
+`step // stride`, so each control step draws those of the samples taken, of every sensor and simulation, in
+one call (`prefetch`), and sample j of simulation i gets exactly the numbers the single simulation gives it.
+Stateful forms (random walk, low-pass, dropout with hold) keep their state as (nsim, ...) arrays.
+
+A step without a batched form (a custom callable, stage "custom") makes `BatchPipeline` raise before stepping.
 """
 
 from __future__ import annotations
@@ -21,50 +25,107 @@ import math
 import types
 from collections import deque
 from collections.abc import Callable, Mapping, Sequence
-from typing import TYPE_CHECKING, Any, Generic, TypeVar, cast
+from typing import NamedTuple, cast
 
 import numpy as np
 
 from ..checks import batch_refusal
 from ..errors import SuiteError
 from ..noise import arithmetic as ar
-from ..noise import stages as rt
-from ..noise.arithmetic import lowpass_alpha
-from ..noise.level import Blend, Keep, LeveledPipeline
-from ..noise.misalign import Misalign
-from ..noise.redrawn import Redrawn
-from ..noise.streams import Affine, Draw, Sum, numbers
-from ..plan.noise import episodes
-from ..plan.records import NoiseProgram
-from .batched import Batched, Episodes, Site
-from .level import BatchedBlend, BatchedKeep
-from .misalign import BatchedMisalign
-from .redrawn import BatchedRedrawn
+from ..noise.base import block_samples
+from ..noise.level import blend
+from ..noise.misalign import turn
+from ..noise.pipeline import custom_name
+from ..noise.streams import MAX_TERMS, Affine, Draw, Sum, numbers
+from ..plan.noise import StepEpisode, episodes
+from ..plan.records import NoiseProgram, NoiseStep
 
-if TYPE_CHECKING:
-    from ..noise.pipeline import NoisePipeline
+__all__ = ["BATCHED", "BatchPipeline", "Fused", "Levels", "prefetch"]
 
-__all__ = ["BatchPipeline", "BATCHED", "prefetch"]
+_BLOCK_BYTES = 8 << 20  # a random walk's stored states per step, across simulations, at most
 
-P = TypeVar("P", bound=rt._PerSample)  # a stage with per-sample numbers
-A = TypeVar("A", bound=rt._Additive)  # one that adds them
-
-_BLOCK_BYTES = 8 << 20  # a random walk's stored states per stage, across simulations, at most
+Episodes = Sequence[tuple[StepEpisode, ...]]  # per simulation started, what its program draws (`plan.noise.episode`)
 
 
-class _Stateless(Batched[rt.Stage]):
-    """Elementwise stages (quantize, clip): the single-simulation stage broadcasts over the leading axis."""
+class Site(NamedTuple):
+    """Where a form sits in its sensor's program: the program, the positions of the steps it runs (one; a fused
+    sum's parts) and one sample's shape."""
+
+    program: NoiseProgram
+    at: tuple[int, ...]
+    shape: tuple[int, ...]
+
+    @property
+    def step(self) -> NoiseStep:
+        """The form's (first) step."""
+        return self.program.steps[self.at[0]]
+
+    def values(self, drawn: Episodes, j: int) -> np.ndarray:
+        """Step j's values drawn at this reset, one row per simulation started (m, *shape)."""
+        return np.stack([np.asarray(episode[j].values) for episode in drawn]).reshape(len(drawn), *self.shape)
+
+
+def _number(step: NoiseStep, name: str) -> np.ndarray | None:
+    """A step's kernel number `name`, else its parameter of that name (None when it has neither)."""
+    kernel = dict(step.kernel)
+    return kernel[name] if name in kernel else step.param(name)
+
+
+def _shaped(name: str, value: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """A number as one sample's values (a misalign's matrix stays 3 x 3, a low-pass's `alphas` one row per gap)."""
+    if name == "matrix":
+        return value
+    return value.reshape(-1, *shape) if name == "alphas" else value.reshape(shape)
+
+
+class _Numbers:
+    """One step's numbers of `names` (its kernel numbers, else its parameters) across simulations, each shaped as
+    one sample: the program's, which every simulation shares; for a step with parameters drawn per episode
+    (`NoiseStep.redraw`), one row per simulation, set at each reset from its episode's step."""
+
+    def __init__(self, site: Site, j: int, nsim: int, names: Sequence[str]):
+        step = site.program.steps[j]
+        self.j, self.shape = j, site.shape
+        self.per_sim = step.redraw is not None
+        self.shared = {name: _shaped(name, value, site.shape) for name in names
+                       if (value := _number(step, name)) is not None}
+        self.rows = {name: np.repeat(value[None], nsim, axis=0) for name, value in self.shared.items()
+                     } if self.per_sim else {}
+
+    def __contains__(self, name: str) -> bool:
+        return name in self.shared
+
+    def start(self, ids: np.ndarray, drawn: Episodes) -> None:
+        for name, rows in self.rows.items():
+            rows[ids] = [_shaped(name, cast(np.ndarray, _number(episode[self.j].step, name)), self.shape)
+                         for episode in drawn]
+
+    def get(self, name: str, sims: np.ndarray) -> np.ndarray:
+        """Number `name` of simulations `sims`: (m, ...) rows, or the shared one (broadcasting against them)."""
+        return self.rows[name][sims] if self.per_sim else self.shared[name]
+
+
+class _Form:
+    """One step, or a fused run of additive steps, across simulations."""
+
+    def __init__(self, site: Site, nsim: int):
+        self.site, self.nsim, self.shape = site, nsim, site.shape
+        self.stride = site.program.stride
+
+    def start(self, ids: np.ndarray, keys: np.ndarray, drawn: Episodes) -> None:
+        """Start the episodes of simulations `ids` (m,) whose sensor keys are `keys` (m, 2); `drawn`: what the
+        program draws at each one's reset (`plan.noise.episode`), empty when it draws nothing."""
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
-        self.template(src, dst, 0)
+        raise NotImplementedError
 
 
-class _Drawn(Batched[P], Generic[P]):
-    """Per-sample numbers: each call draws those of the samples taken, of every simulation at once (the
-    counter-based numbers are a function of the simulation's episode key and the sample index only)."""
+class _Drawn(_Form):
+    """Per-sample numbers: each call draws those of the samples taken, of every simulation at once (a function of
+    the simulation's episode key and the sample index only)."""
 
-    def __init__(self, template: P, site: Site, nsim: int):
-        super().__init__(template, site, nsim)
+    def __init__(self, site: Site, nsim: int):
+        super().__init__(site, nsim)
         self.keys = np.zeros((nsim, 2), np.uint64)
         self.ready: deque[np.ndarray] = deque()  # rows drawn ahead (`prefetch`), in the order of the calls
 
@@ -73,60 +134,216 @@ class _Drawn(Batched[P], Generic[P]):
         self.ready.clear()
 
     def draws(self, sims: np.ndarray, steps: np.ndarray) -> list[Draw]:
-        return self.template.draws(steps // self.stride, self.keys[sims])
+        """What `rows` needs for the samples of `sims` at `steps`."""
+        raise NotImplementedError
 
-    def shape(self, sims: np.ndarray, raw: list[np.ndarray]) -> np.ndarray:
-        return self.template.shape(raw, sims.size)
+    def rows(self, sims: np.ndarray, raw: list[np.ndarray]) -> np.ndarray:
+        """The rows (m, ...) of `sims` from the drawn numbers of each draw."""
+        raise NotImplementedError
 
     def take(self, sims: np.ndarray, steps: np.ndarray) -> np.ndarray:
         """This sample's rows for `sims` at their `steps`, (m, ...): drawn ahead, or now."""
         if self.ready:
             return self.ready.popleft()
-        return self.shape(sims, numbers(self.draws(sims, steps)))
+        return self.rows(sims, numbers(self.draws(sims, steps)))
 
 
-class _Additive(_Drawn[A], Generic[A]):
-    """White noise, outliers, and the fused sum of additive stages: one addition per sample."""
+# -- additive steps: what each adds, alone or in a fused sum -----------------------------------------
 
-    def __init__(self, template: A, site: Site, nsim: int):
-        super().__init__(template, site, nsim)
-        # per bias part of a sum: its step, and each simulation's draw
-        self.biases = [at for at, p in zip(site.at, getattr(template, "parts", ())) if isinstance(p, rt.EpisodeDraw)]
-        self.values = [np.zeros((nsim, *site.shape)) for _ in self.biases]
+class _Term:
+    """What one additive step adds to a sample: its per-sample numbers of each lane (`lanes`: normals or
+    uniforms), or a bias's values of the episode."""
+
+    lanes: tuple[bool, ...] = ()
+    names: tuple[str, ...] = ()  # the numbers it computes with
+
+    def __init__(self, site: Site, j: int, nsim: int):
+        self.site, self.j, self.shape = site, j, site.shape
+        self.stream = site.program.steps[j].stream
+        self.size = math.prod(site.shape)
+        self.numbers = _Numbers(site, j, nsim, self.names)
+
+    def sizes(self) -> tuple[int, ...]:
+        """Values per sample of each lane."""
+        return (self.size,) * len(self.lanes)
+
+    def start(self, ids: np.ndarray, drawn: Episodes) -> None:
+        self.numbers.start(ids, drawn)
+
+    def __call__(self, raw: list[np.ndarray], sims: np.ndarray) -> np.ndarray:
+        """The terms (m, *shape) of `sims` from their lanes' numbers: a new array where the step draws."""
+        raise NotImplementedError
+
+    def affine(self) -> list[Affine] | None:
+        """Where the term is, lane by lane, numbers x scale (+ offset), the same for every simulation
+        (`streams.add_sums` computes it in one pass): those terms; else None."""
+        return None
+
+    def fresh(self, raw: np.ndarray, m: int) -> np.ndarray:
+        """Drawn numbers as a new (m, *shape) float64 array."""
+        return np.array(raw.reshape(m, *self.shape), dtype=np.float64)
+
+    def flat(self, name: str) -> np.ndarray:
+        return np.ascontiguousarray(self.numbers.shared[name], np.float64).ravel()
+
+
+class _Gaussian(_Term):
+    """std z, plus the mean where it is not 0 (a centred gaussian adds std z alone)."""
+
+    lanes = (True,)
+    names = ("std", "mean")
+
+    def __init__(self, site: Site, j: int, nsim: int):
+        super().__init__(site, j, nsim)
+        self.centred = not np.any(self.numbers.shared["mean"])
+
+    def __call__(self, raw: list[np.ndarray], sims: np.ndarray) -> np.ndarray:
+        z = self.fresh(raw[0], sims.size)
+        z *= self.numbers.get("std", sims)
+        mean = self.numbers.get("mean", sims)
+        if not self.numbers.per_sim:
+            if not self.centred:
+                z += mean
+            return z
+        offset = np.any(mean.reshape(sims.size, -1), axis=1)  # each episode's own: centred or not
+        if offset.all():
+            z += mean
+        elif offset.any():
+            z[offset] += mean[offset]
+        return z
+
+    def affine(self) -> list[Affine] | None:
+        if self.numbers.per_sim:
+            return None
+        return [Affine(self.flat("std"), None if self.centred else self.flat("mean"))]
+
+
+class _Uniform(_Term):
+    """low + width u."""
+
+    lanes = (False,)
+    names = ("low", "width")
+
+    def __call__(self, raw: list[np.ndarray], sims: np.ndarray) -> np.ndarray:
+        u = self.fresh(raw[0], sims.size)
+        u *= self.numbers.get("width", sims)
+        u += self.numbers.get("low", sims)
+        return u
+
+    def affine(self) -> list[Affine] | None:
+        return None if self.numbers.per_sim else [Affine(self.flat("width"), self.flat("low"))]
+
+
+class _Outlier(_Term):
+    """scale z where a value is hit (its uniform, lane 0, below p), else 0; z from lane 1."""
+
+    lanes = (False, True)  # hits, jumps
+    names = ("p", "scale")
+
+    def __call__(self, raw: list[np.ndarray], sims: np.ndarray) -> np.ndarray:
+        hit = raw[0].reshape(sims.size, *self.shape) < self.numbers.get("p", sims)
+        jump = self.fresh(raw[1], sims.size)
+        jump *= self.numbers.get("scale", sims)
+        jump[~hit] = 0
+        return jump
+
+
+class _Bias(_Term):
+    """A bias's values of each simulation's episode."""
+
+    def __init__(self, site: Site, j: int, nsim: int):
+        super().__init__(site, j, nsim)
+        self.values = np.zeros((nsim, *site.shape))
+
+    def start(self, ids: np.ndarray, drawn: Episodes) -> None:
+        self.values[ids] = self.site.values(drawn, self.j)
+
+    def __call__(self, raw: list[np.ndarray], sims: np.ndarray) -> np.ndarray:
+        term: np.ndarray = self.values[sims]
+        return term
+
+
+# the additive steps a sum fuses (`NoiseProgram.sums`), and a lone gaussian, uniform or outlier step
+TERMS: Mapping[str, type[_Term]] = types.MappingProxyType({
+    "gaussian": _Gaussian, "uniform": _Uniform, "outlier": _Outlier, "bias": _Bias})
+
+
+class _Additive(_Drawn):
+    """White noise, outliers, and a fused sum of additive steps: one addition per sample, of the steps' terms
+    added up in order (the first drawn term itself, or zeros plus a first bias)."""
+
+    def __init__(self, site: Site, nsim: int):
+        super().__init__(site, nsim)
+        self.parts = [TERMS[site.program.steps[j].stage](site, j, nsim) for j in site.at]
+        self.drawing = [p for p in self.parts if p.lanes]
+        terms = [p.affine() if p.lanes else None for p in self.parts]
+        flat = [a for t in terms if t is not None for a in t]
         # numbers x scale (+ offset), added up: added in place in one pass (`streams.add_sums`) where nothing
         # per episode joins
-        self.terms: list[Affine] | None = None if self.values else template.affine()
+        self.terms: list[Affine] | None = flat if None not in terms and len(flat) <= MAX_TERMS else None
 
     def start(self, ids: np.ndarray, keys: np.ndarray, drawn: Episodes) -> None:
         super().start(ids, keys, drawn)
-        for values, at in zip(self.values, self.biases):
-            values[ids] = self.site.values(drawn, at)
+        for part in self.parts:
+            part.start(ids, drawn)
 
-    def shape(self, sims: np.ndarray, raw: list[np.ndarray]) -> np.ndarray:
-        if self.values and isinstance(self.template, rt.Sum):  # (values: a sum's bias parts)
-            return self.template.shape(raw, sims.size, [v[sims] for v in self.values])
-        return super().shape(sims, raw)
+    def draws(self, sims: np.ndarray, steps: np.ndarray) -> list[Draw]:
+        samples, keys = steps // self.stride, self.keys[sims]
+        return [Draw(keys, samples, p.stream, lane, size, normal)
+                for p in self.drawing for lane, (size, normal) in enumerate(zip(p.sizes(), p.lanes))]
+
+    def rows(self, sims: np.ndarray, raw: list[np.ndarray]) -> np.ndarray:
+        total: np.ndarray | None = None
+        at = 0
+        for part in self.parts:
+            term = part(raw[at:at + len(part.lanes)], sims)
+            at += len(part.lanes)
+            if total is None:  # the first part's numbers (a fresh array), or zeros plus a first bias
+                total = term if part.lanes else np.zeros((sims.size, *self.shape)) + term
+            else:
+                total += term
+        return cast(np.ndarray, total)
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
         ar.add(src, self.take(sims, steps), dst)
 
 
-Fused = _Additive[rt._Additive]  # a pipeline's one additive stage (a fused sum): added as a read or in place
+Fused = _Additive  # a program's one additive form (a fused sum): added as a read or in place
 
 
-class _RandomWalk(_Additive[rt.RandomWalk]):
-    """The walk's states over every index, one part of `sub` indices at a time per simulation (walked
-    together): part p holds indices [p sub, (p + 1) sub); sub is the block unless that would exceed
-    `_BLOCK_BYTES` across simulations. Its coefficients are the step's kernel numbers (a Brownian walk's a:
-    None, b_j = b_(j-1) + c z_j), its start the step's draw at each reset (0 for a Brownian walk)."""
+# -- the other steps ------------------------------------------------------------------------------
 
-    def __init__(self, template: rt.RandomWalk, site: Site, nsim: int):
-        super().__init__(template, site, nsim)
+class _Episode(_Form):
+    """Bias or scale: each simulation's values of its episode, added or multiplied."""
+
+    def __init__(self, site: Site, nsim: int):
+        super().__init__(site, nsim)
+        self.values = np.zeros((nsim, *site.shape))
+        self.apply = ar.multiply if site.step.stage == "scale" else ar.add
+
+    def start(self, ids: np.ndarray, keys: np.ndarray, drawn: Episodes) -> None:
+        self.values[ids] = self.site.values(drawn, self.site.at[0])
+
+    def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
+        self.apply(src, self.values[sims], dst)
+
+
+class _RandomWalk(_Form):
+    """The walk's states over every index, one part of `sub` indices at a time per simulation (walked together):
+    part p holds indices [p sub, (p + 1) sub); sub is the per-sample path's block (`noise.base.block_samples`)
+    unless that would exceed `_BLOCK_BYTES` across simulations. Its coefficients are the step's kernel numbers
+    (a Brownian walk, without a correlation time: a None, b_j = b_(j-1) + c z_j), its start the step's draw at
+    each reset (0 for a Brownian walk)."""
+
+    def __init__(self, site: Site, nsim: int):
+        super().__init__(site, nsim)
+        self.keys = np.zeros((nsim, 2), np.uint64)
+        self.stream, self.size = site.step.stream, math.prod(site.shape)
+        self.numbers = _Numbers(site, site.at[0], nsim, ("a", "c"))
+        self.brownian = site.step.param("correlation_time") is None
         self.carry = np.zeros((nsim, *site.shape))
-        self.a = None if site.step.param("correlation_time") is None else site.number("a")
-        self.c = site.number("c")
-        sub = template.ctx.block
-        per_sample = 8 * max(1, math.prod(site.shape)) * nsim
+        sub = block_samples(self.size)
+        per_sample = 8 * max(1, self.size) * nsim
         while sub > 1 and sub * per_sample > _BLOCK_BYTES:
             sub //= 2
         self.sub = sub
@@ -134,13 +351,17 @@ class _RandomWalk(_Additive[rt.RandomWalk]):
         self.rows: np.ndarray | None = None  # (nsim, sub, *shape)
 
     def start(self, ids: np.ndarray, keys: np.ndarray, drawn: Episodes) -> None:
-        super().start(ids, keys, drawn)
-        self.carry[ids] = 0.0 if self.site.step.episode is None else self.site.values(drawn)
+        self.keys[ids] = keys
+        self.numbers.start(ids, drawn)
+        self.carry[ids] = 0.0 if self.site.step.episode is None else self.site.values(drawn, self.site.at[0])
         self.part[ids] = -1
 
+    def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
+        ar.add(src, self.take(sims, steps), dst)
+
     def take(self, sims: np.ndarray, steps: np.ndarray) -> np.ndarray:
-        """The walk's states at `steps`, (m, ...): the start at sample 0, else from the held parts (walking
-        on to the parts that are due)."""
+        """The walk's states at `steps`, (m, ...): the start at sample 0, else from the held parts (walking on to
+        the parts that are due)."""
         if not steps.any():  # reset samples: the walk at sample 0 is its start
             start: np.ndarray = self.carry[sims]
             return start
@@ -160,46 +381,39 @@ class _RandomWalk(_Additive[rt.RandomWalk]):
 
     def draw(self, sims: np.ndarray, parts: np.ndarray) -> np.ndarray:
         """Walk each simulation from its held part to `parts` (every part in between, in order)."""
-        a, c = self.a, self.c
         held = self.part[sims]
         if (parts < held).any():
             raise ValueError("a batched random walk was asked for an earlier sample")
-        shape = self.site.shape
-        out = np.empty((sims.size, self.sub, *shape))
+        out = np.empty((sims.size, self.sub, *self.shape))
         at = held + 1
         offsets = np.arange(self.sub)
         while True:
             moving = np.flatnonzero(at <= parts)
             if not moving.size:
                 return out
+            walking = sims[moving]
             samples = (at[moving, None] * self.sub + offsets).ravel()
-            z = self.template.numbers(samples, np.repeat(self.keys[sims[moving]], self.sub, axis=0))
-            z = z.reshape(moving.size, self.sub, *shape)
-            carry = self.carry[sims[moving]]
+            keys = np.repeat(self.keys[walking], self.sub, axis=0)
+            z = numbers([Draw(keys, samples, self.stream, 0, self.size, True)])[0]
+            z = z.reshape(moving.size, self.sub, *self.shape)
+            carry = self.carry[walking]
+            a = None if self.brownian else self.numbers.get("a", walking)
+            c = self.numbers.get("c", walking)
             for first in (True, False):  # the episode's first part starts at the drawn start itself
                 rows = np.flatnonzero((at[moving] == 0) == first)
                 if rows.size:
                     c_rows = carry[rows]
-                    states = ar.walk(c_rows, np.moveaxis(z[rows], 1, 0), a, c, first)
+                    states = ar.walk(c_rows, np.moveaxis(z[rows], 1, 0), _rows(a, rows, self.numbers),
+                                     _rows(c, rows, self.numbers), first)
                     carry[rows] = c_rows
                     out[moving[rows]] = np.moveaxis(states, 0, 1)
-            self.carry[sims[moving]] = carry
+            self.carry[walking] = carry
             at[moving] += 1
 
 
-class _Episode(Batched[rt.EpisodeDraw]):
-    """Bias or scale: each simulation's per-episode draw."""
-
-    def __init__(self, template: rt.EpisodeDraw, site: Site, nsim: int):
-        super().__init__(template, site, nsim)
-        self.values = np.zeros((nsim, *site.shape))
-        self.apply = ar.multiply if site.step.stage == "scale" else ar.add
-
-    def start(self, ids: np.ndarray, keys: np.ndarray, drawn: Episodes) -> None:
-        self.values[ids] = self.site.values(drawn)
-
-    def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
-        self.apply(src, self.values[sims], dst)
+def _rows(value: np.ndarray | None, rows: np.ndarray, numbers: _Numbers) -> np.ndarray | None:
+    """Rows `rows` of numbers taken per simulation; shared ones as they are."""
+    return value[rows] if value is not None and numbers.per_sim else value
 
 
 def _by_gap(gaps: np.ndarray) -> list[tuple[int, np.ndarray]]:
@@ -209,29 +423,37 @@ def _by_gap(gaps: np.ndarray) -> list[tuple[int, np.ndarray]]:
     return [(int(g), np.flatnonzero(gaps == g)) for g in np.unique(gaps)]
 
 
-class _Lowpass(Batched[rt.Lowpass]):
-    """The filter's coefficient per gap between samples: the step's kernel numbers (`alpha` for samples a
-    stride apart, `alphas` per gap of a drawn schedule); another gap's from its cutoff (`lowpass_alpha`)."""
+class _Lowpass(_Form):
+    """The filter's coefficient per gap between samples: the step's kernel numbers (`alpha` for samples a stride
+    apart, `alphas` per gap of a drawn schedule); another gap's from its cutoff (`lowpass_alpha`)."""
 
-    def __init__(self, template: rt.Lowpass, site: Site, nsim: int):
-        super().__init__(template, site, nsim)
+    def __init__(self, site: Site, nsim: int):
+        super().__init__(site, nsim)
+        self.numbers = _Numbers(site, site.at[0], nsim, ("alpha", "alphas", "cutoff"))
+        self.gaps = len(self.numbers.shared["alphas"]) if "alphas" in self.numbers else 0
+        self.others: dict[int, np.ndarray] = {}  # another gap's coefficient (shared numbers only)
         self.state = np.zeros((nsim, *site.shape))
         self.fresh = np.ones(nsim, bool)
         self.last = np.zeros(nsim, np.int64)
-        kernel = dict(site.step.kernel)
-        self.alphas = {gap: row.reshape(site.shape) for gap, row in enumerate(kernel.get("alphas", ()))}
-        self.alphas[self.stride] = site.number("alpha")
 
-    def alpha(self, gap: int) -> np.ndarray:
-        alpha = self.alphas.get(gap)
+    def alpha(self, gap: int, sims: np.ndarray) -> np.ndarray:
+        """The coefficient of samples `gap` steps apart of simulations `sims`."""
+        numbers = self.numbers
+        if gap == self.stride:
+            return numbers.get("alpha", sims)
+        if gap < self.gaps:
+            row: np.ndarray = np.take(numbers.get("alphas", sims), gap, axis=-1 - len(self.shape))
+            return row
+        alpha = self.others.get(gap)
         if alpha is None:
-            program = self.site.program
-            cutoff = self.site.step.param("cutoff")
-            alpha = self.alphas[gap] = np.reshape(lowpass_alpha(cutoff, gap * program.timestep), self.site.shape)
+            alpha = np.asarray(ar.lowpass_alpha(numbers.get("cutoff", sims), gap * self.site.program.timestep))
+            if not numbers.per_sim:
+                self.others[gap] = alpha
         return alpha
 
     def start(self, ids: np.ndarray, keys: np.ndarray, drawn: Episodes) -> None:
         self.fresh[ids] = True  # (the state and the last sample's step are set at its first sample)
+        self.numbers.start(ids, drawn)
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
         state = self.state[sims]
@@ -243,7 +465,7 @@ class _Lowpass(Batched[rt.Lowpass]):
         for gap, at in _by_gap(gaps[moving]):
             rows = moving[at]
             s, d = state[rows], np.empty_like(state[rows])
-            ar.lowpass(s, src[rows], self.alpha(gap), d)
+            ar.lowpass(s, src[rows], self.alpha(gap, sims[rows]), d)
             state[rows] = s
         self.state[sims] = state
         self.fresh[sims] = False
@@ -251,17 +473,37 @@ class _Lowpass(Batched[rt.Lowpass]):
         np.copyto(dst, state)
 
 
-class _Dropout(_Drawn[rt.Dropout]):
-    def __init__(self, template: rt.Dropout, site: Site, nsim: int):
-        super().__init__(template, site, nsim)
-        self.per_value = template.per_value
-        self.fill = template.fill
-        self.held = None if template.held is None else np.zeros((nsim, *site.shape))
+class _Dropout(_Drawn):
+    """Lost samples (`per` sample: one uniform each) or values (`per` value), below p: held (`mode` hold: the
+    last delivered value; a simulation's first sample of an episode is always delivered), 0 or NaN."""
+
+    def __init__(self, site: Site, nsim: int):
+        super().__init__(site, nsim)
+        options = dict(site.step.options)
+        self.per_value = options.get("per") == "value"
+        mode = options.get("mode", "hold")
+        self.fill = {"zero": 0.0, "nan": math.nan}.get(mode)
+        self.held = np.zeros((nsim, *site.shape)) if mode == "hold" else None
         self.fresh = np.ones(nsim, bool)
+        self.numbers = _Numbers(site, site.at[0], nsim, ("p",))
+        self.size = math.prod(site.shape) if self.per_value else 1
 
     def start(self, ids: np.ndarray, keys: np.ndarray, drawn: Episodes) -> None:
         super().start(ids, keys, drawn)
+        self.numbers.start(ids, drawn)
         self.fresh[ids] = True  # (the held values are set at its first sample, which is always delivered)
+
+    def draws(self, sims: np.ndarray, steps: np.ndarray) -> list[Draw]:
+        return [Draw(self.keys[sims], steps // self.stride, self.site.step.stream, 0, self.size, False)]
+
+    def rows(self, sims: np.ndarray, raw: list[np.ndarray]) -> np.ndarray:
+        p = self.numbers.get("p", sims)
+        if self.per_value:
+            lost: np.ndarray = raw[0].reshape(sims.size, *self.shape) < p
+            return lost
+        first = p.reshape(sims.size, -1)[:, 0] if self.numbers.per_sim else p.flat[0]  # (one p per sample)
+        lost = raw[0][:, 0] < first
+        return lost
 
     def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
         lost = self.take(sims, steps)
@@ -279,126 +521,184 @@ class _Dropout(_Drawn[rt.Dropout]):
             self.held[sims] = dst
 
 
-# One row per runtime stage type (`sensorcfg.noise.stages`); a stage type missing here cannot be batched.
-BATCHED: Mapping[type, Callable[[Any, Site, int], Batched[Any]]] = types.MappingProxyType({
-    rt.Gaussian: _Additive,
-    rt.Uniform: _Additive,
-    rt.Outlier: _Additive,
-    rt.Sum: _Additive,
-    rt.EpisodeDraw: _Episode,
-    rt.RandomWalk: _RandomWalk,
-    rt.Lowpass: _Lowpass,
-    rt.Quantize: _Stateless,
-    rt.Clip: _Stateless,
-    rt.Dropout: _Dropout,
-    Keep: BatchedKeep,
-    Blend: BatchedBlend,
-    Misalign: BatchedMisalign,
-    Redrawn: BatchedRedrawn,
+class _Quantize(_Form):
+    def __init__(self, site: Site, nsim: int):
+        super().__init__(site, nsim)
+        self.numbers = _Numbers(site, site.at[0], nsim, ("step",))
+
+    def start(self, ids: np.ndarray, keys: np.ndarray, drawn: Episodes) -> None:
+        self.numbers.start(ids, drawn)
+
+    def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
+        ar.quantize(src, self.numbers.get("step", sims), dst)
+
+
+class _Clip(_Form):
+    """Saturation at the step's limits (a limit its config leaves unset: none)."""
+
+    def __init__(self, site: Site, nsim: int):
+        super().__init__(site, nsim)
+        self.numbers = _Numbers(site, site.at[0], nsim, ("low", "high"))
+        self.limits = (site.step.param("min") is not None, site.step.param("max") is not None)
+
+    def start(self, ids: np.ndarray, keys: np.ndarray, drawn: Episodes) -> None:
+        self.numbers.start(ids, drawn)
+
+    def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
+        low, high = (self.numbers.get(name, sims) if given else None
+                     for name, given in zip(("low", "high"), self.limits))
+        ar.clip(src, low, high, dst)
+
+
+class _Misalign(_Form):
+    """R M x on the last axis, with each simulation's matrix of its episode (`StepEpisode.matrix`)."""
+
+    def __init__(self, site: Site, nsim: int):
+        super().__init__(site, nsim)
+        self.matrices = np.tile(site.step.number("matrix"), (nsim, 1, 1))  # M, until a rotation is drawn
+
+    def start(self, ids: np.ndarray, keys: np.ndarray, drawn: Episodes) -> None:
+        if drawn:
+            j = self.site.at[0]
+            self.matrices[ids] = np.stack([np.asarray(episode[j].matrix) for episode in drawn])
+
+    def __call__(self, src: np.ndarray, dst: np.ndarray, sims: np.ndarray, steps: np.ndarray) -> None:
+        lead = (len(sims),) + (1,) * (src.ndim - 2)
+        turn(src, self.matrices[sims].reshape(lead + (3, 3)), dst)
+
+
+# One row per stage name of the plan (`NoiseStep.stage`); a stage missing here (custom) cannot be batched. A run
+# of adjacent additive steps (`NoiseProgram.sums`) is one `_Additive` of their terms (`TERMS`).
+BATCHED: Mapping[str, Callable[[Site, int], _Form]] = types.MappingProxyType({
+    "gaussian": _Additive,
+    "uniform": _Additive,
+    "outlier": _Additive,
+    "bias": _Episode,
+    "scale": _Episode,
+    "random_walk": _RandomWalk,
+    "lowpass": _Lowpass,
+    "quantize": _Quantize,
+    "clip": _Clip,
+    "dropout": _Dropout,
+    "misalign": _Misalign,
 })
 
 
-def _steps(stage: rt.Stage) -> tuple[int, ...]:
-    """The positions in its program of the steps a runtime stage runs: a fused sum's parts', none for the noise
-    level's stages (`Keep`, `Blend`), else its own (its stream)."""
-    if isinstance(stage, rt.Sum):
-        return tuple(part.stream for part in stage.parts)
-    return () if isinstance(stage, (Keep, Blend)) else (stage.stream,)
+class Levels:
+    """Each simulation's noise level of its episode (`noise.level`: raw + level (noisy - raw)), and whether any
+    is not 1 (`active`): the batch's own, never the sensor's pipeline's."""
+
+    def __init__(self, nsim: int):
+        self.levels = np.ones(nsim)
+        self.active = False
+
+    def set(self, ids: np.ndarray, level: float) -> None:
+        """The level of the episodes of simulations `ids`, which start now."""
+        self.levels[ids] = level
+        self.active = bool(np.any(self.levels != 1.0))
+
+
+def _forms(program: NoiseProgram, shape: tuple[int, ...], nsim: int) -> list[_Form]:
+    """The program's forms in order: one per step, one per fused sum (`NoiseProgram.sums`)."""
+    sums = dict(program.sums)
+    forms, j = [], 0
+    while j < len(program.steps):
+        stop = sums.get(j, j + 1)
+        at = tuple(range(j, stop))
+        make = _Additive if len(at) > 1 else BATCHED[program.steps[j].stage]
+        forms.append(make(Site(program, at, shape), nsim))
+        j = stop
+    return forms
 
 
 class BatchPipeline:
-    """A sensor's noise pipeline for nsim simulations: its runtime stages (`pipeline`, the sensor's own, whose
-    arithmetic the batched forms call and which the batch never resets) and its plan (`program`: each
-    episode's start, kernel numbers, `stride`: its constant interval, 1 when drawn)."""
+    """A sensor's noise program (`program`, the plan's) for nsim simulations; `shape`: one sample's; `dtype`: the
+    observation's (the batch noises float64 values only)."""
 
-    def __init__(self, pipeline: NoisePipeline, program: NoiseProgram, nsim: int, sensor: str):
+    def __init__(self, program: NoiseProgram, nsim: int, sensor: str, shape: tuple[int, ...],
+                 dtype: np.dtype | type = np.float64):
+        if np.dtype(dtype) != np.float64:
+            raise SuiteError(f"sensor {sensor!r}: its noise cannot be vectorised across simulations: the batch runs "
+                             f"noise on float64 values, the observation is {np.dtype(dtype)}")
+        for step in program.steps:
+            if step.stage not in BATCHED:
+                reference = dict(step.options).get("callable")
+                detail = f" ({custom_name(reference)})" if reference is not None else ""
+                raise SuiteError(f"sensor {sensor!r}: " + batch_refusal("noise stage", kind=step.stage, detail=detail))
         self.program = program
         self.stride = program.stride
-        if np.dtype(pipeline.dtype) != np.float64:
-            raise SuiteError(f"sensor {sensor!r}: its noise cannot be vectorised across simulations: the batch runs "
-                             f"noise on float64 values, the observation is {np.dtype(pipeline.dtype)}")
-        shape = tuple(pipeline.shape)
-        batched = []
-        for stage in pipeline.stages:  # the pipeline's runtime stages (after fusing)
-            make = BATCHED.get(type(stage))
-            if make is None:
-                what = getattr(stage, "name", None)
-                raise SuiteError(f"sensor {sensor!r}: " + batch_refusal(
-                    "noise stage", kind=type(stage).__name__.lower(), detail=f" ({what})" if what else ""))
-            batched.append(make(stage, Site(program, _steps(stage), shape), nsim))
-        for form in batched:
-            form.link(batched)
-        self.batched = batched
-        # the sensor's level setting (`noise.level.set_level`), read at each reset; None without a level
-        self._leveled = pipeline if isinstance(pipeline, LeveledPipeline) else None
+        self.forms = _forms(program, tuple(shape), nsim)
+        # each simulation's noise level, set at each reset (`start`); None without a level
+        self.levels = Levels(nsim) if program.leveled else None
+        bounds = program.bounds
+        self.bounds = None if bounds is None else (bounds[0].reshape(shape), bounds[1].reshape(shape))
         self._draws = any(s.episode is not None or s.redraw is not None for s in program.steps)
-        # a pipeline that only adds numbers x scale (+ offset), but for the noise level's stages (which pass
-        # values through while every simulation is at level 1): applied in place by `streams.add_sums`
-        core = [b for b in batched if not isinstance(b.template, (Keep, Blend))]
-        only = core[0] if len(core) == 1 else None
-        self._fusable: Fused | None = only if isinstance(only, _Additive) and only.terms is not None else None
-        self._blend = next((b for b in batched if isinstance(b, BatchedBlend)), None)
-
-    @property
-    def blend(self) -> BatchedBlend | None:
-        """The pipeline's batched `Blend` (its per-simulation levels), None without a noise level."""
-        return self._blend
+        only = self.forms[0] if len(self.forms) == 1 else None
+        self._fusable = only if isinstance(only, _Additive) and only.terms is not None else None
 
     @property
     def additive(self) -> Fused | None:
-        """The fused sum when the pipeline only adds numbers x scale (+ offset), at any noise level (a level
-        other than 1 blends after it): a batch may add it as it reads (`batch.read_noise`)."""
+        """The fused sum when the program only adds numbers x scale (+ offset), at any noise level (a level other
+        than 1 blends after it): a batch may add it as it reads (`batch.read_noise`)."""
         return self._fusable
 
     @property
     def fused(self) -> Fused | None:
-        """`additive` while every simulation is at noise level 1 (in the history the sum is added in place,
-        where a blend would need the raw values)."""
-        blending = self._blend is not None and self._blend.active
+        """`additive` while every simulation is at noise level 1 (in the history the sum is added in place, where
+        a blend would need the raw values)."""
+        blending = self.levels is not None and self.levels.active
         return None if blending else self.additive
 
     def sum(self, table: np.ndarray, lo: int, sims: np.ndarray, steps: np.ndarray) -> Sum:
-        """The fused pipeline's noise of `sims` at `steps`, added to table[sims, lo:...] (`streams.add_sums`)."""
-        stage = self.fused
-        if stage is None or stage.terms is None:
-            raise RuntimeError("BatchPipeline.sum of a pipeline that is not a fused sum (the caller checks `fused`)")
-        return Sum(stage.draws(sims, steps), stage.terms, table, lo, sims)
+        """The fused program's noise of `sims` at `steps`, added to table[sims, lo:...] (`streams.add_sums`)."""
+        form = self.fused
+        if form is None or form.terms is None:
+            raise RuntimeError("BatchPipeline.sum of a program that is not a fused sum (the caller checks `fused`)")
+        return Sum(form.draws(sims, steps), form.terms, table, lo, sims)
 
-    def start(self, ids: np.ndarray, keys: np.ndarray) -> None:
-        """Start the episodes of simulations `ids` with their sensor keys (m, 2): what each draws at its reset
-        from its key (`plan.noise.episodes`, where the program draws anything), at the sensor's level."""
+    def start(self, ids: np.ndarray, keys: np.ndarray, level: float = 1.0) -> None:
+        """Start the episodes of simulations `ids` with their sensor keys (m, 2) at noise level `level` (the
+        sensor's `LeveledPipeline.next_level`; 1 without a level): what each draws at its reset from its key
+        (`plan.noise.episodes`, where the program draws anything)."""
         if not ids.size:
             return
         drawn = episodes(self.program, keys) if self._draws else []
-        for form in self.batched:
+        for form in self.forms:
             form.start(ids, keys, drawn)
-        if self._blend is not None and self._leveled is not None:
-            self._blend.set_level(ids, self._leveled.next_level)
+        if self.levels is not None:
+            self.levels.set(ids, level)
 
     def __call__(self, value: np.ndarray, sims: np.ndarray, steps: np.ndarray,
                  out: np.ndarray | None = None) -> np.ndarray:
-        """The noisy samples (m, *shape) of simulations `sims` taken at their physics steps `steps`, in
-        `out` when given (it may be `value` itself: every stage reads a value before writing it)."""
+        """The noisy samples (m, *shape) of simulations `sims` taken at their physics steps `steps`, in `out` when
+        given (it may be `value` itself: every form reads a value before writing it). Where some simulation's
+        level is not 1, the raw samples are kept first and blended with the result (`noise.level.blend`, within
+        the program's `bounds`)."""
         dst = np.empty(value.shape, np.float64) if out is None else out
+        levels = self.levels
+        raw = value.copy() if levels is not None and levels.active else None
         src = value
-        for stage in self.batched:
-            stage(src, dst, sims, steps)
+        for form in self.forms:
+            form(src, dst, sims, steps)
             src = dst
+        if raw is not None:
+            level = cast(Levels, levels).levels[sims].reshape((len(sims),) + (1,) * (value.ndim - 1))
+            blend(raw, dst, level, dst, self.bounds)
         return dst
 
 
 def prefetch(calls: Sequence[tuple[BatchPipeline, np.ndarray, np.ndarray]]) -> None:
-    """Draw ahead the per-sample numbers of the pipeline calls (pipeline, sims, steps) that follow, in
-    that order, from one Philox call over every sensor, stage and simulation (`streams.numbers`). A
-    random walk walks its own parts."""
-    jobs: list[tuple[_Drawn[rt._PerSample], np.ndarray, int, int]] = []
+    """Draw ahead the per-sample numbers of the pipeline calls (pipeline, sims, steps) that follow, in that
+    order, from one Philox call over every sensor, step and simulation (`streams.numbers`). A random walk walks
+    its own parts."""
+    jobs: list[tuple[_Drawn, np.ndarray, int, int]] = []
     draws: list[Draw] = []
     for pipeline, sims, steps in calls:
-        for stage in pipeline.batched:
-            if isinstance(stage, _Drawn) and not isinstance(stage, _RandomWalk):
-                drawn = stage.draws(sims, steps)
-                jobs.append((stage, sims, len(draws), len(drawn)))
+        for form in pipeline.forms:
+            if isinstance(form, _Drawn):
+                drawn = form.draws(sims, steps)
+                jobs.append((form, sims, len(draws), len(drawn)))
                 draws.extend(drawn)
     raw = numbers(draws)
-    for stage, sims, at, count in jobs:
-        stage.ready.append(stage.shape(sims, raw[at:at + count]))
+    for form, sims, at, count in jobs:
+        form.ready.append(form.rows(sims, raw[at:at + count]))
