@@ -1,11 +1,12 @@
 """Noise programs across simulations: a sensor's `NoiseProgram` (the suite plan's) run on nsim simulations at once.
 
 The program is all the batch reads of a sensor's noise. Each step's stage name picks its batched form (`BATCHED`:
-`batch/additive.py`'s and `batch/steps.py`'s, on `batch/forms.py`'s base), which computes with the step's kernel numbers, parameters and options and the program's `stride`, `sums`
-(adjacent additive steps fused: their terms added up first, x + (a + b)), `leveled`, `bounds`, `timestep` and
-`gaps`, through the rules' one home: `noise.arithmetic` (and `noise.misalign.turn`, `noise.level.blend`) for the
-arithmetic, `noise.streams` for the numbers. The sensor's single-simulation `NoisePipeline`, which other
-environments share, is neither called nor reset here.
+`batch/additive.py`'s and `batch/steps.py`'s, on `batch/forms.py`'s base), which computes with the step's kernel
+numbers, parameters and options and the program's `stride`, `sums` (adjacent additive steps fused: their terms
+added up first, x + (a + b)), `leveled`, `bounds`, `timestep` and `gaps`, through the rules' one home:
+`noise.arithmetic` (and `noise.misalign.turn`, `noise.level.blend`) for the arithmetic, `noise.streams` for the
+numbers. The sensor's single-simulation `NoisePipeline`, which other environments share, is neither called nor
+reset here.
 
 At simulation i's reset the forms take what the program draws from i's sensor key (`plan.noise.episodes`: bias
 and gain values, a random walk's start, a misalignment's matrix; a step with parameters drawn per episode
