@@ -73,17 +73,12 @@ class _Gaussian(_Term):
         self.centred = not np.any(self.numbers.shared["mean"])
 
     def __call__(self, raw: list[np.ndarray], sims: np.ndarray) -> np.ndarray:
-        z = self.fresh(raw[0], sims.size)
-        z *= self.numbers.get("std", sims)
-        mean = self.numbers.get("mean", sims)
+        std, mean = self.numbers.get("std", sims), self.numbers.get("mean", sims)
         if not self.numbers.per_sim:
-            if not self.centred:
-                z += mean
-            return z
+            return ar.scaled(self.fresh(raw[0], sims.size), std, None if self.centred else mean)
+        z = ar.scaled(self.fresh(raw[0], sims.size), std)
         offset = np.any(mean.reshape(sims.size, -1), axis=1)  # each episode's own: centred or not
-        if offset.all():
-            z += mean
-        elif offset.any():
+        if offset.any():
             z[offset] += mean[offset]
         return z
 
@@ -100,10 +95,8 @@ class _Uniform(_Term):
     names = ("low", "width")
 
     def __call__(self, raw: list[np.ndarray], sims: np.ndarray) -> np.ndarray:
-        u = self.fresh(raw[0], sims.size)
-        u *= self.numbers.get("width", sims)
-        u += self.numbers.get("low", sims)
-        return u
+        numbers = self.numbers
+        return ar.scaled(self.fresh(raw[0], sims.size), numbers.get("width", sims), numbers.get("low", sims))
 
     def affine(self) -> list[Affine] | None:
         return None if self.numbers.per_sim else [Affine(self.flat("width"), self.flat("low"))]
@@ -116,11 +109,8 @@ class _Outlier(_Term):
     names = ("p", "scale")
 
     def __call__(self, raw: list[np.ndarray], sims: np.ndarray) -> np.ndarray:
-        hit = raw[0].reshape(sims.size, *self.shape) < self.numbers.get("p", sims)
-        jump = self.fresh(raw[1], sims.size)
-        jump *= self.numbers.get("scale", sims)
-        jump[~hit] = 0
-        return jump
+        return ar.outlier(raw[0].reshape(sims.size, *self.shape), self.fresh(raw[1], sims.size),
+                          self.numbers.get("p", sims), self.numbers.get("scale", sims))
 
 
 class _Bias(_Term):
