@@ -26,8 +26,7 @@ from ..noise.streams import Prepared, Rows, add_rows, prepare
 from ..plan.records import FixedTiming
 from ..plan.schedule import Schedule, newest_sample
 from .layout import Layout
-from .level import BatchedBlend
-from .noise import BatchPipeline, Fused
+from .noise import BatchPipeline, Fused, Levels
 
 __all__ = ["ReadNoise", "added_as_read"]
 
@@ -53,7 +52,7 @@ class _Sensor(NamedTuple):
     stage: Fused  # the pipeline's fused sum: its keys and terms
     size: int  # values per sample
     span: slice  # its (simulation, slot) pairs in the concatenated arrays of `ReadNoise`
-    blend: BatchedBlend | None  # the pipeline's batched `Blend` (its per-simulation levels)
+    levels: Levels | None  # the pipeline's per-simulation noise levels (None without a level)
     sum: Prepared  # its draws and terms, made once (`streams.prepare`)
 
 
@@ -100,9 +99,9 @@ class ReadNoise:
                 raise RuntimeError(f"read noise of channel {c}: its noise stride is not its interval "
                                    "(an internal error)")
             count = nsim * schedule.buffer
-            templates = stage.template.draws(np.zeros(0, np.int64), np.zeros((0, 2), np.uint64))
+            templates = stage.draws(np.zeros(0, np.intp), np.zeros(0, np.int64))  # (their keys and samples unused)
             prepared = prepare(templates, stage.terms)
-            self.sensors.append(_Sensor(stage, size, slice(at, at + count), pipeline.blend, prepared))
+            self.sensors.append(_Sensor(stage, size, slice(at, at + count), pipeline.levels, prepared))
             at += count
             # the read at t sees sample `schedule.newest(t) + schedule.offsets()[slot]` in slot `slot`
             columns.append((np.repeat(np.arange(nsim), schedule.buffer),
@@ -140,7 +139,7 @@ class ReadNoise:
             if not j.size:
                 continue
             rows.append(Rows(sensor.sum, keys, j, starts))
-            if sensor.blend is not None and sensor.blend.active:
+            if sensor.levels is not None and sensor.levels.active:
                 blends.append(self._blended(values, sensor, sims, starts))  # their raw values, before the noise
         add_rows(rows, values)
         for at, raw, level in blends:  # no bounds: a sum of additive terms keeps none (`noise.bounds`)
@@ -151,7 +150,7 @@ class ReadNoise:
     @staticmethod
     def _blended(values: np.ndarray, sensor: _Sensor, sims: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, ...]:
         """The positions of the samples of simulations at a level other than 1, their raw values and levels."""
-        levels = cast(BatchedBlend, sensor.blend).levels[sims]
+        levels = cast(Levels, sensor.levels).levels[sims]
         rows = np.flatnonzero(levels != 1.0)
         at = starts[rows, None] + np.arange(sensor.size)
         return at, values[at], levels[rows, None]

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import Any, cast
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 from dm_env import specs
@@ -43,6 +43,9 @@ from .noise import BatchPipeline, prefetch
 from .read_noise import ReadNoise, added_as_read
 from .random_schedules import Timelines
 from .relay import relayed
+
+if TYPE_CHECKING:
+    from ..noise.level import LeveledPipeline
 
 __all__ = ["BatchUpdater"]
 
@@ -112,8 +115,12 @@ class BatchUpdater:
         the others: fixed-schedule sensors whose noise only adds numbers, added as they are read
         (`batch.read_noise`) where that draws fewer numbers."""
         programs = [sensor.noise for sensor in self.plan.sensors]  # (in the order of `ordered`)
-        self.noise = {i: BatchPipeline(e.noise, cast(NoiseProgram, programs[i]), self.nsim, e.name)
+        self.noise = {i: BatchPipeline(cast(NoiseProgram, programs[i]), self.nsim, e.name, self.plan.sensors[i].shape,
+                                       dtype=e.noise.dtype)
                       for i, e in enumerate(ordered) if e.noise is not None}
+        # the sensors' pipelines of a leveled program: their level for each new episode (`next_level`)
+        self._leveled = {i: cast("LeveledPipeline", e.noise) for i, e in enumerate(ordered)
+                         if i in self.noise and self.noise[i].program.leveled}
         self.noisy = bool(self.noise) or any(e.noise is not None for e in cameras)  # as the Updater draws
         timings = [sensor.timing for sensor in self.plan.sensors]
         read = {c: p for c, p in self.noise.items()
@@ -149,7 +156,8 @@ class BatchUpdater:
             return
         keys = self._start_episodes(ids, random_states)
         for c, channel_keys in zip(self.noise, keys):
-            self.noise[c].start(ids, channel_keys)
+            leveled = self._leveled.get(c)
+            self.noise[c].start(ids, channel_keys, 1.0 if leveled is None else leveled.next_level)
         if self.read_noise is not None:
             self.read_noise.restart()
         self.started[ids] = True

@@ -1,10 +1,11 @@
 """Each noise stage's arithmetic, written once: array functions over any leading axes. Numpy only.
 
 The per-sample pipeline (`stages`) calls them on one sample, the feature bank (`runtime.bank_noise`) on
-the gathered values of many sensors, the batch (`batch.noise`) on (simulations, ...) arrays; elementwise,
-so every path gives the same bits. The numbers a stage computes from its parameters before any sample
-(`width`, `clip_bounds`, `lowpass_alpha`, `walk_coefficients`) are written here too: the CPU stages and the
-suite plan's kernel numbers (`plan.noise`) both call them.
+the gathered values of many sensors, the batch (`batch.noise`, from the suite plan's programs) on
+(simulations, ...) arrays; elementwise, so every path gives the same bits. What the numbers drawn per sample
+become (`scaled`, `outlier`: a term added to the value) is written here too, and so are the numbers a stage
+computes from its parameters before any sample (`width`, `clip_bounds`, `lowpass_alpha`,
+`walk_coefficients`): the CPU stages and the suite plan's kernel numbers (`plan.noise`) both call them.
 """
 
 from __future__ import annotations
@@ -14,13 +15,31 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["add", "multiply", "quantize", "clip", "walk", "lowpass", "dropout", "width", "clip_bounds",
-           "lowpass_alpha", "walk_coefficients"]
+__all__ = ["add", "scaled", "outlier", "multiply", "quantize", "clip", "walk", "lowpass", "dropout", "width",
+           "clip_bounds", "lowpass_alpha", "walk_coefficients"]
 
 
 def add(src: np.ndarray, term: Any, dst: np.ndarray) -> None:
     """Additive noise (white noise, outliers, bias, a random walk's state): dst = src + term."""
     np.add(src, term, dst)  # out positionally: a read applies this to a few values, where keywords cost
+
+
+def scaled(x: np.ndarray, scale: Any, offset: Any = None) -> np.ndarray:
+    """Numbers drawn per sample made a term, in place: x scale (+ offset), a gaussian's std z (+ mean: none for
+    a centred one), a uniform's width u + low (`streams.Affine`, which `streams.add_sums` computes in one pass).
+    Returns x."""
+    np.multiply(x, scale, out=x)
+    if offset is not None:
+        np.add(x, offset, out=x)
+    return x
+
+
+def outlier(u: np.ndarray, z: np.ndarray, p: Any, scale: Any) -> np.ndarray:
+    """An outlier's term, in place of the normals z: scale z where a value is hit (its uniform u < p), else 0.
+    Returns z."""
+    np.multiply(z, scale, out=z)
+    z[~(u < p)] = 0
+    return z
 
 
 def multiply(src: np.ndarray, gain: Any, dst: np.ndarray) -> None:

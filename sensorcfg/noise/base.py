@@ -12,16 +12,16 @@ from numpy.typing import ArrayLike
 
 from .streams import Streams
 
-__all__ = ["Context", "Stage", "block_size"]
+__all__ = ["Context", "Stage", "block_samples"]
 
 _BLOCK_VALUES = 1 << 13  # per-sample numbers drawn at a time on the per-sample path (per stage), at most
 _MAX_BLOCK = 1024  # samples per block, at most (a power of two)
 _MAX_INTERVALS = 64  # distinct sample intervals whose coefficients are cached
 
 
-def block_size(size: int) -> int:
-    """Samples drawn at a time on the per-sample path and walked at a time by a random walk, for samples of
-    `size` values: a power of two (the batch may walk it in halves); a sample's numbers do not depend on it."""
+def block_samples(size: int) -> int:
+    """Samples of `size` values each drawn at a time on the per-sample path and walked at a time by a random
+    walk (the batch's too, which may walk it in halves): a power of two; a sample's numbers do not depend on it."""
     return 1 << (max(1, min(_MAX_BLOCK, _BLOCK_VALUES // max(size, 1))).bit_length() - 1)
 
 
@@ -33,7 +33,7 @@ class Context:
         self.dtype = dtype  # the observation's
         self.work = work  # the stages' arithmetic: float64, or float32 for float32 / uint8 observations
         self.timestep = timestep
-        self.block = block_size(math.prod(shape))
+        self.block = block_samples(math.prod(shape))
 
     def cast(self, value: ArrayLike) -> np.ndarray:
         """A parameter as an array of the work dtype (0-d for a number): ufuncs take arrays faster than

@@ -24,7 +24,7 @@ from . import stages as rt
 from .bounds import BOUNDS, Interval, noisy_bounds, own_bounds
 from .pipeline import NoisePipeline
 
-__all__ = ["Blend", "Keep", "LeveledPipeline", "blend", "follow", "leveled", "own_bounds", "set_level"]
+__all__ = ["Blend", "LeveledPipeline", "blend", "follow", "leveled", "own_bounds", "set_level"]
 
 
 def blend(raw: np.ndarray, noisy: np.ndarray, level: Any, dst: np.ndarray, bounds: Interval | None = None) -> None:
@@ -63,19 +63,6 @@ class Blend(rt.Stage):
         blend(np.asarray(self.raw), src, self.level, dst, self.bounds)
 
 
-class Keep(rt.Stage):
-    """Where a batch, which runs a sensor's stages in place, keeps the raw samples for the `Blend`."""
-
-    stateful = False
-
-    def __init__(self, blend: Blend):
-        self.blend = blend
-
-    def __call__(self, src: np.ndarray, dst: np.ndarray, step: int) -> None:
-        if dst is not src:
-            np.copyto(dst, src)
-
-
 class LeveledPipeline(NoisePipeline):
     """A sensor's pipeline with a `Blend` at the end (its stream is the last one: the others keep theirs).
 
@@ -90,17 +77,11 @@ class LeveledPipeline(NoisePipeline):
         self._own = own
         self._blend = Blend()
         self._blend.stream = len(pipeline.names)  # a stream no other stage uses
-        self._keep = Keep(self._blend)
         self.next_level = 1.0
         self._bounded = False  # the blend's bounds are found once, at the first reset to a level other than 1
         super().__init__([*pipeline.stages, self._blend], [*pipeline.names, "level"], ctx, streams=pipeline.streams)
         self.stride = pipeline.stride
         self.configs = pipeline.configs
-
-    @property
-    def stages(self) -> tuple[rt.Stage, ...]:
-        """For the batch: `Keep` first (it runs the stages in place), then the stages and the `Blend`."""
-        return (self._keep, *self._stages)
 
     @property
     def level(self) -> float:
@@ -145,9 +126,8 @@ def follow(copy: Any, pipeline: Any) -> None:
         copy.next_level = pipeline.next_level
 
 
-# The blend is kept within what the stages before it keep (`Blend.bounds`), and `Keep` passes values on.
+# The blend is kept within what the stages before it keep (`Blend.bounds`).
 BOUNDS[Blend] = lambda stage, lo, hi: (lo, hi)
-BOUNDS[Keep] = lambda stage, lo, hi: (lo, hi)
 
 
 def set_level(observables: Mapping[str, Any], level: float) -> None:

@@ -20,7 +20,7 @@ from ..config.noise import IMAGE_STAGES, STAGES, NoiseStage
 from ..errors import Problem, SuiteError, did_you_mean
 from . import stages as rt
 
-__all__ = ["NoisePipeline", "build_noise"]
+__all__ = ["NoisePipeline", "build_noise", "callable_reference", "custom_name"]
 
 _STAGE_LIST = TypeAdapter(tuple[NoiseStage, ...])
 
@@ -201,13 +201,24 @@ def _custom(s: Any, r: _Resolver) -> rt.Stage:
     return rt.Custom(r.ctx, fn, name, f"{r.where}.callable")
 
 
+def callable_reference(spec: Any) -> str:
+    """How a custom stage's callable is named: its 'module:function' text, or a function's qualified name (the
+    suite plan keeps it as the step's `callable` option)."""
+    return spec if isinstance(spec, str) else str(getattr(spec, "__qualname__", spec))
+
+
+def custom_name(reference: str) -> str:
+    """A custom stage's callable as messages name it, from its `callable_reference`."""
+    return f"custom noise callable {reference!r}"
+
+
 def _import(spec: Any, r: _Resolver) -> tuple[Callable[..., Any], str]:
     """The callable a 'module:function' names, checked to take (value, random_state)."""
     if callable(spec):
-        fn, name = spec, f"custom noise callable {getattr(spec, '__qualname__', spec)!r}"
+        fn, name = spec, custom_name(callable_reference(spec))
     else:
         module_name, _, path = spec.partition(":")
-        name = f"custom noise callable {spec!r}"
+        name = custom_name(spec)
         try:
             obj: Any = importlib.import_module(module_name)
         except ImportError as e:

@@ -32,7 +32,7 @@ from typing import Any, cast
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .arithmetic import add, dropout, multiply, walk, walk_coefficients, width
+from .arithmetic import add, dropout, multiply, outlier, scaled, walk, walk_coefficients, width
 from .base import Context, Stage, _Timed
 from .filters import Clip, Custom, Lowpass, Quantize
 from .streams import MAX_TERMS, Affine, Draw, ResetDraw, Streams, draw_episode, numbers, stream_key
@@ -194,11 +194,7 @@ class Gaussian(_Additive):
         return _affine(self.ctx, self.std, None if self.centred else self.mean)
 
     def shape(self, raw: list[np.ndarray], m: int) -> np.ndarray:
-        z = _fresh(raw[0], m, self.ctx)
-        z *= self.std
-        if not self.centred:
-            z += self.mean
-        return z
+        return scaled(_fresh(raw[0], m, self.ctx), self.std, None if self.centred else self.mean)
 
 
 class Uniform(_Additive):
@@ -212,10 +208,7 @@ class Uniform(_Additive):
         return _affine(self.ctx, self.width, self.low)
 
     def shape(self, raw: list[np.ndarray], m: int) -> np.ndarray:
-        u = _fresh(raw[0], m, self.ctx)
-        u *= self.width
-        u += self.low
-        return u
+        return scaled(_fresh(raw[0], m, self.ctx), self.width, self.low)
 
 
 class Outlier(_Additive):
@@ -226,11 +219,7 @@ class Outlier(_Additive):
         self.p, self.scale = p, ctx.cast(scale)
 
     def shape(self, raw: list[np.ndarray], m: int) -> np.ndarray:
-        hit = raw[0].reshape(m, *self.ctx.shape) < self.p
-        jump = _fresh(raw[1], m, self.ctx)
-        jump *= self.scale
-        jump[~hit] = 0
-        return jump
+        return outlier(raw[0].reshape(m, *self.ctx.shape), _fresh(raw[1], m, self.ctx), self.p, self.scale)
 
 
 def _values(param: ArrayLike, shape: tuple[int, ...]) -> np.ndarray:

@@ -20,6 +20,7 @@ from ..noise.level import LeveledPipeline
 from ..noise.arithmetic import clip_bounds, lowpass_alpha, walk_coefficients, width
 from ..noise.misalign import matrix as misalign_matrix
 from ..noise.misalign import rotation_draw
+from ..noise.pipeline import callable_reference
 from ..noise.redrawn import params_draw
 from ..noise.stages import Sum, start_draw, value_draw
 from ..noise.streams import ResetDraw, Streams, draw_episode
@@ -50,7 +51,10 @@ def step(config: NoiseStage, stream: int, shape: tuple[int, ...]) -> NoiseStep:
     drawn: list[str] = []
     for name in type(config).model_fields:
         value = getattr(config, name)
-        if name == "type" or value is None or callable(value):
+        if name == "type" or value is None:
+            continue
+        if callable(value):  # a custom stage's function: its name alone (a plan holds no callables)
+            options.append((name, callable_reference(value)))
             continue
         if isinstance(value, EpisodeUniform):
             drawn.append(name)

@@ -106,8 +106,9 @@ class NoiseStep(NamedTuple):
     bias, scale, random_walk, quantize, clip, dropout, outlier, lowpass, misalign, custom); `stream`: its
     part of the sensor's counter (`noise/streams.py`: stage << 24); `params`: each numeric parameter in the
     stage's own units (seconds, hertz, the sensor's units), broadcast to the sensor's values and raveled
-    (misalign's `matrix`: 3 x 3); `options`: its word settings (dropout's `mode`, `per`); `drawn`: the
-    parameters drawn per episode (their `params` hold the low end).
+    (misalign's `matrix`: 3 x 3); `options`: its word settings (dropout's `mode`, `per`; a custom stage's
+    `callable`, named by `noise.pipeline.callable_reference`); `drawn`: the parameters drawn per episode
+    (their `params` hold the low end).
 
     What an engine computes with: `kernel`, the stage's numbers made from `params` (per value unless
     said): gaussian `std` and `mean` (absent when every mean is 0: std z alone); uniform `low`, `width`

@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple, Protocol, Union, cast
 import numpy as np
 
 from ..noise import arithmetic as ar
-from ..noise.base import block_size
+from ..noise.base import block_samples
 from ..noise.streams import KERNEL, Draw, Sum, add_sums, numbers
 from ..plan import terms as tm
 from ..plan.compile import noise_program
@@ -96,7 +96,7 @@ class _Sampled(Protocol):
 
 class _Walk:
     """A random walk term of one member in one episode: b_j = a b_(j-1) + c z_j over every sample index j, a
-    block of indices at a time and in order (`noise.base.block_size`), from the episode's start (the step's
+    block of indices at a time and in order (`noise.base.block_samples`), from the episode's start (the step's
     draw at reset; 0 for a Brownian walk, whose a is None)."""
 
     def __init__(self, term: tm.Term, key: np.ndarray, start: np.ndarray | None):
@@ -104,7 +104,7 @@ class _Walk:
         self.term, self.key = term, key[None]
         self.a = None if step.param("correlation_time") is None else step.number("a")
         self.c = step.number("c")
-        self.block = block_size(term.size)
+        self.block = block_samples(term.size)
         self.carry = np.zeros(term.size) if start is None else np.array(start, np.float64)
         self.last = -1  # the newest block walked
         self.block_id = -1

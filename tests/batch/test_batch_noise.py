@@ -9,9 +9,7 @@ import pytest
 
 import sensorcfg
 from sensorcfg.batch.noise import BATCHED
-from sensorcfg.noise.level import Blend, Keep
-from sensorcfg.noise.misalign import Misalign
-from sensorcfg.noise.redrawn import Redrawn
+from sensorcfg.config.noise import STAGES
 
 from conftest import MODELS
 
@@ -23,10 +21,11 @@ def test_table_is_read_only():
         BATCHED[object] = object  # type: ignore[index]
 
 
-@pytest.mark.parametrize("stage", [Keep, Blend, Misalign, Redrawn])
+@pytest.mark.parametrize("stage", sorted(STAGES))
 def test_stage_has_a_batched_form(stage):
-    """The table names the batched forms of stages defined outside `noise.stages` itself."""
-    assert stage in BATCHED
+    """The table is keyed by the plan's stage names (`NoiseStep.stage`): every stage but a custom callable has a
+    batched form."""
+    assert (stage in BATCHED) == (stage != "custom")
 
 
 TERRAIN = str(MODELS / "terrain.xml")
@@ -119,3 +118,41 @@ def test_a_batch_never_resets_the_pipelines_of_its_observables(monkeypatch) -> N
     batch.step(batch_actions)
     batch.reset(np.array([1]))
     assert not resets
+
+
+REDRAWN = """
+options: {control_interval: 3}
+sensors:
+  a: {kind: qpos, element: "joint:*", noise: [{type: gaussian, mean: {uniform: [-0.01, 0.01]},
+      std: {uniform: [0.01, 0.05]}},
+      {type: uniform, low: -0.01, high: {uniform: [0.0, 0.02]}}, {type: bias, std: {uniform: [0.0, 0.1]}},
+      {type: quantize, step: {uniform: [0.001, 0.002]}}, {type: clip, min: {uniform: [-0.4, -0.2]}}]}
+  b: {kind: qvel, element: "joint:*", interval: 2, noise: [{type: random_walk, std: {uniform: [0.01, 0.05]},
+      correlation_time: {uniform: [0.02, 0.1]}}, {type: outlier, p: {uniform: [0.1, 0.3]}, scale: 1.0},
+      {type: dropout, p: {uniform: [0.1, 0.4]}, mode: hold}]}
+  c: {kind: qvel, element: "joint:elbow", interval: {uniform: [1, 3]}, noise: [{type: random_walk,
+      std: {uniform: [0.01, 0.05]}}, {type: lowpass, cutoff: {uniform: [10, 40]}},
+      {type: dropout, p: {uniform: [0.1, 0.4]}, mode: zero, per: value}]}
+  d: {kind: xpos, element: "site:hand_site", noise: [{type: scale, low: {uniform: [0.8, 0.9]}, high: 1.1},
+      {type: misalign, std: 2deg}, {type: lowpass, cutoff: {uniform: [10, 40]}}]}
+"""
+
+
+@needs_batch
+def test_every_stage_with_parameters_drawn_per_episode_is_the_single_environments() -> None:
+    """Parameters drawn per episode: each simulation's steps compute with its episode's kernel numbers
+    (`plan.noise.episode`), as the single Environment's stages rebuilt at its reset, at noise levels 1 and 0.5."""
+    from conftest import ROOT, assert_batch_equals_single
+
+    robot = str(ROOT / "sensorcfg" / "assets" / "robot.xml")
+    assert_batch_equals_single(robot, sensorcfg.loads(REDRAWN), nsim=3, seed=6, steps=25)
+    batch = sensorcfg.BatchEnvironment(robot, sensorcfg.loads(REDRAWN), 3, seed=9)
+    singles = [sensorcfg.Environment(robot, sensorcfg.loads(REDRAWN), seed=sensorcfg.batch.sim_seed(9, i))
+               for i in range(3)]
+    for env in (batch, *singles):
+        env.set_noise_level(0.5)
+    got = _steps(batch, np.zeros((12, 3, *batch.action_spec().shape[1:])))
+    for i, env in enumerate(singles):
+        for g, w in zip(got, _steps(env, np.zeros((12, *env.action_spec().shape)))):
+            for name in w:
+                np.testing.assert_array_equal(g[name][i], w[name], err_msg=name)
