@@ -282,7 +282,7 @@ class BankNoise:
                 draws.extend(drawn)
         if sums:
             add_sums(sums, accumulate=False)
-        if not draws:
+        if not jobs:  # (a term of biases alone draws nothing per sample, and is still written)
             return
         raw = numbers(draws)
         for term, biases, j, places, at, count in jobs:

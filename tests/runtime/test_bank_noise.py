@@ -86,3 +86,19 @@ def test_pipelines_the_bank_cannot_run_stay_per_sample(monkeypatch: pytest.Monke
     observables["s"].noise = build_noise(STAGES.validate_python(config["s"][-1]), spec.shape, spec.dtype, 0.002)
     updater.reset(physics, np.random.RandomState(0))
     assert updater._bank is None
+
+
+@pytest.mark.parametrize("stages", [
+    pytest.param([{"type": "bias", "std": 0.1}, {"type": "bias", "mean": 0.2, "std": 0.05}], id="bias-bias"),
+    pytest.param([{"type": "scale", "std": 0.1}, {"type": "bias", "std": 0.1}, {"type": "bias", "low": -1, "high": 1},
+                  {"type": "clip", "max": 0.6}], id="scale-bias-bias-clip"),
+])
+def test_a_sum_of_biases_alone_is_added(stages: list, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Adjacent biases fuse into one term that draws no per-sample numbers: the bank still adds its values
+    (it once wrote only the terms of chunks that drew some numbers, reading x + -0.0 = x)."""
+    config = {"s": ("qvel", "joint:wrist", 2, 1, 2, None, stages)}
+    banked = run(config, 3, False, True, monkeypatch)
+    reference = run(config, 3, False, False, monkeypatch)
+    for step, (a, b) in enumerate(zip(banked, reference)):
+        assert np.array_equal(a["s"], b["s"]), step
+    assert not np.isin(banked[-1]["s"], [0.0, 0.5]).any()  # neither the pad nor the raw qvel: the biases added
