@@ -103,7 +103,8 @@ def _stage(rng: np.random.Generator, kind: str, fixed: bool) -> dict[str, Any]:
     interval is constant (a noise density needs one)."""
     n = lambda low, high: _number(rng, low, high)  # noqa: E731
     if kind == "gaussian":
-        out: dict[str, Any] = {"std": n(0.001, 0.05)} if not fixed or rng.random() < 0.8 else {"density": n(0.0005, 0.002)}
+        dense = fixed and rng.random() >= 0.8
+        out: dict[str, Any] = {"density": n(0.0005, 0.002)} if dense else {"std": n(0.001, 0.05)}
         if rng.random() < 0.3:
             out["mean"] = n(-0.01, 0.01)
     elif kind == "uniform":  # the two ends' ranges never cross
@@ -182,7 +183,8 @@ def _steps(rng: np.random.Generator, low: int, high: int, rate: bool = False) ->
 
 
 class Draw(NamedTuple):
-    """A fuzzed run: the suite's sensors and options (`text`, with `pad_with_initial_value` as given) and how it is run."""
+    """A fuzzed run: the suite's sensors and options (`text`, with `pad_with_initial_value` as given) and how it
+    is run."""
 
     sensors: dict[str, Any]
     substeps: int
