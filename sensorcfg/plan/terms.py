@@ -4,9 +4,9 @@ are (for `streams.add_sums`). A term is one step, or a fused run of adjacent add
 their values added up first, x + (a + b)).
 
 The CPU stages (`noise.stages`) are the reference these are held to, bit for bit: the same numbers (stream =
-the step's position, lane, value), the same float64 roundings in the same order (`gaussian`: z std, + mean
-unless centred; `uniform`: u width + low; `outlier`: scale z where u < p, else 0; `random_walk`: the normals
-its walk is made of; a bias: its episode's values).
+the step's position, lane, value), the same float64 roundings in the same order (`noise.arithmetic.scaled` and
+`outlier`, which the CPU stages and the batch call too; `random_walk`: the normals its walk is made of; a bias:
+its episode's values).
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
+from ..noise import arithmetic as ar
 from ..noise.streams import MAX_TERMS, Affine, Draw
 from .records import FloatArray, NoiseProgram, NoiseStep, UInt64Array
 
@@ -85,23 +86,13 @@ def _fresh(raw: FloatArray, m: int, size: int) -> FloatArray:
 def _one(step: NoiseStep, raw: Sequence[FloatArray], m: int, size: int) -> FloatArray:
     """One drawing step's values (m, size) from its lanes' numbers."""
     stage = step.stage
-    if stage == "gaussian":
-        z = _fresh(raw[0], m, size)
-        z *= step.number("std")
-        if "mean" in dict(step.kernel):  # (a centred gaussian adds std z alone)
-            z += step.number("mean")
-        return z
+    if stage == "gaussian":  # (a centred gaussian adds std z alone)
+        return ar.scaled(_fresh(raw[0], m, size), step.number("std"),
+                         step.number("mean") if "mean" in dict(step.kernel) else None)
     if stage == "uniform":
-        u = _fresh(raw[0], m, size)
-        u *= step.number("width")
-        u += step.number("low")
-        return u
+        return ar.scaled(_fresh(raw[0], m, size), step.number("width"), step.number("low"))
     if stage == "outlier":
-        hit = raw[0].reshape(m, size) < step.number("p")
-        jump = _fresh(raw[1], m, size)
-        jump *= step.number("scale")
-        jump[~hit] = 0
-        return jump
+        return ar.outlier(raw[0].reshape(m, size), _fresh(raw[1], m, size), step.number("p"), step.number("scale"))
     return _fresh(raw[0], m, size)  # a random walk's normals
 
 
