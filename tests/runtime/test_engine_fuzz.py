@@ -72,7 +72,7 @@ KINDS: list[tuple[str, Any, dict[str, Any], bool]] = [
     ("qvel", "joint:*", {"within": "body:upper_arm", "index": [0, 2]}, False),
 ]
 AGGREGATORS = [None, None, "mean", "sum", "max", "min", "median"]
-ADDITIVE = ("gaussian", "uniform", "outlier", "random_walk")  # white noise, outliers, walks: adjacent ones fuse
+ADDITIVE = ("gaussian", "uniform", "outlier", "random_walk", "bias")  # adjacent additive stages fuse into one sum
 STAGES = ("gaussian", "uniform", "outlier", "bias", "scale", "random_walk", "quantize", "clip", "lowpass",
           "dropout")
 
@@ -103,8 +103,8 @@ def _stage(rng: np.random.Generator, kind: str, fixed: bool) -> dict[str, Any]:
     interval is constant (a noise density needs one)."""
     n = lambda low, high: _number(rng, low, high)  # noqa: E731
     if kind == "gaussian":
-        dense = fixed and rng.random() >= 0.8
-        out: dict[str, Any] = {"density": n(0.0005, 0.002)} if dense else {"std": n(0.001, 0.05)}
+        out: dict[str, Any] = ({"std": n(0.001, 0.05)} if not fixed or rng.random() < 0.8
+                               else {"density": n(0.0005, 0.002)})
         if rng.random() < 0.3:
             out["mean"] = n(-0.01, 0.01)
     elif kind == "uniform":  # the two ends' ranges never cross
@@ -183,8 +183,7 @@ def _steps(rng: np.random.Generator, low: int, high: int, rate: bool = False) ->
 
 
 class Draw(NamedTuple):
-    """A fuzzed run: the suite's sensors and options (`text`, with `pad_with_initial_value` as given) and how it
-    is run."""
+    """A fuzzed run: the suite's sensors and options (`text`, `pad_with_initial_value` as given) and its run."""
 
     sensors: dict[str, Any]
     substeps: int
