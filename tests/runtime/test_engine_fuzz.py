@@ -98,11 +98,9 @@ def assert_same(got: np.ndarray, want: np.ndarray, where: str) -> None:
     assert (np.signbit(got) == np.signbit(want))[numbers].all(), f"{where}: the signs of zeros differ"
 
 
-def run_single(run: Draw, pad: bool, seed: int) -> tuple[list[dict[str, np.ndarray]], sensorcfg.Environment]:
-    """Every observation of an Environment over the draw's episodes (resets included)."""
-    env = sensorcfg.Environment(ROBOT, sensorcfg.loads(run.text(pad)), seed=seed)
-    assert env.updater.physics_steps_per_control_step == run.substeps
-    actions = _actions(seed, sum(run.episodes), ())
+def run_episodes(env: Any, run: Draw, actions: np.ndarray) -> list[dict[str, np.ndarray]]:
+    """Every observation (copied) of `env`, an Environment or a BatchEnvironment, over the draw's episodes (resets
+    included, each after the episode's noise level), stepping `actions[t]` at the run's control step t."""
     out, t = [], 0
     for steps, level in zip(run.episodes, run.levels):
         if level is not None:
@@ -111,7 +109,14 @@ def run_single(run: Draw, pad: bool, seed: int) -> tuple[list[dict[str, np.ndarr
         for _ in range(steps):
             out.append(_copy(env.step(actions[t]).observation))
             t += 1
-    return out, env
+    return out
+
+
+def run_single(run: Draw, pad: bool, seed: int) -> tuple[list[dict[str, np.ndarray]], sensorcfg.Environment]:
+    """Every observation of an Environment over the draw's episodes (resets included)."""
+    env = sensorcfg.Environment(ROBOT, sensorcfg.loads(run.text(pad)), seed=seed)
+    assert env.updater.physics_steps_per_control_step == run.substeps
+    return run_episodes(env, run, _actions(seed, sum(run.episodes), ())), env
 
 
 class Banks(NamedTuple):
@@ -180,29 +185,13 @@ def test_each_simulation_of_a_batch_reads_what_its_environment_reads(seed: int) 
         pytest.skip("the batch refuses this draw")
     nsim = batch.nsim
     actions = _actions(seed, sum(run.episodes), (nsim,))
-    got, t = [], 0
-    for steps, level in zip(run.episodes, run.levels):
-        if level is not None:
-            batch.set_noise_level(level)
-        got.append(_copy(batch.reset().observation))
-        for _ in range(steps):
-            got.append(_copy(batch.step(actions[t]).observation))
-            t += 1
+    got = run_episodes(batch, run, actions)
     for i in range(nsim):
         env = sensorcfg.Environment(ROBOT, sensorcfg.loads(run.text()), seed=sim_seed(seed, i))
-        t, k = 0, 0
-        for steps, level in zip(run.episodes, run.levels):
-            if level is not None:
-                env.set_noise_level(level)
-            want = [env.reset().observation]
-            for _ in range(steps):
-                want.append(env.step(actions[t, i]).observation)
-                t += 1
-            for obs in want:
-                assert obs.keys() == got[k].keys()
-                for name, value in obs.items():
-                    assert_same(got[k][name][i], value, f"seed {seed} sim {i} read {k} {name}: {run.sensors[name]}")
-                k += 1
+        for k, obs in enumerate(run_episodes(env, run, actions[:, i])):
+            assert obs.keys() == got[k].keys()
+            for name, value in obs.items():
+                assert_same(got[k][name][i], value, f"seed {seed} sim {i} read {k} {name}: {run.sensors[name]}")
 
 
 # -- the draws reach what they are meant to ----------------------------------------------------------
