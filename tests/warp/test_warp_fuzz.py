@@ -34,6 +34,7 @@ import pytest
 
 from conftest import warp_or_skip  # noqa: E402
 from cpu_batch import cpu_batch  # noqa: E402
+from fuzz_suites import WARP_KINDS, Draws, Kind, suite_text
 
 wp = warp_or_skip()
 
@@ -51,139 +52,48 @@ from sensorcfg.warp.sensors import Sensors  # noqa: E402
 ROBOT = str(assets.path("robot.xml"))
 MODEL = mujoco.MjModel.from_xml_path(ROBOT)
 
-# (kind, element, extra keys, whether its values are 3-vectors: misalign turns them)
-KINDS: list[tuple[str, Any, dict[str, Any], bool]] = [
-    ("qpos", ["joint:shoulder", "joint:elbow"], {}, False),
-    ("qpos", "joint:wrist", {}, False),
-    ("qvel", "joint:elbow", {}, False),
-    ("qvel", "joint:wrist", {}, True),
-    ("qacc", ["joint:shoulder", "joint:finger_slide"], {}, False),
-    ("xpos", "site:hand_site", {}, True),
-    ("xpos", ["site:hand_site", "site:imu"], {}, True),
-    ("xpos", "body:hand", {}, True),
-    ("xquat", "body:hand", {}, False),
-    ("xmat", "body:forearm", {}, False),  # (9,): no 3-vector axis
-    ("sensordata", "sensor:imu_accel", {}, True),
-    ("force", "actuator:*", {}, True),
-    ("ctrl", ["actuator:shoulder_motor", "actuator:elbow_motor"], {}, False),
-    ("gyro", "site:imu", {}, True),
-    ("framepos", "site:fingertip", {"frame": "body:base"}, True),
-    ("jointpos", "joint:elbow", {}, False),
-    ("gravity", "site:imu", {}, True),
-    ("subtreecom", "body:upper_arm", {}, True),
-    ("xpos", "body:hand", {"index": 2}, False),
-    ("xpos", ["site:hand_site", "site:imu", "site:fingertip"], {"index": "0:2"}, True),
-    ("qvel", "joint:*", {"within": "body:upper_arm", "index": [0, 2]}, False),
-    ("velocimeter", "site:imu", {}, True),
-    ("accelerometer", "site:hand_site", {}, True),
-    ("framequat", "body:hand", {}, False),
-    ("subtreelinvel", "body:upper_arm", {}, True),
-]
-AGGREGATORS = [None, None, None, "min", "max", "sum", "mean", "median"]
+class WarpDraws(Draws):
+    """A suite's parts as this fuzzer draws them: `Draws`'s recipes at its own odds (schedules now and then three
+    times as long, always an interval and a delay, buffers up to 8, clean twins), each stage's type drawn before
+    its parameters, no fused runs, no units in noise parameters, no densities, no bias means, and a misalign's
+    angle in radians or else a matrix alone. A cutoff drawn per episode on a drawn interval is refused
+    (`support`): fixed there."""
+
+    drawn = 0.3
+    stages = ("gaussian", "uniform", "bias", "scale", "random_walk", "quantize", "clip", "dropout", "outlier",
+              "lowpass")
+    long, constant, timed, rate, beyond = 0.15, 0.45, 0.6, 0.3, 2
+    interval = delay = 1.0
+    short_buffer, twin = 0.85, 0.4
+    aggregators = (None, None, None, "min", "max", "sum", "mean", "median")
+    units = density = bias_mean = drawn_cutoff = False
+
+    def chain(self, count: int, fixed: bool) -> list[dict[str, Any]]:
+        """`count` stages, each of a type drawn from `stages`."""
+        return [self.stage(str(self.rng.choice(self.stages)), fixed) for _ in range(count)]
+
+    def noise(self, vector: bool, fixed: bool) -> list[dict[str, Any]]:
+        return self.misaligned(self.chain(int(self.rng.integers(1, 5)), fixed), vector)
+
+    def misalign(self) -> dict[str, Any]:
+        turn: dict[str, Any] = {"type": "misalign", "std": round(float(self.rng.uniform(0.01, 0.2)), 3)}
+        if self.rng.random() < 0.3:
+            turn = {"type": "misalign", "matrix": self.cross_axis()}
+        return turn
 
 
-def _number(rng: np.random.Generator, low: float, high: float, drawn: float = 0.3) -> Any:
-    """A parameter in [low, high], drawn per episode (`{uniform: [a, b]}`) with probability `drawn`."""
-    if rng.random() < drawn:
-        a, b = sorted(rng.uniform(low, high, 2).round(4).tolist())
-        return {"uniform": [a, b]}
-    return round(float(rng.uniform(low, high)), 4)
-
-
-def _stage(rng: np.random.Generator, drawn_schedule: bool) -> dict[str, Any]:
-    kind = str(rng.choice(["gaussian", "uniform", "bias", "scale", "random_walk", "quantize", "clip", "dropout",
-                           "outlier", "lowpass"]))
-    n = lambda low, high: _number(rng, low, high)  # noqa: E731
-    if kind == "gaussian":
-        out = {"std": n(0.001, 0.05)}
-        if rng.random() < 0.3:
-            out["mean"] = n(-0.01, 0.01)
-    elif kind == "uniform":
-        out = {"low": n(-0.05, -0.01), "high": n(0.01, 0.05)}
-    elif kind == "bias":
-        out = {"std": n(0.01, 0.2)} if rng.random() < 0.6 else {"low": n(-0.2, -0.1), "high": n(0.1, 0.2)}
-    elif kind == "scale":
-        out = {"low": n(0.8, 0.95), "high": n(1.05, 1.2)} if rng.random() < 0.5 else \
-            {"mean": n(0.95, 1.05), "std": n(0.0, 0.05)}
-    elif kind == "random_walk":
-        out = {"std": n(0.001, 0.05)}
-        if rng.random() < 0.6:
-            out["correlation_time"] = n(0.005, 0.2)
-    elif kind == "quantize":
-        out = {"step": n(0.0005, 0.01)}
-    elif kind == "clip":
-        out = {"min": n(-1.0, -0.2), "max": n(0.2, 1.0)}
-        if rng.random() < 0.3:
-            out.pop(str(rng.choice(["min", "max"])))
-    elif kind == "dropout":
-        out = {"p": n(0.05, 0.6), "mode": str(rng.choice(["hold", "zero", "nan"]))}
-        if rng.random() < 0.4:
-            out["per"] = "value"
-    elif kind == "outlier":
-        out = {"p": n(0.02, 0.3), "scale": n(0.1, 2.0)}
-    else:  # a cutoff drawn per episode on a drawn interval is refused (`support`): fixed there
-        out = {"cutoff": _number(rng, 2.0, 80.0, 0.0 if drawn_schedule else 0.3)}
-    return {"type": kind, **out}
-
-
-def _steps(rng: np.random.Generator, low: int, high: int, rate: bool = False) -> Any:
-    """A constant number of physics steps in [low, high], or one drawn per sample."""
-    if rng.random() < 0.15:  # long ones now and then
-        high = 3 * high
-    r = rng.random()
-    if r < 0.45:
-        return int(rng.integers(low, high + 1))
-    if r < 0.6:  # a duration or a rate: the robot's timestep is 2 ms
-        steps = int(rng.integers(low, high + 1))
-        return f"{500 // steps}Hz" if rate and 500 % steps == 0 and rng.random() < 0.3 else f"{2 * steps}ms"
-    if r < 0.8:
-        a = int(rng.integers(low, high + 1))
-        return {"uniform": [a, int(rng.integers(a, high + 2))]}
-    values = sorted({int(v) for v in rng.integers(low, high + 3, int(rng.integers(1, 4)))})
-    out: dict[str, Any] = {"choice": values}
-    if len(values) > 1 and rng.random() < 0.5:
-        p = rng.dirichlet(np.ones(len(values))).round(3)
-        p[-1] = round(1.0 - float(p[:-1].sum()), 3)
-        if (p > 0).all():
-            out["p"] = p.tolist()
-    return out
-
-
-def fuzz_suite(seed: int, kinds: list[tuple[str, Any, dict[str, Any], bool]] = KINDS,
-               scans: bool = False) -> tuple[str, dict[str, Any]]:
+def fuzz_suite(seed: int, kinds: list[Kind] = WARP_KINDS, scans: bool = False) -> tuple[str, dict[str, Any]]:
     """A random suite's YAML text (JSON, which YAML reads) of sensors of `kinds` (and, with `scans`, a height
     scan now and then), and the run's settings: substeps, restarts, levels."""
-    rng = np.random.default_rng(seed)
+    draws = WarpDraws(np.random.default_rng(seed))
+    rng = draws.rng
     substeps = int(rng.integers(1, 5))
     strip = bool(rng.random() < 0.3)
-    sensors: dict[str, Any] = {}
-    for j in range(int(rng.integers(2, 7))):
-        kind, element, extra, vector = kinds[int(rng.integers(len(kinds)))]
-        entry: dict[str, Any] = {"kind": kind, "element": element, **extra,
-                                 "interval": _steps(rng, 1, 4, True), "delay": _steps(rng, 0, 5)}
-        buffer = int(rng.integers(1, 5 if rng.random() < 0.85 else 9))
-        if buffer > 1 or rng.random() < 0.2:
-            entry["buffer"] = buffer
-        aggregator = AGGREGATORS[int(rng.integers(len(AGGREGATORS)))]
-        if aggregator and not (strip and buffer == 1):  # (no buffer axis to reduce: refused)
-            entry["aggregator"] = aggregator
-        if rng.random() < 0.75:
-            drawn_interval = isinstance(entry["interval"], dict)
-            stages = [_stage(rng, drawn_interval) for _ in range(int(rng.integers(1, 5)))]
-            for _ in range(int(rng.integers(1, 3)) if vector and rng.random() < 0.5 else 0):
-                turn: dict[str, Any] = {"type": "misalign", "std": round(float(rng.uniform(0.01, 0.2)), 3)}
-                if rng.random() < 0.3:
-                    turn = {"type": "misalign", "matrix": (np.eye(3) + rng.normal(0, 0.02, (3, 3))).round(3).tolist()}
-                stages.insert(int(rng.integers(len(stages) + 1)), turn)
-            entry["noise"] = stages
-            if rng.random() < 0.4:
-                entry["twin"] = f"s{j}_clean"
-        sensors[f"s{j}"] = entry
+    sensors = draws.sensors(kinds, strip)
     options = {"pad_with_initial_value": bool(rng.random() < 0.5), "control_interval": f"{2 * substeps}ms",
                "strip_singleton_buffer_dim": strip}
-    suite = {"version": 1, "options": options, "sensors": sensors}
-    if rng.random() < 0.2:  # every sensor delivered clean too (a sensor's own `twin` wins)
-        suite["defaults"] = {"twin": "{name}_twin"}
+    # every sensor delivered clean too (a sensor's own `twin` wins)
+    defaults = {"twin": "{name}_twin"} if rng.random() < 0.2 else None
     nworld = int(rng.integers(2, 6))
     control_steps = 24
     restarts = {t: [w for w in range(nworld) if rng.random() < 0.2] for t in range(1, control_steps + 1)}
@@ -195,11 +105,11 @@ def fuzz_suite(seed: int, kinds: list[tuple[str, Any, dict[str, Any], bool]] = K
                  "interval": int(rng.integers(1, 5)), "delay": int(rng.integers(0, 6)),
                  "buffer": int(rng.integers(1, 4))}
         if rng.random() < 0.7:
-            entry["noise"] = [_stage(rng, False) for _ in range(int(rng.integers(1, 4)))]
+            entry["noise"] = draws.chain(int(rng.integers(1, 4)), True)
         sensors["scan"] = entry
     run = {"substeps": substeps, "nworld": nworld, "control_steps": control_steps, "seed": seed,
            "restarts": {t: ws for t, ws in restarts.items() if ws}, "levels": levels}
-    return json.dumps(suite, indent=1), run
+    return suite_text(sensors, options, defaults), run
 
 
 def fields_of(datas: list[mujoco.MjData], names: list[str]) -> dict[str, wp.array]:
@@ -350,10 +260,10 @@ def test_world_i_reads_what_the_updater_reads_on_a_fuzzed_suite(seed: int) -> No
 
 
 # sensors of the controls: the same values on both engines whatever their physics (float32 actions)
-CONTROLS: list[tuple[str, Any, dict[str, Any], bool]] = [
-    ("ctrl", ["actuator:shoulder_motor", "actuator:elbow_motor"], {}, False),
-    ("ctrl", "actuator:*", {}, True),
-    ("ctrl", "actuator:finger_servo", {}, False),
+CONTROLS: list[Kind] = [
+    Kind("ctrl", ["actuator:shoulder_motor", "actuator:elbow_motor"], {}, False),
+    Kind("ctrl", "actuator:*", {}, True),
+    Kind("ctrl", "actuator:finger_servo", {}, False),
 ]
 
 
