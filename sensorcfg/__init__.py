@@ -1,8 +1,8 @@
 """sensorcfg: declarative robot sensing for MuJoCo, with dm_control's observation semantics."""
 
-from ._gl import choose_gl_backend as _choose_gl_backend
+from ._gl import import_mujoco as _import_mujoco
 
-_choose_gl_backend()
+_import_mujoco()  # (a GL backend that cannot load does not stop the import: `_gl.py`)
 
 from ._version import __version__  # noqa: E402
 from .env import Environment, dm_control_observables, make_env  # noqa: E402

@@ -1,9 +1,12 @@
-"""OpenGL for cameras: pick a backend before mujoco is imported, survive one that cannot load, and say what
-to install when a camera needs it.
+"""OpenGL for cameras: render headless without changing the process's environment, survive a backend that
+cannot load, and say what to install when a camera needs it.
 
 MuJoCo reads MUJOCO_GL once, at import. On a headless machine (no DISPLAY or WAYLAND_DISPLAY, not macOS
-or Windows) GLFW cannot open a context, while Mesa's EGL renders offscreen without a GPU, so sensorcfg
-picks EGL there. A value the user set is kept.
+or Windows) GLFW cannot open a context, while Mesa's EGL renders offscreen without a GPU. So where
+MUJOCO_GL is unset there, a camera renders with EGL (`backend`: "egl"; the camera points mujoco's Renderer
+at EGL's context class when it makes its first renderer), and importing sensorcfg leaves MUJOCO_GL and
+PYOPENGL_PLATFORM as they were: another library in the process, or a child process, still sees the user's
+environment. A value the user set is what renders.
 
 A backend whose library is missing (MUJOCO_GL=osmesa without libOSMesa, for one) makes `import mujoco`
 itself raise, which would take every command down, `validate` included. sensorcfg then imports mujoco
@@ -23,7 +26,7 @@ import sys
 from collections.abc import Iterator
 from typing import Any
 
-__all__ = ["choose_gl_backend", "current_restored", "gl_error", "GL_PACKAGES"]
+__all__ = ["backend", "current_restored", "gl_error", "import_mujoco", "GL_PACKAGES"]
 
 # backend -> what a Debian/Ubuntu machine needs for it (docs/sensors.md, "Cameras")
 GL_PACKAGES: dict[str, str] = {
@@ -37,15 +40,7 @@ _ALIASES = {"glx": "glfw", "": "glfw", "enable": "glfw", "enabled": "glfw", "on"
 import_failure: str | None = None  # why `import mujoco` failed with the user's MUJOCO_GL, if it did
 
 
-def choose_gl_backend() -> None:
-    if "MUJOCO_GL" not in os.environ and sys.platform not in ("darwin", "win32") and not (
-            os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
-        os.environ["MUJOCO_GL"] = "egl"
-        os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
-    _import_mujoco()
-
-
-def _import_mujoco() -> None:
+def import_mujoco() -> None:
     """Import mujoco; if its GL backend breaks the import, import it again with GL disabled."""
     global import_failure
     if "mujoco" in sys.modules:
@@ -68,7 +63,15 @@ def _import_mujoco() -> None:
                     os.environ[key] = value
 
 
+def _headless() -> bool:
+    return sys.platform not in ("darwin", "win32") and not (os.environ.get("DISPLAY")
+                                                            or os.environ.get("WAYLAND_DISPLAY"))
+
+
 def backend() -> str:
+    """The backend a camera renders with: the user's MUJOCO_GL, or EGL where it is unset on a headless machine."""
+    if "MUJOCO_GL" not in os.environ and _headless():
+        return "egl"
     value = os.environ.get("MUJOCO_GL", "").strip().lower()
     return _ALIASES.get(value, value)
 

@@ -11,7 +11,6 @@ of every frame, so adding a sensor to a suite changes no pixel.
 from __future__ import annotations
 
 import atexit
-import os
 import sys
 import threading
 import warnings
@@ -87,17 +86,16 @@ def _context_class() -> type:
     return getattr(_gl_context_module(), "GLContext", None) or object
 
 
-def _follow_mujoco_gl() -> None:
-    """Render with EGL when MUJOCO_GL says so, even if mujoco was imported before it was set.
+def _follow_backend() -> None:
+    """Render with EGL where `_gl.backend()` says so, whatever mujoco picked when it was imported.
 
-    mujoco picks its GL backend once, when imported. Imported before sensorcfg on a headless machine, it
-    picked GLFW, which cannot open a context there (the process dies); sensorcfg has since set
-    MUJOCO_GL=egl (see _gl.py). mujoco's Renderer looks its context class up at construction, so point
-    it at EGL's.
+    mujoco picks its GL backend once, when imported: with MUJOCO_GL unset it picks GLFW, which cannot open
+    a context on a headless machine (the process dies), and so does a mujoco imported before MUJOCO_GL=egl
+    was set. mujoco's Renderer looks its context class up at construction, so point it at EGL's.
     """
     gl_context = _gl_context_module()
     current = getattr(gl_context, "GLContext", None)
-    if (os.environ.get("MUJOCO_GL", "").strip().lower() == "egl" and current is not None
+    if (_gl.backend() == "egl" and current is not None
             and getattr(current, "__module__", "").startswith("mujoco.glfw")):
         from mujoco.egl import GLContext
 
@@ -131,7 +129,7 @@ def _renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer
         if _gl.import_failure is not None:
             raise UnsupportedError(_gl.gl_error())
         try:
-            _follow_mujoco_gl()
+            _follow_backend()
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # GLFW warns before it fails: the error says it all, once
                 with _gl.current_restored(_context_class()):
