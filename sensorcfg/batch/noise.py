@@ -47,7 +47,7 @@ Fused = Additive  # a program's one additive form (a fused sum): added as a read
 
 
 # One row per stage name of the plan (`NoiseStep.stage`); a stage missing here (custom) cannot be batched. A run
-# of adjacent additive steps (`NoiseProgram.sums`) is one `Additive` of their terms (`additive.TERMS`).
+# of adjacent additive steps (`NoiseProgram.sums`) is one `Additive` of their terms (`plan.terms`).
 BATCHED: Mapping[str, Callable[[Site, int], Form]] = types.MappingProxyType({
     "gaussian": Additive,
     "uniform": Additive,

@@ -12,7 +12,7 @@ its episode's values).
 from __future__ import annotations
 
 import types
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import NamedTuple
 
 import numpy as np
@@ -22,7 +22,7 @@ from ..noise import arithmetic as ar
 from ..noise.streams import MAX_TERMS, Affine, Draw
 from .records import FloatArray, NoiseProgram, NoiseStep, UInt64Array
 
-__all__ = ["LANES", "Term", "affine", "draws", "term_of", "terms", "values"]
+__all__ = ["LANES", "NUMBERS", "NumberOf", "Term", "affine", "draws", "kernel_number", "term_of", "terms", "values"]
 
 # per stage type drawing per-sample numbers: per lane, normals (True) or uniforms in [0, 1)
 LANES: Mapping[str, tuple[bool, ...]] = types.MappingProxyType({
@@ -33,6 +33,12 @@ LANES: Mapping[str, tuple[bool, ...]] = types.MappingProxyType({
     "dropout": (False,),
 })
 _TERMS = frozenset({"gaussian", "uniform", "outlier", "random_walk"})  # steps that are terms alone
+# per stage type whose term computes with kernel numbers: their names (`NumberOf`)
+NUMBERS: Mapping[str, tuple[str, ...]] = types.MappingProxyType({
+    "gaussian": ("std", "mean"),
+    "uniform": ("low", "width"),
+    "outlier": ("p", "scale"),
+})
 
 
 class Term(NamedTuple):
@@ -79,33 +85,57 @@ def draws(term: Term, samples: npt.NDArray[np.int64], keys: UInt64Array) -> list
             for lane, (n, normal) in enumerate(zip(_sizes(s, term.size), LANES[s.stage]))]
 
 
+# A step's kernel number `name` (`NoiseStep.kernel`) as a term computes with it: one sample's values (size,),
+# shared by every sample, or one row per sample (m, size) where its episode's numbers are its own (the batch's
+# parameters drawn per episode); None where the step has no such number (a gaussian's mean when it is 0).
+NumberOf = Callable[[NoiseStep, str], FloatArray | None]
+
+
+def kernel_number(step: NoiseStep, name: str) -> FloatArray | None:
+    """The program's own numbers (`NumberOf`): shared by every sample."""
+    return dict(step.kernel).get(name)
+
+
 def _fresh(raw: FloatArray, m: int, size: int) -> FloatArray:
     return np.array(raw.reshape(m, size), dtype=np.float64)
 
 
-def _one(step: NoiseStep, raw: Sequence[FloatArray], m: int, size: int) -> FloatArray:
+def _gaussian(z: FloatArray, std: FloatArray | None, mean: FloatArray | None) -> FloatArray:
+    """std z (+ mean): a centred gaussian adds std z alone, and so does a sample whose own mean is all 0 (its
+    episode's gaussian is centred: x + 0.0 would turn a -0.0 into 0.0)."""
+    if mean is None or mean.ndim == 1:
+        return ar.scaled(z, std, mean)
+    z = ar.scaled(z, std)
+    offset = np.any(mean, axis=1)
+    if offset.any():
+        z[offset] += mean[offset]
+    return z
+
+
+def _one(step: NoiseStep, raw: Sequence[FloatArray], m: int, size: int, number: NumberOf) -> FloatArray:
     """One drawing step's values (m, size) from its lanes' numbers."""
     stage = step.stage
-    if stage == "gaussian":  # (a centred gaussian adds std z alone)
-        return ar.scaled(_fresh(raw[0], m, size), step.number("std"),
-                         step.number("mean") if "mean" in dict(step.kernel) else None)
+    if stage == "gaussian":
+        return _gaussian(_fresh(raw[0], m, size), number(step, "std"), number(step, "mean"))
     if stage == "uniform":
-        return ar.scaled(_fresh(raw[0], m, size), step.number("width"), step.number("low"))
+        return ar.scaled(_fresh(raw[0], m, size), number(step, "width"), number(step, "low"))
     if stage == "outlier":
-        return ar.outlier(raw[0].reshape(m, size), _fresh(raw[1], m, size), step.number("p"), step.number("scale"))
+        return ar.outlier(raw[0].reshape(m, size), _fresh(raw[1], m, size), number(step, "p"), number(step, "scale"))
     return _fresh(raw[0], m, size)  # a random walk's normals
 
 
-def values(term: Term, raw: Sequence[FloatArray], m: int, episode: Sequence[FloatArray] = ()) -> FloatArray:
+def values(term: Term, raw: Sequence[FloatArray], m: int, episode: Sequence[FloatArray] = (),
+           number: NumberOf = kernel_number) -> FloatArray:
     """The term's values of m samples (m, size) from the numbers `draws` gave (`raw`, lane by lane); `episode`:
-    its bias steps' values this episode (each (size,) or per sample (m, size)), in order."""
+    its bias steps' values this episode (each (size,) or per sample (m, size)), in order; `number`: the steps'
+    numbers (the program's own, or each sample's episode's)."""
     total: FloatArray | None = None
     biases = iter(episode)
     at = 0
     for s in term.steps:
         if s.stage in LANES:
             lanes = len(LANES[s.stage])
-            part = _one(s, raw[at:at + lanes], m, term.size)
+            part = _one(s, raw[at:at + lanes], m, term.size, number)
             at += lanes
         else:
             part = np.asarray(next(biases))
