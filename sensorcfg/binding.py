@@ -27,7 +27,8 @@ from .config.source import Path_
 from .config.tables import GENERIC_KIND, HEIGHTSCAN_KIND, IMAGE_KINDS
 from .config.units import timestep_problem, to_steps
 from .draws import ChoiceSteps, UniformSteps
-from .checks import batch_problems, batch_refusal, constant_problem, kind_problems, sensor_problems
+from .checks import batch_problems, constant_problem, kind_problems, sensor_problems
+from .refusals import batch_refusal
 from .errors import Problem, SuiteError, did_you_mean
 from .kinds import kinds_of, read_type
 from .native import NATIVE, bind_native, native_row

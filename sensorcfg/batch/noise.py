@@ -28,7 +28,7 @@ from typing import cast
 
 import numpy as np
 
-from ..checks import batch_refusal
+from ..refusals import batch_refusal
 from ..errors import SuiteError
 from ..noise.level import blend
 from ..noise.pipeline import custom_name

@@ -18,6 +18,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from ..errors import Problem, SuiteError
+from ..refusals import batch_refusal
 from .base import Observable
 
 __all__ = ["BatchedGeneric", "Generic"]
@@ -154,8 +155,6 @@ class BatchedGeneric(Observable):
     def _callable(self, physics: Any) -> Callable[[], Any]:
         if isinstance(physics, OwnValues):
             return _OwnReader(physics)
-        from ..checks import batch_refusal
-
         raise self.error(batch_refusal("batched generic"))
 
 

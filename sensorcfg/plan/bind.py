@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, NamedTuple, cast
 
 import numpy as np
 
-from ..checks import batch_refusal, per_simulation_refusal
+from ..refusals import batch_refusal, per_simulation_refusal
 from ..draws import DEFAULT_DELAY, DEFAULT_UPDATE_INTERVAL, ChoiceSteps, UniformSteps
 from ..errors import SuiteError
 from ..observables.aggregators import AGGREGATORS
