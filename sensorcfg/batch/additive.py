@@ -2,8 +2,8 @@
 
 An `Additive` form adds one step's term, or the terms of a run of adjacent additive steps the program fuses
 (`NoiseProgram.sums`), added up in order before the sum is added to the value: x + (a + b). What a term draws
-and the values it makes of its numbers are `plan/terms.py`'s, the rule the single simulation's fixed-schedule
-bank runs too; the batch gives it, for a step whose parameters are drawn per episode, each simulation's own
+and the values it makes of its numbers are `plan/terms.py`'s, the rule the single simulation's banks run
+too; the batch gives it, for a step whose parameters are drawn per episode, each simulation's own
 numbers (`Numbers`: one row per simulation), and a bias's values of each simulation's episode. Where every
 term is numbers x scale (+ offset), the same for every simulation, the form's `terms` let the batch add the sum
 in one pass of `streams.add_sums` (into the history, or as a read gathers, `batch.read_noise`).
